@@ -1,0 +1,38 @@
+"""Exceptions raised by iwp.
+
+Every error that a user can cause by bad input derives from :class:`IwpError`;
+the command-line interface turns these into a one-line message and exit
+status 2, without a traceback.
+"""
+
+from __future__ import annotations
+
+
+class IwpError(Exception):
+    """Base class of every error iwp raises on purpose."""
+
+
+class InputError(IwpError, ValueError):
+    """An argument or parameter has a wrong value, type or shape.
+
+    The message names the argument and, where it helps, the fix.
+    """
+
+
+class DataFormatError(InputError):
+    """A data file cannot be read as an iwp log.
+
+    The message names the file and, where known, the line and the column.
+    """
+
+
+class SimulationError(IwpError, RuntimeError):
+    """A simulation did not reach its end (divergence, step-size underflow)."""
+
+
+class IdentificationError(IwpError, RuntimeError):
+    """An identification cannot give trustworthy numbers (e.g. rank deficiency)."""
+
+
+class OutputExistsError(IwpError, FileExistsError):
+    """An output file or folder exists and ``--force`` / ``force=True`` was not given."""

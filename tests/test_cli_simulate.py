@@ -1,0 +1,83 @@
+import json
+
+import numpy as np
+import pytest
+
+from iwp.cli import main
+from iwp.params import table1
+
+
+def test_simulate_hopf_writes_csv(tmp_path, capsys):
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", "--controller", "hopf", "--k1", "-10", "--k2", "0.1", "--x0", "0.1,0,0,0",
+                 "--t-end", "20", "--out", str(out)]) == 0
+    lines = out.read_text().splitlines()
+    header = next(line for line in lines if not line.startswith("#"))
+    assert header == "t,q1,q2,q3,q4,u"
+    data = np.loadtxt(out, delimiter=",", comments="#", skiprows=1 + sum(line.startswith("#") for line in lines))
+    assert data.shape == (4001, 6)
+    np.testing.assert_allclose(data[:, 5], -10 * data[:, 3] + 0.1 * data[:, 3] ** 3, atol=1e-9)
+
+
+def test_simulate_chirp_and_params_file(tmp_path):
+    pfile = tmp_path / "p.json"
+    pfile.write_text(json.dumps({"kind": "lumped", "parameters": table1().replace(p1=30.0).to_dict()}))
+    out = tmp_path / "chirp.csv"
+    assert main(["simulate", "--input", "chirp", "--amplitude", "60", "--w0", "3", "--tau", "100", "--t-end", "3",
+                 "--params", str(pfile), "--out", str(out)]) == 0
+    assert out.exists()
+
+
+def _one_line_error(capsys):
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("iwp: error:") and "\n" not in err and "Traceback" not in err
+    return err
+
+
+@pytest.mark.parametrize(
+    "args,match",
+    [
+        (["--input", "bogus", "--t-end", "1"], "unknown input 'bogus'"),
+        (["--controller", "pid", "--t-end", "1"], "unknown controller 'pid'"),
+        (["--input", "sine", "--t-end", "-1"], "t_end must be > t0"),
+        (["--input", "sine", "--t-end", "1", "--ts", "0"], "Ts must be > 0"),
+        (["--input", "sine", "--t-end", "1", "--x0", "1,2"], "x0 must have 4 values"),
+        (["--input", "sine", "--t-end", "1", "--params", "nope.json"], "no such parameter file"),
+    ],
+)
+def test_simulate_bad_input_exit_2(tmp_path, capsys, args, match):
+    assert main(["simulate", *args, "--out", str(tmp_path / "x.csv")]) == 2
+    assert match in _one_line_error(capsys)
+
+
+def test_nan_parameter_file_exit_2(tmp_path, capsys):
+    pfile = tmp_path / "p.json"
+    pfile.write_text(json.dumps({**table1().to_dict(), "p2": -1.0}))
+    assert main(["simulate", "--input", "sine", "--t-end", "1", "--params", str(pfile),
+                 "--out", str(tmp_path / "x.csv")]) == 2
+    assert "'p2' must be >= 0" in _one_line_error(capsys)
+
+
+def test_diverging_simulation_exit_2(tmp_path, capsys):
+    pfile = tmp_path / "p.json"
+    pfile.write_text(json.dumps(table1().to_dict()))
+    # a huge Hopf gain destabilises the loop without bound
+    assert main(["simulate", "--controller", "hopf", "--k1", "-1000", "--k2", "-50", "--x0", "0.5,0,0,0",
+                 "--t-end", "50", "--out", str(tmp_path / "x.csv")]) == 2
+    assert "diverged" in _one_line_error(capsys)
+
+
+def test_no_overwrite_without_force(tmp_path, capsys):
+    out = tmp_path / "a.csv"
+    out.write_text("precious")
+    assert main(["simulate", "--input", "sine", "--t-end", "1", "--out", str(out)]) == 2
+    assert "exists" in _one_line_error(capsys)
+    assert out.read_text() == "precious"
+    assert main(["simulate", "--input", "sine", "--t-end", "1", "--out", str(out), "--force"]) == 0
+    assert out.read_text() != "precious"
+
+
+def test_argparse_errors_exit_2(capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["simulate", "--input", "sine"])  # missing --t-end and --out
+    assert e.value.code == 2

@@ -1,0 +1,104 @@
+import math
+
+import numpy as np
+import pytest
+
+from iwp.errors import InputError
+from iwp.models import dead_zone, dead_zone_output, energy, feedforward, linearize, rhs, to_statespace
+from iwp.params import BeltParameters, table1
+from tests.test_params import physical
+
+
+def test_el_model_equals_state_space_model_6():
+    """(4) with (3) in physical units and (6) in lumped parameters are the same dynamics."""
+    ph = physical()
+    lp = ph.to_lumped()
+    rng = np.random.default_rng(1)
+    for _ in range(50):
+        x = rng.normal(size=4) * [2.0, 5.0, 4.0, 80.0]
+        v = rng.uniform(-80, 80)
+        a = rhs("el", ph, x, v, coulomb_eps=0.0)
+        b = rhs("raw", lp, x, v, coulomb_eps=0.0)
+        np.testing.assert_allclose(a, b, rtol=1e-11, atol=1e-9)
+
+
+def test_compensated_raw_equals_model_9_outside_dead_zone():
+    p = table1().replace(v_dz_pos=33.0, v_dz_neg=29.0)
+    rng = np.random.default_rng(2)
+    for _ in range(50):
+        x = rng.normal(size=4) * [1.0, 1.0, 3.0, 50.0]
+        u = rng.uniform(-100, 100)
+        v = float(feedforward(u, 33.0, 29.0))
+        np.testing.assert_allclose(rhs("raw", p, x, v), rhs("compensated", p, x, u), rtol=1e-13, atol=1e-12)
+
+
+def test_dead_zone_and_feedforward():
+    v = np.array([-50.0, -29.0, -10.0, 0.0, 10.0, 33.0, 50.0])
+    np.testing.assert_array_equal(dead_zone(v, 33.0, 29.0), [-29, -29, -10, 0, 10, 33, 33])
+    np.testing.assert_array_equal(dead_zone_output(v, 33.0, 29.0), [-21, 0, 0, 0, 0, 0, 17])
+    np.testing.assert_array_equal(feedforward([-5.0, 0.0, 5.0], 33.0, 29.0), [-34.0, 0.0, 38.0])
+    # the feedforward cancels the dead zone exactly: (7)-(8) into (5)
+    u = np.linspace(-100, 100, 2001)
+    np.testing.assert_allclose(dead_zone_output(feedforward(u, 33.0, 29.0), 33.0, 29.0), u, atol=1e-12)
+
+
+def test_model_14_is_model_9_row_with_pendulum_at_rest():
+    p = table1().replace(sigma_c2=0.16)
+    x = np.array([0.0, 0.3, 0.0, 40.0])
+    md = rhs("motor-disk", p, x, 25.0, coulomb_eps=0.0)
+    assert md[3] == pytest.approx((1 + p.rho) * (-p.p2 * 40.0 + p.p3 * 25.0 - p.sigma_c2))
+    assert md[0] == md[2] == 0.0
+    full = rhs("compensated", p, x, 25.0, coulomb_eps=0.0)
+    assert md[3] == pytest.approx(full[3])
+
+
+@pytest.mark.parametrize("eq,q1", [("down", 0.0), ("up", math.pi)])
+def test_linearization_matches_finite_difference_jacobian(eq, q1):
+    p = table1()
+    A, B = linearize(p, eq)
+    x0 = np.array([q1, 0.0, 0.0, 0.0])
+    h = 1e-6
+    J = np.zeros((4, 4))
+    for i in range(4):
+        e = np.zeros(4)
+        e[i] = h
+        J[:, i] = (rhs("compensated", p, x0 + e, 0.0) - rhs("compensated", p, x0 - e, 0.0)) / (2 * h)
+    Bn = (rhs("compensated", p, x0, h) - rhs("compensated", p, x0, -h)) / (2 * h)
+    np.testing.assert_allclose(A, J, rtol=1e-7, atol=1e-7)
+    np.testing.assert_allclose(B[:, 0], Bn, rtol=1e-7, atol=1e-9)
+
+
+def test_linearization_eigenvalues():
+    p = table1().replace(p2=0.0, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0)
+    ev = np.linalg.eigvals(linearize(p, "down")[0])
+    assert np.max(np.abs(ev.imag)) == pytest.approx(math.sqrt(p.p1), rel=1e-12)
+    ev_up = np.linalg.eigvals(linearize(p, "up")[0])
+    assert np.max(ev_up.real) == pytest.approx(math.sqrt(p.p1), rel=1e-12)  # the upright is a saddle
+
+
+def test_statespace_conversion():
+    ss = to_statespace(table1(), "up")
+    A, B = linearize(table1(), "up")
+    np.testing.assert_array_equal(ss.A, A)
+    np.testing.assert_array_equal(ss.B, B)
+
+
+def test_energy_lumped_and_physical_agree():
+    ph = physical()
+    lp = ph.to_lumped()
+    x = np.array([0.7, 0.0, 1.3, -20.0])
+    e_ph = energy(ph, x)
+    e_lp = energy(lp, x)
+    assert e_ph["total"] / ph.I1_hat == pytest.approx(float(e_lp["total"]), rel=1e-12)
+
+
+def test_rhs_rejects_bad_arguments():
+    with pytest.raises(InputError, match="unknown model 'foo'"):
+        rhs("foo", table1(), np.zeros(4), 0.0)
+    with pytest.raises(InputError, match="shape"):
+        rhs("compensated", table1(), np.zeros(3), 0.0)
+    with pytest.raises(InputError, match="belt=BeltParameters"):
+        rhs("belt", table1(), np.zeros(6), 0.0)
+    with pytest.raises(InputError, match="PhysicalParameters"):
+        rhs("el", table1(), np.zeros(4), 0.0)
+    rhs("belt", table1(), np.zeros(6), 0.0, belt=BeltParameters())

@@ -1,0 +1,212 @@
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from iwp.errors import InputError, SimulationError
+from iwp.inputs import CallableController, Chirp, HopfController, Sampled, Sine, Step
+from iwp.models import energy
+from iwp.params import BeltParameters, PhysicalParameters, table1
+from iwp.simulate import simulate, simulate_batch, simulate_scipy
+
+FRICTIONLESS = table1().replace(p2=0.0, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0)
+
+
+def test_frictionless_energy_is_conserved():
+    r = simulate(FRICTIONLESS, x0=[2.5, 0.0, 0.0, 3.0], t_end=60.0, rtol=1e-12, atol=1e-12)
+    e = energy(FRICTIONLESS, r.x)["total"]
+    assert np.max(np.abs(e - e[0])) / e[0] < 1e-10
+    # with friction it decays
+    r2 = simulate(table1(), x0=[2.5, 0.0, 0.0, 0.0], t_end=60.0)
+    e2 = energy(table1(), r2.x)["total"]
+    assert e2[-1] < 0.9 * e2[0]
+
+
+def test_frictionless_energy_el_model_physical_units():
+    ph = PhysicalParameters(m1=0.2, m2=0.3, I1=2e-3, I2=4e-5, l=0.25, c=0.12, g=9.81, kT=0.02, kF=0.0, R=5.0,
+                            N=13.5, beta=0.12, sigma_v1=0.0, sigma_r=0.0, r=0.004, sigma_v2=0.0)
+    r = simulate(ph, model="el", x0=[1.0, 0.0, 0.0, 5.0], t_end=20.0, rtol=1e-12, atol=1e-12)
+    e = energy(ph, r.x)["total"]
+    assert np.max(np.abs(e - e[0])) / e[0] < 1e-10
+
+
+def test_small_oscillation_frequency_is_sqrt_p1():
+    r = simulate(FRICTIONLESS, x0=[1e-3, 0, 0, 0], t_end=30.0, Ts=0.001)
+    q = r.q1
+    idx = np.flatnonzero((q[:-1] > 0) & (q[1:] <= 0))
+    tc = r.t[idx] - q[idx] * (r.t[idx + 1] - r.t[idx]) / (q[idx + 1] - q[idx])
+    period = np.mean(np.diff(tc))
+    assert 2 * math.pi / period == pytest.approx(math.sqrt(FRICTIONLESS.p1), rel=1e-5)
+
+
+def test_dop853_convergence_order():
+    """Fixed steps (tolerances disabled): the error falls as h^8.
+
+    The swing stays below pi/2, where the |cos q1| friction term is smooth; a
+    trajectory through the kink at pi/2 loses the high order, as any
+    Runge-Kutta method does on a non-smooth right-hand side.
+    """
+    x0 = [1.2, 0.0, 0.0, 3.0]
+    ref = simulate(table1(), x0=x0, t_end=4.0, Ts=0.5, rtol=1e-14, atol=1e-14)
+    errs = []
+    hs = np.array([0.2, 0.1, 0.05, 0.025])
+    for h in hs:
+        r = simulate(table1(), x0=x0, t_end=4.0, Ts=0.5, rtol=1e6, atol=1e6, max_step=h)
+        errs.append(np.max(np.abs(r.x - ref.x)))
+    order = np.polyfit(np.log(hs), np.log(errs), 1)[0]  # least-squares slope over the four steps
+    assert 7.0 < order < 9.0, (order, errs)
+
+
+def test_agrees_with_scipy_dop853_at_tight_tolerance():
+    inp = Chirp(60.0, 3.0, 100.0)
+    ours = simulate(table1(), input=inp, t_end=40.0, rtol=1e-11, atol=1e-11)
+    ref = simulate_scipy(table1(), input=inp, t_end=40.0, rtol=1e-12, atol=1e-12)
+    assert np.max(np.abs(ours.x[:, :3] - ref.x[:, :3])) < 1e-8
+    assert np.max(np.abs(ours.q4 - ref.q4)) < 1e-6  # q4 ~ 100 rad/s
+    np.testing.assert_allclose(ours.u, 60 * np.sin((3 + ours.t / 100) * ours.t), atol=1e-12)
+
+
+def _model9_numpy(p, k1, k2):
+    """Model (9) with the Hopf law, written independently from the paper for this test."""
+
+    def f(t, x):
+        q1, q2, q3, q4 = x
+        u = k1 * q3 + k2 * q3**3
+        xi = p.p1 * np.sin(q1) + p.sigma_a1 * abs(np.cos(q1)) * q3 + p.sigma_v1 * q3 + p.sigma_b1 * q3**3
+        return [q3, q4, -xi + p.p2 * q4 - p.p3 * u, xi - p.p2 * (1 + p.rho) * q4 + p.p3 * (1 + p.rho) * u]
+
+    return f
+
+
+def test_hopf_closed_loop_settles_on_independent_scipy_amplitude():
+    p = table1()
+    r = simulate(p, input=HopfController(-10.0, 0.1), x0=[0.1, 0, 0, 0], t_end=120.0)
+    sol = solve_ivp(_model9_numpy(p, -10.0, 0.1), (0, 120.0), [0.1, 0, 0, 0], method="DOP853", rtol=1e-11,
+                    atol=1e-11, t_eval=r.t)
+    late = r.t > 100.0
+    amp = np.max(np.abs(r.q1[late]))
+    amp_ref = np.max(np.abs(sol.y[0][late]))
+    assert amp == pytest.approx(amp_ref, rel=1e-6)
+    # a stable oscillation: the amplitude no longer changes
+    assert np.max(np.abs(r.q1[(r.t > 80) & (r.t < 100)])) == pytest.approx(amp, rel=1e-4)
+    assert 2.0 < amp < 3.2
+
+
+def test_sampled_controller_holds_value_between_samples():
+    r = simulate(table1(), input=HopfController(-10.0, 0.1, Ts=0.005), x0=[0.1, 0, 0, 0], t_end=5.0, Ts=0.005)
+    np.testing.assert_allclose(r.u, -10.0 * r.q3 + 0.1 * r.q3**3, rtol=1e-12, atol=1e-12)
+    fine = simulate(table1(), input=HopfController(-10.0, 0.1, Ts=0.005), x0=[0.1, 0, 0, 0], t_end=5.0, Ts=0.001)
+    u = fine.u.reshape(-1)[:-1].reshape(-1, 5)
+    assert np.all(u == u[:, :1])  # constant over each 5 ms sample
+
+
+def test_callable_controller_matches_builtin():
+    law = lambda t, x: -10.0 * x[2] + 0.1 * x[2] ** 3  # noqa: E731
+    a = simulate(table1(), input=CallableController(law, Ts=0.005), x0=[0.1, 0, 0, 0], t_end=10.0)
+    b = simulate(table1(), input=HopfController(-10.0, 0.1, Ts=0.005), x0=[0.1, 0, 0, 0], t_end=10.0)
+    np.testing.assert_allclose(a.x, b.x, rtol=1e-9, atol=1e-9)
+    c = simulate(table1(), input=CallableController(law), x0=[0.1, 0, 0, 0], t_end=5.0)
+    d = simulate(table1(), input=HopfController(-10.0, 0.1), x0=[0.1, 0, 0, 0], t_end=5.0)
+    np.testing.assert_allclose(c.x, d.x, rtol=1e-7, atol=1e-7)
+
+
+def test_restart_from_state_reproduces_trajectory():
+    inp = Chirp(60.0, 3.0, 100.0)
+    full = simulate(table1(), input=inp, t_end=20.0)
+    k = np.searchsorted(full.t, 10.0)
+    rest = simulate(table1(), input=inp, t0=full.t[k], x0=full.x[k], t_end=20.0)
+    np.testing.assert_allclose(rest.x, full.x[k:], atol=1e-7)
+    np.testing.assert_allclose(rest.t, full.t[k:], atol=1e-12)
+
+
+def test_zero_order_hold_array_and_step():
+    vals = np.array([0.0, 50.0, -50.0, 20.0])
+    r = simulate(table1(), input=Sampled(vals, Ts=0.5), t_end=2.0, Ts=0.25)
+    np.testing.assert_array_equal(r.u, [0, 0, 50, 50, -50, -50, 20, 20, 20])
+    s = simulate(table1(), model="motor-disk", input=Step(30.0, t_step=0.123), t_end=1.0, Ts=0.001)
+    assert np.all(s.u[s.t < 0.123 - 1e-12] == 0) and np.all(s.u[s.t >= 0.123] == 30)
+    # first-order disk response of (14): q4 = K (1 - exp(-a (t - ts)))
+    p = table1()
+    a, b = p.p2_1rho, p.p3_1rho
+    t = s.t[s.t >= 0.123]
+    np.testing.assert_allclose(s.q4[s.t >= 0.123], b * 30 / a * (1 - np.exp(-a * (t - 0.123))), atol=1e-8)
+
+
+def test_saturation_and_feedforward_command():
+    p = table1()
+    r = simulate(p, model="raw", input=Sine(80.0, 5.0), feedforward=True, saturation=100.0, t_end=2.0)
+    expect = np.clip(np.where(r.u > 0, r.u + 31, np.where(r.u < 0, r.u - 31, 0.0)), -100, 100)
+    np.testing.assert_allclose(r.command, expect, atol=1e-12)
+    assert np.max(np.abs(r.command)) == pytest.approx(100.0)
+
+
+def test_raw_with_feedforward_equals_compensated():
+    p = table1().replace(v_dz_pos=33.0, v_dz_neg=29.0)
+    a = simulate(p, model="raw", input=Sine(40.0, 5.0), feedforward=True, t_end=10.0)
+    b = simulate(p, model="compensated", input=Sine(40.0, 5.0), t_end=10.0)
+    np.testing.assert_allclose(a.x, b.x, atol=1e-9)
+
+
+def test_belt_rigid_limit_matches_locked_rigid_model():
+    p = table1()
+    stiff = BeltParameters.from_rigid(p.p2 * p.rho, p.p3 * p.rho, k_over_I2=4e5, d=0.0, b2_over_I2=0.5)
+    a = simulate(p, model="belt", belt=stiff, input=Sine(40.0, 5.0), t_end=5.0, rtol=1e-9, atol=1e-9)
+    b = simulate(p, model="compensated", locked=True, input=Sine(40.0, 5.0), t_end=5.0)
+    assert np.max(np.abs(a.q4 - b.q4)) < 0.02 * np.max(np.abs(b.q4))
+
+
+def test_belt_play_distorts_small_inputs_more():
+    p = table1()
+    belt = BeltParameters.from_rigid(p.p2 * p.rho, p.p3 * p.rho, k_over_I2=60.0, d=2.0, b2_over_I2=0.5)
+    rel = []
+    for A in (60.0, 20.0):
+        a = simulate(p, model="belt", belt=belt, input=Sine(A, 5.0), t_end=20.0, rtol=1e-8, atol=1e-8)
+        b = simulate(p, model="compensated", locked=True, input=Sine(A, 5.0), t_end=20.0)
+        late = a.t > 10
+        rel.append(np.linalg.norm(a.q4[late] - b.q4[late]) / np.linalg.norm(b.q4[late]))
+    assert rel[1] > rel[0]
+
+
+def test_batch_equals_single_runs():
+    gains = [HopfController(k1, 0.1) for k1 in (-12.0, -9.0, -6.0)]
+    br = simulate_batch(table1(), input=gains, x0=[0.1, 0, 0, 0], t_end=20.0, t_eval=np.linspace(0, 20, 201))
+    assert np.all(br.success)
+    for i, g in enumerate(gains):
+        r = simulate(table1(), input=g, x0=[0.1, 0, 0, 0], t_end=20.0, t_eval=np.linspace(0, 20, 201))
+        np.testing.assert_array_equal(br.x[i], r.x)
+
+
+def test_divergence_is_reported():
+    # negative linear damping without the cubic term: grows without bound
+    unstable = table1().replace(sigma_v1=-5.0, sigma_a1=0.0, sigma_b1=0.0)
+    with pytest.raises(SimulationError, match="diverged at t ="):
+        simulate(unstable, x0=[0.1, 0, 0, 0], t_end=200.0)
+    r = simulate(unstable, x0=[0.1, 0, 0, 0], t_end=200.0, check=False)
+    assert not r.success and r.status == 1 and r.t[-1] < 200.0
+
+
+@pytest.mark.parametrize(
+    "kw,match",
+    [
+        (dict(t_end=0.0), "t_end must be > t0"),
+        (dict(t_end=1.0, Ts=0.0), "Ts must be > 0"),
+        (dict(t_end=1.0, Ts=float("nan")), "Ts must be finite"),
+        (dict(t_end=1.0, x0=[0, 0, 0]), "x0 must have 4 values"),
+        (dict(t_end=1.0, x0=[0, 0, float("nan"), 0]), "x0 must be finite"),
+        (dict(t_end=1.0, model="nope"), "unknown model 'nope'"),
+        (dict(t_end=1.0, input="sine"), "input must be an iwp.inputs"),
+    ],
+)
+def test_bad_arguments_name_the_argument(kw, match):
+    with pytest.raises(InputError, match=match):
+        simulate(table1(), **kw)
+
+
+def test_input_constructors_check_arguments():
+    with pytest.raises(InputError, match="tau must be > 0"):
+        Chirp(60.0, 3.0, 0.0)
+    with pytest.raises(InputError, match="k1 must be finite"):
+        HopfController(float("nan"), 0.1)
+    with pytest.raises(InputError, match=r"values\[1\] is not finite"):
+        Sampled([0.0, float("inf")], Ts=0.1)
