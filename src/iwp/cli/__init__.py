@@ -16,6 +16,7 @@ from ..errors import IwpError
 # One module per subcommand, each defines ``register(subparsers)``.
 _COMMANDS = [
     "simulate",
+    "convert",
 ]
 
 
