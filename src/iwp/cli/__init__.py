@@ -17,6 +17,7 @@ from ..errors import IwpError
 _COMMANDS = [
     "simulate",
     "convert",
+    "rig",
 ]
 
 
