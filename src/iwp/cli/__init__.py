@@ -18,6 +18,8 @@ _COMMANDS = [
     "simulate",
     "convert",
     "rig",
+    "design",
+    "control",
 ]
 
 

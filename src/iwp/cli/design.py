@@ -1,0 +1,159 @@
+"""``iwp design``: gains of the Hopf anticontrol law for a wanted amplitude; the bifurcation branch."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+from ._common import add_force_arg, add_params_arg, load_lumped
+
+_HOPF_DESCRIPTION = """\
+Gains of u = k1 q3 + k2 q3^3 (section 5.3) that make the pendulum oscillate
+with amplitude max q1 = A on the compensated model (9): numerical
+continuation of the periodic orbit from the Hopf point, then Newton with the
+amplitude fixed. With --k2 (default 0.1) it solves for k1; with --k1 it
+solves for k2.
+Examples:
+  iwp design hopf --amplitude 2.58
+  iwp design hopf --amplitude 1.5 --k2 0.2 --check --json
+  iwp design hopf --amplitude 2.58 --k1 -10
+  iwp design hopf --amplitude 2 --plot bifurcation.png
+"""
+
+_BRANCH_DESCRIPTION = """\
+Continue the branch of periodic orbits from the Hopf point in k1 (fixed k2)
+and write it as CSV (k1, amplitude, period, stable, max |u|, max |q4|,
+|Floquet multipliers|); optionally the bifurcation diagram with long
+simulations on it.
+Example:
+  iwp design branch --k2 0.1 --out branch.csv --plot branch.png --simulate 6
+"""
+
+
+def register(sub) -> None:
+    p = sub.add_parser("design", help="controller design: Hopf amplitude (design hopf), bifurcation branch",
+                       description="Controller design for the inertia wheel pendulum.")
+    dsub = p.add_subparsers(dest="design_command", metavar="WHAT", parser_class=type(p))
+    dsub.required = True
+
+    h = dsub.add_parser("hopf", help="k1 (or k2) of u = k1 q3 + k2 q3^3 for an oscillation of amplitude A",
+                        description=_HOPF_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    h.add_argument("--amplitude", type=float, required=True, metavar="A", help="wanted amplitude max q1 [rad]")
+    g = h.add_mutually_exclusive_group()
+    g.add_argument("--k2", type=float, default=None, help="cubic gain, fixed (default 0.1); solve for k1")
+    g.add_argument("--k1", type=float, default=None, help="linear gain, fixed; solve for k2")
+    add_params_arg(h)
+    h.add_argument("--json", action="store_true", help="print the result as JSON")
+    h.add_argument("--check", action="store_true",
+                   help="check by a long simulation (300 s) and report the simulated amplitude")
+    h.add_argument("--allow-unstable", action="store_true", help="return an unstable orbit instead of an error")
+    h.add_argument("--plot", default=None, metavar="FIG", help="write the bifurcation diagram with the design")
+    add_force_arg(h)
+    h.set_defaults(func=run_hopf)
+
+    b = dsub.add_parser("branch", help="the branch of periodic orbits from the Hopf point (CSV, figure)",
+                        description=_BRANCH_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    b.add_argument("--k2", type=float, default=0.1, help="cubic gain (default 0.1)")
+    add_params_arg(b)
+    b.add_argument("--out", default=None, metavar="FILE.csv", help="write the branch as CSV")
+    b.add_argument("--plot", default=None, metavar="FIG", help="write the bifurcation diagram")
+    b.add_argument("--simulate", type=int, default=0, metavar="N",
+                   help="add N long simulations (300 s) on the diagram and in the output")
+    b.add_argument("--json", action="store_true", help="print the branch as JSON")
+    add_force_arg(b)
+    b.set_defaults(func=run_branch)
+
+
+def run_hopf(args) -> int:
+    from .._util import prepare_output_file
+    from ..control import design_hopf, simulated_amplitude
+
+    params = load_lumped(args.params)
+    if args.plot is not None:
+        prepare_output_file(args.plot, force=args.force)
+    d = design_hopf(params, args.amplitude, k2=args.k2, k1=args.k1, require_stable=not args.allow_unstable)
+    out = d.to_dict()
+    sim = None
+    if args.check:
+        sim = simulated_amplitude(params, d.k1, d.k2)
+        out["check"] = {"simulated_amplitude": sim.amplitude, "relative_error": (sim.amplitude - d.amplitude)
+                        / d.amplitude, "simulated_period": sim.period, "t_end": 300.0}
+    if args.plot is not None:
+        from ..control import continue_hopf
+        from ..plotting import savefig
+
+        branch = continue_hopf(params, d.k2)
+        h = branch.plot(design=d, simulations=[sim] if sim is not None else None)
+        savefig(h["figure"], args.plot)
+        out["plot"] = str(args.plot)
+    if args.json:
+        print(json.dumps(out, indent=2))
+        return 0
+    fl = sorted(abs(m) for m in d.orbit.floquet)
+    print(f"Hopf design on model (9): amplitude max q1 = {d.amplitude:g} rad")
+    print(f"  k1 = {d.k1:.6g}{'  (solved)' if d.solved_for == 'k1' else ''}")
+    print(f"  k2 = {d.k2:.6g}{'  (solved)' if d.solved_for == 'k2' else ''}")
+    print(f"  period = {d.period:.5g} s (frequency {2 * math.pi / d.period:.5g} rad/s)")
+    print(f"  orbit {'stable' if d.stable else 'UNSTABLE'}: Floquet |mu| = " + ", ".join(f"{m:.4g}" for m in fl))
+    print(f"  on the orbit: max |u| = {d.orbit.u_max:.4g}, max |q4| = {d.orbit.q4_max:.4g} rad/s")
+    print(f"  Hopf point k1* = {d.hopf.k1:.6g} ({d.hopf.criticality}, l1 = {d.hopf.l1:.4g})"
+          + (f"; normal-form prediction k1 = {d.k1_normal_form:.4g}" if math.isfinite(d.k1_normal_form) else ""))
+    if sim is not None:
+        print(f"  check (300 s simulation): amplitude {sim.amplitude:.6g} rad "
+              f"({100 * (sim.amplitude - d.amplitude) / d.amplitude:+.3f} %), period {sim.period:.5g} s")
+    if args.plot is not None:
+        print(f"  figure: {args.plot}")
+    return 0
+
+
+def run_branch(args) -> int:
+    import numpy as np
+
+    from .._util import prepare_output_file
+    from ..control import continue_hopf, simulated_amplitude
+
+    params = load_lumped(args.params)
+    for path in (args.out, args.plot):
+        if path is not None:
+            prepare_output_file(path, force=args.force)
+    branch = continue_hopf(params, args.k2)
+    sims = []
+    if args.simulate > 0:
+        ks = np.linspace(branch.k1[0], branch.k1[-1], args.simulate + 2)[1:-1]
+        stable_k = [k for k in ks if np.interp(-k, -branch.k1, branch.stable.astype(float)) > 0.5]
+        sims = [simulated_amplitude(params, k, args.k2) for k in stable_k]
+    if args.out is not None:
+        mult = np.abs(branch.floquet)
+        mult = np.sort(np.nan_to_num(mult, nan=np.nan), axis=1)
+        cols = np.column_stack([branch.k1, branch.amplitude, branch.period, branch.stable.astype(int),
+                                branch.u_max, branch.q4_max, mult])
+        header = (f"# source: iwp design branch\n# k2: {args.k2}\n# k1_star: {branch.hopf.k1}\n"
+                  f"# l1: {branch.hopf.l1}\n# criticality: {branch.hopf.criticality}\n"
+                  f"# stop_reason: {branch.stop_reason}\n"
+                  "k1,amplitude,period,stable,u_max,q4_max,floquet_abs_1,floquet_abs_2,floquet_abs_3")
+        np.savetxt(Path(args.out), cols, delimiter=",", header=header, comments="", fmt="%.10g")
+    if args.plot is not None:
+        from ..plotting import savefig
+
+        h = branch.plot(simulations=sims or None)
+        savefig(h["figure"], args.plot)
+    if args.json:
+        d = branch.to_dict()
+        d["simulations"] = [{"k1": s.k1, "amplitude": s.amplitude, "period": s.period} for s in sims]
+        print(json.dumps(d, indent=2))
+        return 0
+    lo, hi = branch.amplitude_range
+    print(f"Hopf branch (k2 = {args.k2:g}): k1* = {branch.hopf.k1:.6g} ({branch.hopf.criticality}), "
+          f"{branch.k1.size} points, k1 down to {branch.k1[-1]:.5g}, amplitude up to {hi:.4g} rad "
+          f"(stop: {branch.stop_reason})")
+    for b in branch.bifurcations:
+        print(f"  stability change ({b['kind']}) at k1 = {b['k1']:.5g}, amplitude {b['amplitude']:.4g} rad")
+    for s in sims:
+        a = np.interp(-s.k1, -branch.k1, branch.amplitude)
+        print(f"  simulation k1 = {s.k1:.4g}: amplitude {s.amplitude:.5g} rad (branch {a:.5g})")
+    for path in (args.out, args.plot):
+        if path is not None:
+            print(f"  wrote {path}")
+    return 0
