@@ -19,9 +19,13 @@ import math
 
 import numpy as np
 from numba import njit, prange
+
+#: LLVM fast-math flags: contraction and reassociation, but NaN and inf keep
+#: their IEEE meaning so that divergence is still detected.
+_FM = {"contract", "reassoc", "nsz", "arcp"}
 from scipy.integrate._ivp import dop853_coefficients as _dc
 
-from .models import _ff, _rhs
+from .models import E_SR, M_BELT, M_EL, M_MD, M_MD_RAW, SA, _ff, _rhs
 
 # Butcher tableau and dense-output coefficients (scipy's DOP853 tables)
 _NS = _dc.N_STAGES  # 12
@@ -35,6 +39,10 @@ _D = np.ascontiguousarray(_dc.D, dtype=np.float64)  # (4, 16)
 SAFETY = 0.9
 MIN_FACTOR = 0.2
 MAX_FACTOR = 10.0
+#: PI step-size control (Gustafsson; Hairer & Wanner II.4): the accepted-step
+#: factor is ``SAFETY err^-(1/8 - 0.75 BETA) err_prev^BETA``; it damps the
+#: oscillating step sizes that otherwise waste many rejected steps.
+BETA = 0.04
 
 # input kinds
 I_ZERO = 0
@@ -61,7 +69,7 @@ ST_MAX_STEPS = 3
 C_FF, C_FFPOS, C_FFNEG, C_SATLO, C_SATHI = range(5)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _signal(kind, ipar, t, x):
     """The ideal input ``u(t, x)`` of a continuous input kind."""
     if kind == I_CONST:
@@ -80,7 +88,7 @@ def _signal(kind, ipar, t, x):
     return 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _command(u, cpar):
     """Command sent to the model: feedforward (7)-(8) if enabled, then saturation."""
     w = u
@@ -93,7 +101,7 @@ def _command(u, cpar):
     return w
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _eval(model, P, t, y, dx, held, hval, kind, ipar, cpar):
     if held:
         w = hval
@@ -102,7 +110,25 @@ def _eval(model, P, t, y, dx, held, hval, kind, ipar, cpar):
     _rhs(model, y, w, P, dx)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
+def _switch(model, P, y):
+    """Switching function of the right-hand side's kinks (its sign changes there).
+
+    The rolling friction ``sigma_a1 |cos q1| q3`` of section 3.1 has a kink
+    where ``cos q1 = 0``; a Runge-Kutta step across it loses its order and its
+    error estimate. Returns ``cos q1`` for models with that term, else 1.
+    """
+    if model == M_EL:
+        if P[E_SR] == 0.0:
+            return 1.0
+    elif model == M_MD or model == M_MD_RAW or model == M_BELT:
+        return 1.0
+    elif P[SA] == 0.0:
+        return 1.0
+    return math.cos(y[0])
+
+
+@njit(cache=True, fastmath=_FM)
 def _norm_err(K, h, y, y_new, rtol, atol, n):
     e5 = 0.0
     e3 = 0.0
@@ -123,7 +149,7 @@ def _norm_err(K, h, y, y_new, rtol, atol, n):
     return abs(h) * e5 / math.sqrt(den * n)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _step(model, P, t, y, f, h, K, ytmp, y_new, f_new, n, held, hval, kind, ipar, cpar):
     """One DOP853 step of size h from (t, y); stages in K[0:13]."""
     for i in range(n):
@@ -145,7 +171,7 @@ def _step(model, P, t, y, f, h, K, ytmp, y_new, f_new, n, held, hval, kind, ipar
         K[_NS, i] = f_new[i]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _dense_prepare(model, P, t, y, y_new, f, f_new, h, K, F, ytmp, n, held, hval, kind, ipar, cpar):
     """Compute the extra stages and the interpolation coefficients F (7, n)."""
     for s in range(_NS + 1, 16):
@@ -167,7 +193,7 @@ def _dense_prepare(model, P, t, y, y_new, f, f_new, h, K, F, ytmp, n, held, hval
             F[3 + r, i] = h * acc
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _dense_eval(F, y, theta, out, n):
     for i in range(n):
         acc = 0.0
@@ -180,7 +206,7 @@ def _dense_eval(F, y, theta, out, n):
         out[i] = acc + y[i]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def _initial_step(model, P, t, y, f, n, rtol, atol, held, hval, kind, ipar, cpar, ytmp, ftmp, h_max):
     d0 = 0.0
     d1 = 0.0
@@ -210,7 +236,7 @@ def _initial_step(model, P, t, y, f, n, rtol, atol, held, hval, kind, ipar, cpar
     return min(100.0 * h0, h1, h_max)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FM)
 def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_t0, cpar,
         rtol, atol, h_max, max_steps, xmax, X, U, W, ext_hval):
     """Integrate one simulation; fill X (n_out, n), U and W (n_out,).
@@ -289,9 +315,16 @@ def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_
             h_nat = _initial_step(model, P, t, y, f, n, rtol, atol, held, hval, kind, ipar, cpar, ytmp, ftmp, h_max)
             nfev += 1
         rejected = False
+        h_force = -1.0
+        err_prev = 1e-4
         while t < t_b - tol_t:
             min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
             h = min(h_nat, h_max)
+            forced = False
+            if h_force > 0.0:
+                h = h_force
+                h_force = -1.0
+                forced = True
             clipped = False
             if t + h > t_b:
                 # clip to the segment end; a step is never stretched, so a
@@ -316,15 +349,41 @@ def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_
                     status = ST_STEP_TOO_SMALL
                     break
                 continue
+            # a kink of the right-hand side inside the step: redo the step so
+            # that it ends just past the kink (located on the dense output)
+            if not forced:
+                g0 = _switch(model, P, y)
+                g1 = _switch(model, P, y_new)
+                if g0 * g1 < 0.0:
+                    _dense_prepare(model, P, t, y, y_new, f, f_new, h, K, F, ytmp, n, held, hval, kind, ipar, cpar)
+                    nfev += 3
+                    a = 0.0
+                    b = 1.0
+                    for _it in range(60):
+                        mid = 0.5 * (a + b)
+                        _dense_eval(F, y, mid, yo, n)
+                        gm = _switch(model, P, yo)
+                        if gm * g0 > 0.0:
+                            a = mid
+                        else:
+                            b = mid
+                        if (b - a) * abs(h) < 1e-13 * max(1.0, abs(t)):
+                            break
+                    h_force = b * h + 2e-13 * max(1.0, abs(t))
+                    if h_force < h:
+                        nrej += 1
+                        continue
+                    h_force = -1.0
             # accepted
             if err == 0.0:
                 factor = MAX_FACTOR
             else:
-                factor = min(MAX_FACTOR, SAFETY * err ** (-1.0 / 8.0))
+                factor = min(MAX_FACTOR, SAFETY * err ** (-(1.0 / 8.0 - 0.75 * BETA)) * err_prev ** BETA)
+            err_prev = max(err, 1e-4)
             if rejected:
                 factor = min(1.0, factor)
             rejected = False
-            if not clipped:
+            if not clipped and not forced:
                 h_nat = h * factor
             elif factor < 1.0:
                 # a step clipped to the segment end keeps the natural step
@@ -410,7 +469,7 @@ def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_
     return status, nfev, nacc, nrej, t, h_nat
 
 
-@njit(cache=True, parallel=True)
+@njit(cache=True, parallel=True, fastmath=_FM)
 def run_batch(model, Pm, X0m, t0, t_end, t_out, kind, Ipm, usamp, seg_mode, seg_T, seg_t0, cpar,
               rtol, atol, h_max, max_steps, xmax, X, U, W, status, nfev):
     """Run ``Pm.shape[0]`` simulations in parallel (one per row of Pm, X0m, Ipm)."""
