@@ -38,6 +38,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 from scipy import stats
+from scipy.linalg.lapack import dgeqrf as _dgeqrf
 
 from ._util import check_finite
 from .errors import IdentificationError, InputError
@@ -49,6 +50,7 @@ __all__ = [
     "solve_least_squares",
     "stack_rows",
     "hac_bandwidth",
+    "lstsq_projection",
     "DEFAULT_RCOND",
     "DEFAULT_COND_WARN",
     "DEFAULT_CORR_WARN",
@@ -350,6 +352,14 @@ def _position_in_block(blocks: np.ndarray) -> np.ndarray:
 
 def _block_labels(blocks: np.ndarray) -> list[Any]:
     """Block labels in order of first appearance, as plain Python objects."""
+    if blocks.dtype.kind in "iu" and blocks.size:
+        lo, hi = int(blocks.min()), int(blocks.max())
+        if lo == hi:
+            return [blocks[0].item()]
+        if hi - lo <= 64:  # a few integer labels: no sort needed
+            present = np.flatnonzero(np.bincount(blocks - lo, minlength=hi - lo + 1))
+            first = [int(np.argmax(blocks == lo + k)) for k in present]
+            return [blocks[i].item() for i in sorted(first)]
     _, first = np.unique(blocks, return_index=True)
     return [blocks[i].item() if hasattr(blocks[i], "item") else blocks[i] for i in sorted(first)]
 
@@ -370,11 +380,11 @@ def _bartlett_lrv(H: np.ndarray, L: int) -> np.ndarray:
     """
     T, r = H.shape
     if L == 0:
-        return H.T @ H
+        return _gram(H)
     Hp = np.concatenate([np.zeros((L, r)), H, np.zeros((L, r))])
     C = np.concatenate([np.zeros((1, r)), np.cumsum(Hp, axis=0)])
     W = C[L + 1 :] - C[: -(L + 1)]
-    return (W.T @ W) / (L + 1)
+    return _gram(W) / (L + 1)
 
 
 def hac_bandwidth(H: np.ndarray, rule: str = "auto") -> int:
@@ -406,15 +416,18 @@ def hac_bandwidth(H: np.ndarray, rule: str = "auto") -> int:
         return int(min(cap, math.floor(4.0 * (T / 100.0) ** (2.0 / 9.0))))
     if rule in ("andrews", "auto"):
         factor = _AUTO_FACTOR if rule == "auto" else 1.0
-        x0, x1 = H[:-1], H[1:]
-        den = np.einsum("ij,ij->j", x0, x0)
+        Ht = np.ascontiguousarray(H.T)  # one contiguous row per score column (fast reductions)
+        x0, x1 = Ht[:, :-1], Ht[:, 1:]
+        den = np.einsum("ji,ji->j", x0, x0)
         ok = den > 0
         if not np.any(ok):
             return 0
-        rho = np.einsum("ij,ij->j", x0[:, ok], x1[:, ok]) / den[ok]
+        if not np.all(ok):
+            x0, x1, den = x0[ok], x1[ok], den[ok]
+        rho = np.einsum("ji,ji->j", x0, x1) / den
         rho = np.clip(rho, -0.97, 0.97)
-        e = x1[:, ok] - x0[:, ok] * rho
-        s2 = np.einsum("ij,ij->j", e, e) / max(1, T - 1)
+        e = x1 - x0 * rho[:, None]
+        s2 = np.einsum("ji,ji->j", e, e) / max(1, T - 1)
         num = np.sum(4.0 * rho**2 * s2**2 / ((1 - rho) ** 6 * (1 + rho) ** 2))
         dnm = np.sum(s2**2 / (1 - rho) ** 4)
         alpha = num / dnm if dnm > 0 else 0.0
@@ -654,10 +667,13 @@ def solve_least_squares(
     if not free:
         raise InputError("all parameters are fixed; nothing to estimate")
     free_names = [names[j] for j in free]
-    y_free = y.copy()
-    for nm, v in fixed.items():
-        y_free -= X[:, names.index(nm)] * float(v)
-    Xf = X[:, free]
+    if fixed:
+        y_free = y.copy()
+        for nm, v in fixed.items():
+            y_free -= X[:, names.index(nm)] * float(v)
+        Xf = X[:, free]
+    else:
+        y_free, Xf = y, X
     p = len(free)
     if n_rows <= p:
         raise InputError(
@@ -666,16 +682,13 @@ def solve_least_squares(
 
     # ---- weights ------------------------------------------------------------
     labels = _block_labels(blk)
-    block_rows = {lab: np.nonzero(blk == lab)[0] for lab in labels}
+    block_rows = {lab: _rows_of(blk, lab, len(labels)) for lab in labels}
     warnings: list[str] = []
+    user_sw: np.ndarray | None = None
     if weights is None or (isinstance(weights, str) and weights == "none"):
         wmode = "none"
-        sw = np.ones(n_rows)
     elif isinstance(weights, str) and weights == "blocks":
         wmode = "blocks"
-        sw = np.ones(n_rows)
-        if len(labels) > 1:
-            sw = _block_weights(Xf, y_free, block_rows, rcond, p, n_rows)
     elif isinstance(weights, str):
         raise InputError(f"weights must be 'blocks', 'none' or an array of row weights, got {weights!r}")
     else:
@@ -689,13 +702,34 @@ def solve_least_squares(
         if not np.all(np.isfinite(wa)) or np.any(wa <= 0):
             i = int(np.argmax(~np.isfinite(wa) | (wa <= 0)))
             raise InputError(f"weights must be finite and > 0; row {i} has {wa[i]!r}")
-        sw = np.sqrt(wa)
+        user_sw = np.sqrt(wa)
 
     # ---- solve ------------------------------------------------------------------
-    Xw = Xf * sw[:, None]
-    yw = y_free * sw
-    D, U, s, Vt = _svd_scaled(Xw)
+    # Orthogonal factorisation of the augmented [X | y] (per block, tall-skinny
+    # Householder QR in chunks): X_b = Q_b R_b.  The weighted problem is then the
+    # small stacked system [w_b R_b]; its SVD is the SVD of the weighted regressor
+    # up to the orthogonal factor, and ||y_b - X_b theta|| = ||R_b [theta; -1]||.
+    # The normal matrix is never formed.
+    if user_sw is not None:
+        sw = user_sw
+        Msmall = _tsqr_augmented(Xf, y_free, slice(None), sw)
+    else:
+        Rs = {lab: _tsqr_augmented(Xf, y_free, rows, None) for lab, rows in block_rows.items()}
+        wb = {lab: 1.0 for lab in labels}
+        if wmode == "blocks" and len(labels) > 1:
+            counts = {lab: _count(rows, n_rows) for lab, rows in block_rows.items()}
+            wb = _block_weights_R(Rs, counts, rcond, p, n_rows)
+        Msmall = np.vstack([wb[lab] * Rs[lab] for lab in labels])
+        if all(w == 1.0 for w in wb.values()):
+            sw = np.ones(n_rows)
+        else:
+            sw = np.empty(n_rows)
+            for lab, rows in block_rows.items():
+                sw[rows] = wb[lab]
+    Bm, cm = Msmall[:, :p], Msmall[:, p]
+    D = np.sqrt(np.einsum("ij,ij->j", Bm, Bm))
     Dsafe = np.where(D > 0, D, 1.0)
+    Ub, s, Vt = np.linalg.svd(Bm / Dsafe, full_matrices=False)
     smax = s[0] if s.size else 0.0
     rank = int(np.sum(s > rcond * smax)) if smax > 0 else 0
     cond = float(s[0] / s[-1]) if s[-1] > 0 else math.inf
@@ -709,37 +743,52 @@ def solve_least_squares(
         if not allow_rank_deficient:
             raise IdentificationError(text)
         warnings.append(text)
-    Ur, sr, Vr = U[:, :rank], s[:rank], Vt[:rank].T  # Vr: p x rank
-    coef_u = (Ur.T @ yw) / sr  # coordinates in the row space
+    sr, Vr = s[:rank], Vt[:rank].T  # Vr: p x rank
+    coef_u = (Ub[:, :rank].T @ cm) / sr  # coordinates in the row space
     theta_s = Vr @ coef_u
     theta_free = theta_s / Dsafe
-    res_w = yw - Xw @ theta_free
-    res = y_free - Xf @ theta_free
+    res = y_free - _mv(Xf, theta_free)
+    unit_w = user_sw is None and all(w == 1.0 for w in wb.values())
+    res_w = res if unit_w else res * sw
+    yw = y_free if unit_w else y_free * sw
 
     dof = n_rows - rank
-    # sample bookkeeping
-    s_unique = np.unique(sidx)
-    n_samples = int(s_unique.size)
 
     # ---- covariance (scaled coordinates: theta_s = D * theta) ---------------
     A = Vr / sr  # p x rank; theta_s - true = A @ (Ur^T e)
     if covariance == "ols":
-        sigma2 = float(res_w @ res_w) / dof if dof > 0 else math.nan
+        s_min, s_max = int(sidx.min()), int(sidx.max())
+        if s_max - s_min + 1 <= 10 * n_rows + 1000:  # count distinct sample numbers without sorting
+            present = np.zeros(s_max - s_min + 1, dtype=bool)
+            present[sidx - s_min] = True
+            n_samples = int(np.count_nonzero(present))
+        else:
+            n_samples = int(np.unique(sidx).size)
+        sigma2 = _dot(res_w, res_w) / dof if dof > 0 else math.nan
         cov_s = sigma2 * (A @ A.T)
         L_used: int | None = None
         crit = float(stats.t.ppf(0.975, dof)) if dof > 0 else math.nan
     else:
-        span = int(s_unique[-1] - s_unique[0]) + 1
+        s_min, s_max = int(sidx.min()), int(sidx.max())
+        span = s_max - s_min + 1
         if span > 10 * n_rows + 1000:
             raise InputError(
                 f"sample_index spans {span} samples for {n_rows} rows; number the samples "
                 "consecutively (gaps only between separate experiments)"
             )
+        present = np.zeros(span, dtype=bool)
+        present[sidx - s_min] = True
+        n_samples = int(np.count_nonzero(present))
+        # left singular vectors of the weighted, column-scaled regressor: U = (Xw / D) V S^-1
+        Ur = _mm(Xf, Vr / (Dsafe[:, None] * sr[None, :]))
+        if not unit_w:
+            Ur *= sw[:, None]
         Hrows = Ur * res_w[:, None]
         H = np.zeros((span, rank))
-        np.add.at(H, sidx - s_unique[0], Hrows)
+        for rows in block_rows.values():
+            _scatter_add(H, sidx[rows] - s_min, Hrows[rows])
         if bandwidth is None or isinstance(bandwidth, str):
-            L_used = hac_bandwidth(H[np.isin(np.arange(span), s_unique - s_unique[0])], bandwidth or "auto")
+            L_used = hac_bandwidth(H if n_samples == span else H[present], bandwidth or "auto")
         else:
             L_used = int(bandwidth)
         if L_used > n_samples // 2:
@@ -853,41 +902,197 @@ def _lstsq_svd(X: np.ndarray, y: np.ndarray, rcond: float) -> np.ndarray | None:
     return (Vt[:r].T @ ((U[:, :r].T @ y) / s[:r])) / np.where(D > 0, D, 1.0)
 
 
-def _block_weights(
-    X: np.ndarray, y: np.ndarray, block_rows: Mapping[Any, np.ndarray], rcond: float, p: int, n: int
-) -> np.ndarray:
-    """Row scale factors 1/sigma_block by iterated feasible weighted least squares.
+#: Rows per chunk of the tall-skinny QR (any value gives the same R up to rounding). Below ~1000
+#: rows OpenBLAS factorises each chunk on one thread: larger chunks get threaded BLAS inside dgeqrf,
+#: which on a busy machine can stall for hundreds of milliseconds (measured: 2048 rows, 2 cores, one
+#: busy), and its worker threads keep spinning afterwards, taking the CPU from the main thread.
+_TSQR_CHUNK = 768
+
+
+#: Rows per block of the tall matrix products below (small enough for single-threaded BLAS).
+_BLAS_ROWS = 512
+
+
+def _mv(X: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``X @ v`` for a tall ``X`` without threaded BLAS (einsum loops)."""
+    return np.einsum("ij,j->i", X, v)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    """``a @ b`` for long vectors without threaded BLAS."""
+    return float(np.einsum("i,i->", a, b))
+
+
+def _mm(X: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """``X @ S`` for a tall ``X`` and a small ``S``, in row blocks (single-threaded BLAS)."""
+    out = np.empty((X.shape[0], S.shape[1]))
+    for i in range(0, X.shape[0], _BLAS_ROWS):
+        np.matmul(X[i: i + _BLAS_ROWS], S, out=out[i: i + _BLAS_ROWS])
+    return out
+
+
+def _gram(X: np.ndarray, Y: np.ndarray | None = None) -> np.ndarray:
+    """``X.T @ Y`` (default ``Y = X``) for tall ``X``, ``Y``, summed over row blocks (single-threaded BLAS)."""
+    Y = X if Y is None else Y
+    out = np.zeros((X.shape[1], Y.shape[1]))
+    for i in range(0, X.shape[0], 4 * _BLAS_ROWS):
+        out += X[i: i + 4 * _BLAS_ROWS].T @ Y[i: i + 4 * _BLAS_ROWS]
+    return out
+
+
+def _tsqr_augmented(X: np.ndarray, y: np.ndarray, rows: Any, sw: np.ndarray | None) -> np.ndarray:
+    """Upper-triangular R of the Householder QR of ``[X[rows] | y[rows]]`` (optionally row-scaled by ``sw``).
+
+    Tall-skinny QR: the rows are factorised in chunks, the stacked chunk R
+    factors once more (LAPACK ``dgeqrf``). ``y`` may be 1-D or 2-D (several
+    right-hand sides). Rows of the result: ``min(m, k)`` with ``k`` the
+    number of columns of ``[X | y]``.
+    """
+    Xb = X[rows]
+    yb = y[rows]
+    if yb.ndim == 1:
+        yb = yb[:, None]
+    m, p = Xb.shape
+    k = p + yb.shape[1]
+    Rs = []
+    for i in range(0, m, _TSQR_CHUNK):
+        c = min(_TSQR_CHUNK, m - i)
+        A = np.empty((c, k), order="F")
+        A[:, :p] = Xb[i : i + c]
+        A[:, p:] = yb[i : i + c]
+        if sw is not None:
+            A *= sw[i : i + c, None]
+        qr, _, _, info = _dgeqrf(A, overwrite_a=1)
+        Rs.append(np.triu(qr[: min(c, k)]))
+    if len(Rs) == 1:
+        return Rs[0]
+    A = np.asfortranarray(np.vstack(Rs))
+    qr, _, _, info = _dgeqrf(A, overwrite_a=1)
+    return np.triu(qr[: min(A.shape[0], k)])
+
+
+def lstsq_projection(X: object, Y: object, row_scale: object = None, rcond: float = DEFAULT_RCOND) -> np.ndarray:
+    """Least-squares coefficients ``B`` minimising ``||diag(w) (X B - Y)||`` for several targets.
+
+    Same numerics as :func:`solve_least_squares` (tall-skinny Householder QR
+    of ``[X | Y]``, column scaling, SVD of the small triangular factor; no
+    normal matrix), without the statistics. Used e.g. to propagate the
+    uncertainty of known parameters that enter the target linearly.
+
+    Parameters
+    ----------
+    X : array_like, shape (n, p)
+        Regressor.
+    Y : array_like, shape (n,) or (n, r)
+        Target(s).
+    row_scale : array_like, shape (n,), optional
+        Row scale factors ``w`` (square roots of the weights).
+    rcond : float
+        Relative singular-value threshold of the column-scaled regressor.
+
+    Returns
+    -------
+    ndarray, shape (p,) or (p, r)
+        Minimum-norm solution(s).
+    """
+    Xa = np.asarray(X, dtype=float)
+    Ya = np.asarray(Y, dtype=float)
+    one = Ya.ndim == 1
+    if Xa.ndim != 2 or Ya.shape[0] != Xa.shape[0] or Ya.ndim > 2:
+        raise InputError(f"X must be (n, p) and Y (n,) or (n, r); got {Xa.shape} and {Ya.shape}")
+    sw = None if row_scale is None else np.asarray(row_scale, dtype=float)
+    p = Xa.shape[1]
+    R = _tsqr_augmented(Xa, Ya, slice(None), sw)
+    B, C = R[:, :p], R[:, p:]
+    D = np.sqrt(np.einsum("ij,ij->j", B, B))
+    Ds = np.where(D > 0, D, 1.0)
+    U, s, Vt = np.linalg.svd(B / Ds, full_matrices=False)
+    if s.size == 0 or s[0] <= 0:
+        out = np.zeros((p, C.shape[1]))
+    else:
+        r = int(np.sum(s > rcond * s[0]))
+        out = (Vt[:r].T @ ((U[:, :r].T @ C) / s[:r, None])) / Ds[:, None]
+    return out[:, 0] if one else out
+
+
+def _scatter_add(H: np.ndarray, idx: np.ndarray, rows: np.ndarray) -> None:
+    """``H[idx] += rows`` with repeated indices summed (like ``np.add.at``), fast for consecutive runs."""
+    n = idx.size
+    if n == 0:
+        return
+    brk = np.flatnonzero(np.diff(idx) != 1)
+    if brk.size <= 64:  # a few runs of consecutive sample numbers (one per file): slice adds
+        starts = np.concatenate([[0], brk + 1])
+        ends = np.concatenate([brk + 1, [n]])
+        for a, b in zip(starts.tolist(), ends.tolist()):
+            i0 = int(idx[a])
+            H[i0 : i0 + (b - a)] += rows[a:b]
+    else:
+        np.add.at(H, idx, rows)
+
+
+def _rows_of(blk: np.ndarray, lab: Any, n_labels: int) -> Any:
+    """Rows of block ``lab``: a slice when they are contiguous (the usual stacking), else indices."""
+    if n_labels == 1:
+        return slice(0, blk.shape[0])
+    rows = np.nonzero(blk == lab)[0]
+    if rows.size and rows[-1] - rows[0] + 1 == rows.size:
+        return slice(int(rows[0]), int(rows[-1]) + 1)
+    return rows
+
+
+def _count(rows: Any, n: int) -> int:
+    if isinstance(rows, slice):
+        return len(range(*rows.indices(n)))
+    return int(len(rows))
+
+
+def _block_weights_R(
+    Rs: Mapping[Any, np.ndarray], counts: Mapping[Any, int], rcond: float, p: int, n: int
+) -> dict[Any, float]:
+    """Block scale factors 1/sigma_block by iterated feasible weighted least squares.
 
     The first pass is unweighted; its residuals overstate the noise of a
     quiet block (they contain the misfit forced by the noisy block), so the
     block sigmas are re-estimated from the weighted fit until they change by
-    less than 1 % (at most 8 passes).
+    less than 1 % (at most 8 passes). Everything is done on the blocks' R
+    factors of ``[X_b | y_b]``: the weighted regression is the stacked
+    ``w_b R_b`` and a block's residual sum of squares is
+    ``||R_b [theta; -1]||^2``.
     """
-    sw = np.ones(n)
+    labs = list(Rs)
+    w = {lab: 1.0 for lab in labs}
     sig_old: dict[Any, float] | None = None
     for _ in range(8):
-        theta = _lstsq_svd(X * sw[:, None], y * sw, rcond)
+        M = np.vstack([w[lab] * Rs[lab] for lab in labs])
+        theta = _lstsq_svd(M[:, :p], M[:, p], rcond)
         if theta is None:
-            return np.ones(n)
-        sig = _block_sigmas(y - X @ theta, block_rows, p, n)
+            return {lab: 1.0 for lab in labs}
+        sig = {}
+        for lab in labs:
+            R = Rs[lab]
+            r = R[:, :p] @ theta - R[:, p]
+            nb = counts[lab]
+            dof_b = nb - p * nb / n
+            sig[lab] = float(np.sqrt(float(r @ r) / dof_b)) if dof_b > 0 else math.nan
         smax = max(sig.values())
         if not smax > 0:
-            return np.ones(n)
-        for lab, rows in block_rows.items():
-            sw[rows] = 1.0 / max(sig[lab], _WEIGHT_FLOOR * smax)
+            return {lab: 1.0 for lab in labs}
+        for lab in labs:
+            w[lab] = 1.0 / max(sig[lab], _WEIGHT_FLOOR * smax)
         if sig_old is not None and all(
             abs(sig[k] - sig_old[k]) <= 0.01 * max(sig_old[k], _WEIGHT_FLOOR * smax) for k in sig
         ):
             break
         sig_old = sig
-    return sw
+    return w
 
 
 def _block_sigmas(res: np.ndarray, block_rows: Mapping[Any, np.ndarray], p: int, n: int) -> dict[Any, float]:
     """Residual standard deviation per block, with a proportional dof share."""
     out = {}
     for lab, rows in block_rows.items():
-        nb = len(rows)
+        nb = _count(rows, n)
         dof_b = nb - p * nb / n
         out[lab] = float(np.sqrt(np.sum(res[rows] ** 2) / dof_b)) if dof_b > 0 else math.nan
     return out

@@ -20,6 +20,7 @@ _COMMANDS = [
     "rig",
     "design",
     "control",
+    "identify",
 ]
 
 

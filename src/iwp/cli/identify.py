@@ -1,0 +1,189 @@
+"""``iwp identify``: least-squares identification of the paper's set-ups, with uncertainty.
+
+``iwp identify FILE... --setup SETUP`` reads one or more logs of one set-up
+(stacked), differentiates the encoder positions, solves the least squares
+(13) and prints the parameters with standard errors, 95 % intervals and
+diagnostics (``--json``: one JSON object). ``--out PARAMS.json`` writes a
+parameter file for ``iwp simulate --params`` (parameters the set-up does not
+identify come from ``--base``, default Table 1).
+
+Set-ups (section 5): full (10)-(12), motor-disk (theta^a), motor-disk-coulomb
+(theta^b), free (theta^c), two-step (theta^d; needs --pendulum, the free
+result), dead-zone (v+, v- from a static curve).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from ..errors import InputError
+from ._common import add_force_arg
+
+
+def register(sub) -> None:
+    from ..identify import SETUPS
+
+    p = sub.add_parser(
+        "identify", help="identify parameters from logs (least squares of section 5, with uncertainty)",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("files", nargs="+", metavar="FILE", help="log(s) of one set-up (stacked); a static curve for dead-zone")
+    p.add_argument("--setup", required=True, choices=SETUPS, help="identification set-up (paper's numbering)")
+    p.add_argument("--pendulum", metavar="FREE.json",
+                   help="two-step: the free-pendulum result (--json output or --out file of --setup free) "
+                        "or a parameter file")
+    p.add_argument("--p2", metavar="VALUE|FILE.json",
+                   help="free: known p2 [1/s] (a number, or a two-step result/parameter file) so that the disk "
+                        "term p2 q4 of (9) is not neglected")
+    p.add_argument("--t-start", type=float, metavar="S", help="start of the time window [s]")
+    p.add_argument("--t-end", type=float, metavar="S", help="end of the time window [s]")
+    p.add_argument("--method", choices=["central", "savgol", "savgol_direct", "butter"],
+                   help="differentiation method (default: savgol over 0.5 s, cubic = 101 samples at 5 ms; "
+                        "see docs/identification.md)")
+    p.add_argument("--window", type=int, metavar="N", help="savgol: window [samples]")
+    p.add_argument("--polyorder", type=int, metavar="N", help="savgol: polynomial degree")
+    p.add_argument("--cutoff", type=float, metavar="HZ", help="butter: cut-off frequency [Hz]")
+    p.add_argument("--order", type=int, metavar="N", help="butter: filter order")
+    p.add_argument("--covariance", choices=["noise", "hac", "ols"], default="noise",
+                   help="uncertainty: encoder noise through the differentiator (default), HAC, or OLS")
+    p.add_argument("--base", metavar="PARAMS", default=None,
+                   help="parameter set for the values the set-up does not identify (default table1)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--out", metavar="PARAMS.json", help="write the identified parameter set (iwp simulate --params)")
+    p.add_argument("--refine", action="store_true",
+                   help="refine the least-squares result by simulation error (iwp.refine)")
+    add_force_arg(p)
+    p.set_defaults(func=run)
+
+
+def _differentiator(args):
+    from ..differentiate import Differentiator
+
+    settings = {k: getattr(args, k) for k in ("window", "polyorder", "cutoff", "order") if getattr(args, k) is not None}
+    if args.method is None and not settings:
+        return None  # identify() picks the default for the log's sample time
+    method = args.method
+    if method is None:
+        method = "butter" if {"cutoff", "order"} & set(settings) else "savgol"
+    try:
+        return Differentiator(method, **settings)
+    except InputError as exc:
+        raise InputError(f"--method {method}: {exc}") from None
+
+
+def _load_series(path: str):
+    """A time-series log; a static curve gets a clear message."""
+    from ..errors import DataFormatError
+    from ..io import read_experiment, read_static_curve
+
+    try:
+        return read_experiment(path)
+    except DataFormatError as exc:
+        try:
+            read_static_curve(path)
+        except Exception:
+            raise exc from None
+        raise InputError(f"{path}: is a static curve (input, q4); this set-up needs a time-series log "
+                         "(t, q1, q2, ...); use --setup dead-zone for static curves") from None
+
+
+def _load_curve(path: str):
+    from ..errors import DataFormatError
+    from ..io import read_experiment, read_static_curve
+
+    try:
+        return read_static_curve(path)
+    except DataFormatError as exc:
+        try:
+            read_experiment(path)
+        except Exception:
+            raise exc from None
+        raise InputError(f"{path}: is a time-series log; --setup dead-zone needs a static curve "
+                         "(columns v,q4 or u,q4, one row per steady state)") from None
+
+
+def _p2(spec: str | None):
+    if spec is None:
+        return None
+    try:
+        return float(spec)
+    except ValueError:
+        pass
+    from ..identify import load_pendulum
+
+    obj = load_pendulum(spec)
+    if hasattr(obj, "parameters") and "p2" not in obj.parameters:
+        raise InputError(f"--p2 {spec}: the {obj.setup!r} result has no p2; give a two-step result")
+    return obj
+
+
+def run(args) -> int:
+    from ..identify import identify, load_pendulum
+    from ..params import save_params
+    from ._common import load_lumped
+
+    if args.pendulum is not None and args.setup != "two-step":
+        raise InputError(f"--pendulum is used by --setup two-step only, not {args.setup}")
+    if args.setup == "two-step" and args.pendulum is None:
+        raise InputError("--setup two-step needs --pendulum FREE.json (the result of --setup free)")
+    if args.p2 is not None and args.setup != "free":
+        raise InputError(f"--p2 is used by --setup free only, not {args.setup}")
+    base = load_lumped(args.base) if args.base is not None else None
+    out_path = None
+    if args.out is not None:
+        from .._util import prepare_output_file
+
+        out_path = prepare_output_file(args.out, force=args.force)
+    pendulum = load_pendulum(args.pendulum) if args.pendulum is not None else None
+    p2 = _p2(args.p2)
+    diff = _differentiator(args)
+    if args.setup == "dead-zone":
+        if args.t_start is not None or args.t_end is not None:
+            raise InputError("--t-start/--t-end do not apply to --setup dead-zone (a static curve has no time)")
+        data = [_load_curve(f) for f in args.files]
+    else:
+        data = [_load_series(f) for f in args.files]
+    kw = {}
+    if args.setup != "dead-zone":
+        kw = dict(t_start=args.t_start, t_end=args.t_end, differentiator=diff, base=base, covariance=args.covariance)
+    res = identify(data if len(data) > 1 else data[0], args.setup, pendulum=pendulum, p2=p2, **kw)
+
+    if args.refine:
+        from ..refine import refine_identification
+
+        r = refine_identification(args.setup, data, res.to_params(base), t_start=args.t_start, t_end=args.t_end)
+        if args.json:
+            print(json.dumps(r.to_dict()))
+        else:
+            print(res.summary())
+            print()
+            print(r.summary() if hasattr(r, "summary") else r)
+        if out_path is not None:
+            save_params(r.params, out_path, force=True,
+                        extra={"identification": res.to_dict(), "refinement": r.to_dict()})
+            if not args.json:
+                print(f"wrote {out_path}")
+        return 0
+
+    if args.json:
+        print(json.dumps(res.to_dict()))
+    else:
+        print(res.summary())
+    if out_path is not None:
+        params = res.to_params(base)
+        note = {
+            "motor-disk": "p2, p3 (, sigma_c2) split from p2_1rho, p3_1rho with the base rho (clamped rig: / rho)",
+            "motor-disk-coulomb": "p2, p3, sigma_c2 split from the (1+rho) products with the base rho (/ rho)",
+            "free": "p2, p3, rho, dead zone from the base set",
+            "two-step": "p1, sigma_* from --pendulum; dead zone from the base set",
+            "full": "dead zone from the base set",
+            "dead-zone": "all but v_dz_pos, v_dz_neg from the base set",
+        }[args.setup]
+        save_params(params, out_path, force=True, extra={"note": note, "identification": res.to_dict()})
+        if not args.json:
+            print(f"wrote {out_path}")
+    if not res.success:
+        print(f"iwp: identification incomplete: {res.message}", file=sys.stderr)
+        return 1
+    return 0
