@@ -21,6 +21,7 @@ _COMMANDS = [
     "design",
     "control",
     "identify",
+    "validate",
 ]
 
 

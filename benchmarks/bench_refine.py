@@ -1,0 +1,149 @@
+"""Speed of the simulation-error refinement (issue 5), against scipy in the same run.
+
+The problem: the paper's free-pendulum experiment (figure 8) on the virtual
+rig, 60 s at Ts = 5 ms (12001 samples of the quantised q1), refined from the
+least-squares result of ``iwp.identify`` (set-up "free"): 4 parameters
+(p1, sigma_a1, sigma_v1, sigma_b1) and the initial state (q1, q3), output q1.
+
+(a) iwp: ``iwp.refine.refine_identification("free", ...)``: compiled RK4 with
+    forward sensitivities (numba), ``scipy.optimize.least_squares`` (trf)
+    with the exact Jacobian.
+(b) scipy: the same residuals (same model right-hand side, same weights,
+    same unknowns and bounds) with ``scipy.integrate.solve_ivp`` (RK45,
+    rtol 1e-8, atol 1e-10, dense output at the samples) and
+    ``least_squares`` with its 2-point finite differences.
+
+Both start from the same point; the script prints the wall times, their
+ratio, and how far apart the two answers are. BLAS runs on one thread (the
+matrices are tall and thin, 12001 x 6; on a shared machine threads only add
+contention); set IWP_BENCH_BLAS_THREADS to change it. The first call of (a)
+compiles or loads the numba kernel; it is timed separately.
+
+Run: python benchmarks/bench_refine.py [--duration 60] [--repeat 3]
+"""
+
+from __future__ import annotations
+
+import os
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", os.environ.get("IWP_BENCH_BLAS_THREADS", "1"))
+os.environ.setdefault("OMP_NUM_THREADS", os.environ.get("IWP_BENCH_BLAS_THREADS", "1"))
+os.environ.setdefault("MKL_NUM_THREADS", os.environ.get("IWP_BENCH_BLAS_THREADS", "1"))
+
+import argparse  # noqa: E402
+import math  # noqa: E402
+import time  # noqa: E402
+import warnings  # noqa: E402
+
+import numpy as np  # noqa: E402
+from scipy import optimize  # noqa: E402
+from scipy.integrate import solve_ivp  # noqa: E402
+
+from iwp import refine as R  # noqa: E402
+from iwp.models import pack  # noqa: E402
+from iwp.params import table1  # noqa: E402
+from iwp.rig import VirtualRig  # noqa: E402
+
+
+def least_squares_start(data, truth):
+    """The starting point: iwp.identify's free set-up (or perturbed truth if it is not available)."""
+    try:
+        from iwp.identify import identify
+
+        return identify(data, "free").to_params(base=table1()), "iwp.identify(setup='free')"
+    except ImportError:  # pragma: no cover - identify is part of iwp
+        return truth.replace(p1=truth.p1 * 0.996, sigma_a1=0.005, sigma_v1=0.008), "perturbed truth"
+
+
+def scipy_refine(data, start, *, rtol=1e-8, atol=1e-10):
+    """The same fit with solve_ivp (RK45) + least_squares and its finite differences."""
+    free = ("p1", "sigma_a1", "sigma_v1", "sigma_b1")
+    var = R._variant("free")
+    code, P = pack(var.pack_model, start)
+    t = np.asarray(data.t, dtype=float)
+    y = np.asarray(data.q1, dtype=float)
+    x0 = R.initial_state(data, 0, "free")
+    theta0 = np.array([getattr(start, n) for n in free])
+    lo, hi = R._check_bounds(free, None, start)
+    theta0 = np.clip(theta0, lo, hi)
+    pscale = np.array([max(abs(v), R._TYPICAL[n] * 1e-3) if v != 0 else R._TYPICAL[n] for v, n in zip(theta0, free)])
+    idx = [R._PINDEX[n] for n in free]
+    s_y = float(np.std(y))
+    dx = np.zeros(4)
+    xt = np.zeros(4)
+    nsim = [0]
+
+    def rhs(_t, x):
+        R._f(code, var.mode, x, 0.0, P, dx, xt)
+        return dx.copy()
+
+    def residuals(z):
+        nsim[0] += 1
+        for i, ix in enumerate(idx):
+            P[ix] = z[i] * pscale[i]
+        xs = x0.copy()
+        xs[0], xs[2] = z[4], z[5]
+        sol = solve_ivp(rhs, (t[0], t[-1]), xs, method="RK45", t_eval=t, rtol=rtol, atol=atol)
+        if sol.status != 0 or sol.y.shape[1] != t.size:
+            return np.full(t.size, 1e6)
+        return (sol.y[0] - y) / s_y
+
+    z0 = np.concatenate([theta0 / pscale, [x0[0], x0[2]]])
+    zlo = np.concatenate([lo / pscale, [-np.inf, -np.inf]])
+    zhi = np.concatenate([hi / pscale, [np.inf, np.inf]])
+    sol = optimize.least_squares(residuals, z0, jac="2-point", bounds=(zlo, zhi), method="trf", x_scale=1.0,
+                                 ftol=1e-8, xtol=1e-8, gtol=1e-8)
+    theta = sol.x[:4] * pscale
+    return dict(zip(free, theta)), sol, nsim[0]
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--duration", type=float, default=60.0, help="length of the free-decay log [s] (default 60)")
+    ap.add_argument("--repeat", type=int, default=3, help="repetitions of (a), best time kept (default 3)")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    warnings.simplefilter("ignore")
+    rig = VirtualRig(seed=args.seed)
+    data = rig.run("free-pendulum", duration=args.duration)
+    truth = rig.truth.lumped
+    start, how = least_squares_start(data, truth)
+    print(f"machine: {os.cpu_count()} cores, BLAS threads {os.environ['OPENBLAS_NUM_THREADS']}")
+    print(f"data: virtual rig free-pendulum, {args.duration:g} s, Ts = {data.Ts:.3g} s, {data.n_samples} samples; "
+          f"start: {how}")
+    t0 = time.perf_counter()
+    R.refine_identification("free", data, start)
+    t_first = time.perf_counter() - t0
+    times = []
+    r = None
+    for _ in range(max(args.repeat, 1)):
+        t0 = time.perf_counter()
+        r = R.refine_identification("free", data, start)
+        times.append(time.perf_counter() - t0)
+    t_iwp = min(times)
+    print(f"(a) iwp refine:      {t_iwp:8.3f} s (best of {len(times)}; first call incl. numba load/compile "
+          f"{t_first:.2f} s), {r.nfev} simulations + {r.njev} with sensitivities, cost {r.cost:.6g}, "
+          f"fit q1 {r.fit[0]['q1']:.3f} %")
+    t0 = time.perf_counter()
+    theta_s, sol, nsim = scipy_refine(data, start)
+    t_sp = time.perf_counter() - t0
+    print(f"(b) scipy reference: {t_sp:8.3f} s, {nsim} solve_ivp simulations ({sol.nfev} residual evaluations "
+          f"+ finite differences), cost {sol.cost:.6g}")
+    print(f"speed-up (b)/(a): {t_sp / t_iwp:.1f}x; target for (a): <= 1 s -> {'met' if t_iwp <= 1.0 else 'NOT met'}")
+    print(f"{'parameter':<10} {'truth':>12} {'start (LS)':>12} {'iwp':>12} {'scipy':>12}")
+    for n in ("p1", "sigma_a1", "sigma_v1", "sigma_b1"):
+        print(f"{n:<10} {getattr(truth, n):>12.6g} {getattr(start, n):>12.6g} {getattr(r.params, n):>12.6g} "
+              f"{theta_s[n]:>12.6g}")
+    s_iwp = r.params.sigma_a1 + r.params.sigma_v1
+    s_sp = theta_s["sigma_a1"] + theta_s["sigma_v1"]
+    s_tr = truth.sigma_a1 + truth.sigma_v1
+    print(f"{'a1 + v1':<10} {s_tr:>12.6g} {start.sigma_a1 + start.sigma_v1:>12.6g} {s_iwp:>12.6g} {s_sp:>12.6g}")
+    print(f"p1 error vs truth: iwp {100 * (r.params.p1 / truth.p1 - 1):+.4f} %, scipy "
+          f"{100 * (theta_s['p1'] / truth.p1 - 1):+.4f} %; damping sum error: iwp {100 * (s_iwp / s_tr - 1):+.2f} %, "
+          f"scipy {100 * (s_sp / s_tr - 1):+.2f} %")
+    if not math.isfinite(t_iwp):  # pragma: no cover
+        raise SystemExit(1)
+
+
+if __name__ == "__main__":
+    main()
