@@ -13,9 +13,10 @@ matplotlib.use("Agg", force=False)
 
 import matplotlib.pyplot as plt  # noqa: E402
 
-__all__ = ["plot_simulation", "plot_comparison", "savefig"]
+__all__ = ["SIGNAL_LABELS", "plot_simulation", "plot_comparison", "savefig"]
 
-_LABELS = {
+#: Axis labels of the signals [unit], shared by every plotting module.
+SIGNAL_LABELS = {
     "q1": r"$q_1$ [rad]",
     "q2": r"$q_2$ [rad]",
     "q3": r"$q_3$ [rad/s]",
@@ -61,7 +62,7 @@ def plot_simulation(result, signals=("q1", "q2", "q3", "q4", "u"), axes=None, la
             raise ValueError(f"signal {name!r} not in the result; available: {', '.join(cols)}")
         (ln,) = ax.plot(cols["t"], cols[name], label=label, **line_kw)
         lines.append(ln)
-        ax.set_ylabel(_LABELS.get(name, name))
+        ax.set_ylabel(SIGNAL_LABELS.get(name, name))
         ax.grid(True, alpha=0.3)
     axs[-1].set_xlabel("t [s]")
     if label is not None:
@@ -85,7 +86,7 @@ def plot_comparison(t, measured, simulated, *, name="q4", ax=None, error_ax=None
         fig = ax.figure
     (l1,) = ax.plot(t, measured, "-", lw=1.0, label=labels[0])
     (l2,) = ax.plot(t, simulated, "--", lw=1.0, label=labels[1])
-    ax.set_ylabel(_LABELS.get(name, name))
+    ax.set_ylabel(SIGNAL_LABELS.get(name, name))
     ax.legend(loc="upper right")
     ax.grid(True, alpha=0.3)
     lines = [l1, l2]

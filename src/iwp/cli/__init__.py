@@ -21,6 +21,8 @@ _COMMANDS = [
     "design",
     "control",
     "identify",
+    "reproduce",
+    "report",
     "validate",
 ]
 

@@ -1,0 +1,371 @@
+"""``iwp reproduce`` and ``iwp report``: a reduced run of the whole paper, its outputs, figures and bad input."""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+
+import numpy as np
+import pytest
+
+from iwp import reproduce as R
+from iwp.cli import main
+from iwp.params import load_params
+from iwp.report import prepare_output_dir
+from iwp.rig import default_truth
+
+EXPECTED_FIGURES = {
+    "fig02_dead_zone", "fig03_sines", "fig04_sine20", "fig06_coulomb", "fig07_coulomb20", "fig_full_setup",
+    "fig08_free_pendulum", "fig09_full_chirp", "fig10_closed_loop", "fig_refine",
+}
+
+
+_CACHE: dict = {}
+
+
+def quick_run_once(tmp_path_factory) -> dict:
+    """One reduced run of the whole pipeline per test session (shared with test_report_browser.py)."""
+    if "run" not in _CACHE:
+        _CACHE["run"] = _quick_run(tmp_path_factory)
+    return _CACHE["run"]
+
+
+@pytest.fixture(scope="session")
+def quick_run(tmp_path_factory):
+    """The reduced run, with the figures' artists kept for inspection."""
+    return quick_run_once(tmp_path_factory)
+
+
+def _quick_run(tmp_path_factory) -> dict:
+    import iwp.report as report_mod
+
+    out = tmp_path_factory.mktemp("reproduce") / "out"
+    figures = {}
+    events = []
+    orig = report_mod.save_figure
+
+    def keep(fig, out_dir, name, **kw):
+        figures[name] = fig
+        return orig(fig, out_dir, name, **kw)
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(report_mod, "save_figure", keep)
+    try:
+        t0 = time.perf_counter()
+        res = R.reproduce(out, quick=True, progress=events.append)
+        seconds = time.perf_counter() - t0
+    finally:
+        mp.undo()
+    return {"result": res, "out": out, "figures": figures, "events": events, "seconds": seconds}
+
+
+# --------------------------------------------------------------------------
+# the reduced run
+# --------------------------------------------------------------------------
+def test_every_step_completes(quick_run):
+    res = quick_run["result"]
+    bad = [(s.name, s.message, s.detail) for s in res.steps if s.status != "ok"]
+    assert not bad, bad
+    assert [s.name for s in res.steps] == [name for name, *_ in R.STEPS]
+    assert res.ok
+
+
+def test_progress_reports_each_step_in_order(quick_run):
+    ev = quick_run["events"]
+    starts = [e.step for e in ev if e.kind == "start"]
+    dones = [e.step for e in ev if e.kind == "done"]
+    assert starts == dones == [name for name, *_ in R.STEPS]
+    assert all(e.total == len(R.STEPS) for e in ev if e.kind in ("start", "done"))
+
+
+def test_outputs_written(quick_run):
+    out = quick_run["out"]
+    assert (out / "report.html").is_file()
+    assert (out / "parameters.json").is_file()
+    assert (out / "results.json").is_file()
+    for name in EXPECTED_FIGURES:
+        for ext in ("png", "svg"):
+            p = out / "figures" / f"{name}.{ext}"
+            assert p.is_file() and p.stat().st_size > 1000, p
+    for name in R.experiment_settings():
+        assert (out / "data" / f"{name}.csv").is_file(), name
+
+
+def test_svg_files_stay_small(quick_run):
+    for p in (quick_run["out"] / "figures").glob("*.svg"):
+        assert p.stat().st_size < 1_000_000, (p.name, p.stat().st_size)
+
+
+def test_logs_read_back(quick_run):
+    from iwp.io import read_experiment, read_static_curve
+
+    out = quick_run["out"] / "data"
+    curve = read_static_curve(out / "static-curve.csv")
+    assert curve.input_name == "v" and curve.n_points > 10
+    log = read_experiment(out / "full-chirp.csv")
+    assert log.input_name == "u"
+    assert log.duration == pytest.approx(R.experiment_settings(quick=True)["full-chirp"]["duration"])
+
+
+def test_parameters_json_loads_and_matches_truth(quick_run):
+    path = quick_run["out"] / "parameters.json"
+    p = load_params(path)  # the final set, readable by every --params option
+    doc = json.loads(path.read_text())
+    assert doc["final"] == "refined"
+    assert set(doc["sets"]) >= {"truth", "least-squares", "refined", "table1"}
+    truth = default_truth().lumped
+    for name, tol in R.TRUTH_TOLERANCES.items():
+        got, want = getattr(p, name), getattr(truth, name)
+        assert abs(got / want - 1) <= tol, (name, got, want, tol)
+    ls = doc["sets"]["least-squares"]
+    for name in ("p1", "p3", "rho"):
+        assert abs(ls[name] / getattr(truth, name) - 1) <= R.TRUTH_TOLERANCES[name], name
+    # the identification results are all there, JSON-clean
+    assert set(doc["identification"]) == {"dead-zone", "motor-disk", "motor-disk-coulomb", "full", "free",
+                                          "two-step"}
+    assert "NaN" not in path.read_text()
+
+
+def test_statements_all_checked_with_numbers(quick_run):
+    res = quick_run["result"]
+    st = res.statements
+    assert len(st) == len(R._STATEMENTS)
+    assert all(s.passed is not None for s in st), [(s.key, s.found) for s in st if s.passed is None]
+    assert all(re.search(r"\d", s.found) for s in st)
+    by = {s.key: s for s in st}
+    # statements that hold on the virtual rig whatever the run length
+    for key in ("rho-close", "restart", "free-pendulum", "linear-after-compensation", "rigid-error-grows",
+                "refinement", "truth-recovered"):
+        assert by[key].passed, (key, by[key].found)
+
+
+def test_numbers_consistent_with_the_rig(quick_run):
+    n = quick_run["result"].numbers
+    truth = default_truth().lumped
+    assert n["dead-zone"]["v_dz_pos"] > n["dead-zone"]["v_dz_neg"]  # the truth's asymmetry, 33 vs 29
+    assert n["coulomb"]["p2_1rho"] < n["motor-disk"]["p2_1rho"]
+    assert n["two-step"]["rho_1"] == pytest.approx(truth.rho, rel=0.05)
+    assert n["full-chirp"]["rms_q1_after_restart_with"] < n["full-chirp"]["rms_q1_after_restart_without"]
+    assert 2.0 < n["closed-loop"]["amplitude_rig"] < 3.0
+
+
+def test_report_page_self_contained(quick_run):
+    text = (quick_run["out"] / "report.html").read_text()
+    assert text.startswith("<!DOCTYPE html>")
+    imgs = re.findall(r"<img [^>]*src=\"([^\"]+)\"", text)
+    assert len(imgs) == len(EXPECTED_FIGURES)
+    assert all(s.startswith("data:image/png;base64,") for s in imgs)
+    # nothing fetched from elsewhere
+    assert not re.search(r"(src|href)=\"(https?:)?//", text)
+    assert "<link" not in text
+    for title in ("virtual-rig truth", "least squares", "refined", "Table 1"):
+        assert title in text
+    assert text.count('class="pass"') + text.count('class="fail"') == len(R._STATEMENTS)
+
+
+# --------------------------------------------------------------------------
+# figures, through their artists
+# --------------------------------------------------------------------------
+def _labelled(ax):
+    """Data lines (the zero axes drawn by axhline/axvline carry no label)."""
+    return [ln for ln in ax.get_lines() if not ln.get_label().startswith("_")]
+
+
+def test_figure_dead_zone_artists(quick_run):
+    fig = quick_run["figures"]["fig02_dead_zone"]
+    a, b = fig.axes
+    assert a.get_xlabel() == "$v$ [-]" and b.get_xlabel() == "$u$ [-]"
+    assert "q_4" in a.get_ylabel()
+    # points + two extrapolation lines (a); points + one fitted line (b)
+    assert len(_labelled(a)) == 1 + 2 and len(_labelled(b)) == 1 + 1
+    assert _labelled(a)[0].get_linestyle() == "None"  # the rig's points as markers
+
+
+@pytest.mark.parametrize("name,panels,signal", [
+    ("fig03_sines", 2, "$q_4$ [rad/s]"),
+    ("fig04_sine20", 2, "$q_4$ [rad/s]"),
+    ("fig06_coulomb", 2, "$q_4$ [rad/s]"),
+    ("fig07_coulomb20", 1, "$q_4$ [rad/s]"),
+    ("fig08_free_pendulum", 1, "$q_1$ [rad]"),
+    ("fig09_full_chirp", 2, "$q_1$ [rad]"),
+    ("fig10_closed_loop", 1, "$q_1$ [rad]"),
+    ("fig_full_setup", 1, "$q_1$ [rad]"),
+])
+def test_comparison_figures_artists(quick_run, name, panels, signal):
+    fig = quick_run["figures"][name]
+    axes = fig.axes
+    assert len(axes) == 2 * panels
+    for i in range(panels):
+        ax, eax = axes[2 * i], axes[2 * i + 1]
+        assert ax.get_ylabel() == signal
+        assert len(ax.get_lines()) == 2  # measured and simulated
+        assert len(eax.get_lines()) == 1  # the error
+        assert eax.get_xlabel() == "t [s]"
+        assert eax.get_ylabel().startswith("error e")
+        labels = [ln.get_label() for ln in ax.get_lines()]
+        assert labels[0].startswith("experimental data")
+        assert len(ax.get_lines()[0].get_xdata()) <= R.PLOT_POINTS + 2  # decimated in the pipeline
+
+
+def test_refine_figure_artists(quick_run):
+    fig = quick_run["figures"]["fig_refine"]
+    (ax,) = fig.axes
+    labels = [ln.get_label() for ln in ax.get_lines()]
+    assert len(labels) == 2 and labels[0].startswith("least squares") and labels[1].startswith("refined")
+    assert ax.get_xlabel() == "t [s]"
+
+
+def test_plot_functions_compute_nothing():
+    from iwp.plotting_report import plot_comparison_panel, plot_comparisons, plot_errors, plot_static_curve
+
+    t = np.linspace(0, 1, 11)
+    r = plot_comparison_panel((t, t), [(t, t + 1, "a"), (t, t + 2, "b")], [(t, -np.ones(11), "ea")],
+                              signal="q1")
+    assert len(r["lines"]) == 4
+    np.testing.assert_array_equal(r["lines"][3].get_ydata(), -np.ones(11))  # drawn as given
+    r = plot_comparisons([{"measured": (t, t), "simulated": (t, t, "s"), "error": (t, t, "e")}] * 3)
+    assert len(r["axes"]) == 6 and len(r["lines"]) == 9
+    r = plot_static_curve(t, t, input_name="u", lines=[(t, t, "l")])
+    assert r["axes"][0].get_xlabel() == "$u$ [-]" and len(r["lines"]) == 1
+    r = plot_errors([(t, t, "x")], signal="q4")
+    assert "q_4" in r["axes"][0].get_ylabel()
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+
+
+def test_decimate_keeps_the_envelope():
+    t = np.linspace(0, 300, 60001)
+    y = np.sin(7 * t) * (1 + t / 100)
+    td, yd = R.decimate(t, y, 3000)
+    assert td.size <= 3002 and np.all(np.diff(td) > 0)
+    assert yd.max() == y.max() and yd.min() == y.min()
+    assert td[0] == t[0] and td[-1] == t[-1]
+    t2, y2 = R.decimate(t[:100], y[:100], 3000)
+    np.testing.assert_array_equal(t2, t[:100])
+    np.testing.assert_array_equal(y2, y[:100])
+
+
+# --------------------------------------------------------------------------
+# bad input
+# --------------------------------------------------------------------------
+def test_non_empty_folder_refused_without_force(tmp_path, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "keep.txt").write_text("mine")
+    assert main(["reproduce", "--out", str(out), "--quick"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("iwp: error:") and "not empty" in err and "--force" in err and "\n" not in err
+    assert (out / "keep.txt").read_text() == "mine"
+    assert sorted(p.name for p in out.iterdir()) == ["keep.txt"]
+
+
+def test_output_dir_rules(tmp_path):
+    from iwp.errors import InputError, OutputExistsError
+
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    assert prepare_output_dir(empty) == empty
+    full = tmp_path / "full"
+    full.mkdir()
+    (full / "x").write_text("x")
+    with pytest.raises(OutputExistsError):
+        prepare_output_dir(full)
+    assert prepare_output_dir(full, force=True) == full
+    f = tmp_path / "file"
+    f.write_text("x")
+    with pytest.raises(InputError):
+        prepare_output_dir(f, force=True)
+
+
+def test_bad_seed_exit_2(tmp_path, capsys):
+    assert main(["reproduce", "--out", str(tmp_path / "o"), "--seed", "-1"]) == 2
+    assert "seed" in capsys.readouterr().err
+
+
+def _boom(ctx):
+    raise RuntimeError("simulated failure")
+
+
+def test_failed_step_named_and_completed_parts_kept(tmp_path, monkeypatch, capsys):
+    """A failure in one step: named on stderr, exit 1, what was done is kept, the others run."""
+    monkeypatch.setattr(R, "step_free_pendulum", _boom)
+    # keep the run short: these steps are exercised by the full reduced run above
+    for name in ("step_sines", "step_coulomb", "step_full_setup"):
+        monkeypatch.setattr(R, name, lambda ctx: "skipped in this test")
+    out = tmp_path / "out"
+    status = main(["reproduce", "--out", str(out), "--quick"])
+    captured = capsys.readouterr()
+    assert status == 1
+    err_lines = [ln for ln in captured.err.splitlines() if ln.startswith("iwp: error:")]
+    assert err_lines == ["iwp: error: step 'free-pendulum' failed: RuntimeError: simulated failure"]
+    assert "FAILED" in captured.out and "free-pendulum" in captured.out
+    # completed parts in place
+    assert (out / "figures" / "fig02_dead_zone.png").is_file()
+    assert (out / "data" / "static-curve.csv").is_file()
+    assert (out / "data" / "motor-disk-chirp.csv").is_file()
+    # the steps that need it are skipped, the report is still written and says so
+    results = json.loads((out / "results.json").read_text())
+    status_of = {s["name"]: s["status"] for s in results["steps"]}
+    assert status_of["free-pendulum"] == "failed"
+    assert status_of["two-step"] == status_of["full-chirp"] == status_of["refine"] == "skipped"
+    assert status_of["report"] == "ok" and status_of["dead-zone"] == "ok"
+    html = (out / "report.html").read_text()
+    assert "simulated failure" in html and "failed: free-pendulum" in html
+    verdicts = {s["key"]: s["verdict"] for s in results["statements"]}
+    assert verdicts["rho-close"] == "not checked"
+    assert verdicts["dead-zone"] in ("pass", "fail")
+
+
+def test_stop_on_error(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(R, "step_motor_disk", _boom)
+    out = tmp_path / "out"
+    assert main(["reproduce", "--out", str(out), "--quick", "--stop-on-error"]) == 1
+    assert "step 'motor-disk' failed" in capsys.readouterr().err
+    res = json.loads((out / "results.json").read_text())
+    status_of = {s["name"]: s["status"] for s in res["steps"]}
+    assert status_of["dead-zone"] == "ok" and status_of["motor-disk"] == "failed"
+    assert all(status_of[n] == "skipped" for n in ("sines", "coulomb", "free-pendulum", "refine"))
+    assert status_of["report"] == "ok"
+    assert (out / "report.html").is_file() and (out / "figures" / "fig02_dead_zone.svg").is_file()
+
+
+# --------------------------------------------------------------------------
+# iwp report on a user's own logs
+# --------------------------------------------------------------------------
+def test_report_command_on_logs(quick_run, tmp_path, capsys):
+    data = quick_run["out"] / "data"
+    params = quick_run["out"] / "parameters.json"
+    files = [data / "free-pendulum.csv", data / "full-chirp.csv", data / "closed-loop.csv", data / "sine-40.csv",
+             data / "static-curve-compensated.csv"]
+    out = tmp_path / "rep"
+    assert main(["report", *map(str, files), "--params", str(params), "--out", str(out)]) == 0
+    text = (out / "report.html").read_text()
+    assert len(re.findall(r"<img ", text)) == len(files)
+    assert not re.search(r"(src|href)=\"(https?:)?//", text)
+    doc = json.loads((out / "comparison.json").read_text())
+    kinds = [c["kind"] for c in doc["logs"]]
+    assert kinds[0].startswith("free pendulum") and kinds[2].startswith("closed loop")
+    assert kinds[3] == "pendulum locked" and kinds[4] == "static curve"
+    fits = {c["file"].split("/")[-1]: c["fit"] for c in doc["logs"]}
+    assert fits["full-chirp.csv"]["q1"] > 80
+    assert fits["free-pendulum.csv"]["q1"] > 80
+    for name in ("free-pendulum", "full-chirp", "closed-loop", "sine-40", "static-curve-compensated"):
+        assert (out / "figures" / f"{name}.png").is_file() and (out / "figures" / f"{name}.svg").is_file()
+    # the same folder again is refused without --force
+    assert main(["report", str(files[0]), "--params", str(params), "--out", str(out)]) == 2
+    assert "not empty" in capsys.readouterr().err
+    assert main(["report", str(files[0]), "--params", str(params), "--out", str(out), "--force"]) == 0
+
+
+def test_report_command_bad_file(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,q1,q2\n0,0,0\n0.005,abc,0\n")
+    out = tmp_path / "rep"
+    assert main(["report", str(bad), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("iwp: error:") and "bad.csv" in err and "\n" not in err
+    assert not out.exists()
+    assert main(["report", str(tmp_path / "missing.csv"), "--out", str(out)]) == 2
+    assert "no such file" in capsys.readouterr().err
