@@ -237,6 +237,20 @@ def _initial_step(model, P, t, y, f, n, rtol, atol, held, hval, kind, ipar, cpar
 
 
 @njit(cache=True, fastmath=_FM)
+def _put(j, tj, yv, X, U, W, n, held, uval, hval, kind, ipar, cpar):
+    """Write output sample j: the state, the ideal input u and the command."""
+    for i in range(n):
+        X[j, i] = yv[i]
+    if held:
+        U[j] = uval
+        W[j] = hval
+    else:
+        u_ = _signal(kind, ipar, tj, yv)
+        U[j] = u_
+        W[j] = _command(u_, cpar)
+
+
+@njit(cache=True, fastmath=_FM)
 def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_t0, cpar,
         rtol, atol, h_max, max_steps, xmax, X, U, W, ext_hval):
     """Integrate one simulation; fill X (n_out, n), U and W (n_out,).
@@ -301,15 +315,7 @@ def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_
         nfev += 1
         # outputs at the segment start
         while j < n_out and t_out[j] <= t + tol_t:
-            for i in range(n):
-                X[j, i] = y[i]
-            if held:
-                U[j] = uval
-                W[j] = hval
-            else:
-                u_ = _signal(kind, ipar, t_out[j], y)
-                U[j] = u_
-                W[j] = _command(u_, cpar)
+            _put(j, t_out[j], y, X, U, W, n, held, uval, hval, kind, ipar, cpar)
             j += 1
         if h_nat <= 0.0:
             h_nat = _initial_step(model, P, t, y, f, n, rtol, atol, held, hval, kind, ipar, cpar, ytmp, ftmp, h_max)
@@ -400,15 +406,7 @@ def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_
                 while j < n_out and t_out[j] < t_new - tol_t:
                     theta = (t_out[j] - t) / h
                     _dense_eval(F, y, theta, yo, n)
-                    for i in range(n):
-                        X[j, i] = yo[i]
-                    if held:
-                        U[j] = uval
-                        W[j] = hval
-                    else:
-                        u_ = _signal(kind, ipar, t_out[j], yo)
-                        U[j] = u_
-                        W[j] = _command(u_, cpar)
+                    _put(j, t_out[j], yo, X, U, W, n, held, uval, hval, kind, ipar, cpar)
                     j += 1
             bad = False
             for i in range(n):
@@ -426,15 +424,7 @@ def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_
             # outputs exactly at an interior step end
             if t < t_b - tol_t:
                 while j < n_out and t_out[j] <= t + tol_t:
-                    for i in range(n):
-                        X[j, i] = y[i]
-                    if held:
-                        U[j] = uval
-                        W[j] = hval
-                    else:
-                        u_ = _signal(kind, ipar, t_out[j], y)
-                        U[j] = u_
-                        W[j] = _command(u_, cpar)
+                    _put(j, t_out[j], y, X, U, W, n, held, uval, hval, kind, ipar, cpar)
                     j += 1
         if status != ST_OK:
             break
@@ -453,15 +443,7 @@ def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_
                 uval = _signal(kind, ipar, t, y)
             hval = _command(uval, cpar)
         while j < n_out and t_out[j] <= t_end + tol_t:
-            for i in range(n):
-                X[j, i] = y[i]
-            if held:
-                U[j] = uval
-                W[j] = hval
-            else:
-                u_ = _signal(kind, ipar, t_out[j], y)
-                U[j] = u_
-                W[j] = _command(u_, cpar)
+            _put(j, t_out[j], y, X, U, W, n, held, uval, hval, kind, ipar, cpar)
             j += 1
     # final state kept in x0's place for segment-wise callers
     for i in range(n):
