@@ -27,9 +27,9 @@ from iwp.refine import (
 from iwp.rig import VirtualRig
 from iwp.simulate import simulate
 
-#: The real log lives next to the repository (``<repo>/../shared/data/real``), never inside it.
-REPO_ROOT = Path(iwp.__file__).resolve().parents[2]  # src/iwp/__init__.py -> src/iwp -> src -> repo
-REAL_LOG = (REPO_ROOT / ".." / "shared/data/real/pendulum_free_swing_data_01.txt").resolve()
+#: The real log lives next to the repository (``<repo>/../shared/data/real``), never inside it;
+#: found from this test file, so that an installed (non-editable) iwp finds it too.
+REAL_LOG = (Path(__file__).resolve().parents[2] / "shared/data/real/pendulum_free_swing_data_01.txt")
 
 
 def _identify():
