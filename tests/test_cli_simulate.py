@@ -81,3 +81,17 @@ def test_argparse_errors_exit_2(capsys):
     with pytest.raises(SystemExit) as e:
         main(["simulate", "--input", "sine"])  # missing --t-end and --out
     assert e.value.code == 2
+
+
+def test_identify_out_of_an_unphysical_fit_is_simulated(tmp_path, capsys):
+    """iwp identify --out writes what iwp simulate --params accepts, even an unphysical full fit."""
+    log = tmp_path / "fc.csv"
+    assert main(["rig", "run", "full-chirp", "--duration", "40", "--out", str(log)]) == 0
+    pfile = tmp_path / "full.json"
+    main(["identify", str(log), "--setup", "full", "--out", str(pfile)])
+    assert pfile.exists()
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", "--params", str(pfile), "--input", "chirp", "--t-end", "2", "--out", str(out)]) == 0
+    # on the default truth plant the full set-up gives a negative friction, as the paper's eq. (16)
+    assert json.loads(pfile.read_text())["unconstrained_fit"] is True
+    assert "unconstrained fit" in capsys.readouterr().err

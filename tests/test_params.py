@@ -104,3 +104,15 @@ def test_belt_from_rigid_limit():
     assert b.rigid_p3rho == pytest.approx(7.0)
     with pytest.raises(InputError, match="b2_over_I2"):
         BeltParameters.from_rigid(2.2, 7.0, k_over_I2=60.0, d=2.0, b2_over_I2=10.0)
+
+
+def test_unconstrained_fit_file_loads_with_a_warning(tmp_path):
+    d = table1().replace(sigma_a1=-2.7905).to_dict()  # the paper's eq. (16)
+    path = tmp_path / "fit.json"
+    path.write_text(json.dumps({"kind": "lumped", "parameters": d, "unconstrained_fit": True}))
+    with pytest.warns(UserWarning, match="fit.json: unconstrained fit.*sigma_a1"):
+        p = load_params(path)
+    assert p.sigma_a1 == -2.7905
+    path.write_text(json.dumps({"kind": "lumped", "parameters": d}))  # no declaration: refused
+    with pytest.raises(InputError, match="sigma_a1"):
+        load_params(path)

@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import warnings
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -436,6 +437,11 @@ def load_params(path_or_name: str | Path, *, physical_check: bool = True):
     parameters. A physical parameter set is returned as
     :class:`PhysicalParameters`; use ``.to_lumped()`` for the models.
 
+    A lumped set with wrong signs (negative friction, ...) is refused unless
+    the file says ``"unconstrained_fit": true`` (as ``iwp identify --out``
+    writes for an unconstrained fit that came out unphysical, like the
+    paper's eq. (16)); such a file is loaded with a warning.
+
     Raises
     ------
     InputError
@@ -474,10 +480,19 @@ def load_params(path_or_name: str | Path, *, physical_check: bool = True):
             raise InputError(f"{path}: parameter {name!r} must be a number, got {val!r}")
         if not math.isfinite(val):
             raise InputError(f"{path}: parameter {name!r} must be finite, got {val!r}")
+    unconstrained = doc.get("unconstrained_fit") is True
     try:
         params = cls(**{k: float(v) for k, v in values.items()})
         if physical_check and isinstance(params, LumpedParameters):
-            params.check_physical(where=str(path))
+            try:
+                params.check_physical(where=str(path))
+            except InputError as exc:
+                if not unconstrained:
+                    raise
+                # a file that declares itself an unconstrained least-squares
+                # fit (e.g. the paper's eq. (16)) is used as given, with a warning
+                warnings.warn(f"{path}: unconstrained fit with an unphysical value: {str(exc).split(': ', 1)[-1]}; "
+                              "using it as given", UserWarning, stacklevel=2)
     except InputError as exc:
         msg = str(exc)
         if not msg.startswith(str(path)):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 
 from ..errors import IwpError
 
@@ -48,6 +49,9 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``iwp`` console script; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    # warnings are one line on stderr, like errors, without source lines
+    warnings.showwarning = lambda message, category, filename, lineno, file=None, line=None: print(
+        f"iwp: warning: {message}", file=sys.stderr)
     try:
         status = args.func(args)
     except IwpError as exc:

@@ -180,7 +180,15 @@ def run(args) -> int:
             "full": "dead zone from the base set",
             "dead-zone": "all but v_dz_pos, v_dz_neg from the base set",
         }[args.setup]
-        save_params(params, out_path, force=True, extra={"note": note, "identification": res.to_dict()})
+        extra = {"note": note, "identification": res.to_dict()}
+        try:
+            params.check_physical()
+        except InputError as exc:
+            # keep the fit as it is (the paper simulates its eq. (16) too), but say so in the file
+            extra["unconstrained_fit"] = True
+            print(f"iwp: warning: {out_path}: written as an unconstrained fit ({exc}); "
+                  "iwp simulate will use it with a warning", file=sys.stderr)
+        save_params(params, out_path, force=True, extra=extra)
         if not args.json:
             print(f"wrote {out_path}")
     if not res.success:
