@@ -69,7 +69,7 @@ ST_MAX_STEPS = 3
 C_FF, C_FFPOS, C_FFNEG, C_SATLO, C_SATHI = range(5)
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _signal(kind, ipar, t, x):
     """The ideal input ``u(t, x)`` of a continuous input kind."""
     if kind == I_CONST:
@@ -88,7 +88,7 @@ def _signal(kind, ipar, t, x):
     return 0.0
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _command(u, cpar):
     """Command sent to the model: feedforward (7)-(8) if enabled, then saturation."""
     w = u
@@ -193,7 +193,7 @@ def _dense_prepare(model, P, t, y, y_new, f, f_new, h, K, F, ytmp, n, held, hval
             F[3 + r, i] = h * acc
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _dense_eval(F, y, theta, out, n):
     for i in range(n):
         acc = 0.0
@@ -236,7 +236,7 @@ def _initial_step(model, P, t, y, f, n, rtol, atol, held, hval, kind, ipar, cpar
     return min(100.0 * h0, h1, h_max)
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _put(j, tj, yv, X, U, W, n, held, uval, hval, kind, ipar, cpar):
     """Write output sample j: the state, the ideal input u and the command."""
     for i in range(n):

@@ -200,7 +200,7 @@ def pack(
 # --------------------------------------------------------------------------
 # Compiled building blocks
 # --------------------------------------------------------------------------
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _sat(v, vpos, vneg):
     """Saturation ``f`` of the dead zone (5), in input units."""
     if v > vpos:
@@ -210,13 +210,13 @@ def _sat(v, vpos, vneg):
     return v
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _dz_out(v, vpos, vneg):
     """Net effective input ``v - f(v)`` of the dead zone: ``p3 v - tau~_dz = p3 (v - f(v))``."""
     return v - _sat(v, vpos, vneg)
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _ff(u, vpos, vneg):
     """Dead-zone feedforward (7)-(8): ``v = u + v+`` (u > 0), ``u - v-`` (u < 0), 0 (u = 0)."""
     if u > 0.0:
@@ -226,7 +226,7 @@ def _ff(u, vpos, vneg):
     return 0.0
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _sgn(x, eps):
     """``sgn(x)``, regularised as ``tanh(x/eps)`` when ``eps > 0``."""
     if eps > 0.0:
@@ -238,13 +238,13 @@ def _sgn(x, eps):
     return 0.0
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _xi(q1, q3, P):
     """Pendulum terms ``p1 sin q1 + s_a1 |cos q1| q3 + s_v1 q3 + s_b1 q3^3`` of (6)/(9) [s^-2]."""
     return P[P1] * math.sin(q1) + P[SA] * abs(math.cos(q1)) * q3 + P[SV] * q3 + P[SB] * q3 * q3 * q3
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _effective_input(w, q4, P):
     """The input after the dead zone when it is active (model (6)/(14) raw), else ``w``."""
     if P[DZ] == 0.0:
@@ -256,7 +256,7 @@ def _effective_input(w, q4, P):
     return _dz_out(w, P[VPOS] * scale, P[VNEG] * scale)
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _play_rate(gap, ddelta, d):
     """Rate of the play (backlash) operator of half-width ``d``; ``gap = delta - w``."""
     if d <= 0.0:
@@ -268,7 +268,7 @@ def _play_rate(gap, ddelta, d):
     return 0.0
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _rhs_lumped(x, w, P, dx):
     """Models (6)/(9) (and the clamped pendulum): one right-hand side.
 
@@ -297,7 +297,7 @@ def _rhs_lumped(x, w, P, dx):
     dx[3] = xi + (1.0 + P[RHO]) * m
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _rhs_motor_disk(x, w, P, dx):
     """Model (14): ``q4' = (1 + rho)(-p2 q4 + p3 w_eff - s_c2 sgn q4)``, ``q1 = q3 = 0``."""
     q4 = x[3]
@@ -308,7 +308,7 @@ def _rhs_motor_disk(x, w, P, dx):
     dx[3] = (1.0 + P[RHO]) * (-P[P2] * q4 + P[P3] * weff - P[SC2] * _sgn(q4, P[EPSC]))
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _rhs_belt(x, w, P, dx, free):
     """Flexible belt (15) with the play hysteresis; pendulum locked or free.
 
@@ -342,7 +342,7 @@ def _rhs_belt(x, w, P, dx, free):
         dx[3] = -T
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _rhs_el(x, v, P, dx):
     """Euler-Lagrange equations (4) with the motor torque (3), physical units.
 
@@ -380,7 +380,7 @@ def _rhs_el(x, v, P, dx):
     dx[3] = (-I2 * r1 + a11 * r2) / det
 
 
-@njit(cache=True, fastmath=_FM)
+@njit(cache=True, fastmath=_FM, inline="always")
 def _rhs(model, x, w, P, dx):
     """Dispatch on the model code; ``w`` is the model's input (``v`` or ``u``)."""
     if model == M_EL:
