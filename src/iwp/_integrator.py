@@ -252,10 +252,14 @@ def _put(j, tj, yv, X, U, W, n, held, uval, hval, kind, ipar, cpar):
 
 @njit(cache=True, fastmath=_FM)
 def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_t0, cpar,
-        rtol, atol, h_max, max_steps, xmax, X, U, W, ext_hval):
+        rtol, atol, h_max, max_steps, xmax, X, U, W, ext_hval, h0):
     """Integrate one simulation; fill X (n_out, n), U and W (n_out,).
 
-    Returns ``(status, nfev, n_accepted, n_rejected, t_reached)``.
+    ``h0 > 0`` is the step size to start with (the one a previous call
+    returned, when a caller integrates segment by segment); otherwise it is
+    estimated.
+
+    Returns ``(status, nfev, n_accepted, n_rejected, t_reached, h_next)``.
     """
     n = x0.size
     n_out = t_out.size
@@ -275,7 +279,7 @@ def run(model, P, x0, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_
     nacc = 0
     nrej = 0
     status = ST_OK
-    h_nat = -1.0
+    h_nat = h0
     # a step input is held per segment (the segment ends at the step time),
     # so no stage of a step ever samples the jump
     held = seg_mode != SEG_CONT or kind == I_STEP
@@ -459,6 +463,6 @@ def run_batch(model, Pm, X0m, t0, t_end, t_out, kind, Ipm, usamp, seg_mode, seg_
     for r in prange(nrun):
         x0 = X0m[r].copy()
         res = run(model, Pm[r], x0, t0, t_end, t_out, kind, Ipm[r], usamp, seg_mode, seg_T, seg_t0, cpar,
-                  rtol, atol, h_max, max_steps, xmax, X[r], U[r], W[r], 0.0)
+                  rtol, atol, h_max, max_steps, xmax, X[r], U[r], W[r], 0.0, -1.0)
         status[r] = res[0]
         nfev[r] = res[1]

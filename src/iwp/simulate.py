@@ -338,9 +338,9 @@ def simulate(
     else:
         kind, ipar, usamp, seg_mode, seg_T, seg_t0 = _input_spec(input, t0)
         x_work = x0a.copy()
-        status, nfev, nacc, nrej, t_reached, _h = _I.run(
+        status, nfev, nacc, nrej, t_reached, _h_next = _I.run(
             code, P, x_work, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_t0, cpar, rtol, atol,
-            h_max, max_steps, X_MAX, X, U, W, 0.0)
+            h_max, max_steps, X_MAX, X, U, W, 0.0, -1.0)
     return _finish(model, t_out, X, U, W, status, nfev, nacc, nrej, t_reached, check, input)
 
 
@@ -386,9 +386,10 @@ def _run_external(code, P, x0a, t0, t_end, t_out, ctrl, cpar, rtol, atol, h_max,
         Xs = np.full((seg_t.size, x.size), np.nan)
         Us = np.full(seg_t.size, np.nan)
         Ws = np.full(seg_t.size, np.nan)
-        st, nf, na, nr, t_r, _h = _I.run(code, P, x, t, t_b, seg_t, _I.I_EXTERNAL, np.zeros(4), dummy,
-                                         _I.SEG_CONTROLLER, Tc, t, cpar, rtol, atol,
-                                         h_max, max_steps, X_MAX, Xs, Us, Ws, u)
+        # the step size carries over from one held segment to the next
+        st, nf, na, nr, t_r, h_nat = _I.run(code, P, x, t, t_b, seg_t, _I.I_EXTERNAL, np.zeros(4), dummy,
+                                            _I.SEG_CONTROLLER, Tc, t, cpar, rtol, atol,
+                                            h_max, max_steps, X_MAX, Xs, Us, Ws, u, h_nat)
         # the kernel's held value is the command; U records the controller's u
         X[j0:j1], W[j0:j1] = Xs, Ws
         U[j0:j1] = u
