@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
+from typing import Any
 
 from .errors import InputError, OutputExistsError
 
@@ -47,3 +49,12 @@ def prepare_output_file(path: str | Path, force: bool = False) -> Path:
         raise InputError(f"{p}: is a folder, expected a file path")
     p.parent.mkdir(parents=True, exist_ok=True)
     return p
+
+
+def read_json(path: str | Path) -> Any:
+    """Parse a JSON file; raise :class:`InputError` naming the file if it is not valid JSON."""
+    p = Path(path)
+    try:
+        return json.loads(p.read_text())
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{p}: not valid JSON ({exc})") from None

@@ -127,6 +127,7 @@ import numpy as np
 from numba import njit
 from scipy import stats
 
+from ._util import read_json
 from .differentiate import Differentiator, central_first
 from .errors import IdentificationError, InputError
 from .lsq import LeastSquaresResult, ParameterEstimate, lstsq_projection, solve_least_squares
@@ -1611,10 +1612,7 @@ def load_pendulum(path: str | os.PathLike) -> Any:
 
     p = Path(path)
     if p.is_file():
-        try:
-            doc = json.loads(p.read_text())
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise InputError(f"{p}: not valid JSON ({exc})") from None
+        doc = read_json(p)
         if isinstance(doc, Mapping):
             if "setup" in doc and "parameters" in doc:
                 return IdentificationResult.from_dict(doc, where=str(p))

@@ -28,7 +28,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
-from ._util import prepare_output_file
+from ._util import prepare_output_file, read_json
 from .errors import InputError
 
 __all__ = [
@@ -454,10 +454,7 @@ def load_params(path_or_name: str | Path, *, physical_check: bool = True):
     path = Path(s)
     if not path.exists():
         raise InputError(f"{path}: no such parameter file (built-in sets: {', '.join(_NAMED)})")
-    try:
-        doc = json.loads(path.read_text())
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{path}: not valid JSON ({exc})") from None
+    doc = read_json(path)
     if not isinstance(doc, dict):
         raise InputError(f"{path}: expected a JSON object of parameters")
     kind = doc.get("kind", "lumped")

@@ -27,6 +27,7 @@ SIGNAL_LABELS = {
 
 
 def _axes(n: int, axes=None, sharex=True, figsize=None):
+    """``(figure, [n axes])``: the caller's axes (checked to be ``n``) or ``n`` new stacked panels."""
     if axes is not None:
         axes = list(axes) if hasattr(axes, "__len__") else [axes]
         if len(axes) != n:

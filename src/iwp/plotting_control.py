@@ -17,6 +17,8 @@ matplotlib.use("Agg", force=False)
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .plotting import _axes  # noqa: E402
+
 __all__ = ["plot_bifurcation", "plot_branch_details", "plot_swingup", "animate_pendulum"]
 
 
@@ -118,11 +120,7 @@ def plot_branch_details(branch, *, axes=None):
     dict
         ``{"figure", "axes", "lines"}``.
     """
-    if axes is None:
-        fig, axes = plt.subplots(2, 1, sharex=True, figsize=(7.0, 4.6), constrained_layout=True)
-    else:
-        fig = axes[0].figure
-    axes = list(axes)
+    fig, axes = _axes(2, axes, figsize=(7.0, 4.6))
     k1 = np.asarray(branch.k1)
     mult = np.asarray(branch.floquet)
     # largest |mu| after dropping the trivial multiplier (the one nearest to 1)
@@ -156,11 +154,7 @@ def plot_swingup(result, *, axes=None, label=None):
     dict
         ``{"figure", "axes", "lines"}``.
     """
-    if axes is None:
-        fig, axes = plt.subplots(4, 1, sharex=True, figsize=(7.5, 7.5), constrained_layout=True)
-    else:
-        fig = axes[0].figure
-    axes = list(axes)
+    fig, axes = _axes(4, axes, figsize=(7.5, 7.5))
     r = result.result
     lines = []
     # the upright(s) q1 = (2k + 1) pi are marked with the success band

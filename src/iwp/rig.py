@@ -137,7 +137,7 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ._util import check_finite, check_nonnegative, check_positive, prepare_output_file
+from ._util import check_finite, check_nonnegative, check_positive, prepare_output_file, read_json
 from .errors import InputError
 from .inputs import CallableController, Chirp, Constant, Sine, _Input
 from .models import COULOMB_EPS, StartupFriction
@@ -434,11 +434,7 @@ class RigTruth:
         p = Path(path)
         if not p.is_file():
             raise InputError(f"{p}: no such truth file")
-        try:
-            doc = json.loads(p.read_text())
-        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise InputError(f"{p}: not valid JSON ({exc})") from None
-        return cls.from_dict(doc, base=base, where=str(p))
+        return cls.from_dict(read_json(p), base=base, where=str(p))
 
 
 def _scalars_of(t: RigTruth) -> dict[str, Any]:
