@@ -50,7 +50,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
 #: LLVM fast-math flags: contraction and reassociation, but NaN and inf keep
 #: their IEEE meaning so that divergence is still detected.
@@ -101,6 +102,8 @@ N_LUMPED = 21
 (E_M1, E_M2, E_I1, E_I2, E_L, E_C, E_G, E_KT, E_KF, E_R, E_N, E_BETA, E_SV1, E_SR, E_RR, E_SV2, E_SC2,
  E_VPOS, E_VNEG, E_EPSC) = range(20)
 N_PHYS = 20
+#: length of every packed parameter vector (one layout size for all models)
+N_PACK = max(N_LUMPED, N_PHYS)
 
 #: Default regularisation of ``sgn(q4)`` in Coulomb terms [rad/s]:
 #: ``sgn(q4) ~ tanh(q4 / eps)``. An exact ``sgn`` makes a disk that should
@@ -163,7 +166,7 @@ def pack(
     if code == M_EL:
         if not isinstance(params, PhysicalParameters):
             raise InputError("model 'el' (eq. (4)) needs PhysicalParameters; got " + type(params).__name__)
-        P = np.zeros(N_PHYS)
+        P = np.zeros(N_PACK)
         d = params.to_dict()
         for i, name in enumerate(
             ["m1", "m2", "I1", "I2", "l", "c", "g", "kT", "kF", "R", "N", "beta", "sigma_v1", "sigma_r", "r",
@@ -176,7 +179,7 @@ def pack(
         params = params.to_lumped()
     if not isinstance(params, LumpedParameters):
         raise InputError(f"model {model!r} needs LumpedParameters; got {type(params).__name__}")
-    P = np.zeros(N_LUMPED)
+    P = np.zeros(N_PACK)
     P[P1], P[P2], P[P3], P[RHO] = params.p1, params.p2, params.p3, params.rho
     P[SA], P[SV], P[SB] = params.sigma_a1, params.sigma_v1, params.sigma_b1
     P[VPOS], P[VNEG], P[SC2] = params.v_dz_pos, params.v_dz_neg, params.sigma_c2
@@ -393,6 +396,31 @@ def _rhs(model, x, w, P, dx):
         _rhs_belt(x, w, P, dx, True)
     else:
         _rhs_lumped(x, w, P, dx)
+
+
+def rhs_of(model, x, w, P, dx):
+    """``_rhs`` for compiled callers whose ``model`` is a compile-time constant.
+
+    Only the chosen model's right-hand side is typed, compiled and inlined
+    (see the overload below); with a run-time ``model`` it is :func:`_rhs`.
+    """
+    _rhs(model, x, w, P, dx)
+
+
+@overload(rhs_of, prefer_literal=True)
+def _rhs_of_overload(model, x, w, P, dx):
+    if not isinstance(model, types.IntegerLiteral):
+        return lambda model, x, w, P, dx: _rhs(model, x, w, P, dx)
+    code = model.literal_value
+    if code == M_EL:
+        return lambda model, x, w, P, dx: _rhs_el(x, w, P, dx)
+    if code == M_MD or code == M_MD_RAW:
+        return lambda model, x, w, P, dx: _rhs_motor_disk(x, w, P, dx)
+    if code == M_BELT:
+        return lambda model, x, w, P, dx: _rhs_belt(x, w, P, dx, False)
+    if code == M_BELT_FULL:
+        return lambda model, x, w, P, dx: _rhs_belt(x, w, P, dx, True)
+    return lambda model, x, w, P, dx: _rhs_lumped(x, w, P, dx)
 
 
 # --------------------------------------------------------------------------

@@ -15,6 +15,7 @@ absolute time.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -54,6 +55,10 @@ class SimulationResult:
     command : ndarray, shape (n,)
         What reached the model after the optional feedforward (7)-(8) and
         saturation (``v`` for the raw models) [input units].
+
+        For a continuous input (signal or Hopf law) ``u`` and ``command``
+        are functions of ``t`` and ``x``; they are computed on first access,
+        so that a caller who only needs the states does not pay for them.
     model : str
     success : bool
     status : int
@@ -66,8 +71,7 @@ class SimulationResult:
 
     t: np.ndarray
     x: np.ndarray
-    u: np.ndarray
-    command: np.ndarray
+    inputs: "tuple[np.ndarray, np.ndarray] | Callable" = field(repr=False)
     model: str
     success: bool
     status: int
@@ -76,6 +80,23 @@ class SimulationResult:
     n_steps: int = 0
     n_rejected: int = 0
     metadata: dict = field(default_factory=dict)
+
+    def _input_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        v = self.inputs
+        if callable(v):
+            v = v(self.t, self.x)
+            object.__setattr__(self, "inputs", v)
+        return v
+
+    @property
+    def u(self) -> np.ndarray:
+        """The ideal input [input units]."""
+        return self._input_arrays()[0]
+
+    @property
+    def command(self) -> np.ndarray:
+        """The command after feedforward and saturation [input units]."""
+        return self._input_arrays()[1]
 
     @property
     def q1(self) -> np.ndarray:
@@ -179,12 +200,12 @@ def _prepare(model, params, x0, t0, t_end, Ts, input, feedforward, saturation, b
         raise InputError(f"t_end must be > t0 (t0 = {t0:g} s), got t_end = {t_end:g} s")
     Ts = check_positive("Ts", Ts)
     rtol = check_positive("rtol", rtol)
-    atol = check_positive("atol", atol)
     h_max = math.inf if max_step is None else check_positive("max_step", max_step)
     code, P = pack(model, params, belt=belt, startup=startup, coulomb_eps=coulomb_eps, locked=locked,
                    dead_zone_active=dead_zone_active)
     n = 6 if code in (_I_BELT_CODES) else 4
     x0a = _initial_state(x0, n, model)
+    atol = _atol_vector(atol, n)
     if input is not None and not isinstance(input, _Input):
         raise InputError(f"input must be an iwp.inputs signal or controller, got {type(input).__name__}")
     # command chain: feedforward thresholds and saturation
@@ -208,6 +229,22 @@ def _prepare(model, params, x0, t0, t_end, Ts, input, feedforward, saturation, b
 
 
 _I_BELT_CODES = (MODELS["belt"], MODELS["belt-full"])
+
+
+def _atol_vector(atol, n: int) -> np.ndarray:
+    """``atol`` as one positive value per state (a scalar applies to all), like scipy's."""
+    if np.ndim(atol) == 0:
+        return np.full(n, check_positive("atol", atol))
+    try:
+        a = np.asarray(atol, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"atol must be a positive number or {n} positive numbers, one per state") from None
+    if a.shape != (n,):
+        raise InputError(f"atol must be a positive number or {n} positive numbers (one per state), "
+                         f"got shape {a.shape}")
+    for i, v in enumerate(a):
+        check_positive(f"atol[{i}]", float(v))
+    return np.ascontiguousarray(a)
 
 
 def _initial_state(x0, n, model) -> np.ndarray:
@@ -257,7 +294,7 @@ def simulate(
     locked: bool = False,
     dead_zone_active: bool | None = None,
     rtol: float = 1e-10,
-    atol: float = 1e-10,
+    atol: float | Sequence[float] = 1e-10,
     max_step: float | None = None,
     max_steps: int = 50_000_000,
     t_eval=None,
@@ -303,8 +340,11 @@ def simulate(
         ``"compensated"`` and ``"belt-full"``.
     dead_zone_active : bool, optional
         Force the dead zone on/off (default: on for the raw models).
-    rtol, atol : float
-        Local error tolerances of the DOP853 integrator.
+    rtol : float
+        Relative local error tolerance of the DOP853 integrator.
+    atol : float or array_like
+        Absolute local error tolerance, one value for all states or one per
+        state (in the states' units), as in :func:`scipy.integrate.solve_ivp`.
     max_step : float, optional
         Largest step [s].
     max_steps : int
@@ -326,10 +366,10 @@ def simulate(
     t_out = _output_times(t0, t_end, Ts, t_eval)
     n = x0a.size
     n_out = t_out.size
-    X = np.full((n_out, n), np.nan)
-    U = np.full(n_out, np.nan)
-    W = np.full(n_out, np.nan)
     if isinstance(input, CallableController):
+        X = np.full((n_out, n), np.nan)
+        U = np.full(n_out, np.nan)
+        W = np.full(n_out, np.nan)
         if input.Ts is None:
             return _simulate_callable_continuous(code, P, model, x0a, t0, t_end, t_out, input, cpar, rtol, atol,
                                                  h_max, check)
@@ -337,11 +377,33 @@ def simulate(
             code, P, x0a, t0, t_end, t_out, input, cpar, rtol, atol, h_max, max_steps, X, U, W)
     else:
         kind, ipar, usamp, seg_mode, seg_T, seg_t0 = _input_spec(input, t0)
+        # the kernel writes every sample (NaN after a failure); a continuous
+        # input is evaluated afterwards, on demand, from t and x
+        held = seg_mode != _I.SEG_CONT or kind == _I.I_STEP
+        X = np.empty((n_out, n))
+        U = np.empty(n_out if held else 0)
+        W = np.empty(n_out if held else 0)
         x_work = x0a.copy()
-        status, nfev, nacc, nrej, t_reached, _h_next = _I.run(
-            code, P, x_work, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_t0, cpar, rtol, atol,
-            h_max, max_steps, X_MAX, X, U, W, 0.0, -1.0)
+        status, nfev, nacc, nrej, t_reached, _h_next = _I.kernels(code)[0](
+            P, x_work, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_t0, cpar, rtol, atol,
+            h_max, max_steps, X_MAX, X, U, W, 0.0, -1.0, False)
+        if not held:
+            return _finish(model, t_out, X, _LazyInputs(kind, ipar, cpar), None, status, nfev, nacc, nrej,
+                           t_reached, check, input)
     return _finish(model, t_out, X, U, W, status, nfev, nacc, nrej, t_reached, check, input)
+
+
+class _LazyInputs:
+    """``(u, command)`` of a continuous input at given samples, computed when first asked for."""
+
+    def __init__(self, kind, ipar, cpar):
+        self.kind, self.ipar, self.cpar = kind, ipar, cpar
+
+    def __call__(self, t, x):
+        U = np.empty(t.size)
+        W = np.empty(t.size)
+        _I.input_samples(self.kind, self.ipar, self.cpar, t, np.ascontiguousarray(x), U, W)
+        return U, W
 
 
 def _finish(model, t_out, X, U, W, status, nfev, nacc, nrej, t_reached, check, input):
@@ -355,9 +417,12 @@ def _finish(model, t_out, X, U, W, status, nfev, nacc, nrej, t_reached, check, i
         if check:
             raise SimulationError(message)
         keep = np.all(np.isfinite(X), axis=1)
-        t_out, X, U, W = t_out[keep], X[keep], U[keep], W[keep]
+        t_out, X = t_out[keep], X[keep]
+        if W is not None:
+            U, W = U[keep], W[keep]
     meta = {"input": input.describe() if input is not None else "zero"}
-    return SimulationResult(t=t_out, x=X, u=U, command=W, model=model, success=success, status=int(status),
+    inputs = U if W is None else (U, W)
+    return SimulationResult(t=t_out, x=X, inputs=inputs, model=model, success=success, status=int(status),
                             message=message, nfev=int(nfev), n_steps=int(nacc), n_rejected=int(nrej), metadata=meta)
 
 
@@ -387,9 +452,9 @@ def _run_external(code, P, x0a, t0, t_end, t_out, ctrl, cpar, rtol, atol, h_max,
         Us = np.full(seg_t.size, np.nan)
         Ws = np.full(seg_t.size, np.nan)
         # the step size carries over from one held segment to the next
-        st, nf, na, nr, t_r, h_nat = _I.run(code, P, x, t, t_b, seg_t, _I.I_EXTERNAL, np.zeros(4), dummy,
+        st, nf, na, nr, t_r, h_nat = _I.kernels(code)[0](P, x, t, t_b, seg_t, _I.I_EXTERNAL, np.zeros(4), dummy,
                                             _I.SEG_CONTROLLER, Tc, t, cpar, rtol, atol,
-                                            h_max, max_steps, X_MAX, Xs, Us, Ws, u, h_nat)
+                                            h_max, max_steps, X_MAX, Xs, Us, Ws, u, h_nat, True)
         # the kernel's held value is the command; U records the controller's u
         X[j0:j1], W[j0:j1] = Xs, Ws
         U[j0:j1] = u
@@ -444,7 +509,7 @@ def simulate_batch(
     locked: bool = False,
     dead_zone_active: bool | None = None,
     rtol: float = 1e-10,
-    atol: float = 1e-10,
+    atol: float | Sequence[float] = 1e-10,
     max_step: float | None = None,
     max_steps: int = 50_000_000,
     t_eval=None,
@@ -485,10 +550,15 @@ def simulate_batch(
     X0m = []
     Ipm = []
     cpar0 = None
+    done = {}  # (params, x0) already checked and packed: a sweep over gains packs once
     for p_, x_, i_ in zip(p_list, x_list, i_list):
-        code, P, x0a, t0_, t_end_, Ts_, cpar, rtol_, atol_, h_max = _prepare(
-            model, p_, x_, t0, t_end, Ts, i_, feedforward, saturation, belt, startup, coulomb_eps, locked,
-            dead_zone_active, rtol, atol, max_step)
+        key = (id(p_), id(x_))
+        if key not in done:
+            done[key] = _prepare(model, p_, x_, t0, t_end, Ts, i_, feedforward, saturation, belt, startup,
+                                 coulomb_eps, locked, dead_zone_active, rtol, atol, max_step)
+        code, P, x0a, t0_, t_end_, Ts_, cpar, rtol_, atol_, h_max = done[key]
+        if i_ is not None and not isinstance(i_, _Input):
+            raise InputError(f"input must be an iwp.inputs signal or controller, got {type(i_).__name__}")
         if cpar0 is None:
             cpar0 = cpar
         Pm.append(P)
@@ -500,12 +570,12 @@ def simulate_batch(
     kind, _ip, usamp, seg_mode, seg_T, seg_t0 = _input_spec(i_list[0], t0_)
     t_out = _output_times(t0_, t_end_, Ts_, t_eval)
     n = X0m.shape[1]
-    X = np.full((nrun, t_out.size, n), np.nan)
-    U = np.full((nrun, t_out.size), np.nan)
-    W = np.full((nrun, t_out.size), np.nan)
+    X = np.empty((nrun, t_out.size, n))
+    U = np.empty((nrun, t_out.size))
+    W = np.empty((nrun, t_out.size))
     status = np.zeros(nrun, dtype=np.int64)
     nfev = np.zeros(nrun, dtype=np.int64)
-    _I.run_batch(code, Pm, X0m, t0_, t_end_, t_out, kind, Ipm, usamp, seg_mode, seg_T, seg_t0, cpar0, rtol_, atol_,
+    _I.kernels(code)[1](Pm, X0m, t0_, t_end_, t_out, kind, Ipm, usamp, seg_mode, seg_T, seg_t0, cpar0, rtol_, atol_,
                  h_max, max_steps, X_MAX, X, U, W, status, nfev)
     return BatchResult(t=t_out, x=X, u=U, command=W, status=status, nfev=nfev)
 
@@ -533,7 +603,7 @@ def simulate_scipy(
     dead_zone_active: bool | None = None,
     method: str = "DOP853",
     rtol: float = 1e-10,
-    atol: float = 1e-12,
+    atol: float | Sequence[float] = 1e-12,
     t_eval=None,
 ) -> SimulationResult:
     """The same simulation through :func:`scipy.integrate.solve_ivp` (a reference).
@@ -563,5 +633,5 @@ def simulate_scipy(
     U = np.array([_I._signal(kind, ipar, t, x) for t, x in zip(sol.t, X)])
     W = np.array([_I._command(u, cpar) for u in U])
     status = _I.ST_OK if sol.status == 0 else _I.ST_STEP_TOO_SMALL
-    return SimulationResult(t=sol.t, x=X, u=U, command=W, model=model, success=sol.status == 0, status=status,
+    return SimulationResult(t=sol.t, x=X, inputs=(U, W), model=model, success=sol.status == 0, status=status,
                             message=sol.message, nfev=sol.nfev)
