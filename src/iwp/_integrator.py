@@ -31,7 +31,7 @@ from numba.np.unsafe.ndarray import to_fixed_tuple
 from ._dop853 import C as _C_TUPLE
 from ._dop853 import N_STAGES as _NS
 from ._dop853 import dense_coefficients, dense_eval, dense_eval_row, error_norm, stage_input
-from .models import E_SR, M_BELT, M_BELT_FULL, M_EL, M_MD, M_MD_RAW, N_PACK, SA, _ff, rhs_of
+from .models import E_SR, M_BELT, M_BELT_FULL, M_COMP, M_EL, M_MD, M_MD_RAW, M_RAW, N_PACK, SA, _ff, rhs_of
 
 #: LLVM fast-math flags: contraction and reassociation, but NaN and inf keep
 #: their IEEE meaning so that divergence is still detected.
@@ -101,7 +101,7 @@ def _signal(kind, ipar, t, x):
     return 0.0
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def _command(u, cpar):
     """Command sent to the model: feedforward (7)-(8) if enabled, then saturation."""
     w = u
@@ -123,7 +123,7 @@ def _eval(model, P, t, y, dx, held, hval, kind, ipar, cpar):
     rhs_of(model, y, w, P, dx)
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def _has_kink(model, P):
     """True if the model has the rolling-friction kink at ``cos q1 = 0`` (see :func:`_switch`)."""
     if model == M_EL:
@@ -133,7 +133,7 @@ def _has_kink(model, P):
     return P[SA] != 0.0
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def _kink_ahead(q1, v, a, jk, H):
     """First ``s`` in (0, H] where ``cos q(s)`` changes sign, or -1.
 
@@ -619,8 +619,14 @@ def _specialise(model: int, nst: int, npar: int, name: str):
 _KERNELS: dict = {}
 
 
+#: models that share one right-hand side (the packed parameters switch the
+#: dead zone on or off) share one compiled kernel
+_SAME_KERNEL = {M_RAW: M_COMP, M_MD_RAW: M_MD}
+
+
 def kernels(model: int):
     """``(run, run_batch)`` specialised for ``model`` (compiled on first use, then cached on disk)."""
+    model = _SAME_KERNEL.get(model, model)
     k = _KERNELS.get(model)
     if k is None:
         nst = 6 if model in (M_BELT, M_BELT_FULL) else 4

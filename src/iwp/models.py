@@ -203,7 +203,7 @@ def pack(
 # --------------------------------------------------------------------------
 # Compiled building blocks
 # --------------------------------------------------------------------------
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def _sat(v, vpos, vneg):
     """Saturation ``f`` of the dead zone (5), in input units."""
     if v > vpos:
@@ -213,13 +213,13 @@ def _sat(v, vpos, vneg):
     return v
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def _dz_out(v, vpos, vneg):
     """Net effective input ``v - f(v)`` of the dead zone: ``p3 v - tau~_dz = p3 (v - f(v))``."""
     return v - _sat(v, vpos, vneg)
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def _ff(u, vpos, vneg):
     """Dead-zone feedforward (7)-(8): ``v = u + v+`` (u > 0), ``u - v-`` (u < 0), 0 (u = 0)."""
     if u > 0.0:
@@ -229,7 +229,7 @@ def _ff(u, vpos, vneg):
     return 0.0
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def _sgn(x, eps):
     """``sgn(x)``, regularised as ``tanh(x/eps)`` when ``eps > 0``."""
     if eps > 0.0:
@@ -241,13 +241,13 @@ def _sgn(x, eps):
     return 0.0
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def _xi(q1, q3, P):
     """Pendulum terms ``p1 sin q1 + s_a1 |cos q1| q3 + s_v1 q3 + s_b1 q3^3`` of (6)/(9) [s^-2]."""
     return P[P1] * math.sin(q1) + P[SA] * abs(math.cos(q1)) * q3 + P[SV] * q3 + P[SB] * q3 * q3 * q3
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def _effective_input(w, q4, P):
     """The input after the dead zone when it is active (model (6)/(14) raw), else ``w``."""
     if P[DZ] == 0.0:
@@ -259,7 +259,7 @@ def _effective_input(w, q4, P):
     return _dz_out(w, P[VPOS] * scale, P[VNEG] * scale)
 
 
-@njit(cache=True, fastmath=_FM, inline="always")
+@njit(cache=True, fastmath=_FM)
 def _play_rate(gap, ddelta, d):
     """Rate of the play (backlash) operator of half-width ``d``; ``gap = delta - w``."""
     if d <= 0.0:

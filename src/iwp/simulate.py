@@ -174,7 +174,8 @@ class BatchResult:
 
 def _output_times(t0: float, t_end: float, Ts: float, t_eval) -> np.ndarray:
     if t_eval is not None:
-        te = np.ascontiguousarray(np.asarray(t_eval, dtype=float).ravel())
+        # writeable and C-ordered: one compiled signature for every caller
+        te = np.require(np.asarray(t_eval, dtype=float).ravel(), requirements=["C", "W"])
         if te.size == 0:
             raise InputError("t_eval is empty")
         if not np.all(np.isfinite(te)):
@@ -270,7 +271,7 @@ def _input_spec(input, t0):
     if input is None:
         return _I.I_ZERO, np.zeros(4), np.zeros(1), _I.SEG_CONT, 1.0, 0.0
     if isinstance(input, Sampled):
-        return _I.I_SAMPLES, np.zeros(4), input.values, _I.SEG_SAMPLES, input.Ts, input.t0
+        return _I.I_SAMPLES, np.zeros(4), np.require(input.values, dtype=float, requirements=["C", "W"]), _I.SEG_SAMPLES, input.Ts, input.t0
     Tc = input.sampled_period
     if Tc is not None:
         return input.kind, input._ipar(), np.zeros(1), _I.SEG_CONTROLLER, float(Tc), t0
