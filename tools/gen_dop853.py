@@ -15,15 +15,18 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-import numpy as np
 from scipy.integrate._ivp import dop853_coefficients as dc
 
 OUT = Path(__file__).resolve().parents[1] / "src" / "iwp" / "_dop853.py"
 
 
-def _sum(coefs, name):
+def _sum(coefs, name, indent):
+    """``c0 * K[j0, i] + c1 * K[j1, i] + ...`` over the non-zero coefficients, two terms a line."""
     terms = [f"{float(c)!r} * {name}[{j}, i]" for j, c in enumerate(coefs) if c != 0.0]
-    return " + ".join(terms) if terms else "0.0"
+    if not terms:
+        return "0.0"
+    lines = [" + ".join(terms[k:k + 2]) for k in range(0, len(terms), 2)]
+    return ("\n" + " " * indent + "+ ").join(lines)
 
 
 def source() -> str:
@@ -43,7 +46,11 @@ def source() -> str:
     w("")
     w('_FM = {"contract", "reassoc", "nsz", "arcp"}')
     w(f"N_STAGES = {ns}")
-    w(f"C = ({', '.join(repr(float(c)) for c in C)})")
+    w("C = (")
+    cs = [repr(float(c)) for c in C]
+    for k in range(0, len(cs), 4):
+        w("    " + ", ".join(cs[k:k + 4]) + ",")
+    w(")")
     w("")
     w("")
     w('@njit(cache=True, fastmath=_FM, inline="always")')
@@ -54,7 +61,7 @@ def source() -> str:
         w(f"    {'if' if first else 'elif'} s == {s}:")
         first = False
         w("        for i in range(n):")
-        w(f"            ytmp[i] = y[i] + h * ({_sum(A[s, :s], 'K')})")
+        w(f"            ytmp[i] = y[i] + h * ({_sum(A[s, :s], 'K', 33)})")
     w("")
     w("")
     w('@njit(cache=True, fastmath=_FM, inline="always")')
@@ -64,8 +71,8 @@ def source() -> str:
     w("    e3 = 0.0")
     w("    for i in range(n):")
     w("        sc = atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol")
-    w(f"        s5 = ({_sum(E5, 'K')}) / sc")
-    w(f"        s3 = ({_sum(E3, 'K')}) / sc")
+    w(f"        s5 = ({_sum(E5, 'K', 14)}) / sc")
+    w(f"        s3 = ({_sum(E3, 'K', 14)}) / sc")
     w("        e5 += s5 * s5")
     w("        e3 += s3 * s3")
     w("    if e5 == 0.0 and e3 == 0.0:")
@@ -85,7 +92,7 @@ def source() -> str:
     w("        F[1, i] = h * K[0, i] - dy")
     w(f"        F[2, i] = 2.0 * dy - h * (K[{ns}, i] + K[0, i])")
     for r in range(4):
-        w(f"        F[{3 + r}, i] = h * ({_sum(D[r], 'K')})")
+        w(f"        F[{3 + r}, i] = h * ({_sum(D[r], 'K', 23)})")
     w("")
     w("")
     w('@njit(cache=True, fastmath=_FM, inline="always")')
