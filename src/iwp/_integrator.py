@@ -82,6 +82,16 @@ ST_MAX_STEPS = 3
 C_FF, C_FFPOS, C_FFNEG, C_SATLO, C_SATHI = range(5)
 
 
+@njit(cache=True)
+def is_held(kind, seg_mode):
+    """True if the input is held constant over each segment instead of evaluated at every stage.
+
+    Sampled arrays and sampled controllers are; so is a step input (its
+    segment ends at the step time), so that no stage ever samples the jump.
+    """
+    return seg_mode != SEG_CONT or kind == I_STEP
+
+
 @njit(cache=True, fastmath=_FM, inline="always")
 def _signal(kind, ipar, t, x):
     """The ideal input ``u(t, x)`` of a continuous input kind."""
@@ -270,7 +280,7 @@ def run(model, n, npar, P_arr, x0, t0, t_end, t_out, kind, ipar_arr, usamp, seg_
     ipar = to_fixed_tuple(ipar_arr, 4)
     cpar = to_fixed_tuple(cpar_arr, 5)
     n_out = t_out.size
-    kinked = n >= 4 and _has_kink(model, P)
+    kinked = _has_kink(model, P)
     y = x0.copy()
     f = np.empty(n)
     y_new = np.empty(n)
@@ -288,9 +298,7 @@ def run(model, n, npar, P_arr, x0, t0, t_end, t_out, kind, ipar_arr, usamp, seg_
     nrej = 0
     status = ST_OK
     h_nat = h0
-    # a step input is held per segment (the segment ends at the step time),
-    # so no stage of a step ever samples the jump
-    held = seg_mode != SEG_CONT or kind == I_STEP
+    held = is_held(kind, seg_mode)
     hval = 0.0
     uval = 0.0
     # segment grid

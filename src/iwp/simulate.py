@@ -207,8 +207,7 @@ def _prepare(model, params, x0, t0, t_end, Ts, input, feedforward, saturation, b
     n = 6 if code in (_I_BELT_CODES) else 4
     x0a = _initial_state(x0, n, model)
     atol = _atol_vector(atol, n)
-    if input is not None and not isinstance(input, _Input):
-        raise InputError(f"input must be an iwp.inputs signal or controller, got {type(input).__name__}")
+    _check_input(input)
     # command chain: feedforward thresholds and saturation
     cpar = np.array([0.0, 0.0, 0.0, -math.inf, math.inf])
     if feedforward is not None and feedforward is not False:
@@ -230,6 +229,11 @@ def _prepare(model, params, x0, t0, t_end, Ts, input, feedforward, saturation, b
 
 
 _I_BELT_CODES = (MODELS["belt"], MODELS["belt-full"])
+
+
+def _check_input(input) -> None:
+    if input is not None and not isinstance(input, _Input):
+        raise InputError(f"input must be an iwp.inputs signal or controller, got {type(input).__name__}")
 
 
 def _atol_vector(atol, n: int) -> np.ndarray:
@@ -271,7 +275,8 @@ def _input_spec(input, t0):
     if input is None:
         return _I.I_ZERO, np.zeros(4), np.zeros(1), _I.SEG_CONT, 1.0, 0.0
     if isinstance(input, Sampled):
-        return _I.I_SAMPLES, np.zeros(4), np.require(input.values, dtype=float, requirements=["C", "W"]), _I.SEG_SAMPLES, input.Ts, input.t0
+        values = np.require(input.values, dtype=float, requirements=["C", "W"])
+        return _I.I_SAMPLES, np.zeros(4), values, _I.SEG_SAMPLES, input.Ts, input.t0
     Tc = input.sampled_period
     if Tc is not None:
         return input.kind, input._ipar(), np.zeros(1), _I.SEG_CONTROLLER, float(Tc), t0
@@ -380,7 +385,7 @@ def simulate(
         kind, ipar, usamp, seg_mode, seg_T, seg_t0 = _input_spec(input, t0)
         # the kernel writes every sample (NaN after a failure); a continuous
         # input is evaluated afterwards, on demand, from t and x
-        held = seg_mode != _I.SEG_CONT or kind == _I.I_STEP
+        held = _I.is_held(kind, seg_mode)
         X = np.empty((n_out, n))
         U = np.empty(n_out if held else 0)
         W = np.empty(n_out if held else 0)
@@ -388,10 +393,9 @@ def simulate(
         status, nfev, nacc, nrej, t_reached, _h_next = _I.kernels(code)[0](
             P, x_work, t0, t_end, t_out, kind, ipar, usamp, seg_mode, seg_T, seg_t0, cpar, rtol, atol,
             h_max, max_steps, X_MAX, X, U, W, 0.0, -1.0, False)
-        if not held:
-            return _finish(model, t_out, X, _LazyInputs(kind, ipar, cpar), None, status, nfev, nacc, nrej,
-                           t_reached, check, input)
-    return _finish(model, t_out, X, U, W, status, nfev, nacc, nrej, t_reached, check, input)
+        inputs = (U, W) if held else _LazyInputs(kind, ipar, cpar)
+        return _finish(model, t_out, X, inputs, status, nfev, nacc, nrej, t_reached, check, input)
+    return _finish(model, t_out, X, (U, W), status, nfev, nacc, nrej, t_reached, check, input)
 
 
 class _LazyInputs:
@@ -407,7 +411,8 @@ class _LazyInputs:
         return U, W
 
 
-def _finish(model, t_out, X, U, W, status, nfev, nacc, nrej, t_reached, check, input):
+def _finish(model, t_out, X, inputs, status, nfev, nacc, nrej, t_reached, check, input):
+    """The result; ``inputs`` is ``(U, W)`` or a :class:`_LazyInputs` evaluated on first access."""
     success = status == _I.ST_OK
     if success:
         message = _STATUS_TEXT[status]
@@ -419,10 +424,9 @@ def _finish(model, t_out, X, U, W, status, nfev, nacc, nrej, t_reached, check, i
             raise SimulationError(message)
         keep = np.all(np.isfinite(X), axis=1)
         t_out, X = t_out[keep], X[keep]
-        if W is not None:
-            U, W = U[keep], W[keep]
+        if not callable(inputs):
+            inputs = (inputs[0][keep], inputs[1][keep])
     meta = {"input": input.describe() if input is not None else "zero"}
-    inputs = U if W is None else (U, W)
     return SimulationResult(t=t_out, x=X, inputs=inputs, model=model, success=success, status=int(status),
                             message=message, nfev=int(nfev), n_steps=int(nacc), n_rejected=int(nrej), metadata=meta)
 
@@ -490,7 +494,7 @@ def _simulate_callable_continuous(code, P, model, x0a, t0, t_end, t_out, ctrl, c
     W = np.array([_I._command(u, cpar) if np.isfinite(u) else np.nan for u in U])
     status = _I.ST_OK if sol.status == 0 else _I.ST_STEP_TOO_SMALL
     t_reached = float(sol.t[-1]) if sol.t.size else t0
-    return _finish(model, t_out, X, U, W, status, sol.nfev, 0, 0, t_reached, check, ctrl)
+    return _finish(model, t_out, X, (U, W), status, sol.nfev, 0, 0, t_reached, check, ctrl)
 
 
 def simulate_batch(
@@ -558,8 +562,7 @@ def simulate_batch(
             done[key] = _prepare(model, p_, x_, t0, t_end, Ts, i_, feedforward, saturation, belt, startup,
                                  coulomb_eps, locked, dead_zone_active, rtol, atol, max_step)
         code, P, x0a, t0_, t_end_, Ts_, cpar, rtol_, atol_, h_max = done[key]
-        if i_ is not None and not isinstance(i_, _Input):
-            raise InputError(f"input must be an iwp.inputs signal or controller, got {type(i_).__name__}")
+        _check_input(i_)
         if cpar0 is None:
             cpar0 = cpar
         Pm.append(P)
