@@ -2,9 +2,23 @@ import math
 
 import numpy as np
 import pytest
+from numba import njit
 
 from iwp.errors import InputError
-from iwp.models import dead_zone, dead_zone_output, energy, feedforward, linearize, rhs, to_statespace
+from iwp.models import (
+    M_PLAIN,
+    SINCOS_MAX,
+    _sincos,
+    dead_zone,
+    dead_zone_output,
+    energy,
+    feedforward,
+    linearize,
+    pack,
+    rhs,
+    rhs_of,
+    to_statespace,
+)
 from iwp.params import BeltParameters, table1
 from tests.test_params import physical
 
@@ -102,3 +116,46 @@ def test_rhs_rejects_bad_arguments():
     with pytest.raises(InputError, match="PhysicalParameters"):
         rhs("el", table1(), np.zeros(4), 0.0)
     rhs("belt", table1(), np.zeros(6), 0.0, belt=BeltParameters())
+
+
+@njit(cache=False)
+def _sincos_many(x):
+    S = np.empty_like(x)
+    C = np.empty_like(x)
+    for i in range(x.size):
+        S[i], C[i] = _sincos(x[i])
+    return S, C
+
+
+def test_sincos_matches_libm_to_two_ulp():
+    """The polynomial sin/cos of the right-hand sides (fdlibm's kernels) against numpy's."""
+    rng = np.random.default_rng(3)
+    x = np.concatenate([np.linspace(-60.0, 60.0, 400_001), rng.uniform(-1e4, 1e4, 100_000),
+                        rng.uniform(-SINCOS_MAX, SINCOS_MAX, 100_000), np.arange(-40, 41) * (math.pi / 2),
+                        [0.0, 1e-300, -1e-300, 5e-324]])
+    S, C = _sincos_many(x)
+    # one ulp of 1: a reassociated reduction or a wrong coefficient is off by far more
+    assert np.max(np.abs(S - np.sin(x))) <= 2.3e-16
+    assert np.max(np.abs(C - np.cos(x))) <= 2.3e-16
+    where = np.abs(np.sin(x)) > 1e-3
+    assert np.max(np.abs(S - np.sin(x))[where] / np.spacing(np.abs(np.sin(x)))[where]) <= 2.0
+    S, C = _sincos_many(np.array([np.inf, -np.inf, np.nan, 2 * SINCOS_MAX]))
+    assert np.all(np.isnan(S)) and np.all(np.isnan(C))
+
+
+@njit(cache=False)
+def _rhs_plain(x, w, P, dx):
+    rhs_of(M_PLAIN, x, w, P, dx)
+
+
+def test_plain_rhs_is_model_9():
+    """M_PLAIN (model (9) compiled without its optional terms) gives model (9)'s derivatives."""
+    p = table1()
+    _code, P = pack("compensated", p)
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        x = rng.normal(size=4) * [2.0, 5.0, 4.0, 80.0]
+        u = rng.uniform(-80, 80)
+        dx = np.empty(4)
+        _rhs_plain(x, u, P, dx)
+        np.testing.assert_allclose(dx, rhs("compensated", p, x, u), rtol=1e-14, atol=1e-12)

@@ -174,7 +174,60 @@ def test_batch_equals_single_runs():
     assert np.all(br.success)
     for i, g in enumerate(gains):
         r = simulate(table1(), input=g, x0=[0.1, 0, 0, 0], t_end=20.0, t_eval=np.linspace(0, 20, 201))
-        np.testing.assert_array_equal(br.x[i], r.x)
+        # the batch runs side by side (iwp._lanes): the same steps, sums that
+        # the compiler may order differently, so equal up to rounding
+        np.testing.assert_allclose(br.x[i], r.x, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(br.u[i], r.u, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["free-x0", "chirp-gains", "per-run-params", "el-sine"],
+)
+def test_batch_lanes_and_refill_equal_single_runs(case):
+    """More runs than lanes (lanes are refilled), on the vectorised and the general path, and per-run params."""
+    rng = np.random.default_rng(7)
+    n = 37  # more than two threads of 16 lanes
+    t_end = 6.0
+    te = np.linspace(0, t_end, 61)
+    model = "compensated"
+    params = table1()
+    x0 = [[float(v) for v in rng.uniform(-2.8, 2.8, size=1)] + [0.0, float(rng.uniform(-3, 3)), 0.0] for _ in range(n)]
+    inputs = None
+    if case == "chirp-gains":
+        x0 = [0.3, 0.0, 0.0, 0.0]
+        inputs = [Chirp(float(a), 3.0, 100.0) for a in np.linspace(20, 80, n)]
+    elif case == "per-run-params":
+        params = [table1().replace(p1=float(v)) for v in np.linspace(20, 30, n)]
+    elif case == "el-sine":
+        model = "el"
+        params = PhysicalParameters(m1=0.2, m2=0.3, I1=2e-3, I2=4e-5, l=0.25, c=0.12, g=9.81, kT=0.02, kF=0.01,
+                                    R=5.0, N=13.5, beta=0.12, sigma_v1=1e-3, sigma_r=0.01, r=0.004, sigma_v2=1e-5,
+                                    V_dz_pos=0.0, V_dz_neg=0.0)
+        inputs = [Sine(float(a), 4.0) for a in np.linspace(10, 60, n)]
+    br = simulate_batch(params, model=model, input=inputs, x0=x0, t_end=t_end, t_eval=te, rtol=1e-10, atol=1e-10)
+    assert np.all(br.success)
+    for i in (0, 15, 16, 31, 36):
+        r = simulate(params[i] if isinstance(params, list) else params, model=model,
+                     input=None if inputs is None else inputs[i], x0=x0[i] if isinstance(x0[0], list) else x0,
+                     t_end=t_end, t_eval=te, rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(br.x[i], r.x, rtol=0, atol=1e-8)
+        np.testing.assert_allclose(br.u[i], r.u, rtol=0, atol=1e-8)
+        assert abs(br.nfev[i] - r.nfev) <= 0.02 * r.nfev
+
+
+def test_batch_reports_a_diverging_run_and_finishes_the_others():
+    unstable = table1().replace(sigma_v1=-5.0, sigma_a1=0.0, sigma_b1=0.0)
+    x0 = [[0.0, 0.0, 0.0, 0.0], [0.1, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]]
+    br = simulate_batch(unstable, x0=x0, t_end=200.0)
+    assert list(br.status) == [0, 1, 0]
+    bad = np.isnan(br.x[1, :, 0])
+    assert bad[-1] and not bad[0] and np.all(np.isnan(br.u[1][bad]))
+    assert np.all(br.x[0] == 0.0) and np.all(br.x[2] == 0.0)
+    single = simulate(unstable, x0=x0[1], t_end=200.0, check=False)
+    assert single.status == 1
+    # the run diverges at the same time alone and in the batch
+    assert br.t[np.argmax(bad)] == pytest.approx(single.t[-1], abs=0.01)
 
 
 def test_divergence_is_reported():

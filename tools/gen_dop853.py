@@ -20,9 +20,9 @@ from scipy.integrate._ivp import dop853_coefficients as dc
 OUT = Path(__file__).resolve().parents[1] / "src" / "iwp" / "_dop853.py"
 
 
-def _sum(coefs, name, indent):
+def _sum(coefs, name, indent, idx="i"):
     """``c0 * K[j0, i] + c1 * K[j1, i] + ...`` over the non-zero coefficients, two terms a line."""
-    terms = [f"{float(c)!r} * {name}[{j}, i]" for j, c in enumerate(coefs) if c != 0.0]
+    terms = [f"{float(c)!r} * {name}[{j}, {idx}]" for j, c in enumerate(coefs) if c != 0.0]
     if not terms:
         return "0.0"
     lines = [" + ".join(terms[k:k + 2]) for k in range(0, len(terms), 2)]
@@ -78,6 +78,40 @@ def source() -> str:
     w("    if e5 == 0.0 and e3 == 0.0:")
     w("        return 0.0")
     w("    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)")
+    w("")
+    w("")
+    w('@njit(cache=True, fastmath=_FM, inline="always")')
+    w("def stage_input_lanes(s, Y, H, K, YT, n, L):")
+    w('    """:func:`stage_input` for L simulations side by side (:mod:`iwp._lanes`).')
+    w("")
+    w("    Column ``l`` of Y, YT and of each ``K[j]`` (shape (16, n, L)) is simulation")
+    w("    ``l``, with step ``H[l]``; the loop over lanes is the one the compiler vectorises.")
+    w('    """')
+    first = True
+    for s in range(1, ns + 1):
+        w(f"    {'if' if first else 'elif'} s == {s}:")
+        first = False
+        w("        for l in range(L):")
+        w("            for i in range(n):")
+        w(f"                YT[i, l] = Y[i, l] + H[l] * ({_sum(A[s, :s], 'K', 37, 'i, l')})")
+    w("")
+    w("")
+    w("@njit(cache=True, fastmath=_FM)")
+    w("def error_norm_lanes(K, H, Y, Y_new, rtol, atol, n, L, ERR):")
+    w('    """:func:`error_norm` of L simulations side by side, into ``ERR[l]``."""')
+    w("    for l in range(L):")
+    w("        e5 = 0.0")
+    w("        e3 = 0.0")
+    w("        for i in range(n):")
+    w("            sc = atol[i] + max(abs(Y[i, l]), abs(Y_new[i, l])) * rtol")
+    w(f"            s5 = ({_sum(E5, 'K', 18, 'i, l')}) / sc")
+    w(f"            s3 = ({_sum(E3, 'K', 18, 'i, l')}) / sc")
+    w("            e5 += s5 * s5")
+    w("            e3 += s3 * s3")
+    w("        if e5 == 0.0 and e3 == 0.0:")
+    w("            ERR[l] = 0.0")
+    w("        else:")
+    w("            ERR[l] = abs(H[l]) * e5 / math.sqrt((e5 + 0.01 * e3) * n)")
     w("")
     w("")
     w('@njit(cache=True, fastmath=_FM, inline="always")')

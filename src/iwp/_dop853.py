@@ -120,6 +120,107 @@ def error_norm(K, h, y, y_new, rtol, atol, n):
 
 
 @njit(cache=True, fastmath=_FM, inline="always")
+def stage_input_lanes(s, Y, H, K, YT, n, L):
+    """:func:`stage_input` for L simulations side by side (:mod:`iwp._lanes`).
+
+    Column ``l`` of Y, YT and of each ``K[j]`` (shape (16, n, L)) is simulation
+    ``l``, with step ``H[l]``; the loop over lanes is the one the compiler vectorises.
+    """
+    if s == 1:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (0.05260015195876773 * K[0, i, l])
+    elif s == 2:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (0.0197250569845379 * K[0, i, l] + 0.0591751709536137 * K[1, i, l])
+    elif s == 3:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (0.02958758547680685 * K[0, i, l] + 0.08876275643042054 * K[2, i, l])
+    elif s == 4:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (0.2413651341592667 * K[0, i, l] + -0.8845494793282861 * K[2, i, l]
+                                     + 0.924834003261792 * K[3, i, l])
+    elif s == 5:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (0.037037037037037035 * K[0, i, l] + 0.17082860872947386 * K[3, i, l]
+                                     + 0.12546768756682242 * K[4, i, l])
+    elif s == 6:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (0.037109375 * K[0, i, l] + 0.17025221101954405 * K[3, i, l]
+                                     + 0.06021653898045596 * K[4, i, l] + -0.017578125 * K[5, i, l])
+    elif s == 7:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (0.03709200011850479 * K[0, i, l] + 0.17038392571223998 * K[3, i, l]
+                                     + 0.10726203044637328 * K[4, i, l] + -0.015319437748624402 * K[5, i, l]
+                                     + 0.008273789163814023 * K[6, i, l])
+    elif s == 8:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (0.6241109587160757 * K[0, i, l] + -3.3608926294469414 * K[3, i, l]
+                                     + -0.868219346841726 * K[4, i, l] + 27.59209969944671 * K[5, i, l]
+                                     + 20.154067550477894 * K[6, i, l] + -43.48988418106996 * K[7, i, l])
+    elif s == 9:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (0.47766253643826434 * K[0, i, l] + -2.4881146199716677 * K[3, i, l]
+                                     + -0.590290826836843 * K[4, i, l] + 21.230051448181193 * K[5, i, l]
+                                     + 15.279233632882423 * K[6, i, l] + -33.28821096898486 * K[7, i, l]
+                                     + -0.020331201708508627 * K[8, i, l])
+    elif s == 10:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (-0.9371424300859873 * K[0, i, l] + 5.186372428844064 * K[3, i, l]
+                                     + 1.0914373489967295 * K[4, i, l] + -8.149787010746927 * K[5, i, l]
+                                     + -18.52006565999696 * K[6, i, l] + 22.739487099350505 * K[7, i, l]
+                                     + 2.4936055526796523 * K[8, i, l] + -3.0467644718982196 * K[9, i, l])
+    elif s == 11:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (2.273310147516538 * K[0, i, l] + -10.53449546673725 * K[3, i, l]
+                                     + -2.0008720582248625 * K[4, i, l] + -17.9589318631188 * K[5, i, l]
+                                     + 27.94888452941996 * K[6, i, l] + -2.8589982771350235 * K[7, i, l]
+                                     + -8.87285693353063 * K[8, i, l] + 12.360567175794303 * K[9, i, l]
+                                     + 0.6433927460157636 * K[10, i, l])
+    elif s == 12:
+        for l in range(L):
+            for i in range(n):
+                YT[i, l] = Y[i, l] + H[l] * (0.054293734116568765 * K[0, i, l] + 4.450312892752409 * K[5, i, l]
+                                     + 1.8915178993145003 * K[6, i, l] + -5.801203960010585 * K[7, i, l]
+                                     + 0.3111643669578199 * K[8, i, l] + -0.1521609496625161 * K[9, i, l]
+                                     + 0.20136540080403034 * K[10, i, l] + 0.04471061572777259 * K[11, i, l])
+
+
+@njit(cache=True, fastmath=_FM)
+def error_norm_lanes(K, H, Y, Y_new, rtol, atol, n, L, ERR):
+    """:func:`error_norm` of L simulations side by side, into ``ERR[l]``."""
+    for l in range(L):
+        e5 = 0.0
+        e3 = 0.0
+        for i in range(n):
+            sc = atol[i] + max(abs(Y[i, l]), abs(Y_new[i, l])) * rtol
+            s5 = (0.01312004499419488 * K[0, i, l] + -1.2251564463762044 * K[5, i, l]
+                  + -0.4957589496572502 * K[6, i, l] + 1.6643771824549864 * K[7, i, l]
+                  + -0.35032884874997366 * K[8, i, l] + 0.3341791187130175 * K[9, i, l]
+                  + 0.08192320648511571 * K[10, i, l] + -0.022355307863886294 * K[11, i, l]) / sc
+            s3 = (-0.18980075407240762 * K[0, i, l] + 4.450312892752409 * K[5, i, l]
+                  + 1.8915178993145003 * K[6, i, l] + -5.801203960010585 * K[7, i, l]
+                  + -0.4226823213237919 * K[8, i, l] + -0.1521609496625161 * K[9, i, l]
+                  + 0.20136540080403034 * K[10, i, l] + 0.02265179219836082 * K[11, i, l]) / sc
+            e5 += s5 * s5
+            e3 += s3 * s3
+        if e5 == 0.0 and e3 == 0.0:
+            ERR[l] = 0.0
+        else:
+            ERR[l] = abs(H[l]) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
 def dense_coefficients(K, h, y, y_new, F, n):
     """Coefficients F (7, n) of the 7th-order interpolant.
 

@@ -28,10 +28,29 @@ import numpy as np
 from numba import njit, prange
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
-from ._dop853 import C as _C_TUPLE
 from ._dop853 import N_STAGES as _NS
-from ._dop853 import dense_coefficients, dense_eval, dense_eval_row, error_norm, stage_input
-from .models import E_SR, M_BELT, M_BELT_FULL, M_COMP, M_EL, M_MD, M_MD_RAW, M_RAW, N_PACK, SA, _ff, rhs_of
+from ._dop853 import C as _C_TUPLE
+from ._dop853 import (
+    dense_coefficients,
+    dense_eval,
+    dense_eval_row,
+    error_norm,
+    stage_input,
+)
+from .models import (
+    E_SR,
+    M_BELT,
+    M_BELT_FULL,
+    M_COMP,
+    M_EL,
+    M_MD,
+    M_MD_RAW,
+    M_RAW,
+    N_PACK,
+    SA,
+    _ff,
+    rhs_of,
+)
 
 #: LLVM fast-math flags: contraction and reassociation, but NaN and inf keep
 #: their IEEE meaning so that divergence is still detected.
@@ -194,6 +213,102 @@ def _switch(model, P, y):
 
 
 @njit(cache=True, fastmath=_FM, inline="always")
+def accept_factor(err, lerr_prev):
+    """Step-size factor after an accepted step with error ``err`` (PI control, see :data:`BETA`)."""
+    if err == 0.0:
+        return MAX_FACTOR
+    lerr = math.log(err)
+    return min(MAX_FACTOR, SAFETY * math.exp(-(1.0 / 8.0 - 0.75 * BETA) * lerr + BETA * lerr_prev))
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def reject_factor(err):
+    """Step-size factor after a rejected step with error ``err`` (NaN: the smallest factor)."""
+    if err != err:
+        return MIN_FACTOR
+    return max(MIN_FACTOR, SAFETY * err ** (-1.0 / 8.0))
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def rk4_bridge(model, P, t, y, f, hb, K, ytmp, y_new, dx, n, rtol, atol, held, hval, kind, ipar, cpar):
+    """A classical RK4 step of size ``hb`` across a kink; returns its error (accept if < 1).
+
+    ``f = f(t, y)``; fills ``y_new`` and ``dx = f(t + hb, y_new)`` and uses
+    ``K[1..3]`` as scratch. The error is the embedded third-order estimate
+    (the last stage replaced by ``f`` at the new state), scaled like the
+    DOP853 error norm. Four evaluations.
+    """
+    for i in range(n):
+        ytmp[i] = y[i] + 0.5 * hb * f[i]
+    _eval(model, P, t + 0.5 * hb, ytmp, dx, held, hval, kind, ipar, cpar)
+    for i in range(n):
+        K[1, i] = dx[i]
+        ytmp[i] = y[i] + 0.5 * hb * dx[i]
+    _eval(model, P, t + 0.5 * hb, ytmp, dx, held, hval, kind, ipar, cpar)
+    for i in range(n):
+        K[2, i] = dx[i]
+        ytmp[i] = y[i] + hb * dx[i]
+    _eval(model, P, t + hb, ytmp, dx, held, hval, kind, ipar, cpar)
+    for i in range(n):
+        K[3, i] = dx[i]
+        y_new[i] = y[i] + hb / 6.0 * (f[i] + 2.0 * (K[1, i] + K[2, i]) + dx[i])
+    _eval(model, P, t + hb, y_new, dx, held, hval, kind, ipar, cpar)
+    eb = 0.0
+    for i in range(n):
+        d = hb / 6.0 * (K[3, i] - dx[i]) / (atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol)
+        eb += d * d
+    return eb / n
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def hermite(y, y_new, f, f_new, h, th, out, n):
+    """Cubic Hermite interpolant of a step of size h at ``t + th h`` into ``out``."""
+    c1 = th * th * (3.0 - 2.0 * th)
+    c2 = h * th * (1.0 - th) * (1.0 - th)
+    c3 = -h * th * th * (1.0 - th)
+    for i in range(n):
+        out[i] = y[i] + c1 * (y_new[i] - y[i]) + c2 * f[i] + c3 * f_new[i]
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def kink_step(model, P, F, y, h, t, g_a, g_b, yo, n):
+    """Step size that ends just past the kink inside a step of size h from (t, y).
+
+    Illinois (modified regula falsi) on the dense output (coefficients F):
+    the bracket [a, b] keeps the sign change of the switching function
+    (``g_a`` at the step start, ``g_b`` at its end); b is on the far side.
+    """
+    a = 0.0
+    b = 1.0
+    ga = g_a
+    gb = g_b
+    side = 0
+    for _it in range(100):
+        if (b - a) * abs(h) < 1e-13 * max(1.0, abs(t)):
+            break
+        mid = b - gb * (b - a) / (gb - ga)
+        if not (a < mid < b):
+            mid = 0.5 * (a + b)
+        dense_eval(F, y, mid, yo, n)
+        gm = _switch(model, P, yo)
+        if gm * ga > 0.0:
+            a = mid
+            ga = gm
+            if side == -1:
+                gb *= 0.5
+            side = -1
+        else:
+            b = mid
+            gb = gm
+            if side == 1:
+                ga *= 0.5
+            side = 1
+            if gm == 0.0:
+                break
+    return b * h + 2e-13 * max(1.0, abs(t))
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
 def _stage_range(model, P, t, y, h, K, ytmp, dx, n, held, hval, kind, ipar, cpar, s0, s1):
     """DOP853 stages ``s0 .. s1-1`` of a step of size h from (t, y) into K.
 
@@ -210,6 +325,12 @@ def _stage_range(model, P, t, y, h, K, ytmp, dx, n, held, hval, kind, ipar, cpar
         rhs_of(model, ytmp, w, P, dx)
         for i in range(n):
             K[s, i] = dx[i]
+
+
+@njit(cache=True, fastmath=_FM)
+def dense_stages(model, P, t, y, h, K, ytmp, dx, n, kind, ipar, cpar):
+    """The three extra DOP853 stages (13-15) of the dense output, continuous input (a plain call)."""
+    _stage_range(model, P, t, y, h, K, ytmp, dx, n, False, 0.0, kind, ipar, cpar, _NS + 1, 16)
 
 
 @njit(cache=True, fastmath=_FM)
@@ -374,37 +495,13 @@ def run(model, n, npar, P_arr, x0, t0, t_end, t_out, kind, ipar_arr, usamp, seg_
                 if s_k > 0.0 and s_k <= BRIDGE_FRAC * h_nat:
                     hb = s_k * (1.0 + KINK_OVERSHOOT) + 1e-12 * max(1.0, abs(t))
                     if t + hb < t_b - tol_t:
-                        # classical RK4: k1 = f, k2..k4 in K[1..3]; f(t + hb, y_new) in dx
-                        for i in range(n):
-                            ytmp[i] = y[i] + 0.5 * hb * f[i]
-                        _eval(model, P, t + 0.5 * hb, ytmp, dx, held, hval, kind, ipar, cpar)
-                        for i in range(n):
-                            K[1, i] = dx[i]
-                            ytmp[i] = y[i] + 0.5 * hb * dx[i]
-                        _eval(model, P, t + 0.5 * hb, ytmp, dx, held, hval, kind, ipar, cpar)
-                        for i in range(n):
-                            K[2, i] = dx[i]
-                            ytmp[i] = y[i] + hb * dx[i]
-                        _eval(model, P, t + hb, ytmp, dx, held, hval, kind, ipar, cpar)
-                        for i in range(n):
-                            K[3, i] = dx[i]
-                            y_new[i] = y[i] + hb / 6.0 * (f[i] + 2.0 * (K[1, i] + K[2, i]) + dx[i])
-                        _eval(model, P, t + hb, y_new, dx, held, hval, kind, ipar, cpar)
+                        eb = rk4_bridge(model, P, t, y, f, hb, K, ytmp, y_new, dx, n, rtol, atol, held, hval, kind,
+                                        ipar, cpar)
                         nfev += 4
-                        # embedded third-order estimate (k4 replaced by f at the new state)
-                        eb = 0.0
-                        for i in range(n):
-                            d = hb / 6.0 * (K[3, i] - dx[i]) / (atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol)
-                            eb += d * d
-                        if eb < n:
+                        if eb < 1.0:
                             # outputs inside the bridge: cubic Hermite
                             while j < n_out and t_out[j] < t + hb - tol_t:
-                                th = (t_out[j] - t) / hb
-                                c1 = th * th * (3.0 - 2.0 * th)
-                                c2 = hb * th * (1.0 - th) * (1.0 - th)
-                                c3 = -hb * th * th * (1.0 - th)
-                                for i in range(n):
-                                    yo[i] = y[i] + c1 * (y_new[i] - y[i]) + c2 * f[i] + c3 * dx[i]
+                                hermite(y, y_new, f, dx, hb, (t_out[j] - t) / hb, yo, n)
                                 _put(j, t_out[j], yo, X, U, W, n, held, uval, hval, kind, ipar, cpar, record_u)
                                 j += 1
                             a_last = f[2]
@@ -459,11 +556,7 @@ def run(model, n, npar, P_arr, x0, t0, t_end, t_out, kind, ipar_arr, usamp, seg_
                 _stage_range(model, P, t, y, h, K, ytmp, dx, n, held, hval, kind, ipar, cpar, _NS + 1, 16)
             if not (err < 1.0):
                 nrej += 1
-                if err != err:  # NaN
-                    factor = MIN_FACTOR
-                else:
-                    factor = max(MIN_FACTOR, SAFETY * err ** (-1.0 / 8.0))
-                h_nat = h * factor
+                h_nat = h * reject_factor(err)
                 rejected = True
                 if h_nat < min_step:
                     status = ST_STEP_TOO_SMALL
@@ -474,46 +567,13 @@ def run(model, n, npar, P_arr, x0, t0, t_end, t_out, kind, ipar_arr, usamp, seg_
             # a kink of the right-hand side inside the step: redo the step so
             # that it ends just past the kink (located on the dense output)
             if crossing:
-                # Illinois (modified regula falsi) on the dense output: the
-                # bracket [a, b] keeps the kink, b is on the far side
-                a = 0.0
-                b = 1.0
-                ga = g_cur
-                gb = g_new
-                side = 0
-                for _it in range(100):
-                    if (b - a) * abs(h) < 1e-13 * max(1.0, abs(t)):
-                        break
-                    mid = b - gb * (b - a) / (gb - ga)
-                    if not (a < mid < b):
-                        mid = 0.5 * (a + b)
-                    dense_eval(F, y, mid, yo, n)
-                    gm = _switch(model, P, yo)
-                    if gm * ga > 0.0:
-                        a = mid
-                        ga = gm
-                        if side == -1:
-                            gb *= 0.5
-                        side = -1
-                    else:
-                        b = mid
-                        gb = gm
-                        if side == 1:
-                            ga *= 0.5
-                        side = 1
-                        if gm == 0.0:
-                            break
-                h_force = b * h + 2e-13 * max(1.0, abs(t))
+                h_force = kink_step(model, P, F, y, h, t, g_cur, g_new, yo, n)
                 if h_force < h:
                     nrej += 1
                     continue
                 h_force = -1.0
             # accepted
-            if err == 0.0:
-                factor = MAX_FACTOR
-            else:
-                lerr = math.log(err)
-                factor = min(MAX_FACTOR, SAFETY * math.exp(-(1.0 / 8.0 - 0.75 * BETA) * lerr + BETA * lerr_prev))
+            factor = accept_factor(err, lerr_prev)
             lerr_prev = math.log(max(err, 1e-4))
             if rejected:
                 factor = min(1.0, factor)

@@ -83,6 +83,10 @@ M_MD = 3
 M_MD_RAW = 4
 M_BELT = 5
 M_BELT_FULL = 6
+#: Internal code, never a user's model: model (9) compiled without its
+#: optional terms (dead zone, Coulomb, clamp), for callers that have checked
+#: :func:`plain_rhs`. Its right-hand side is that of "compensated".
+M_PLAIN = 7
 
 MODELS = {
     "el": M_EL,
@@ -241,10 +245,66 @@ def _sgn(x, eps):
     return 0.0
 
 
+#: Flags for :func:`_sincos`: no reassociation, which would undo the
+#: Cody-Waite reduction and the compensated sum of the cosine.
+_FM_EXACT = {"contract", "nsz", "arcp"}
+# pi/2 in three parts (the first two with trailing zero bits) and 2/pi (fdlibm)
+_INVPIO2 = 6.36619772367581382433e-01
+_PIO2_1 = 1.57079632673412561417e00
+_PIO2_2 = 6.07710050630396597660e-11
+_PIO2_3 = 2.02226624871116645580e-21
+# fdlibm's minimax coefficients of sin and cos on [-pi/4, pi/4]
+_S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+_S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+_C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+_C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+
+
+#: Largest |angle| [rad] that :func:`_sincos` reduces accurately; beyond it
+#: (and for inf or NaN) it returns NaN, which the simulator reports as a
+#: diverged run.
+SINCOS_MAX = 1.0e9
+
+
+@njit(cache=True, fastmath=_FM_EXACT)
+def _sincos(x):
+    """``(sin x, cos x)``, within 2 ulp of libm for ``|x| <= SINCOS_MAX`` (NaN beyond).
+
+    fdlibm's algorithm written out: Cody-Waite reduction by pi/2 in three
+    parts, the minimax polynomials of ``__kernel_sin`` and ``__kernel_cos``
+    and a branch-free choice of quadrant. Being straight-line code without a
+    library call, it is inlined into the integrator, overlaps with the stage
+    arithmetic and vectorises across simulations run side by side
+    (:mod:`iwp._lanes`); libm's ``sin`` and ``cos`` are two calls that do
+    neither.
+    """
+    x = x if abs(x) <= SINCOS_MAX else math.nan
+    fn = math.floor(x * _INVPIO2 + 0.5)
+    r = ((x - fn * _PIO2_1) - fn * _PIO2_2) - fn * _PIO2_3
+    z = r * r
+    w = z * z
+    s = r + z * r * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
+    cr = z * (_C1 + z * (_C2 + z * _C3)) + w * w * (_C4 + z * (_C5 + z * _C6))
+    hz = 0.5 * z
+    wc = 1.0 - hz
+    c = wc + (((1.0 - wc) - hz) + z * cr)
+    # quadrant fn mod 4 (NaN, whose conversion to an integer is undefined, as 0)
+    n = int(fn if fn == fn else 0.0)
+    odd = (n & 1) != 0
+    sq = c if odd else s
+    cq = s if odd else c
+    if n & 2:
+        sq = -sq
+    if (n + 1) & 2:
+        cq = -cq
+    return sq, cq
+
+
 @njit(cache=True, fastmath=_FM)
 def _xi(q1, q3, P):
     """Pendulum terms ``p1 sin q1 + s_a1 |cos q1| q3 + s_v1 q3 + s_b1 q3^3`` of (6)/(9) [s^-2]."""
-    return P[P1] * math.sin(q1) + P[SA] * abs(math.cos(q1)) * q3 + P[SV] * q3 + P[SB] * q3 * q3 * q3
+    s, c = _sincos(q1)
+    return P[P1] * s + P[SA] * abs(c) * q3 + P[SV] * q3 + P[SB] * q3 * q3 * q3
 
 
 @njit(cache=True, fastmath=_FM)
@@ -272,24 +332,30 @@ def _play_rate(gap, ddelta, d):
 
 
 @njit(cache=True, fastmath=_FM, inline="always")
-def _rhs_lumped(x, w, P, dx):
+def _rhs_lumped(x, w, P, dx, optional):
     """Models (6)/(9) (and the clamped pendulum): one right-hand side.
 
     With ``xi`` the pendulum terms and ``m = p3 w_eff - p2 q4 - s_c2 sgn q4``
     the net disk torque over ``I1_hat``:
     ``q3' = -xi - m`` and ``q4' = xi + (1 + rho) m`` -- eq. (6) when
     ``w_eff = v - f(v)``, eq. (9) when ``w_eff = u``.
+
+    ``optional=False`` (a constant of the caller, see :data:`M_PLAIN`) leaves
+    out the dead zone, the Coulomb term and the clamp; the compiled code then
+    has no branch and no library call.
     """
     q1 = x[0]
     q3 = x[2]
     q4 = x[3]
-    weff = _effective_input(w, q4, P)
+    weff = w
+    if optional:
+        weff = _effective_input(w, q4, P)
     m = P[P3] * weff - P[P2] * q4
-    if P[SC2] != 0.0:
+    if optional and P[SC2] != 0.0:
         m -= P[SC2] * _sgn(q4, P[EPSC])
     dx[0] = q3
     dx[1] = q4
-    if P[LOCK] != 0.0:
+    if optional and P[LOCK] != 0.0:
         # pendulum clamped at q1 = q3 = 0: (4b) with q1'' = 0
         dx[0] = 0.0
         dx[2] = 0.0
@@ -366,13 +432,14 @@ def _rhs_el(x, v, P, dx):
     G = (m1 * P[E_C] + m2 * P[E_L]) * P[E_G]
     sigma_a1 = P[E_SR] * (m1 + m2) * P[E_G] * P[E_RR]
     sigma_b1 = P[E_SR] * (m1 * P[E_C] + m2 * P[E_L]) * P[E_RR]
-    tau_f1 = P[E_SV1] * q3 + sigma_a1 * abs(math.cos(q1)) * q3 + sigma_b1 * q3 * q3 * q3
+    s1, c1 = _sincos(q1)
+    tau_f1 = P[E_SV1] * q3 + sigma_a1 * abs(c1) * q3 + sigma_b1 * q3 * q3 * q3
     V = P[E_BETA] * v
     gain = P[E_N] * P[E_KT] / P[E_R]
     tau_d = gain * V - P[E_N] ** 2 * P[E_KT] * P[E_KF] / P[E_R] * q4
     tau_dz = gain * _sat(V, P[E_VPOS], P[E_VNEG])
     tau_f2 = tau_dz + P[E_SV2] * q4 + P[E_SC2] * _sgn(q4, P[E_EPSC])
-    r1 = -G * math.sin(q1) - tau_f1
+    r1 = -G * s1 - tau_f1
     r2 = tau_d - tau_f2
     # solve [[I1h + I2, I2], [I2, I2]] a = [r1, r2]
     a11 = I1h + I2
@@ -395,7 +462,20 @@ def _rhs(model, x, w, P, dx):
     elif model == M_BELT_FULL:
         _rhs_belt(x, w, P, dx, True)
     else:
-        _rhs_lumped(x, w, P, dx)
+        _rhs_lumped(x, w, P, dx, True)
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def plain_rhs(model, P):
+    """True if ``model`` with parameters ``P`` is model (9) without its optional terms.
+
+    That is model (6)/(9) with the dead zone, the Coulomb term and the clamp
+    off, so that ``rhs_of(M_PLAIN, ...)`` gives the same derivatives with
+    code that has no branch and no library call (it vectorises).
+    """
+    if model != M_RAW and model != M_COMP:
+        return False
+    return P[DZ] == 0.0 and P[SC2] == 0.0 and P[LOCK] == 0.0
 
 
 def rhs_of(model, x, w, P, dx):
@@ -420,7 +500,9 @@ def _rhs_of_overload(model, x, w, P, dx):
         return lambda model, x, w, P, dx: _rhs_belt(x, w, P, dx, False)
     if code == M_BELT_FULL:
         return lambda model, x, w, P, dx: _rhs_belt(x, w, P, dx, True)
-    return lambda model, x, w, P, dx: _rhs_lumped(x, w, P, dx)
+    if code == M_PLAIN:
+        return lambda model, x, w, P, dx: _rhs_lumped(x, w, P, dx, False)
+    return lambda model, x, w, P, dx: _rhs_lumped(x, w, P, dx, True)
 
 
 # --------------------------------------------------------------------------
