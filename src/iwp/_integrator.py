@@ -692,14 +692,19 @@ _KERNELS: dict = {}
 _SAME_KERNEL = {M_RAW: M_COMP, M_MD_RAW: M_MD}
 
 
-def kernels(model: int):
-    """``(run, run_batch)`` specialised for ``model`` (compiled on first use, then cached on disk)."""
+def specialised(cache: dict, specialise, model: int):
+    """``specialise(model, n_states, N_PACK, name)`` for ``model``, built once per kernel group, kept in ``cache``."""
     model = _SAME_KERNEL.get(model, model)
-    k = _KERNELS.get(model)
+    k = cache.get(model)
     if k is None:
         nst = 6 if model in (M_BELT, M_BELT_FULL) else 4
-        k = _KERNELS[model] = _specialise(model, nst, N_PACK, f"m{model}")
+        k = cache[model] = specialise(model, nst, N_PACK, f"m{model}")
     return k
+
+
+def kernels(model: int):
+    """``(run, run_batch)`` specialised for ``model`` (compiled on first use, then cached on disk)."""
+    return specialised(_KERNELS, _specialise, model)
 
 
 @njit(cache=True, fastmath=_FM)

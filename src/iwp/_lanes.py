@@ -55,15 +55,22 @@ from ._integrator import (
     accept_factor,
     dense_stages,
     hermite,
+    input_samples,
     kink_step,
     reject_factor,
     rk4_bridge,
 )
 from ._laneview import lane, slab_lane
-from .models import M_BELT, M_BELT_FULL, M_PLAIN, N_PACK, plain_rhs, rhs_of
+from .models import M_PLAIN, plain_rhs, rhs_of
 
 #: simulations per thread advanced together (two 8-wide vectors)
 LANES = 16
+
+
+@njit(cache=True, fastmath=_FM, inline="always")
+def _lane_ipar(IPL, l):
+    """The input parameters of lane ``l`` as the tuple the input functions take."""
+    return (IPL[0, l], IPL[1, l], IPL[2, l], IPL[3, l])
 
 
 @njit(cache=True, fastmath=_FM, inline="always")
@@ -78,7 +85,7 @@ def _plain_stages(P, cpar, T, Y, H, K, YT, IPL, n, L):
         cs = _C[s]
         for l in range(L):
             x = lane(YT, l)
-            ipar = (IPL[0, l], IPL[1, l], IPL[2, l], IPL[3, l])
+            ipar = _lane_ipar(IPL, l)
             w = _command(_signal(I_HOPF, ipar, T[l] + cs * H[l], x), cpar)
             rhs_of(M_PLAIN, x, w, P, slab_lane(K, s, l))
 
@@ -90,7 +97,7 @@ def _general_stages(model, P, kind, cpar, T, Y, H, K, YT, IPL, n, L):
         stage_input_lanes(s, Y, H, K, YT, n, L)
         cs = _C[s]
         for l in range(L):
-            ipar = (IPL[0, l], IPL[1, l], IPL[2, l], IPL[3, l])
+            ipar = _lane_ipar(IPL, l)
             _eval(model, P, T[l] + cs * H[l], lane(YT, l), slab_lane(K, s, l), False, 0.0, kind, ipar, cpar)
 
 
@@ -165,17 +172,11 @@ def run_lanes(model, n, npar, P_arr, X0m, r0, r1, t0, t_end, t_out, kind, Ipm, c
                             for i in range(n):
                                 X[r, j, i] = Y[i, l]
                             j += 1
-                    ipar = (IPL[0, l], IPL[1, l], IPL[2, l], IPL[3, l])
-                    for jj in range(n_out):
-                        if jj < j:
-                            u_ = _signal(kind, ipar, t_out[jj], X[r, jj])
-                            U[r, jj] = u_
-                            W[r, jj] = _command(u_, cpar)
-                        else:
-                            for i in range(n):
-                                X[r, jj, i] = np.nan
-                            U[r, jj] = np.nan
-                            W[r, jj] = np.nan
+                    input_samples(kind, _lane_ipar(IPL, l), cpar, t_out[:j], X[r, :j], U[r, :j], W[r, :j])
+                    # samples never reached (a failed run) are NaN
+                    X[r, j:] = np.nan
+                    U[r, j:] = np.nan
+                    W[r, j:] = np.nan
                     status[r] = STAT[l]
                     nfev[r] = NFEV[l]
                     RUN[l] = -1
@@ -192,7 +193,7 @@ def run_lanes(model, n, npar, P_arr, X0m, r0, r1, t0, t_end, t_out, kind, Ipm, c
                     n_active += 1
                     for i in range(4):
                         IPL[i, l] = Ipm[r, i]
-                    ipar = (IPL[0, l], IPL[1, l], IPL[2, l], IPL[3, l])
+                    ipar = _lane_ipar(IPL, l)
                     for i in range(n):
                         ys[i] = X0m[r, i]
                         Y[i, l] = ys[i]
@@ -242,7 +243,7 @@ def run_lanes(model, n, npar, P_arr, X0m, r0, r1, t0, t_end, t_out, kind, Ipm, c
                         hb = s_k * (1.0 + KINK_OVERSHOOT) + 1e-12 * max(1.0, abs(t))
                         if t + hb < t_end - tol_t:
                             # RK4 bridge across the kink, on this lane's copy
-                            ipar = (IPL[0, l], IPL[1, l], IPL[2, l], IPL[3, l])
+                            ipar = _lane_ipar(IPL, l)
                             for i in range(n):
                                 ys[i] = Y[i, l]
                                 fs[i] = F[i, l]
@@ -328,7 +329,7 @@ def run_lanes(model, n, npar, P_arr, X0m, r0, r1, t0, t_end, t_out, kind, Ipm, c
                 continue
             if dense:
                 # this lane's step, with its three extra stages, on a copy
-                ipar = (IPL[0, l], IPL[1, l], IPL[2, l], IPL[3, l])
+                ipar = _lane_ipar(IPL, l)
                 for i in range(n):
                     ys[i] = Y[i, l]
                     yn[i] = YT[i, l]
@@ -407,9 +408,4 @@ def kernel(model: int):
     Called as ``kernel(model)(P, X0m, t0, t_end, t_out, kind, Ipm, cpar, rtol, atol, h_max, max_steps, xmax,
     X, U, W, status, nfev, nb)``; ``nb`` is the number of blocks of runs (one per thread).
     """
-    model = _I._SAME_KERNEL.get(model, model)
-    k = _KERNELS.get(model)
-    if k is None:
-        nst = 6 if model in (M_BELT, M_BELT_FULL) else 4
-        k = _KERNELS[model] = _specialise(model, nst, N_PACK, f"m{model}")
-    return k
+    return _I.specialised(_KERNELS, _specialise, model)
