@@ -29,9 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from iwp.identify import identify
-from iwp.models import StartupFriction
-from iwp.params import LumpedParameters
+from iwp.ident.identification import identify
+from iwp.models import LumpedParameters, StartupFriction
 from iwp.rig import RigTruth, VirtualRig
 
 TRUTH = LumpedParameters(p1=21.0, p2=0.0125, p3=0.0240, rho=190.0, sigma_a1=0.0045, sigma_v1=0.016,

@@ -5,13 +5,19 @@ rig, 60 s at Ts = 5 ms (12001 samples of the quantised q1), refined from the
 least-squares result of ``iwp.identify`` (set-up "free"): 4 parameters
 (p1, sigma_a1, sigma_v1, sigma_b1) and the initial state (q1, q3), output q1.
 
-(a) iwp: ``iwp.refine.refine_identification("free", ...)``: compiled RK4 with
-    forward sensitivities (numba), ``scipy.optimize.least_squares`` (trf)
-    with the exact Jacobian.
+(a) iwp: ``iwp.ident.refinement.refine_identification("free", ...)``: the
+    compiled adaptive DOP853 engine with forward sensitivities,
+    ``scipy.optimize.least_squares`` (trf) with that exact Jacobian.
 (b) scipy: the same residuals (same model right-hand side, same weights,
     same unknowns and bounds) with ``scipy.integrate.solve_ivp`` (RK45,
     rtol 1e-8, atol 1e-10, dense output at the samples) and
     ``least_squares`` with its 2-point finite differences.
+(c) the anchor of issue 14: iwp's compiled adaptive DOP853 simulator
+    (``iwp.sim.simulate``, rtol = atol = 1e-8) inside ``least_squares`` with
+    its 2-point finite differences -- a compiled simulator without
+    sensitivities. The issue measured it at 0.084 s against 0.239 s for the
+    refinement of that day (compiled fixed-step RK4 with finite-difference
+    sensitivities).
 
 Both start from the same point; the script prints the wall times, their
 ratio, and how far apart the two answers are. BLAS runs on one thread (the
@@ -39,62 +45,69 @@ import numpy as np  # noqa: E402
 from scipy import optimize  # noqa: E402
 from scipy.integrate import solve_ivp  # noqa: E402
 
-from iwp import refine as R  # noqa: E402
-from iwp.models import pack  # noqa: E402
-from iwp.params import table1  # noqa: E402
+import iwp.ident.refinement as R  # noqa: E402
+from iwp.ident.identification import identify  # noqa: E402
+from iwp.models import Plant, table1  # noqa: E402
+from iwp.models.parameters import TYPICAL  # noqa: E402
 from iwp.rig import VirtualRig  # noqa: E402
+from iwp.sim import simulate  # noqa: E402
+
+FREE = ("p1", "sigma_a1", "sigma_v1", "sigma_b1")
 
 
-def least_squares_start(data, truth):
-    """The starting point: iwp.identify's free set-up (or perturbed truth if it is not available)."""
-    try:
-        from iwp.identify import identify
-
-        return identify(data, "free").to_params(base=table1()), "iwp.identify(setup='free')"
-    except ImportError:  # pragma: no cover - identify is part of iwp
-        return truth.replace(p1=truth.p1 * 0.996, sigma_a1=0.005, sigma_v1=0.008), "perturbed truth"
+def least_squares_start(data):
+    """The starting point: the least squares of iwp's free set-up (theta^c, section 5.2)."""
+    return identify(data, "free").to_params(base=table1()), "iwp.ident.identification(setup='free')"
 
 
-def scipy_refine(data, start, *, rtol=1e-8, atol=1e-10):
-    """The same fit with solve_ivp (RK45) + least_squares and its finite differences."""
-    free = ("p1", "sigma_a1", "sigma_v1", "sigma_b1")
-    var = R._variant("free")
-    code, P = pack(var.pack_model, start)
-    t = np.asarray(data.t, dtype=float)
-    y = np.asarray(data.q1, dtype=float)
+def _problem(data, start):
+    """Unknowns, scaling and bounds of the free-decay fit, as iwp.ident.refinement sets them."""
     x0 = R.initial_state(data, 0, "free")
-    theta0 = np.array([getattr(start, n) for n in free])
-    lo, hi = R._check_bounds(free, None, start)
+    theta0 = np.array([getattr(start, n) for n in FREE])
+    lo, hi = R._check_bounds(FREE, None, start)
     theta0 = np.clip(theta0, lo, hi)
-    pscale = np.array([max(abs(v), R._TYPICAL[n] * 1e-3) if v != 0 else R._TYPICAL[n] for v, n in zip(theta0, free)])
-    idx = [R._PINDEX[n] for n in free]
-    s_y = float(np.std(y))
-    dx = np.zeros(4)
-    xt = np.zeros(4)
-    nsim = [0]
-
-    def rhs(_t, x):
-        R._f(code, var.mode, x, 0.0, P, dx, xt)
-        return dx.copy()
-
-    def residuals(z):
-        nsim[0] += 1
-        for i, ix in enumerate(idx):
-            P[ix] = z[i] * pscale[i]
-        xs = x0.copy()
-        xs[0], xs[2] = z[4], z[5]
-        sol = solve_ivp(rhs, (t[0], t[-1]), xs, method="RK45", t_eval=t, rtol=rtol, atol=atol)
-        if sol.status != 0 or sol.y.shape[1] != t.size:
-            return np.full(t.size, 1e6)
-        return (sol.y[0] - y) / s_y
-
+    pscale = np.array([max(abs(v), TYPICAL[n] * 1e-3) if v != 0 else TYPICAL[n] for v, n in zip(theta0, FREE)])
     z0 = np.concatenate([theta0 / pscale, [x0[0], x0[2]]])
     zlo = np.concatenate([lo / pscale, [-np.inf, -np.inf]])
     zhi = np.concatenate([hi / pscale, [np.inf, np.inf]])
-    sol = optimize.least_squares(residuals, z0, jac="2-point", bounds=(zlo, zhi), method="trf", x_scale=1.0,
-                                 ftol=1e-8, xtol=1e-8, gtol=1e-8)
-    theta = sol.x[:4] * pscale
-    return dict(zip(free, theta)), sol, nsim[0]
+    return x0, pscale, z0, (zlo, zhi)
+
+
+def finite_difference_refine(data, start, simulate_q1, *, tol=1e-8):
+    """``least_squares`` with 2-point differences on residuals from ``simulate_q1(params, x0, t)``."""
+    t = np.asarray(data.t, dtype=float)
+    y = np.asarray(data.q1, dtype=float)
+    x0, pscale, z0, bounds = _problem(data, start)
+    s_y = float(np.std(y))
+    nsim = [0]
+
+    def residuals(z):
+        nsim[0] += 1
+        p = start.replace(**{n: float(v) for n, v in zip(FREE, z[:4] * pscale)})
+        xs = x0.copy()
+        xs[0], xs[2] = z[4], z[5]
+        q1 = simulate_q1(p, xs, t)
+        if q1 is None or q1.size != t.size:
+            return np.full(t.size, 1e6)
+        return (q1 - y) / s_y
+
+    sol = optimize.least_squares(residuals, z0, jac="2-point", bounds=bounds, method="trf", x_scale=1.0,
+                                 ftol=tol, xtol=tol, gtol=tol)
+    return dict(zip(FREE, sol.x[:4] * pscale)), sol, nsim[0]
+
+
+def scipy_q1(p, x0, t, *, rtol=1e-8, atol=1e-10):
+    """q1 of the free pendulum by scipy's RK45 on the model's right-hand side."""
+    plant = Plant(p, model="free")
+    sol = solve_ivp(lambda _t, x: plant.rhs(x), (t[0], t[-1]), x0, method="RK45", t_eval=t, rtol=rtol, atol=atol)
+    return sol.y[0] if sol.status == 0 else None
+
+
+def compiled_q1(p, x0, t):
+    """q1 of the free pendulum by iwp's compiled DOP853 (no sensitivities), the issue's anchor."""
+    r = simulate(Plant(p, model="free"), x0=x0, t0=float(t[0]), t_end=float(t[-1]), t_eval=t, rtol=1e-8,
+                 atol=1e-8, check=False)
+    return r.x[:, 0] if r.success else None
 
 
 def main():
@@ -107,7 +120,7 @@ def main():
     rig = VirtualRig(seed=args.seed)
     data = rig.run("free-pendulum", duration=args.duration)
     truth = rig.truth.lumped
-    start, how = least_squares_start(data, truth)
+    start, how = least_squares_start(data)
     print(f"machine: {os.cpu_count()} cores, BLAS threads {os.environ['OPENBLAS_NUM_THREADS']}")
     print(f"data: virtual rig free-pendulum, {args.duration:g} s, Ts = {data.Ts:.3g} s, {data.n_samples} samples; "
           f"start: {how}")
@@ -125,15 +138,25 @@ def main():
           f"{t_first:.2f} s), {r.nfev} simulations + {r.njev} with sensitivities, cost {r.cost:.6g}, "
           f"fit q1 {r.fit[0]['q1']:.3f} %")
     t0 = time.perf_counter()
-    theta_s, sol, nsim = scipy_refine(data, start)
+    theta_s, sol, nsim = finite_difference_refine(data, start, scipy_q1)
     t_sp = time.perf_counter() - t0
     print(f"(b) scipy reference: {t_sp:8.3f} s, {nsim} solve_ivp simulations ({sol.nfev} residual evaluations "
           f"+ finite differences), cost {sol.cost:.6g}")
+    finite_difference_refine(data, start, compiled_q1)  # loads the compiled kernel
+    anchor = []
+    for _ in range(max(args.repeat, 1)):
+        t0 = time.perf_counter()
+        theta_c, sol_c, nsim_c = finite_difference_refine(data, start, compiled_q1)
+        anchor.append(time.perf_counter() - t0)
+    t_c = min(anchor)
+    print(f"(c) anchor, compiled DOP853 + 2-point differences: {t_c:8.3f} s (best of {len(anchor)}), {nsim_c} "
+          f"simulations, cost {sol_c.cost:.6g}")
     print(f"speed-up (b)/(a): {t_sp / t_iwp:.1f}x; target for (a): <= 1 s -> {'met' if t_iwp <= 1.0 else 'NOT met'}")
-    print(f"{'parameter':<10} {'truth':>12} {'start (LS)':>12} {'iwp':>12} {'scipy':>12}")
-    for n in ("p1", "sigma_a1", "sigma_v1", "sigma_b1"):
+    print(f"(c)/(a): {t_c / t_iwp:.2f}; issue 14's target (a) <= (c) -> {'met' if t_iwp <= t_c else 'NOT met'}")
+    print(f"{'parameter':<10} {'truth':>12} {'start (LS)':>12} {'iwp':>12} {'scipy':>12} {'anchor':>12}")
+    for n in FREE:
         print(f"{n:<10} {getattr(truth, n):>12.6g} {getattr(start, n):>12.6g} {getattr(r.params, n):>12.6g} "
-              f"{theta_s[n]:>12.6g}")
+              f"{theta_s[n]:>12.6g} {theta_c[n]:>12.6g}")
     s_iwp = r.params.sigma_a1 + r.params.sigma_v1
     s_sp = theta_s["sigma_a1"] + theta_s["sigma_v1"]
     s_tr = truth.sigma_a1 + truth.sigma_v1

@@ -23,11 +23,12 @@ from numba import njit
 from numba.np.unsafe.ndarray import to_fixed_tuple
 from scipy.integrate import solve_ivp
 
-from iwp import _integrator as _I
-from iwp.inputs import Chirp, HopfController
-from iwp.models import MODELS, N_PACK, pack, rhs_of
-from iwp.params import table1
-from iwp.simulate import simulate, simulate_batch, simulate_scipy
+from iwp.jit import FASTMATH
+from iwp.models import Plant, table1
+from iwp.models.equations import rhs_of
+from iwp.models.layout import M_COMP, N_PACK
+from iwp.sim import Chirp, HopfController, simulate, simulate_batch, simulate_scipy
+from iwp.sim.inputs import I_CHIRP, input_value
 
 
 def python_rhs(p, u_of):
@@ -43,20 +44,17 @@ def python_rhs(p, u_of):
     return f
 
 
-_COMP = MODELS["compensated"]
+@njit(cache=True, fastmath=FASTMATH, inline="always")
+def _f_chirp(t, y, dx, P, input_params):
+    w = input_value(I_CHIRP, input_params, t, y)
+    rhs_of(M_COMP, y, w, P, dx)
 
 
-@njit(cache=True, fastmath=_I._FM, inline="always")
-def _f_chirp(t, y, dx, P, ipar):
-    w = _I._signal(_I.I_CHIRP, ipar, t, y)
-    rhs_of(_COMP, y, w, P, dx)
-
-
-@njit(cache=True, fastmath=_I._FM)
-def rk4_fixed(P_arr, ipar_arr, Ts, m, nout):
+@njit(cache=True, fastmath=FASTMATH)
+def rk4_fixed(P_arr, input_params_arr, Ts, m, nout):
     """Plain fixed-step RK4 (m steps per output sample) on iwp's compiled model (9), inlined as in iwp."""
     P = to_fixed_tuple(P_arr, N_PACK)
-    ipar = to_fixed_tuple(ipar_arr, 4)
+    input_params = to_fixed_tuple(input_params_arr, 4)
     X = np.empty((nout, 4))
     y = np.zeros(4)
     k1 = np.empty(4)
@@ -69,16 +67,16 @@ def rk4_fixed(P_arr, ipar_arr, Ts, m, nout):
     X[0] = y
     for j in range(1, nout):
         for _s in range(m):
-            _f_chirp(t, y, k1, P, ipar)
+            _f_chirp(t, y, k1, P, input_params)
             for i in range(4):
                 yt[i] = y[i] + 0.5 * h * k1[i]
-            _f_chirp(t + 0.5 * h, yt, k2, P, ipar)
+            _f_chirp(t + 0.5 * h, yt, k2, P, input_params)
             for i in range(4):
                 yt[i] = y[i] + 0.5 * h * k2[i]
-            _f_chirp(t + 0.5 * h, yt, k3, P, ipar)
+            _f_chirp(t + 0.5 * h, yt, k3, P, input_params)
             for i in range(4):
                 yt[i] = y[i] + h * k3[i]
-            _f_chirp(t + h, yt, k4, P, ipar)
+            _f_chirp(t + h, yt, k4, P, input_params)
             for i in range(4):
                 y[i] += h / 6.0 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
             t += h
@@ -133,10 +131,10 @@ def main():
     print(f"| scipy solve_ivp RK45 rtol = atol = 1e-10, Python RHS | {t_sc2:.3f} | {err_sc2:.2e} |")
     # the issue calibrates its target on a plain fixed-step RK4 ("about 60x at that error"):
     # the same compiled right-hand side, one RK4 step per 5 ms sample (the largest step that meets 1e-6 rad)
-    _code, P = pack("compensated", p)
-    ipar = chirp._ipar()
-    rk4_fixed(P, ipar, 0.005, 1, 10)
-    t_rk4, X4 = best_of(lambda: rk4_fixed(P, ipar, 0.005, 1, ref.t.size), 5)
+    P = np.array(Plant(p).packed())
+    input_params = chirp.parameters()
+    rk4_fixed(P, input_params, 0.005, 1, 10)
+    t_rk4, X4 = best_of(lambda: rk4_fixed(P, input_params, 0.005, 1, ref.t.size), 5)
     err_rk4 = float(np.max(np.abs(X4[:, 0] - ref.q1)))
     print(f"| compiled fixed-step RK4, h = 5 ms, same compiled RHS | {t_rk4:.4f} | {err_rk4:.2e} |")
     print(f"\nratio (b)/(a) = {t_sc / t_iwp:.0f}x (target >= 100x with iwp error <= 1e-6 rad); "
@@ -170,7 +168,7 @@ def main():
     print(f"| mean right-hand-side evaluations per run | {br.nfev.mean():.0f} |")
     t1, _ = best_of(lambda: simulate(p, input=ctrls[n // 2], **kw), 5)
     print(f"| one run alone with `simulate` (k1 = {k1s[n // 2]:.2f}), one core | {1e3 * t1:.2f} ms |")
-    # the batch advances 16 runs side by side per thread (iwp._lanes); on one
+    # the batch advances 16 runs side by side per thread (iwp.sim.lanes); on one
     # thread that alone is the gain over running them one by one
     m = min(n, 1000)
     threads = numba.get_num_threads()

@@ -43,10 +43,9 @@ import time
 
 import numpy as np
 
-from iwp.differentiate import Differentiator
-from iwp.identify import identify
-from iwp.models import StartupFriction
-from iwp.params import LumpedParameters
+from iwp.ident.differentiate import Differentiator
+from iwp.ident.identification import identify
+from iwp.models import LumpedParameters, StartupFriction
 from iwp.rig import RigTruth, VirtualRig, default_truth
 
 #: The study's truth for scenarios A and B (unlike Table 1).

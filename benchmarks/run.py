@@ -38,6 +38,9 @@ def main(argv: list[str]) -> int:
             parts.append(f"\n# {p.stem}\n\nFAILED (exit {r.returncode}):\n\n```\n{r.stderr[-2000:]}\n```\n")
         else:
             parts.append(f"\n# {p.stem}\n\n{r.stdout}\n")
+    history = HERE / "history.md"
+    if history.exists():
+        parts.append(history.read_text())
     if not argv:
         (HERE.parent / "BENCHMARKS.md").write_text("".join(parts))
         print("wrote BENCHMARKS.md")

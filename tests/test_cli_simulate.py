@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from iwp.cli import main
-from iwp.params import table1
+from iwp.models import table1
 
 
 def test_simulate_hopf_writes_csv(tmp_path, capsys):

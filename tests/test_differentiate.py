@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from iwp.differentiate import (
+from iwp.errors import InputError
+from iwp.ident.differentiate import (
     DEFAULT_DIFFERENTIATOR,
     METHODS,
     Differentiator,
     central_first,
     central_second,
 )
-from iwp.errors import InputError
 
 TS = 0.005  # s, the paper's sample time
 DELTA = 2 * np.pi / 2000  # rad, encoder quantisation step (2000 counts/rev)

@@ -14,9 +14,8 @@ from gymnasium.utils.env_checker import check_env  # noqa: E402
 import iwp.gym_env  # noqa: E402,F401  (registers the id)
 from iwp.errors import InputError  # noqa: E402
 from iwp.gym_env import ENV_ID, InertiaWheelPendulumEnv  # noqa: E402
-from iwp.inputs import Sampled  # noqa: E402
-from iwp.params import table1  # noqa: E402
-from iwp.simulate import simulate  # noqa: E402
+from iwp.models import table1  # noqa: E402
+from iwp.sim import Sampled, simulate  # noqa: E402
 
 RIG = {"dead_zone": (33.0, 29.0), "compensation": 31.0, "counts_per_rev": 2000}
 

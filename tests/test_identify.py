@@ -9,20 +9,19 @@ import numpy as np
 import pytest
 
 from iwp.cli import main
-from iwp.differentiate import Differentiator
+from iwp.data import ExperimentData, StaticCurve
 from iwp.errors import IdentificationError, InputError
-from iwp.identify import (
+from iwp.ident.differentiate import Differentiator
+from iwp.ident.identification import (
     IDENTIFY_DIFFERENTIATOR,
     SETUPS,
     IdentificationResult,
-    _derivatives,
     default_differentiator,
     identify,
     load_pendulum,
 )
-from iwp.io import ExperimentData, StaticCurve
-from iwp.models import StartupFriction
-from iwp.params import LumpedParameters, load_params, table1
+from iwp.ident.signals import fast_derivatives
+from iwp.models import LumpedParameters, StartupFriction, load_params, table1
 from iwp.rig import RigTruth, VirtualRig, default_truth, quantize
 
 #: A truth unlike Table 1 (every parameter moved by 10-80 %).
@@ -389,7 +388,7 @@ def test_result_export_and_round_trip(chain) -> None:
 
 
 def test_every_set_up_is_named_and_reports_its_parameters(chain) -> None:
-    assert SETUPS == ("full", "motor-disk", "motor-disk-coulomb", "free", "two-step", "dead-zone")
+    assert tuple(SETUPS) == ("full", "motor-disk", "motor-disk-coulomb", "free", "two-step", "dead-zone")
     assert set(chain["free1"].parameters) == {"p1", "sigma_a1", "sigma_v1", "sigma_b1"}
     assert set(chain["md"].parameters) == {"p2_1rho", "p3_1rho"}
     r = chain["md"]
@@ -402,7 +401,7 @@ def test_fast_savgol_matches_the_differentiator(clean) -> None:
     for d in (IDENTIFY_DIFFERENTIATOR, Differentiator("savgol", window=21)):
         k = d.edge_samples_at(0.005)
         ref = d.derivatives(0.005, q)
-        fast = _derivatives(d, 0.005, q)
+        fast = fast_derivatives(d, 0.005, q)
         for i in (1, 2):
             scale = np.abs(ref[i][k:-k]).max()
             np.testing.assert_allclose(fast[i][k:-k], ref[i][k:-k], rtol=0, atol=1e-9 * scale)

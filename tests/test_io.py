@@ -14,7 +14,7 @@ import pytest
 import scipy.io
 
 import iwp.cli
-from iwp import io
+from iwp import data as io
 from iwp.errors import DataFormatError, InputError, OutputExistsError
 
 REAL_LOG = Path(__file__).resolve().parents[2] / "shared/data/real/pendulum_free_swing_data_01.txt"

@@ -9,7 +9,7 @@ import pytest
 from scipy.signal import fftconvolve
 
 from iwp.errors import IdentificationError, InputError
-from iwp.lsq import (
+from iwp.ident.lsq import (
     LeastSquaresResult,
     ParameterEstimate,
     solve_least_squares,

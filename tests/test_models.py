@@ -6,21 +6,26 @@ from numba import njit
 
 from iwp.errors import InputError
 from iwp.models import (
-    M_PLAIN,
     SINCOS_MAX,
-    _sincos,
+    BeltParameters,
+    Plant,
     dead_zone,
     dead_zone_output,
     energy,
     feedforward,
     linearize,
-    pack,
-    rhs,
-    rhs_of,
+    table1,
     to_statespace,
 )
-from iwp.params import BeltParameters, table1
+from iwp.models.equations import rhs_of
+from iwp.models.layout import M_PLAIN
+from iwp.models.mathfn import sincos
 from tests.test_params import physical
+
+
+def rhs(model, params, x, w, **options):
+    """The right-hand side of ``model`` through its :class:`Plant`."""
+    return Plant(params, model=model, **options).rhs(x, w)
 
 
 def test_el_model_equals_state_space_model_6():
@@ -123,7 +128,7 @@ def _sincos_many(x):
     S = np.empty_like(x)
     C = np.empty_like(x)
     for i in range(x.size):
-        S[i], C[i] = _sincos(x[i])
+        S[i], C[i] = sincos(x[i])
     return S, C
 
 
@@ -151,7 +156,7 @@ def _rhs_plain(x, w, P, dx):
 def test_plain_rhs_is_model_9():
     """M_PLAIN (model (9) compiled without its optional terms) gives model (9)'s derivatives."""
     p = table1()
-    _code, P = pack("compensated", p)
+    P = Plant(p).packed()
     rng = np.random.default_rng(4)
     for _ in range(50):
         x = rng.normal(size=4) * [2.0, 5.0, 4.0, 80.0]
@@ -159,3 +164,33 @@ def test_plain_rhs_is_model_9():
         dx = np.empty(4)
         _rhs_plain(x, u, P, dx)
         np.testing.assert_allclose(dx, rhs("compensated", p, x, u), rtol=1e-14, atol=1e-12)
+
+
+def test_free_pendulum_models_are_model_9_with_the_wheel_held_or_absent():
+    """Section 5.2: q3' = -xi rho/(1 + rho) with the wheel held to the arm (q2'' = 0 in (4)), -xi without it."""
+    p = table1()
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        q1, q3 = rng.uniform(-3, 3), rng.uniform(-8, 8)
+        x = np.array([q1, 0.4, q3, 0.0])
+        full = rhs("compensated", p, x, 0.0)  # q4 = 0 and u = 0: q3' = -xi, q4' = xi
+        xi = -full[2]
+        held = rhs("free", p, x, 0.0)
+        # (4a) with q2'' = 0: q3' = q3'(9) + q4'(9)/(1 + rho) at q4 = 0
+        assert held[2] == pytest.approx(full[2] + full[3] / (1 + p.rho), rel=1e-13, abs=1e-12)
+        assert held[2] == pytest.approx(-xi * p.rho / (1 + p.rho), rel=1e-13, abs=1e-12)
+        nowheel = rhs("free-nowheel", p, x, 0.0)
+        assert nowheel[2] == pytest.approx(-xi, rel=1e-13, abs=1e-12)
+        assert held[1] == held[3] == nowheel[1] == nowheel[3] == 0.0
+        assert held[0] == nowheel[0] == q3
+
+
+def test_plant_checks_its_options():
+    with pytest.raises(InputError, match="locked=True applies"):
+        Plant(table1(), model="free", locked=True)
+    with pytest.raises(InputError, match="coulomb_eps"):
+        Plant(table1(), coulomb_eps=-1.0)
+    plant = Plant(physical(), model="compensated")  # physical parameters map to lumped ones (section 4)
+    assert plant.params == physical().to_lumped()
+    assert Plant(table1(), model="raw").dead_zone_active and not Plant(table1()).dead_zone_active
+    assert not Plant(table1()).packed().flags.writeable

@@ -4,7 +4,7 @@ import math
 import pytest
 
 from iwp.errors import InputError, OutputExistsError
-from iwp.params import BeltParameters, LumpedParameters, PhysicalParameters, load_params, save_params, table1
+from iwp.models import BeltParameters, PhysicalParameters, load_params, save_params, table1
 
 
 def physical():

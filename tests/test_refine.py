@@ -11,21 +11,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import iwp
+from iwp.data import read_angle_log
 from iwp.errors import InputError
-from iwp.inputs import Sampled
-from iwp.io import read_angle_log
-from iwp.params import table1
-from iwp.refine import (
+from iwp.ident.refinement import (
     REFINE_MODELS,
     RefineResult,
     refine,
     refine_identification,
-    simulate_with_sensitivities,
     simulation_equivalent,
 )
+from iwp.models import Plant, table1
 from iwp.rig import VirtualRig
-from iwp.simulate import simulate
+from iwp.sim import simulate
+from iwp.sim.inputs import Sampled
+from iwp.sim.sensitivity import simulate_sensitivities
 
 #: The real log lives next to the repository (``<repo>/../shared/data/real``), never inside it;
 #: found from this test file, so that an installed (non-editable) iwp finds it too.
@@ -34,7 +33,7 @@ REAL_LOG = (Path(__file__).resolve().parents[2] / "shared/data/real/pendulum_fre
 
 def _identify():
     try:
-        from iwp.identify import identify
+        from iwp.ident.identification import identify
     except ImportError:  # pragma: no cover - the identification module is part of iwp
         return None
     return identify
@@ -234,9 +233,11 @@ def test_rank_deficiency_is_reported():
         # model (14) depends on p2 (1 + rho) and p3 (1 + rho) only: rho cannot be found with p2 and p3
         r = refine(data, start, model="motor-disk", free=("p2", "p3", "rho"), outputs=("q4",))
     assert any("rank deficient" in w for w in r.warnings)
-    k = r.free.index("rho")
-    assert not math.isfinite(r.parameters["rho"].stderr) or r.parameters["rho"].stderr > 10 * r.params.rho or \
-        not np.isfinite(r.covariance[k, k])
+    # the null direction involves p2, p3 and rho: none of them has a finite variance
+    for name in ("p2", "p3", "rho"):
+        k = r.free.index(name)
+        assert math.isnan(r.parameters[name].stderr), name
+        assert np.isnan(r.covariance[k, k]), name
 
 
 def test_initial_state_only(free_log, rig):
@@ -290,12 +291,13 @@ def test_unknown_setup():
 # the compiled simulator and its sensitivities
 # ---------------------------------------------------------------------------
 def test_kernel_matches_the_dop853_simulator(rig):
-    """RK4 on the 5 ms grid against simulate() at rtol = atol = 1e-12 over the 60 s free decay."""
+    """The refinement's runs (sensitivity kernel at its tolerance 1e-8) against simulate() at 1e-12, 60 s free decay."""
     truth = rig.truth.lumped
     t = np.arange(12001) * 0.005
     x0 = [-1.422, 0.0, 0.0, 0.0]
     for model in ("free", "free-nowheel"):
-        X, _ = simulate_with_sensitivities(truth, t, model=model, x0=x0)
+        X = simulate_sensitivities(Plant(truth, model=model), t_eval=t, x0=x0, wrt=("p1",), wrt_x0=(0, 2),
+                                   rtol=1e-8, atol=1e-8).x
         m, p = simulation_equivalent(model, truth)
         ref = simulate(p, model=m, x0=x0, t_end=60.0, rtol=1e-12, atol=1e-12)
         assert np.max(np.abs(X[:, 0] - ref.x[:, 0])) < 1e-6  # rad (the encoder step is 3.1e-3 rad)
@@ -303,7 +305,8 @@ def test_kernel_matches_the_dop853_simulator(rig):
     # with an input replayed on a zero-order hold, model (9)
     rng = np.random.default_rng(0)
     u = 40.0 * np.sin(5.0 * t[:2001]) + rng.normal(0, 5.0, 2001)
-    X, _ = simulate_with_sensitivities(table1(), t[:2001], model="compensated", x0=[0.2, 0, 0, 0], input=u)
+    X = simulate_sensitivities(Plant(table1()), t_eval=t[:2001], x0=[0.2, 0, 0, 0], input=Sampled(u, 0.005),
+                               wrt=("p3",), rtol=1e-8, atol=1e-8).x
     ref = simulate(table1(), model="compensated", x0=[0.2, 0, 0, 0], t_end=10.0, input=Sampled(u, 0.005),
                    rtol=1e-12, atol=1e-12)
     assert np.max(np.abs(X[:, 0] - ref.x[:, 0])) < 1e-6
@@ -341,7 +344,9 @@ def test_sensitivities_match_finite_differences_of_simulate(model, wrt, with_inp
     t = np.arange(1001) * 0.005
     u = 30.0 * np.sin(4.0 * t) if with_input else None
     x0 = [-1.2, 0.0, 0.5, 0.0] if model == "free" else [0.8, 0.0, -0.5, 3.0]
-    X, S = simulate_with_sensitivities(p, t, model=model, x0=x0, input=u, wrt=wrt)
+    r = simulate_sensitivities(Plant(p, model=model), t_eval=t, x0=x0, input=None if u is None else Sampled(u, 0.005),
+                               wrt=wrt, wrt_x0=(0, 1, 2, 3), rtol=1e-10, atol=1e-10)
+    S = r.S
     names = list(wrt) + ["x00", "x01", "x02", "x03"]
     states = (0, 2) if model == "free" else (0, 1, 2, 3)
     for j, name in enumerate(names):

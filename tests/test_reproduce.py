@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import time
@@ -11,8 +12,8 @@ import pytest
 
 from iwp import reproduce as R
 from iwp.cli import main
-from iwp.params import load_params
-from iwp.report import prepare_output_dir
+from iwp.models import load_params
+from iwp.report import PLOT_POINTS, decimate, prepare_output_dir
 from iwp.rig import default_truth
 
 EXPECTED_FIGURES = {
@@ -38,7 +39,7 @@ def quick_run(tmp_path_factory):
 
 
 def _quick_run(tmp_path_factory) -> dict:
-    import iwp.report as report_mod
+    import iwp.reproduce.context as report_mod  # where the pipeline saves its figures
 
     out = tmp_path_factory.mktemp("reproduce") / "out"
     figures = {}
@@ -67,7 +68,7 @@ def test_every_step_completes(quick_run):
     res = quick_run["result"]
     bad = [(s.name, s.message, s.detail) for s in res.steps if s.status != "ok"]
     assert not bad, bad
-    assert [s.name for s in res.steps] == [name for name, *_ in R.STEPS]
+    assert [s.name for s in res.steps] == [s.name for s in R.STEPS]
     assert res.ok
 
 
@@ -75,7 +76,7 @@ def test_progress_reports_each_step_in_order(quick_run):
     ev = quick_run["events"]
     starts = [e.step for e in ev if e.kind == "start"]
     dones = [e.step for e in ev if e.kind == "done"]
-    assert starts == dones == [name for name, *_ in R.STEPS]
+    assert starts == dones == [s.name for s in R.STEPS]
     assert all(e.total == len(R.STEPS) for e in ev if e.kind in ("start", "done"))
 
 
@@ -98,7 +99,7 @@ def test_svg_files_stay_small(quick_run):
 
 
 def test_logs_read_back(quick_run):
-    from iwp.io import read_experiment, read_static_curve
+    from iwp.data import read_experiment, read_static_curve
 
     out = quick_run["out"] / "data"
     curve = read_static_curve(out / "static-curve.csv")
@@ -130,7 +131,7 @@ def test_parameters_json_loads_and_matches_truth(quick_run):
 def test_statements_all_checked_with_numbers(quick_run):
     res = quick_run["result"]
     st = res.statements
-    assert len(st) == len(R._STATEMENTS)
+    assert len(st) == len(R.STATEMENTS)
     assert all(s.passed is not None for s in st), [(s.key, s.found) for s in st if s.passed is None]
     assert all(re.search(r"\d", s.found) for s in st)
     by = {s.key: s for s in st}
@@ -161,7 +162,7 @@ def test_report_page_self_contained(quick_run):
     assert "<link" not in text
     for title in ("virtual-rig truth", "least squares", "refined", "Table 1"):
         assert title in text
-    assert text.count('class="pass"') + text.count('class="fail"') == len(R._STATEMENTS)
+    assert text.count('class="pass"') + text.count('class="fail"') == len(R.STATEMENTS)
 
 
 # --------------------------------------------------------------------------
@@ -205,7 +206,7 @@ def test_comparison_figures_artists(quick_run, name, panels, signal):
         assert eax.get_ylabel().startswith("error e")
         labels = [ln.get_label() for ln in ax.get_lines()]
         assert labels[0].startswith("experimental data")
-        assert len(ax.get_lines()[0].get_xdata()) <= R.PLOT_POINTS + 2  # decimated in the pipeline
+        assert len(ax.get_lines()[0].get_xdata()) <= PLOT_POINTS + 2  # decimated in the pipeline
 
 
 def test_refine_figure_artists(quick_run):
@@ -217,7 +218,7 @@ def test_refine_figure_artists(quick_run):
 
 
 def test_plot_functions_compute_nothing():
-    from iwp.plotting_report import plot_comparison_panel, plot_comparisons, plot_errors, plot_static_curve
+    from iwp.plotting.report import plot_comparison_panel, plot_comparisons, plot_errors, plot_static_curve
 
     t = np.linspace(0, 1, 11)
     r = plot_comparison_panel((t, t), [(t, t + 1, "a"), (t, t + 2, "b")], [(t, -np.ones(11), "ea")],
@@ -238,11 +239,11 @@ def test_plot_functions_compute_nothing():
 def test_decimate_keeps_the_envelope():
     t = np.linspace(0, 300, 60001)
     y = np.sin(7 * t) * (1 + t / 100)
-    td, yd = R.decimate(t, y, 3000)
+    td, yd = decimate(t, y, 3000)
     assert td.size <= 3002 and np.all(np.diff(td) > 0)
     assert yd.max() == y.max() and yd.min() == y.min()
     assert td[0] == t[0] and td[-1] == t[-1]
-    t2, y2 = R.decimate(t[:100], y[:100], 3000)
+    t2, y2 = decimate(t[:100], y[:100], 3000)
     np.testing.assert_array_equal(t2, t[:100])
     np.testing.assert_array_equal(y2, y[:100])
 
@@ -288,12 +289,20 @@ def _boom(ctx):
     raise RuntimeError("simulated failure")
 
 
+def _patch_step(monkeypatch, name, run):
+    """Replace what step ``name`` runs (for the duration of a test)."""
+    import iwp.reproduce.pipeline as pipeline
+
+    steps = [dataclasses.replace(s, run=run) if s.name == name else s for s in pipeline.STEPS]
+    monkeypatch.setattr(pipeline, "STEPS", steps)
+
+
 def test_failed_step_named_and_completed_parts_kept(tmp_path, monkeypatch, capsys):
     """A failure in one step: named on stderr, exit 1, what was done is kept, the others run."""
-    monkeypatch.setattr(R, "step_free_pendulum", _boom)
+    _patch_step(monkeypatch, "free-pendulum", _boom)
     # keep the run short: these steps are exercised by the full reduced run above
-    for name in ("step_sines", "step_coulomb", "step_full_setup"):
-        monkeypatch.setattr(R, name, lambda ctx: "skipped in this test")
+    for name in ("sines", "coulomb", "full-setup"):
+        _patch_step(monkeypatch, name, lambda ctx: "skipped in this test")
     out = tmp_path / "out"
     status = main(["reproduce", "--out", str(out), "--quick"])
     captured = capsys.readouterr()
@@ -319,7 +328,7 @@ def test_failed_step_named_and_completed_parts_kept(tmp_path, monkeypatch, capsy
 
 
 def test_stop_on_error(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(R, "step_motor_disk", _boom)
+    _patch_step(monkeypatch, "motor-disk", _boom)
     out = tmp_path / "out"
     assert main(["reproduce", "--out", str(out), "--quick", "--stop-on-error"]) == 1
     assert "step 'motor-disk' failed" in capsys.readouterr().err

@@ -10,9 +10,9 @@ import pytest
 from scipy.special import ellipk
 
 import iwp.cli
-from iwp import io
+from iwp.data import read_experiment, read_static_curve
 from iwp.errors import InputError, OutputExistsError
-from iwp.inputs import HopfController
+from iwp.models import Plant
 from iwp.rig import (
     EXPERIMENTS,
     RigTruth,
@@ -23,7 +23,7 @@ from iwp.rig import (
     rigid_fit_error,
     write_result,
 )
-from iwp.simulate import simulate
+from iwp.sim import HopfController, simulate
 
 STEP = 2 * math.pi / 2000
 
@@ -245,8 +245,8 @@ def test_closed_loop_reaches_the_paper_amplitude(rig):
     # by the residual dead zone (+-2 of 31), the belt and the estimated velocity, each
     # worth a few per cent of the amplitude: allow 5 %.
     lp = rig.truth.lumped
-    ref = simulate(lp, model="compensated", x0=[0.3, 0, 0, 0], t_end=60.0, input=HopfController(-10, 0.1, Ts=0.005),
-                   coulomb_eps=rig.truth.coulomb_eps, rtol=1e-8, atol=1e-8)
+    ref = simulate(Plant(lp, model="compensated", coulomb_eps=rig.truth.coulomb_eps), x0=[0.3, 0, 0, 0], t_end=60.0,
+                   input=HopfController(-10, 0.1, Ts=0.005), rtol=1e-8, atol=1e-8)
     amp_ref = np.max(np.abs(ref.q1[ref.t > 50]))
     assert amp == pytest.approx(amp_ref, rel=0.05)
     # the controller sees quantised positions: its output takes few distinct values when q1 rests
@@ -267,7 +267,7 @@ def test_rigid_model_fits_large_sinusoids_better_than_small():
 def test_round_trip_of_every_experiment_csv(tmp_path, short_logs):
     for name, log in short_logs.items():
         path = write_result(log, tmp_path / f"{name}.csv")
-        back = io.read_experiment(path)
+        back = read_experiment(path)
         _assert_same(log, back)
 
 
@@ -276,14 +276,14 @@ def test_round_trip_other_formats(tmp_path, short_logs, ext):
     if ext == "parquet":
         pytest.importorskip("pyarrow")
     log = short_logs["closed-loop"]
-    back = io.read_experiment(write_result(log, tmp_path / f"cl.{ext}"))
+    back = read_experiment(write_result(log, tmp_path / f"cl.{ext}"))
     for k, v in log.as_columns().items():
         assert np.array_equal(v, back.as_columns()[k]), k
 
 
 def test_round_trip_static_curves(tmp_path, static_curves):
     for curve in static_curves:
-        back = io.read_static_curve(write_result(curve, tmp_path / f"{curve.metadata['experiment']}.csv"))
+        back = read_static_curve(write_result(curve, tmp_path / f"{curve.metadata['experiment']}.csv"))
         assert back.input_name == curve.input_name
         assert np.array_equal(back.input, curve.input) and np.array_equal(back.q4, curve.q4)
         assert back.metadata == curve.metadata
@@ -393,7 +393,7 @@ def test_cli_run_writes_a_readable_file_and_refuses_overwrite(cli, capsys, tmp_p
     assert cli(["rig", "run", "sine-20", "--out", str(out), "--duration", "2", "--seed", "3", "--noise",
                 "0.001"]) == 0
     assert "wrote" in capsys.readouterr().out
-    log = io.read_experiment(out)
+    log = read_experiment(out)
     assert log.n_samples == 401 and log.metadata["seed"] == "3" and log.metadata["noise_std"] == "0.001"
     _assert_same(log, VirtualRig(seed=3).run("sine-20", duration=2.0, noise_std=0.001))
     before = out.read_bytes()
@@ -402,16 +402,16 @@ def test_cli_run_writes_a_readable_file_and_refuses_overwrite(cli, capsys, tmp_p
     assert err.count("\n") == 1 and "--force" in err
     assert out.read_bytes() == before
     assert cli(["rig", "run", "sine-20", "--out", str(out), "--duration", "1", "--force"]) == 0
-    assert io.read_experiment(out).n_samples == 201
+    assert read_experiment(out).n_samples == 201
     # static curve and closed loop options
     sc = tmp_path / "sc.csv"
     assert cli(["rig", "run", "static-curve-compensated", "--out", str(sc), "--amplitude", "20", "--step", "10",
                 "--duration", "3"]) == 0
-    assert io.read_static_curve(sc).input.tolist() == [-20, -10, 0, 10, 20]
+    assert read_static_curve(sc).input.tolist() == [-20, -10, 0, 10, 20]
     cl = tmp_path / "cl.csv"
     assert cli(["rig", "run", "closed-loop", "--out", str(cl), "--duration", "1", "--k1", "-5", "--k2", "0.2",
                 "--x0", "0.5"]) == 0
-    assert io.read_experiment(cl).metadata["k1"] == "-5.0"
+    assert read_experiment(cl).metadata["k1"] == "-5.0"
 
 
 @pytest.mark.parametrize(
@@ -460,6 +460,6 @@ def test_cli_truth_writes_the_default_for_editing(cli, capsys, tmp_path):
     p.write_text(json.dumps(doc))
     out = tmp_path / "raw.csv"
     assert cli(["rig", "run", "static-curve", "--truth", str(p), "--out", str(out), "--step", "5"]) == 0
-    curve = io.read_static_curve(out)
+    curve = read_static_curve(out)
     neg, pos = _band(curve)
     assert pos > 1.15 * 40.0  # the edited threshold moved the dead band

@@ -5,10 +5,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from iwp.errors import InputError, SimulationError
-from iwp.inputs import CallableController, Chirp, HopfController, Sampled, Sine, Step
-from iwp.models import energy
-from iwp.params import BeltParameters, PhysicalParameters, table1
-from iwp.simulate import simulate, simulate_batch, simulate_scipy
+from iwp.models import BeltParameters, PhysicalParameters, Plant, energy, table1
+from iwp.sim import simulate, simulate_batch, simulate_scipy
+from iwp.sim.inputs import CallableController, Chirp, HopfController, Sampled, Sine, Step
 
 FRICTIONLESS = table1().replace(p2=0.0, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0)
 
@@ -151,8 +150,8 @@ def test_raw_with_feedforward_equals_compensated():
 def test_belt_rigid_limit_matches_locked_rigid_model():
     p = table1()
     stiff = BeltParameters.from_rigid(p.p2 * p.rho, p.p3 * p.rho, k_over_I2=4e5, d=0.0, b2_over_I2=0.5)
-    a = simulate(p, model="belt", belt=stiff, input=Sine(40.0, 5.0), t_end=5.0, rtol=1e-9, atol=1e-9)
-    b = simulate(p, model="compensated", locked=True, input=Sine(40.0, 5.0), t_end=5.0)
+    a = simulate(Plant(p, model="belt", belt=stiff), input=Sine(40.0, 5.0), t_end=5.0, rtol=1e-9, atol=1e-9)
+    b = simulate(Plant(p, locked=True), input=Sine(40.0, 5.0), t_end=5.0)
     assert np.max(np.abs(a.q4 - b.q4)) < 0.02 * np.max(np.abs(b.q4))
 
 
@@ -161,8 +160,8 @@ def test_belt_play_distorts_small_inputs_more():
     belt = BeltParameters.from_rigid(p.p2 * p.rho, p.p3 * p.rho, k_over_I2=60.0, d=2.0, b2_over_I2=0.5)
     rel = []
     for A in (60.0, 20.0):
-        a = simulate(p, model="belt", belt=belt, input=Sine(A, 5.0), t_end=20.0, rtol=1e-8, atol=1e-8)
-        b = simulate(p, model="compensated", locked=True, input=Sine(A, 5.0), t_end=20.0)
+        a = simulate(Plant(p, model="belt", belt=belt), input=Sine(A, 5.0), t_end=20.0, rtol=1e-8, atol=1e-8)
+        b = simulate(Plant(p, locked=True), input=Sine(A, 5.0), t_end=20.0)
         late = a.t > 10
         rel.append(np.linalg.norm(a.q4[late] - b.q4[late]) / np.linalg.norm(b.q4[late]))
     assert rel[1] > rel[0]
@@ -174,7 +173,7 @@ def test_batch_equals_single_runs():
     assert np.all(br.success)
     for i, g in enumerate(gains):
         r = simulate(table1(), input=g, x0=[0.1, 0, 0, 0], t_end=20.0, t_eval=np.linspace(0, 20, 201))
-        # the batch runs side by side (iwp._lanes): the same steps, sums that
+        # the batch runs side by side (iwp.sim.lanes): the same steps, sums that
         # the compiler may order differently, so equal up to rounding
         np.testing.assert_allclose(br.x[i], r.x, rtol=0, atol=1e-9)
         np.testing.assert_allclose(br.u[i], r.u, rtol=0, atol=1e-9)
@@ -248,7 +247,7 @@ def test_divergence_is_reported():
         (dict(t_end=1.0, x0=[0, 0, 0]), "x0 must have 4 values"),
         (dict(t_end=1.0, x0=[0, 0, float("nan"), 0]), "x0 must be finite"),
         (dict(t_end=1.0, model="nope"), "unknown model 'nope'"),
-        (dict(t_end=1.0, input="sine"), "input must be an iwp.inputs"),
+        (dict(t_end=1.0, input="sine"), "input must be an iwp.sim.inputs"),
     ],
 )
 def test_bad_arguments_name_the_argument(kw, match):
@@ -312,7 +311,7 @@ def test_continuous_inputs_are_evaluated_on_demand_from_t_and_x():
 
 
 def test_generated_dop853_module_is_current():
-    """src/iwp/_dop853.py is the output of tools/gen_dop853.py for scipy's tables."""
+    """src/iwp/sim/dop853.py is the output of tools/gen_dop853.py for scipy's tables."""
     import importlib.util
     from pathlib import Path
 
@@ -323,6 +322,6 @@ def test_generated_dop853_module_is_current():
     spec = importlib.util.spec_from_file_location("gen_dop853", gen)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    import iwp._dop853
+    import iwp.sim.dop853
 
-    assert Path(iwp._dop853.__file__).read_text() == mod.source()
+    assert Path(iwp.sim.dop853.__file__).read_text() == mod.source()

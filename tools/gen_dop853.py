@@ -1,4 +1,4 @@
-"""Generate ``src/iwp/_dop853.py``: the DOP853 linear combinations written out.
+"""Generate ``src/iwp/sim/dop853.py``: the DOP853 linear combinations written out.
 
 The Runge-Kutta stages of DOP853 combine earlier stages with the sparse rows
 of its Butcher tableau. Written as explicit sums over the non-zero
@@ -17,7 +17,7 @@ from pathlib import Path
 
 from scipy.integrate._ivp import dop853_coefficients as dc
 
-OUT = Path(__file__).resolve().parents[1] / "src" / "iwp" / "_dop853.py"
+OUT = Path(__file__).resolve().parents[1] / "src" / "iwp" / "sim" / "dop853.py"
 
 
 def _sum(coefs, name, indent, idx="i"):
@@ -42,9 +42,8 @@ def source() -> str:
     w("")
     w("import math")
     w("")
-    w("from numba import njit")
+    w("from ..jit import jit")
     w("")
-    w('_FM = {"contract", "reassoc", "nsz", "arcp"}')
     w(f"N_STAGES = {ns}")
     w("C = (")
     cs = [repr(float(c)) for c in C]
@@ -53,7 +52,7 @@ def source() -> str:
     w(")")
     w("")
     w("")
-    w('@njit(cache=True, fastmath=_FM, inline="always")')
+    w("@jit")
     w("def stage_input(s, y, h, K, ytmp, n):")
     w('    """``ytmp = y + h sum_j A[s, j] K[j]`` for stage ``s`` (1 <= s <= 15)."""')
     first = True
@@ -64,7 +63,7 @@ def source() -> str:
         w(f"            ytmp[i] = y[i] + h * ({_sum(A[s, :s], 'K', 33)})")
     w("")
     w("")
-    w('@njit(cache=True, fastmath=_FM, inline="always")')
+    w("@jit")
     w("def error_norm(K, h, y, y_new, rtol, atol, n):")
     w('    """Hairer\'s combined 5th/3rd-order error estimate of a step, as scipy\'s DOP853."""')
     w("    e5 = 0.0")
@@ -80,9 +79,9 @@ def source() -> str:
     w("    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)")
     w("")
     w("")
-    w('@njit(cache=True, fastmath=_FM, inline="always")')
+    w("@jit(inline=True)")
     w("def stage_input_lanes(s, Y, H, K, YT, n, L):")
-    w('    """:func:`stage_input` for L simulations side by side (:mod:`iwp._lanes`).')
+    w('    """:func:`stage_input` for L simulations side by side (:mod:`iwp.sim.lanes`).')
     w("")
     w("    Column ``l`` of Y, YT and of each ``K[j]`` (shape (16, n, L)) is simulation")
     w("    ``l``, with step ``H[l]``; the loop over lanes is the one the compiler vectorises.")
@@ -96,7 +95,7 @@ def source() -> str:
         w(f"                YT[i, l] = Y[i, l] + H[l] * ({_sum(A[s, :s], 'K', 37, 'i, l')})")
     w("")
     w("")
-    w("@njit(cache=True, fastmath=_FM)")
+    w("@jit")
     w("def error_norm_lanes(K, H, Y, Y_new, rtol, atol, n, L, ERR):")
     w('    """:func:`error_norm` of L simulations side by side, into ``ERR[l]``."""')
     w("    for l in range(L):")
@@ -114,7 +113,7 @@ def source() -> str:
     w("            ERR[l] = abs(H[l]) * e5 / math.sqrt((e5 + 0.01 * e3) * n)")
     w("")
     w("")
-    w('@njit(cache=True, fastmath=_FM, inline="always")')
+    w("@jit")
     w("def dense_coefficients(K, h, y, y_new, F, n):")
     w('    """Coefficients F (7, n) of the 7th-order interpolant.')
     w("")
@@ -129,7 +128,7 @@ def source() -> str:
         w(f"        F[{3 + r}, i] = h * ({_sum(D[r], 'K', 23)})")
     w("")
     w("")
-    w('@njit(cache=True, fastmath=_FM, inline="always")')
+    w("@jit")
     w("def dense_eval(F, y, theta, out, n):")
     w('    """The interpolant at ``t + theta h`` (0 <= theta <= 1) into ``out``."""')
     w("    a = theta")
@@ -139,7 +138,7 @@ def source() -> str:
     w("                                + b * (F[5, i] + a * F[6, i]))))))")
     w("")
     w("")
-    w('@njit(cache=True, fastmath=_FM, inline="always")')
+    w("@jit")
     w("def dense_eval_row(F, y, theta, X, j, n):")
     w('    """The interpolant at ``t + theta h`` into row ``j`` of ``X``."""')
     w("    a = theta")

@@ -4,8 +4,7 @@
 that ``gymnasium.make("iwp/InertiaWheelPendulum-v0", **options)`` builds it.
 Without the import, ``gymnasium.make("iwp.gym_env:iwp/InertiaWheelPendulum-v0")``
 imports the module itself (Gymnasium >= 1.0 no longer loads plugin entry
-points; the ``gymnasium.envs`` entry point of the package still serves
-older versions).
+points).
 
 The plant is the identified model of the paper: the compensated model (9)
 by default, or the raw model (6) with a dead zone compensated by the
@@ -13,7 +12,10 @@ feedforward (7)-(8) (``dead_zone=``); the angles can be quantised like the
 rig's encoders (``counts_per_rev=2000``), the velocities are then backward
 differences of the quantised angles over one sample, as on the rig. The
 controller runs every ``Ts`` (5 ms) with the action held (zero-order hold);
-the right-hand side is the compiled one of :mod:`iwp.models`.
+one sample is one held segment of the integration engine of :mod:`iwp.sim`
+(:func:`iwp.sim.simulate.integrate_held`, adaptive DOP853) on the compiled
+right-hand side of :mod:`iwp.models`, so a rollout of the environment is
+the simulation :func:`iwp.sim.simulate` does with the same held input.
 
 Task: swing up from the bottom and balance at the upright (``q1 = pi``).
 
@@ -37,10 +39,12 @@ try:
 except ImportError as exc:  # pragma: no cover - exercised only without the extra
     raise ImportError("iwp.gym_env needs gymnasium: pip install 'iwp[gym]'") from exc
 
-from .control import _predict
 from .errors import InputError
-from .models import MODELS, pack
-from .params import LumpedParameters, PhysicalParameters, load_params
+from .models import LumpedParameters, PhysicalParameters, Plant, load_params
+from .models.actuator import command_vector
+from .models.encoder import encoder_step, quantize
+from .sim.engine import ST_OK
+from .sim.simulate import integrate_held, tolerances
 
 __all__ = ["ENV_ID", "InertiaWheelPendulumEnv", "register_envs"]
 
@@ -49,6 +53,9 @@ ENV_ID = "iwp/InertiaWheelPendulum-v0"
 _RANDOMISED = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1")
 _Q3_MAX = 40.0  # [rad/s]
 _Q4_MAX = 600.0  # [rad/s]
+#: Integration tolerances of one sample (relative, absolute [rad, rad/s]).
+RTOL = 1e-9
+ATOL = 1e-9
 
 
 class InertiaWheelPendulumEnv(gym.Env):
@@ -83,7 +90,9 @@ class InertiaWheelPendulumEnv(gym.Env):
     reward_weights : (float, float, float, float)
         Weights of ``theta^2, q3^2, (q4/100)^2, a^2``.
     substeps : int
-        RK4 steps per control period.
+        At least this many integration steps per control period: the
+        largest step of the adaptive integrator is ``Ts / substeps``
+        (its error control, ``rtol = atol = 1e-9``, may take more).
     render_mode : str, optional
         ``"rgb_array"``.
     """
@@ -122,7 +131,7 @@ class InertiaWheelPendulumEnv(gym.Env):
         self._comp = comp
         if int(counts_per_rev) != counts_per_rev or counts_per_rev < 0:
             raise InputError(f"counts_per_rev must be a non-negative integer, got {counts_per_rev!r}")
-        self.quantum = 2 * math.pi / counts_per_rev if counts_per_rev else 0.0
+        self.quantum = encoder_step(counts_per_rev) if counts_per_rev else 0.0
         if not (Ts > 0 and math.isfinite(Ts)):
             raise InputError(f"Ts must be > 0, got {Ts!r}")
         if not (u_max > 0 and math.isfinite(u_max)):
@@ -147,6 +156,10 @@ class InertiaWheelPendulumEnv(gym.Env):
         high = np.array([1.0, 1.0, _Q3_MAX, _Q4_MAX], dtype=np.float32)
         self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(1,), dtype=np.float32)
+        self._tol = tolerances(4, RTOL, ATOL, max_step=self.Ts / self.substeps)
+        # the feedforward (7)-(8) with the compensator's thresholds, when the plant has a dead zone
+        self._command_params = command_vector(None if self._dz is None else self._comp)
+        self._h = -1.0  # the integrator's step size, carried from one sample to the next
         self.params = params
         self._set_plant(params)
         self.state = np.zeros(4)
@@ -155,16 +168,17 @@ class InertiaWheelPendulumEnv(gym.Env):
 
     # ------------------------------------------------------------------
     def _set_plant(self, params: LumpedParameters) -> None:
+        """The plant: model (6) with the dead zone (5) of ``self._dz``, or model (9)."""
         if self._dz is not None:
             params = params.replace(v_dz_pos=self._dz[0], v_dz_neg=self._dz[1])
-            self._code, self._P = pack("raw", params)
+            self.plant = Plant(params, model="raw")
         else:
-            self._code, self._P = pack("compensated", params)
+            self.plant = Plant(params, model="compensated")
         self.params = params
 
     def _measure(self, x) -> np.ndarray:
-        q = x[:2]
-        return q if self.quantum == 0 else np.round(q / self.quantum) * self.quantum
+        """The encoder readings of ``q1, q2`` (exact when ``counts_per_rev`` is 0)."""
+        return quantize(x[:2], self.quantum)
 
     def _obs(self, meas, prev) -> np.ndarray:
         if self.quantum == 0:
@@ -175,11 +189,6 @@ class InertiaWheelPendulumEnv(gym.Env):
         o[2] = min(max(o[2], -_Q3_MAX), _Q3_MAX)
         o[3] = min(max(o[3], -_Q4_MAX), _Q4_MAX)
         return o.astype(np.float32)
-
-    def _command(self, u: float) -> float:
-        if self._dz is None or u == 0.0:
-            return u
-        return u + self._comp[0] if u > 0 else u - self._comp[1]
 
     # ------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -195,7 +204,7 @@ class InertiaWheelPendulumEnv(gym.Env):
             r = self.randomize
             pr = self.params.replace(v_dz_pos=self._dz[0] * float(rng.uniform(1 - r, 1 + r)),
                                      v_dz_neg=self._dz[1] * float(rng.uniform(1 - r, 1 + r)))
-            self._code, self._P = pack("raw", pr)
+            self.plant = Plant(pr, model="raw")
             self.params = pr
         x0 = None if options is None else options.get("x0")
         if x0 is not None:
@@ -209,6 +218,7 @@ class InertiaWheelPendulumEnv(gym.Env):
         else:
             x = np.array([rng.uniform(-math.pi, math.pi), 0.0, rng.uniform(-2.0, 2.0), rng.uniform(-20.0, 20.0)])
         self.state = x
+        self._h = -1.0
         meas = self._measure(x)
         # a virtual previous sample consistent with the initial velocities
         self._prev_meas = self._measure(x - self.Ts * np.array([x[2], x[3], 0.0, 0.0]))
@@ -219,11 +229,13 @@ class InertiaWheelPendulumEnv(gym.Env):
     def step(self, action):
         a = float(np.clip(np.asarray(action, dtype=float).reshape(-1)[0], -1.0, 1.0))
         u = self.u_max * a
-        w = self._command(u)
         x = self.state.copy()
-        _predict(self._code, self._P, x, w, self.Ts, self.substeps)
+        # u held over one sample; the command is the feedforward (7)-(8) of u (dead zone on)
+        stats = integrate_held(self.plant, x, 0.0, self.Ts, u, command_params=self._command_params, tol=self._tol,
+                               h0=self._h)
+        self._h = stats.h_next
         self.state = x
-        terminated = not bool(np.all(np.isfinite(x)))
+        terminated = stats.status != ST_OK or not bool(np.all(np.isfinite(x)))
         if terminated:
             self.state = np.nan_to_num(x)
         meas = self._measure(self.state)

@@ -25,7 +25,7 @@ def add_force_arg(p: argparse.ArgumentParser) -> None:
 
 
 def load_lumped(spec: str):
-    from ..params import LumpedParameters, PhysicalParameters, load_params
+    from ..models.parameters import LumpedParameters, PhysicalParameters, load_params
 
     params = load_params(spec)
     if isinstance(params, PhysicalParameters):

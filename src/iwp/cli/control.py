@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from ..errors import InputError
 from ._common import add_force_arg, add_params_arg, float_list, load_lumped
 
 _SWINGUP_DESCRIPTION = """\
@@ -51,11 +52,9 @@ def register(sub) -> None:
 
 
 def run_swingup(args) -> int:
-    from .._util import prepare_output_file
     from ..control import RigConditions, swing_up
+    from ..files import prepare_output_file
     from ..plotting import savefig
-
-    from ..errors import InputError
 
     params = load_lumped(args.params)
     if len(args.x0) != 4:

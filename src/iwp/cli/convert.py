@@ -133,9 +133,9 @@ def _reader_options(args, fmt: str) -> dict:
 
 
 def run(args) -> int:
-    from .. import io
+    from .. import data as io
 
-    fmt = args.from_format or io._format_of(args.input, io._READERS, "input")
+    fmt = args.from_format or io.format_of(args.input)
     opts = _reader_options(args, fmt)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

@@ -67,8 +67,8 @@ def register(sub) -> None:
 
 
 def run_hopf(args) -> int:
-    from .._util import prepare_output_file
     from ..control import design_hopf, simulated_amplitude
+    from ..files import prepare_output_file
 
     params = load_lumped(args.params)
     if args.plot is not None:
@@ -111,8 +111,8 @@ def run_hopf(args) -> int:
 def run_branch(args) -> int:
     import numpy as np
 
-    from .._util import prepare_output_file
     from ..control import continue_hopf, simulated_amplitude
+    from ..files import prepare_output_file
 
     params = load_lumped(args.params)
     for path in (args.out, args.plot):

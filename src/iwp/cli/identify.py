@@ -23,12 +23,13 @@ from ._common import add_force_arg
 
 
 def register(sub) -> None:
-    from ..identify import SETUPS
+    from ..ident.identification import SETUPS
 
     p = sub.add_parser(
         "identify", help="identify parameters from logs (least squares of section 5, with uncertainty)",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("files", nargs="+", metavar="FILE", help="log(s) of one set-up (stacked); a static curve for dead-zone")
+    p.add_argument("files", nargs="+", metavar="FILE",
+                   help="log(s) of one set-up (stacked); a static curve for dead-zone")
     p.add_argument("--setup", required=True, choices=SETUPS, help="identification set-up (paper's numbering)")
     p.add_argument("--pendulum", metavar="FREE.json",
                    help="two-step: the free-pendulum result (--json output or --out file of --setup free) "
@@ -58,7 +59,7 @@ def register(sub) -> None:
 
 
 def _differentiator(args):
-    from ..differentiate import Differentiator
+    from ..ident.differentiate import Differentiator
 
     settings = {k: getattr(args, k) for k in ("window", "polyorder", "cutoff", "order") if getattr(args, k) is not None}
     if args.method is None and not settings:
@@ -74,8 +75,8 @@ def _differentiator(args):
 
 def _load_series(path: str):
     """A time-series log; a static curve gets a clear message."""
+    from ..data import read_experiment, read_static_curve
     from ..errors import DataFormatError
-    from ..io import read_experiment, read_static_curve
 
     try:
         return read_experiment(path)
@@ -89,8 +90,8 @@ def _load_series(path: str):
 
 
 def _load_curve(path: str):
+    from ..data import read_experiment, read_static_curve
     from ..errors import DataFormatError
-    from ..io import read_experiment, read_static_curve
 
     try:
         return read_static_curve(path)
@@ -110,7 +111,7 @@ def _p2(spec: str | None):
         return float(spec)
     except ValueError:
         pass
-    from ..identify import load_pendulum
+    from ..ident.identification import load_pendulum
 
     obj = load_pendulum(spec)
     if hasattr(obj, "parameters") and "p2" not in obj.parameters:
@@ -119,8 +120,8 @@ def _p2(spec: str | None):
 
 
 def run(args) -> int:
-    from ..identify import identify, load_pendulum
-    from ..params import save_params
+    from ..ident.identification import identify, load_pendulum
+    from ..models.parameters import save_params
     from ._common import load_lumped
 
     if args.pendulum is not None and args.setup != "two-step":
@@ -132,7 +133,7 @@ def run(args) -> int:
     base = load_lumped(args.base) if args.base is not None else None
     out_path = None
     if args.out is not None:
-        from .._util import prepare_output_file
+        from ..files import prepare_output_file
 
         out_path = prepare_output_file(args.out, force=args.force)
     pendulum = load_pendulum(args.pendulum) if args.pendulum is not None else None
@@ -150,7 +151,7 @@ def run(args) -> int:
     res = identify(data if len(data) > 1 else data[0], args.setup, pendulum=pendulum, p2=p2, **kw)
 
     if args.refine:
-        from ..refine import refine_identification
+        from ..ident.refinement import refine_identification
 
         r = refine_identification(args.setup, data, res.to_params(base), t_start=args.t_start, t_end=args.t_end)
         if args.json:

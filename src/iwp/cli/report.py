@@ -28,7 +28,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..report import report_logs
+    from ..report.logs import report_logs
 
     params = load_lumped(args.params)
     res = report_logs(args.files, params, args.out, force=args.force, progress=lambda m: print(m, flush=True),

@@ -42,7 +42,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..api_cli import simulate_command
+    from ..sim.tasks import simulate_command
 
     out = simulate_command(
         params=load_lumped(args.params),

@@ -83,12 +83,12 @@ def _looks_like_angle_log(path: str) -> bool:
 
 
 def run(args) -> int:
-    from .._util import prepare_output_file
+    from ..data import read_experiment
     from ..errors import DataFormatError, InputError
-    from ..inputs import HopfController
-    from ..io import read_experiment
+    from ..files import prepare_output_file
+    from ..ident.validation import auto_model, validate
     from ..plotting import savefig
-    from ..validate import auto_model, validate
+    from ..sim.inputs import HopfController
     from ._common import load_lumped
 
     if args.plot is not None:

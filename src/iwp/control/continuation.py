@@ -1,0 +1,388 @@
+"""Numerical continuation of the periodic orbits born at the Hopf point (section 5.3).
+
+:func:`continue_hopf` follows the branch of orbits of the closed loop
+``u = k1 q3 + k2 q3^3`` in ``k1`` from the Hopf point (:mod:`.hopf`):
+shooting (:class:`~iwp.control.orbits.OrbitShooter`), phase condition
+``q3(0) = 0`` (the orbit starts at its maximum, so the amplitude ``max q1``
+is an unknown), pseudo-arclength in the (amplitude, gain) plane;
+amplitude, period and Floquet multipliers along the branch, and the changes
+of stability on it. :func:`find_orbit` is the orbit at given gains.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..checks import check_finite, check_positive
+from ..errors import InputError, SimulationError
+from ..models.parameters import LumpedParameters
+from .closed_loop import lumped_parameters
+from .hopf import HopfPoint, hopf_point
+from .orbits import Correction, OrbitShooter, PeriodicOrbit, nontrivial_multipliers
+
+__all__ = ["HopfBranch", "BranchRun", "continue_hopf", "find_orbit", "continue_branch", "hopf_start",
+           "correct_at", "locate_bifurcations"]
+
+
+@dataclass(frozen=True, eq=False)
+class HopfBranch:
+    """The branch of periodic orbits born at the Hopf point, continued in ``k1`` (fixed ``k2``).
+
+    Attributes
+    ----------
+    hopf : HopfPoint
+    k2 : float
+    k1, amplitude, period : ndarray, shape (n,)
+        Gain [input units s/rad], ``max q1`` [rad], period [s] along the branch
+        (the Hopf point itself is the first entry, amplitude 0).
+    floquet : ndarray, shape (n, 3), complex
+        Floquet multipliers (NaN at the Hopf point).
+    stable : ndarray of bool, shape (n,)
+    u_max, q4_max : ndarray, shape (n,)
+        Largest ``|u|`` and ``|q4|`` on each orbit.
+    x0 : ndarray, shape (n, 4)
+        States on the orbits (at ``max q1``).
+    stop_reason : str
+        Why the continuation stopped.
+    n_shots : int
+        Corrector runs (cost).
+    bifurcations : tuple of dict
+        Changes of stability along the branch, located by interpolating the
+        crossing Floquet multiplier: ``{"kind", "k1", "amplitude",
+        "multiplier"}``, ``kind`` one of ``"multiplier +1"`` (fold or, for
+        these symmetric orbits, symmetry breaking), ``"period doubling"``,
+        ``"torus"``.
+    """
+
+    hopf: HopfPoint
+    k2: float
+    k1: np.ndarray
+    amplitude: np.ndarray
+    period: np.ndarray
+    floquet: np.ndarray
+    stable: np.ndarray
+    u_max: np.ndarray
+    q4_max: np.ndarray
+    x0: np.ndarray
+    stop_reason: str
+    n_shots: int = 0
+    bifurcations: tuple = ()
+
+    @property
+    def stable_amplitude_range(self) -> tuple[float, float]:
+        """Amplitudes [rad] of the stable part of the branch that starts at the Hopf point (empty: NaN)."""
+        if not self.stable[1:2].all():
+            return float("nan"), float("nan")
+        i = 1
+        while i + 1 < self.stable.size and self.stable[i + 1]:
+            i += 1
+        return 0.0, float(self.amplitude[i])
+
+    @property
+    def amplitude_range(self) -> tuple[float, float]:
+        """``(0, max amplitude reached)`` [rad]."""
+        return 0.0, float(np.nanmax(self.amplitude))
+
+    def orbit(self, i: int) -> PeriodicOrbit:
+        """The ``i``-th orbit of the branch as a :class:`PeriodicOrbit`."""
+        return PeriodicOrbit(k1=float(self.k1[i]), k2=self.k2, amplitude=float(self.amplitude[i]),
+                             period=float(self.period[i]), x0=self.x0[i].copy(), floquet=self.floquet[i],
+                             stable=bool(self.stable[i]), u_max=float(self.u_max[i]),
+                             q3_max=float("nan"), q4_max=float(self.q4_max[i]), q1_min=-float(self.amplitude[i]))
+
+    def to_dict(self) -> dict:
+        return {"hopf": self.hopf.to_dict(), "k2": self.k2, "k1": self.k1.tolist(),
+                "amplitude": self.amplitude.tolist(), "period": self.period.tolist(),
+                "stable": self.stable.tolist(), "u_max": self.u_max.tolist(), "stop_reason": self.stop_reason,
+                "bifurcations": list(self.bifurcations)}
+
+    def prediction(self, n: int = 60) -> tuple[np.ndarray, np.ndarray]:
+        """The normal-form amplitude over the branch's ``k1`` range: ``(k1, amplitude)`` arrays."""
+        k = np.linspace(self.hopf.k1, self.k1[-1], n)
+        return k, self.hopf.predicted_amplitude(k)
+
+    def plot(self, *, ax=None, simulations=None, design=None, prediction: bool = True, **kw):
+        """Bifurcation diagram; see :func:`iwp.plotting.plot_bifurcation`.
+
+        ``prediction=True`` adds the normal-form prediction over the branch.
+        """
+        from ..plotting import plot_bifurcation
+
+        return plot_bifurcation(self, ax=ax, simulations=simulations, design=design,
+                                prediction=self.prediction() if prediction else None, **kw)
+
+
+@dataclass(frozen=True, eq=False)
+class BranchRun:
+    """What :func:`continue_branch` found.
+
+    Attributes
+    ----------
+    orbits : list of PeriodicOrbit
+        The converged orbits, the starting one first.
+    ys : list of ndarray
+        Their unknowns ``(a, q4_0, T, k)``.
+    stop_reason : str
+    n_shots : int
+        Corrector runs.
+    """
+
+    orbits: list
+    ys: list
+    stop_reason: str
+    n_shots: int
+
+
+def continue_branch(shooter: OrbitShooter, first: Correction, *, direction: int, ds: float, ds_min: float,
+                    ds_max: float, a_max: float, T_max: float, k_min: float, k_max: float, max_points: int,
+                    stop=None) -> BranchRun:
+    """Pseudo-arclength continuation from a converged orbit.
+
+    The arclength is measured in the plane (amplitude [rad], gain / k_scale);
+    ``direction`` is the sign of the amplitude's change at the start. The
+    step adapts to the corrector's iterations; it stops at ``a_max``,
+    ``T_max``, outside ``[k_min, k_max]``, after ``max_points`` orbits or
+    when ``stop(y)`` is true.
+    """
+    y_first = first.y
+    k_scale = max(1.0, abs(y_first[3]))
+    W = np.array([1.0, 0.0, 0.0, 1.0 / k_scale**2])  # metric of the (a, k) plane
+
+    def tangent(jac, prev=None):
+        _, _, Vt = np.linalg.svd(jac)
+        t = Vt[-1]
+        t = t / math.sqrt(t @ (W * t))
+        if prev is not None:
+            if t @ (W * prev) < 0:
+                t = -t
+        elif np.sign(t[0]) != direction:
+            t = -t
+        return t
+
+    orbits = [shooter.orbit(first)]
+    ys = [y_first]
+    y = y_first
+    t = tangent(first.shot.jacobian)
+    reason = "max_points"
+    shots = 0
+    while len(ys) < max_points:
+        y_pred = y + ds * t
+        row = W * t
+        res = shooter.newton(y_pred, row, y_pred)
+        shots += 1
+        if res is None:
+            ds *= 0.5
+            if ds < ds_min:
+                reason = "corrector failed (step below ds_min)"
+                break
+            continue
+        y_new = res.y
+        if y_new[0] <= 0:
+            reason = "amplitude returned to zero"
+            break
+        t_new = tangent(res.shot.jacobian, t)
+        orbits.append(shooter.orbit(res))
+        ys.append(y_new)
+        y, t = y_new, t_new
+        if res.iterations <= 3:
+            ds = min(ds * 1.5, ds_max)
+        elif res.iterations >= 6:
+            ds = max(ds * 0.5, ds_min)
+        if y[0] >= a_max:
+            reason = f"amplitude reached a_max = {a_max:g} rad"
+            break
+        if y[2] >= T_max:
+            reason = f"period reached T_max = {T_max:.3g} s (approaching the upright: homoclinic orbit)"
+            break
+        if not (k_min <= y[3] <= k_max):
+            reason = f"gain left [{k_min:g}, {k_max:g}]"
+            break
+        if stop is not None and stop(y):
+            reason = "target reached"
+            break
+    return BranchRun(orbits=orbits, ys=ys, stop_reason=reason, n_shots=shots)
+
+
+def hopf_start(shooter: OrbitShooter, hp: HopfPoint, a_start: float) -> Correction:
+    """A converged small orbit of amplitude ``a_start`` near the Hopf point, from the normal-form prediction.
+
+    ``shooter`` continues in ``k1`` at the Hopf point's ``k2``.
+
+    Raises
+    ------
+    SimulationError
+        If the first orbit does not converge.
+    """
+    q = hp.eigenvector
+    z = a_start * (q / q[0]).real
+    y0 = np.array([a_start, z[2], hp.period, hp.predicted_k1(a_start) if hp.l1 != 0 else hp.k1])
+    row = np.array([1.0, 0.0, 0.0, 0.0])
+    res = shooter.newton(y0, row, y0)
+    if res is None:
+        raise SimulationError(f"could not converge the first orbit of amplitude {a_start:g} rad near the Hopf point "
+                              f"k1* = {hp.k1:.6g}")
+    return res
+
+
+def correct_at(shooter: OrbitShooter, ys, index: int, target: float) -> Correction | None:
+    """Correct the orbit with ``y[index] = target`` from the two branch points around it (None if none)."""
+    vals = np.array([y[index] for y in ys])
+    guess = None
+    for i in range(len(ys) - 1):
+        lo, hi = vals[i], vals[i + 1]
+        if (lo - target) * (hi - target) <= 0 and lo != hi:
+            w = (target - lo) / (hi - lo)
+            guess = ys[i] + w * (ys[i + 1] - ys[i])
+            break
+    if guess is None:
+        return None
+    guess = guess.copy()
+    guess[index] = target
+    row = np.zeros(4)
+    row[index] = 1.0
+    return shooter.newton(guess, row, guess)
+
+
+def locate_bifurcations(orbits) -> tuple:
+    """Changes of stability between consecutive orbits (see :attr:`HopfBranch.bifurcations`)."""
+    out = []
+    for o_a, o_b in zip(orbits[:-1], orbits[1:]):
+        ma, mb = nontrivial_multipliers(o_a.floquet), nontrivial_multipliers(o_b.floquet)
+        na, nb = int(np.sum(np.abs(ma) > 1.0)), int(np.sum(np.abs(mb) > 1.0))
+        if na == nb:
+            continue
+        # the multiplier that crossed: the largest |mu| on the unstable side
+        m_a = ma[np.argmax(np.abs(ma))]
+        m_b = mb[np.argmax(np.abs(mb))]
+        fa, fb = abs(m_a) - 1.0, abs(m_b) - 1.0
+        w = fa / (fa - fb) if fa != fb else 0.5
+        mu = m_a + w * (m_b - m_a)
+        if abs(mu.imag) > 1e-3:
+            kind = "torus"
+        elif mu.real > 0:
+            kind = "multiplier +1"
+        else:
+            kind = "period doubling"
+        out.append({"kind": kind, "k1": float(o_a.k1 + w * (o_b.k1 - o_a.k1)),
+                    "k2": float(o_a.k2 + w * (o_b.k2 - o_a.k2)),
+                    "amplitude": float(o_a.amplitude + w * (o_b.amplitude - o_a.amplitude)),
+                    "multiplier": [float(mu.real), float(mu.imag)]})
+    return tuple(out)
+
+
+def continue_hopf(
+    params: LumpedParameters,
+    k2: float = 0.1,
+    *,
+    a_start: float = 0.05,
+    a_max: float = 3.13,
+    ds: float = 0.05,
+    ds_max: float = 0.2,
+    ds_min: float = 1e-4,
+    T_max_factor: float = 6.0,
+    k1_limits: tuple[float, float] = (-1000.0, 1000.0),
+    max_points: int = 400,
+    stop=None,
+) -> HopfBranch:
+    """Continue the periodic orbit born at the Hopf point in ``k1`` (section 5.3).
+
+    Shooting on the reduced state ``(q1, q3, q4)`` with forward
+    sensitivities integrated by iwp's adaptive DOP853 engine
+    (:func:`iwp.sim.sensitivity.simulate_sensitivities`; tolerances
+    :data:`~iwp.control.orbits.SHOOTING_RTOL`, steps of at most
+    :data:`~iwp.control.orbits.SHOOTING_MAX_STEP`; the engine crosses the
+    ``|cos q1|`` kinks at ``q1 = +-pi/2``), phase condition ``q3(0) = 0``
+    (the orbit starts at its maximum, so the amplitude ``max q1`` is an
+    unknown), pseudo-arclength in the (amplitude, ``k1``) plane. Amplitudes
+    agree with an independent reference within 1e-9 rad.
+
+    Parameters
+    ----------
+    params : LumpedParameters
+    k2 : float
+        Cubic gain, fixed along the branch.
+    a_start : float
+        Amplitude of the first orbit [rad], started from the normal-form
+        prediction.
+    a_max : float
+        Stop when the amplitude exceeds it [rad] (orbits approach the upright
+        ``pi``: the branch ends in a homoclinic orbit, the period grows
+        without bound).
+    ds, ds_max, ds_min : float
+        Initial, largest and smallest arclength steps.
+    T_max_factor : float
+        Stop when the period exceeds ``T_max_factor`` times the Hopf period.
+    k1_limits : (float, float)
+        Stop when ``k1`` leaves this interval.
+    max_points : int
+    stop : callable, optional
+        ``stop(y) -> bool`` on the unknowns ``y = (a, q4_0, T, k1)`` of each
+        new orbit: stop the continuation there.
+
+    Returns
+    -------
+    HopfBranch
+    """
+    params = lumped_parameters(params)
+    a_start = check_positive("a_start", a_start)
+    a_max = check_positive("a_max", a_max)
+    hp = hopf_point(params, k2)
+    shooter = OrbitShooter(params, "k1", k2)
+    first = hopf_start(shooter, hp, a_start)
+    run = continue_branch(shooter, first, direction=+1, ds=ds, ds_min=ds_min, ds_max=ds_max, a_max=a_max,
+                          T_max=T_max_factor * hp.period, k_min=k1_limits[0], k_max=k1_limits[1],
+                          max_points=max_points, stop=stop)
+    orbits = run.orbits
+    nan3 = np.full(3, np.nan + 0j)
+    return HopfBranch(
+        hopf=hp, k2=float(k2),
+        k1=np.array([hp.k1] + [o.k1 for o in orbits]),
+        amplitude=np.array([0.0] + [o.amplitude for o in orbits]),
+        period=np.array([hp.period] + [o.period for o in orbits]),
+        floquet=np.array([nan3] + [o.floquet for o in orbits]),
+        stable=np.array([hp.criticality == "supercritical"] + [o.stable for o in orbits]),
+        u_max=np.array([0.0] + [o.u_max for o in orbits]),
+        q4_max=np.array([0.0] + [o.q4_max for o in orbits]),
+        x0=np.array([np.zeros(4)] + [o.x0 for o in orbits]),
+        stop_reason=run.stop_reason, n_shots=run.n_shots, bifurcations=locate_bifurcations(orbits))
+
+
+def find_orbit(params: LumpedParameters, k1: float, k2: float = 0.1, **continuation) -> PeriodicOrbit:
+    """The periodic orbit of the closed loop at gains ``(k1, k2)`` on the Hopf branch.
+
+    Continues the branch from the Hopf point (fixed ``k2``) until it passes
+    ``k1``, then corrects the orbit at ``k1``. ``continuation`` overrides the
+    keywords of :func:`continue_branch` (``ds``, ``ds_min``, ``ds_max``,
+    ``a_max``, ``T_max``, ``k_min``, ``k_max``, ``max_points``).
+
+    Raises
+    ------
+    InputError
+        If ``k1`` is not on the branch (the reachable interval is given).
+    """
+    params = lumped_parameters(params)
+    k1 = check_finite("k1", k1)
+    k2 = check_finite("k2", k2)
+    hp = hopf_point(params, k2)
+    side = hp.orbit_side
+    if (k1 - hp.k1) * side <= 0:
+        raise InputError(f"k1 = {k1:g}: the Hopf branch for k2 = {k2:g} lies on the side k1 {'<' if side < 0 else '>'} "
+                         f"k1* = {hp.k1:.6g}")
+    shooter = OrbitShooter(params, "k1", k2)
+    first = hopf_start(shooter, hp, 0.02)
+    if (first.y[3] - k1) * side > 0:  # already beyond k1 with the first orbit: restart smaller
+        a = max(1e-4, hp.predicted_amplitude(k1).item() if np.isfinite(hp.predicted_amplitude(k1)) else 1e-3)
+        first = hopf_start(shooter, hp, a)
+    kw = dict(ds=0.05, ds_min=1e-4, ds_max=0.2, a_max=3.1, T_max=6.0 * hp.period, k_min=-1e3, k_max=1e3,
+              max_points=400)
+    kw.update(continuation)
+    run = continue_branch(shooter, first, direction=+1, stop=lambda yy: (yy[3] - k1) * side >= 0, **kw)
+    res = correct_at(shooter, run.ys, 3, k1)
+    if res is None:
+        ks = [yy[3] for yy in run.ys]
+        raise InputError(f"k1 = {k1:g} is beyond the reach of the Hopf branch for k2 = {k2:g}: it covers k1 from "
+                         f"{hp.k1:.6g} to {ks[-1]:.6g} ({run.stop_reason})")
+    return shooter.orbit(res)

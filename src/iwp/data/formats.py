@@ -1,0 +1,171 @@
+"""Reading and writing experiment logs by file format (picked from the extension or given)."""
+
+from __future__ import annotations
+
+import inspect
+import os
+from pathlib import Path
+from typing import Any, Callable
+
+from ..errors import InputError
+from ..files import prepare_output_file
+from .angle_log import read_angle_log
+from .csv_format import read_csv, write_csv
+from .experiment import ExperimentData
+from .mat_format import read_mat, write_mat
+from .parquet_format import read_parquet, write_parquet
+
+#: Input formats known to :func:`read_experiment` (``format=``).
+FORMATS = ("csv", "mat", "parquet", "angle-log")
+_EXTENSIONS = {
+    ".csv": "csv",
+    ".txt": "csv",
+    ".mat": "mat",
+    ".parquet": "parquet",
+    ".pq": "parquet",
+}
+#: A pendulum angle whose peak magnitude exceeds this is taken for degrees [rad].
+
+# --------------------------------------------------------------------------
+# dispatch and conversion
+# --------------------------------------------------------------------------
+_READERS: dict[str, Callable[..., ExperimentData]] = {
+    "csv": read_csv,
+    "mat": read_mat,
+    "parquet": read_parquet,
+    "angle-log": read_angle_log,
+}
+_WRITERS = {"csv": write_csv, "mat": write_mat, "parquet": write_parquet}
+
+
+def format_of(path: str | os.PathLike, *, writing: bool = False) -> str:
+    """The log format of ``path`` from its extension (one a reader, or with ``writing`` a writer, handles)."""
+    return _format_of(path, _WRITERS if writing else _READERS, "output" if writing else "input")
+
+
+def _format_of(path: str | os.PathLike, kinds: dict[str, Any], what: str) -> str:
+    ext = Path(path).suffix.lower()
+    fmt = _EXTENSIONS.get(ext)
+    if fmt is None or fmt not in kinds:
+        known = ", ".join(e for e, f in _EXTENSIONS.items() if f in kinds)
+        raise InputError(
+            f"{path}: cannot tell the {what} format from the extension {ext or '(none)'!r}; "
+            f"use one of {known} or give the format ({', '.join(kinds)})"
+        )
+    return fmt
+
+
+def read_experiment(path: str | os.PathLike, format: str | None = None, **kw) -> ExperimentData:
+    """Read a log, choosing the reader from ``format`` or the file extension.
+
+    ``.csv``/``.txt``: :func:`read_csv`; ``.mat``: :func:`read_mat`;
+    ``.parquet``/``.pq``: :func:`read_parquet`. The angle log (also ``.txt``)
+    must be asked for with ``format="angle-log"`` (:func:`read_angle_log`).
+
+    Parameters
+    ----------
+    path : str or path-like
+    format : {'csv', 'mat', 'parquet', 'angle-log'}, optional
+        Overrides the extension.
+    **kw
+        Options of the chosen reader (``mapping``, ``struct``, ``degrees``,
+        ``resample``, ``min_samples``, ``sampling_tol``, ``angle_unit``,
+        ``sample_rate``, ``zero``).
+
+    Returns
+    -------
+    ExperimentData
+
+    Raises
+    ------
+    InputError
+        Unknown format/extension, or an option the chosen reader does not take.
+    DataFormatError
+        From the reader.
+    """
+    if format is None:
+        fmt = _format_of(path, _READERS, "input")
+    elif format in _READERS:
+        fmt = format
+    else:
+        raise InputError(f"format must be one of {', '.join(_READERS)}, got {format!r}")
+    reader = _READERS[fmt]
+    accepted = set(inspect.signature(reader).parameters) - {"path"}
+    unknown = sorted(set(kw) - accepted)
+    if unknown:
+        raise InputError(
+            f"option(s) {', '.join(unknown)} do not apply to {fmt} files "
+            f"(accepted: {', '.join(sorted(accepted))})"
+        )
+    return reader(path, **kw)
+
+
+def write_experiment(
+    data: ExperimentData, path: str | os.PathLike, format: str | None = None, force: bool = False
+) -> Path:
+    """Write a log, choosing the writer from ``format`` or the extension.
+
+    Parameters
+    ----------
+    data : ExperimentData
+    path : str or path-like
+    format : {'csv', 'parquet', 'mat'}, optional
+        Overrides the extension (``.csv``/``.txt``, ``.parquet``/``.pq``, ``.mat``).
+    force : bool, optional
+        Overwrite an existing file.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    if format is None:
+        fmt = _format_of(path, _WRITERS, "output")
+    elif format in _WRITERS:
+        fmt = format
+    else:
+        raise InputError(f"output format must be one of {', '.join(_WRITERS)}, got {format!r}")
+    return _WRITERS[fmt](data, path, force=force)
+
+
+def convert(
+    src: str | os.PathLike,
+    dst: str | os.PathLike,
+    *,
+    from_format: str | None = None,
+    to_format: str | None = None,
+    force: bool = False,
+    t_start: float | None = None,
+    t_end: float | None = None,
+    **read_options,
+) -> ExperimentData:
+    """Read a log in any supported format and write it as iwp CSV/Parquet/MAT.
+
+    Parameters
+    ----------
+    src : str or path-like
+        Input file.
+    dst : str or path-like
+        Output file; its extension picks the format unless ``to_format``.
+    from_format : {'csv', 'mat', 'parquet', 'angle-log'}, optional
+        Input format; default from the extension of ``src``.
+    to_format : {'csv', 'parquet', 'mat'}, optional
+        Output format; default from the extension of ``dst``.
+    force : bool, optional
+        Overwrite ``dst`` if it exists (checked before reading).
+    t_start, t_end : float, optional
+        Keep only this time window [s] (see :meth:`ExperimentData.window`).
+    **read_options
+        Passed to the reader (see :func:`read_experiment`).
+
+    Returns
+    -------
+    ExperimentData
+        The log as written.
+    """
+    if to_format is None:
+        _format_of(dst, _WRITERS, "output")
+    prepare_output_file(dst, force)  # fail before reading if dst exists
+    data = read_experiment(src, format=from_format, **read_options)
+    data = data.window(t_start, t_end)
+    write_experiment(data, dst, format=to_format, force=force)
+    return data

@@ -1,0 +1,495 @@
+"""Parameter identification: every least-squares set-up of the paper, with uncertainty.
+
+From encoder logs (:class:`iwp.io.ExperimentData`) or a static curve
+(:class:`iwp.io.StaticCurve`) to the lumped parameters of model (9), as
+section 5 of the paper does it, and with standard errors, 95 % intervals,
+the correlation of the estimates, the condition number of the regressor,
+the residual RMS, the number of samples used, and warnings when the data
+cannot support the numbers.
+
+Set-ups (``setup=``, the paper's numbering)
+-------------------------------------------
+``"full"``
+    (10)-(12): both rows of (9), 8 parameters
+    ``theta = [p1, sigma_a1, sigma_v1, sigma_b1, p2, p3, p2(1+rho), p3(1+rho)]``
+    (section 5.2, eq. (16)). ``rho`` is derived from both ratios.
+``"motor-disk"``
+    ``theta^a = [p2(1+rho), p3(1+rho)]`` from ``dq4/dt = -p2(1+rho) q4 + p3(1+rho) u``
+    with the pendulum locked (section 5.1, eq. (14) after exact compensation).
+``"motor-disk-coulomb"``
+    ``theta^b = [p2(1+rho), p3(1+rho), sigma~_c2(1+rho)]`` with the Coulomb
+    column ``-sgn q4`` (section 5.1); the regressor uses ``u`` where the
+    paper prints ``v`` (ERRATA item 6).
+``"free"``
+    ``theta^c = [p1, sigma_a1, sigma_v1, sigma_b1]`` from the first row of
+    (9) with ``u = 0`` (section 5.2, free pendulum).
+``"two-step"``
+    ``theta^d = [p2, p3, p2(1+rho), p3(1+rho)]`` with
+    ``phi^d = [dq3/dt + xi, dq4/dt - xi]`` and
+    ``xi = p1 sin q1 + sigma_a1 |cos q1| q3 + sigma_v1 q3 + sigma_b1 q3^3``
+    computed from a free-pendulum result (section 5.2). The paper prints the
+    rolling-friction term of ``xi`` without its factor ``q3``; by (9) it is
+    ``sigma_a1 |cos q1| q3`` (ERRATA item 1), which is what is used.
+    ``rho`` is given by both ratios ``rho_1 = theta3/theta1 - 1`` and
+    ``rho_2 = theta4/theta2 - 1`` and their mean (ERRATA item 2: the printed
+    numbers lack the ``- 1``; the derivation has it).
+``"dead-zone"``
+    The thresholds ``v+`` and ``v-`` of (5)/(8) from a static curve
+    (figure 2a): on each side the straight part of ``q4(v)`` is fitted by a
+    line and extrapolated to ``q4 = 0``.
+
+Names in the results: ``p1, p2, p3, rho, sigma_a1, sigma_v1, sigma_b1,
+p2_1rho, p3_1rho, sigma_c2_1rho, v_dz_pos, v_dz_neg`` (``sigma_*`` are the
+``sigma~`` of the paper, normalised by ``I1_hat``).
+
+The locked pendulum
+-------------------
+A clamp that holds the pendulum gives ``dq4/dt = rho (-p2 q4 + p3 u)``
+(from (4b) with ``q1'' = 0``), whereas the paper's (14) sets ``q1 = q3 = 0``
+in the second row of (6) and writes ``1 + rho``. The motor-disk set-ups
+keep the paper's names ``p2_1rho``, ``p3_1rho``, ``sigma_c2_1rho``, but on a
+clamped rig they estimate ``p2 rho``, ``p3 rho``, ``sigma~_c2 rho`` (0.4 %
+apart with Table 1). :meth:`IdentificationResult.to_params` therefore
+divides them by ``rho`` (physically right for a clamped rig). In the
+two-step and full set-ups the pendulum swings and ``(1 + rho)`` is exact.
+
+How the signals are formed
+--------------------------
+Each file is windowed (``t_start``, ``t_end``), then differentiated on its
+own with one :class:`~iwp.differentiate.Differentiator` ``D`` whose
+low-pass filter is ``K`` (default: consistent Savitzky-Golay over 0.5 s,
+cubic; chosen by the study in ``docs/identification.md``). The targets are
+``dq3/dt = K D2 q1 / Ts^2`` and ``dq4/dt = K D2 q2 / Ts^2`` with ``D2`` the
+second difference. The second difference weighs the acceleration over
+``+-Ts`` with a triangle (its Peano kernel), so every term ``f`` of the model
+enters exactly as ``K S f`` with ``S`` the triangle average
+``[1, 10, 1] / 12`` of the term's *point* values. Every regressor column
+is built that way, with the same ``K`` as the targets: the term is
+evaluated at the measured position and at the point velocity
+``(-v[k-1] + 8 v[k] - v[k+1]) / 6`` of the central differences ``v``,
+then ``S`` and ``K`` are applied (``K S sin q1``, ``K S (|cos q1| q3)``,
+``K S q3``, ``K S q4``, ``K S u``, ``K S sgn q4``). The cube ``q3^3`` is
+corrected for the velocity noise, ``E[(v + n)^3] = v^3 + 3 var(n) v``.
+Filtering the term rather than evaluating it at the filtered state keeps
+the filtered equation exact; with a Savitzky-Golay filter (not flat in its
+pass band) the usual way, ``f(K q1, K q3)``, biases ``p1`` by 0.1-0.4 %
+and ``sigma_a1`` by 30-300 % (``nonlinear="filtered-states"`` keeps it for
+comparison). Discretisation errors are ``O((omega Ts)^4)``.
+``max(D.edge_samples_at(Ts), 3)`` samples are dropped at both ends of every
+file; the files are then stacked, with sample numbers kept distinct per
+file.
+
+The least squares (13) are solved by :func:`iwp.lsq.solve_least_squares`
+(column scaling, tall-skinny Householder QR and SVD; no normal matrix is
+formed or inverted), with block weights for the two rows of (10).
+
+Uncertainty
+-----------
+The residuals of differentiated, filtered encoder data are the encoder
+noise (quantisation ``step/sqrt(12)`` and sensor noise) passed through known
+linear maps: the target's ``K D2 / Ts^2`` and the regressor terms'
+``K S (df/dx) ...``. The default covariance (``covariance="noise"``)
+propagates white position noise of each encoder through exactly these maps
+(adjoint filters, :func:`_noise_covariance`), with the noise level
+estimated from the positions' fourth difference. Kernel (HAC) estimators
+get this case wrong: the noise spectrum vanishes at low frequency, so
+Newey-West overstates the spread of ``p2(1+rho)`` by 1.6x and of ``p1``
+by 3x and understates the frictions' by 1.3x on the virtual rig; the noise
+covariance gives z scores of unit spread and 93-97 % coverage of the 95 %
+intervals (tests). When the residuals are more than twice what the noise
+explains (a model misfit: belt, Coulomb friction, dead-zone residue, wrong
+known parameters), the HAC covariance is reported instead, with a warning:
+the estimates then carry a bias that no standard error shows.
+``covariance="hac"`` or ``"ols"`` force the others.
+
+The free pendulum and the disk
+------------------------------
+With the motor off, the disk still turns as the pendulum swings (``q4`` is
+driven by ``xi``; a few rad/s), and the first row of (9) contains
+``+ p2 q4``, which ``theta^c`` neglects. On the virtual rig this biases
+``sigma_v1`` by tens of per cent (the term acts as extra damping). Give
+``p2=`` (a value, or a two-step result) to move ``p2 q4`` into the target;
+iterating free -> two-step -> free(p2) -> two-step removes the bias. Without
+``p2=`` the set-up is the paper's and a warning estimates the size of the
+neglected term with Table 1's ``p2``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+from scipy import stats
+
+from ..errors import IdentificationError, InputError
+from ..files import read_json
+from ..models.parameters import load_params, table1
+from .differentiate import Differentiator
+from .lsq import LeastSquaresResult, ParameterEstimate, lstsq_projection, solve_least_squares
+from .noise import noise_covariance, row_weights
+from .result import IdentificationResult
+from .setups import PARAMETER_NAMES, PARAMETER_UNITS, SETUPS, Setup, fit_static_curve, get_setup, pendulum_values
+from .signals import Signals, as_list, prepare_signals
+
+__all__ = [
+    "SETUPS",
+    "PARAMETER_NAMES",
+    "PARAMETER_UNITS",
+    "IDENTIFY_DIFFERENTIATOR",
+    "DEFAULT_WINDOW_SECONDS",
+    "default_differentiator",
+    "IdentificationResult",
+    "identify",
+    "identify_dead_zone",
+    "load_pendulum",
+]
+
+DEFAULT_WINDOW_SECONDS = 0.5
+
+#: The differentiator used when none is given, for the rig's Ts = 5 ms: the consistent
+#: Savitzky-Golay filter ("savgol"), 101 samples (0.5 s), cubic. Chosen by the study of
+#: ``benchmarks/diff_study.py`` (table and reasons in ``docs/identification.md``): among the
+#: settings whose errors stay within their standard errors, it gives the smallest error and
+#: standard error of the friction coefficients on noisy data, and drops only 50 samples at
+#: each end. For another sample time see :func:`default_differentiator`.
+IDENTIFY_DIFFERENTIATOR = Differentiator("savgol", window=101, polyorder=3)
+
+
+def default_differentiator(Ts: float) -> Differentiator:
+    """The default differentiator for sample time ``Ts`` [s].
+
+    The Savitzky-Golay filter of :data:`IDENTIFY_DIFFERENTIATOR` with the
+    same window length in seconds (:data:`DEFAULT_WINDOW_SECONDS`), i.e.
+    ``window = 2 round(0.25 / Ts) + 1`` samples (at least 7), cubic.
+    """
+    if not (isinstance(Ts, (int, float)) and math.isfinite(Ts) and Ts > 0):
+        raise InputError(f"Ts must be a positive number of seconds, got {Ts!r}")
+    if abs(Ts - 0.005) <= 1e-9:
+        return IDENTIFY_DIFFERENTIATOR
+    half = max(3, int(round(0.5 * DEFAULT_WINDOW_SECONDS / Ts)))
+    return Differentiator("savgol", window=2 * half + 1, polyorder=3)
+
+#: fewer effectively independent samples per parameter than this -> warning
+_MIN_EFF_PER_PARAM = 20
+#: |correlation| above which a pair is explained as not separable
+_CORR_EXPLAIN = 0.99
+#: residuals this many times larger than the measurement noise explains -> model misfit (HAC covariance)
+_MISFIT_RATIO = 2.0
+#: expected signs (for the "unphysical value" warning)
+_POSITIVE = ("p1", "p3", "rho", "p3_1rho")
+_NONNEG = ("p2", "p2_1rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2_1rho", "v_dz_pos", "v_dz_neg")
+
+
+def identify(
+    data: Any,
+    setup: str,
+    *,
+    pendulum: Any = None,
+    t_start: float | None = None,
+    t_end: float | None = None,
+    differentiator: Differentiator | None = None,
+    base: Any = None,
+    p2: Any = None,
+    covariance: str = "noise",
+    nonlinear: str = "filter-terms",
+) -> IdentificationResult:
+    """Identify the parameters of one set-up of section 5 from logs.
+
+    Parameters
+    ----------
+    data : ExperimentData, list of ExperimentData, or StaticCurve
+        The log(s). Several logs of one set-up are stacked (each is
+        windowed and differentiated on its own). ``"dead-zone"`` takes a
+        :class:`~iwp.data.StaticCurve` (or a list of them, points pooled).
+    setup : str
+        One of :data:`SETUPS`: ``"full"`` (10)-(12), ``"motor-disk"``
+        (theta^a), ``"motor-disk-coulomb"`` (theta^b), ``"free"``
+        (theta^c), ``"two-step"`` (theta^d), ``"dead-zone"`` (v+, v-).
+    pendulum : IdentificationResult, LumpedParameters or mapping, optional
+        ``"two-step"`` only (required there): ``p1`` and ``sigma_a1``,
+        ``sigma_v1``, ``sigma_b1`` for ``xi``, normally the result of the
+        ``"free"`` set-up; its covariance is propagated into the two-step
+        standard errors.
+    t_start, t_end : float, optional
+        Time window [s] applied to every log before differentiation.
+    differentiator : Differentiator, optional
+        Default: :func:`default_differentiator` for the sample time of the
+        first log (Savitzky-Golay over 0.5 s, cubic: 101 samples at 5 ms;
+        chosen by the study in ``docs/identification.md``).
+    base : LumpedParameters, optional
+        Reference values for warnings (default Table 1); not used in the fit.
+    p2 : float, IdentificationResult or LumpedParameters, optional
+        ``"free"`` only: a known ``p2`` [1/s]; the term ``p2 q4`` of the first
+        row of (9), neglected by theta^c, is moved to the target (see the
+        module docstring). A result's ``p2`` variance is propagated.
+    covariance : {"noise", "hac", "ols"}
+        ``"noise"`` (default): the encoder noise propagated through the
+        differentiator and the model (see the module docstring); falls back
+        to ``"hac"`` on a model misfit, for ``"savgol_direct"`` and for
+        ``nonlinear="filtered-states"`` (with a warning). ``"hac"``,
+        ``"ols"``: the covariances of :func:`iwp.ident.lsq.solve_least_squares`.
+    nonlinear : {"filter-terms", "filtered-states"}
+        How the nonlinear regressor columns get the filter: ``"filter-terms"``
+        (default) filters each term evaluated at the measured position and
+        its central-difference velocity, ``K f(q1, q3)``, which keeps the
+        filtered equation exact; ``"filtered-states"`` evaluates the term at
+        the filtered states, ``f(K q1, K q3)`` (the usual way; biased when
+        the filter is not flat over the signal band, kept for comparison).
+
+    Returns
+    -------
+    IdentificationResult
+
+    Raises
+    ------
+    InputError
+        Unknown set-up, a static curve given to a time-series set-up or vice
+        versa, no ``u`` where the set-up needs it, an input in a free-pendulum
+        log, ``pendulum`` missing for ``"two-step"``, a window leaving too
+        few samples, non-uniform sampling.
+
+    Notes
+    -----
+    A rank-deficient regressor does not raise: the result has
+    ``success=False``, NaN standard errors for the parameters involved and a
+    warning naming the collinear columns.
+    """
+    spec = get_setup(setup)
+    if covariance not in ("noise", "hac", "ols"):
+        raise InputError(f"covariance must be 'noise', 'hac' or 'ols', got {covariance!r}")
+    if nonlinear not in ("filter-terms", "filtered-states"):
+        raise InputError(f"nonlinear must be 'filter-terms' or 'filtered-states', got {nonlinear!r}")
+    spec.check_options(pendulum, p2)
+    if spec.static:
+        if t_start is not None or t_end is not None:
+            raise InputError("t_start/t_end do not apply to set-up 'dead-zone' (a static curve has no time)")
+        return identify_dead_zone(data)
+    datas = as_list(data)
+    d = _differentiator_for(differentiator, datas)
+    ref = table1() if base is None else base
+    pend_vals = pendulum_values(pendulum)[0] if spec.takes_pendulum else None
+    sig = prepare_signals(spec, datas, d, t_start, t_end, nonlinear=nonlinear)
+    reg = spec.regression(sig, pendulum=pendulum, p2=p2)
+    sources = _sources(datas)
+    names = list(spec.columns)
+    details = dict(reg.details)
+    warnings = list(reg.warnings) + spec.check_signals(sig, sources)
+    n_par = len(names)
+    n_eff = sig.n / max(sig.corr_len, 1.0)
+    if n_eff < _MIN_EFF_PER_PARAM * n_par:
+        warnings.append(
+            f"too few samples for set-up {setup!r}: {sig.n} samples, about {n_eff:.0f} effectively independent "
+            f"(the filter correlates ~{sig.corr_len:.0f} neighbours) for {n_par} parameters; values and "
+            f"uncertainty are unreliable below ~{int(_MIN_EFF_PER_PARAM * n_par * sig.corr_len)} samples")
+
+    # ---- solve (13) ---------------------------------------------------------
+    # the measurement-noise covariance needs only the point estimate from lsq (its cheap "ols" pass);
+    # where it does not apply, lsq's HAC covariance is used
+    noise_ok = covariance == "noise" and d.method != "savgol_direct" and nonlinear == "filter-terms"
+    lsq_cov = "hac" if covariance == "hac" or (covariance == "noise" and not noise_ok) else "ols"
+    kw: dict[str, Any] = dict(covariance=lsq_cov, allow_rank_deficient=True, sample_index=reg.sample_index)
+    if reg.blocks is not None:
+        kw.update(blocks=reg.blocks)
+
+    def solve(**extra: Any) -> LeastSquaresResult:
+        try:
+            return solve_least_squares(reg.Phi, reg.phi, names, **{**kw, **extra})
+        except InputError as exc:
+            raise IdentificationError(f"set-up {setup!r}: {exc}") from None
+
+    res = solve()
+    cov = np.array(res.covariance, dtype=float)
+    crit = res.critical_value
+    cov_method = res.covariance_method
+    if covariance == "noise":
+        vals0 = {nm: float(res.values[j]) for j, nm in enumerate(names)}
+        p2k = float(details.get("p2_known", {}).get("value", 0.0))
+        nc = (noise_covariance(spec, sig, d, reg.Phi, reg.blocks, reg.labels, res, vals0, pend_vals, p2k)
+              if noise_ok else None)
+        if nc is None and lsq_cov != "hac" and res.success:
+            res = solve(covariance="hac")
+            cov = np.array(res.covariance, dtype=float)
+            crit = res.critical_value
+        if nc is None:
+            warnings.append("the measurement-noise covariance does not apply here (rank deficiency, method "
+                            "'savgol_direct' or nonlinear='filtered-states'); the HAC covariance is reported")
+            cov_method = "hac"
+        else:
+            cov, noise_sd = nc
+            cov_method = "noise"
+            crit = float(stats.t.ppf(0.975, max(res.dof, 1)))
+            details["noise_std"] = noise_sd
+            details["noise_std_note"] = ("white-equivalent position noise per encoder [rad] from the fourth difference "
+                                         "of the positions (quantisation alone: step/sqrt(12) = 9.1e-4 rad at 2000 "
+                                         "counts/rev); from_residuals: the level the residuals of each row would need")
+            ratios = {ch: v / noise_sd[ch] for ch, v in noise_sd["from_residuals"].items() if noise_sd[ch] > 0}
+            worst = max(ratios, key=ratios.get) if ratios else None
+            if worst is not None and ratios[worst] > _MISFIT_RATIO:
+                res = solve(covariance="hac")
+                cov = np.array(res.covariance, dtype=float)
+                crit = res.critical_value
+                cov_method = "hac"
+                row = {"q1": "first (dq3/dt)", "q2": "second (dq4/dt)"}[worst]
+                warnings.append(
+                    f"model misfit: the residuals of the {row} row of (10) are {ratios[worst]:.3g} times larger than "
+                    f"the measurement noise of encoder {worst} ({noise_sd[worst]:.2g} rad) explains; the model does "
+                    "not describe these data exactly (unmodelled friction, belt, dead-zone residue, wrong known "
+                    "parameters), so the estimates carry a bias that no standard error shows. Standard errors from "
+                    "the model-free HAC covariance")
+    details["covariance"] = cov_method
+    details["regressor_terms"] = nonlinear
+    if reg.known_sensitivity is not None and reg.known_covariance is not None and res.success:
+        w = row_weights(reg.blocks, res, reg.Phi.shape[0])
+        J = lstsq_projection(reg.Phi, reg.known_sensitivity, row_scale=None if np.all(w == 1.0) else w)
+        cov = cov + J @ reg.known_covariance @ J.T
+        details["stderr_includes"] = ("uncertainty of the pendulum parameters used in xi" if spec.takes_pendulum
+                                      else "uncertainty of the known p2")
+    elif spec.takes_pendulum:
+        details["stderr_includes"] = "noise of this experiment only (pendulum parameters taken as exact)"
+
+    # the warnings of lsq
+    warnings.extend(res.warnings)
+    params: dict[str, ParameterEstimate] = {}
+    se_all = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    se_all[~np.isfinite(np.diag(cov))] = np.nan
+    for j, nm in enumerate(names):
+        v = float(res.values[j])
+        se = float(se_all[j])
+        params[nm] = ParameterEstimate(nm, v, se, v - crit * se, v + crit * se)
+
+    rho_info = None
+    out_names = list(names)
+    derived = spec.derive(res.values, cov, crit)
+    if derived is not None:
+        params.update(derived.parameters)
+        cov = derived.covariance
+        out_names = derived.names
+        rho_info = derived.rho
+        details.update(derived.details)
+        warnings.extend(derived.warnings)
+    se_out = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(se_out, se_out)
+    np.fill_diagonal(corr, 1.0)
+    corr = np.clip(corr, -1.0, 1.0)
+
+    # ---- interpretation warnings -----------------------------------------------
+    warnings.extend(_explain(spec, params, corr, out_names, sig, res))
+    extra_w, extra_d = spec.extra_warnings(reg, sig, res, params, ref, p2)
+    warnings.extend(extra_w)
+    details.update(extra_d)
+
+    success = bool(res.success)
+    if success:
+        message = (f"set-up {setup!r}: identified {len(names)} parameter(s) from {sig.n} samples "
+                   f"({sig.n_files} file(s), {res.n_equations} equations)")
+        if warnings:
+            message += f"; {len(warnings)} warning(s)"
+    else:
+        message = f"set-up {setup!r}: {res.message}"
+    residual_rms = {reg.labels[i] if isinstance(k, (int, np.integer)) else str(k): float(v)
+                    for i, (k, v) in enumerate(res.residual_rms.items())}
+    return IdentificationResult(
+        setup=setup, samples=sig.n, parameters=params, names=tuple(out_names), covariance=cov, correlation=corr,
+        condition_number=float(res.condition_number), residual_rms=residual_rms, lsq=res, rho=rho_info,
+        warnings=warnings, success=success, message=message, differentiator=d.settings(), sources=sources,
+        t_start=t_start, t_end=t_end, details=details,
+    )
+
+
+def _differentiator_for(differentiator: Differentiator | None, datas: list) -> Differentiator:
+    """The differentiator given, or the default one for the first log's sample time."""
+    if differentiator is None:
+        d0 = datas[0] if datas else None
+        Ts0 = float(np.median(np.diff(d0.t))) if getattr(d0, "t", None) is not None and len(d0.t) > 1 else 0.005
+        return default_differentiator(Ts0)
+    if not isinstance(differentiator, Differentiator):
+        raise InputError(f"differentiator must be a Differentiator, got {type(differentiator).__name__}")
+    return differentiator
+
+
+def _sources(datas: Sequence[Any]) -> list[str]:
+    return [str(getattr(x, "source", "<memory>")) for x in datas]
+
+
+def _explain(spec: Setup, params: Mapping[str, ParameterEstimate], corr: np.ndarray, names: Sequence[str],
+             sig: Signals, res: LeastSquaresResult) -> list[str]:
+    """Warnings that interpret the numbers: unphysical signs, undetermined values, inseparable pairs."""
+    out: list[str] = []
+    undetermined = []
+    for nm, p in params.items():
+        if not math.isfinite(p.stderr):
+            continue
+        if p.ci95_low <= 0.0 <= p.ci95_high and (nm in _POSITIVE or nm in _NONNEG):
+            undetermined.append(f"{nm} = {p.value:.3g} +- {p.stderr:.2g}")
+    if undetermined:
+        out.append("not determined by these data (the 95 % interval contains 0): " + ", ".join(undetermined))
+    unphys = [f"{nm} = {p.value:.4g}" for nm, p in params.items()
+              if (nm in _POSITIVE and p.value <= 0) or (nm in _NONNEG and p.value < 0 and p.ci95_high < 0)]
+    if unphys:
+        out.append("unphysical estimate(s) (negative friction or gain, significantly): " + ", ".join(unphys)
+                   + "; the model does not describe these data (see the paper's eq. (16))")
+    idx = {nm: i for i, nm in enumerate(names)}
+    if "sigma_a1" in idx and "sigma_v1" in idx:
+        r = corr[idx["sigma_a1"], idx["sigma_v1"]]
+        if math.isfinite(r) and abs(r) > _CORR_EXPLAIN:
+            qmax = 0.5 * max(sig.q1_range)
+            why = (f"; the swing (about +-{qmax:.2g} rad) keeps |cos q1| near 1, so the columns |cos q1| q3 and q3 "
+                   "hardly differ: release the pendulum from a larger angle" if qmax < 0.6 else
+                   "; the data move them together")
+            out.append(
+                f"sigma_a1 and sigma_v1 are not separable (correlation of the estimates {r:+.4f}): only a "
+                f"combination of the two is determined, each alone carries the large standard error shown{why}")
+    if not res.success:
+        out.append(f"rank-deficient regressor for set-up {spec.name!r}: the data do not excite all parameters; "
+                   "the values reported for them are not estimates")
+    return out
+
+
+def identify_dead_zone(curve: Any, *, min_fraction: float = 0.2) -> IdentificationResult:
+    """Dead-zone thresholds ``v+`` and ``v-`` of (5) from a static curve (figure 2a).
+
+    See :func:`iwp.ident.setups.dead_zone.fit_static_curve` for the method;
+    the result carries ``v_dz_pos``, ``v_dz_neg`` [in] with standard errors.
+    """
+    fit = fit_static_curve(curve, min_fraction=min_fraction)
+    return IdentificationResult(
+        setup="dead-zone", samples=fit.samples, parameters=fit.parameters, names=("v_dz_pos", "v_dz_neg"),
+        covariance=fit.covariance, correlation=fit.correlation, condition_number=fit.condition_number,
+        residual_rms=fit.residual_rms, lsq=None, rho=None, warnings=fit.warnings, success=True, message=fit.message,
+        differentiator={}, sources=fit.sources, details=fit.details,
+    )
+
+
+# ---------------------------------------------------------------------------
+# files
+# ---------------------------------------------------------------------------
+def load_pendulum(path: str | os.PathLike) -> Any:
+    """Read the pendulum parameters for the two-step set-up from a file.
+
+    Accepts the JSON printed by ``iwp identify --setup free --json`` (an
+    :class:`IdentificationResult` with uncertainties), the parameter file
+    written by ``--out`` (whose ``"identification"`` entry carries the same,
+    so uncertainties are kept), or any lumped parameter file / built-in name
+    (values only).
+
+    Returns
+    -------
+    IdentificationResult or LumpedParameters
+    """
+    p = Path(path)
+    if p.is_file():
+        doc = read_json(p)
+        if isinstance(doc, Mapping):
+            if "setup" in doc and "parameters" in doc:
+                return IdentificationResult.from_dict(doc, where=str(p))
+            ident = doc.get("identification")
+            if isinstance(ident, Mapping) and "setup" in ident:
+                return IdentificationResult.from_dict(ident, where=f"{p}: identification")
+    params = load_params(str(path), physical_check=False)
+    if hasattr(params, "to_lumped"):
+        params = params.to_lumped()
+    return params

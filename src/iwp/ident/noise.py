@@ -1,0 +1,211 @@
+"""Covariance of the estimates from the measurement noise, propagated through the differentiator.
+
+The residuals of differentiated, filtered encoder data are the encoder noise
+(quantisation and sensor noise) passed through known linear maps; see
+:func:`noise_covariance`.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Mapping, Sequence
+
+import numpy as np
+from scipy.linalg import solve_triangular
+
+from ..jit import jit
+from .differentiate import Differentiator
+from .lsq import LeastSquaresResult, tsqr_augmented
+from .signals import Signals, apply_K
+
+__all__ = ["noise_covariance", "block_weights", "row_weights", "TERMS"]
+
+# ---------------------------------------------------------------------------
+# covariance from the measurement noise, propagated through the differentiator
+# ---------------------------------------------------------------------------
+# Terms of the model (9) as functions of the measured signals (see prepare_signals):
+# T1 = sin q1, T2 = |cos q1| q3, T3 = q3^3, T4 = q3 (channel q1) and T5 = q4 (channel q2).
+# beta[row][Ti]: coefficient of Ti in the row's model  dq/dt = sum beta_i T_i + (input terms)
+TERMS = ("T1", "T2", "T3", "T4", "T5")
+#: rows per block of the tall matrix products in the noise covariance
+_MATMUL_CHUNK = 512
+
+
+def _acc_kernel_norm2(d: Differentiator, Ts: float) -> float:
+    """``||f||^2`` of the acceleration operator ``f = K D2 / Ts^2`` (white noise -> target noise)."""
+    half = max(d.edge_samples_at(Ts), 3)
+    imp = np.zeros(4 * half + 9)
+    imp[imp.size // 2] = 1.0
+    k = apply_K(d, Ts, imp[:, None])[:, 0]
+    f = np.zeros_like(k)
+    f[1:-1] = (k[2:] - 2.0 * k[1:-1] + k[:-2]) / (Ts * Ts)
+    return float(f @ f)
+
+
+@jit(exact=True)
+def _noise_moments(filtered_q, p, chans, beta, cos1, c2, abscos, v3, Ts, s1, s2):  # pragma: no cover - compiled
+    """``sum_c sigma_c^2 A_c^T A_c`` for one file (see :func:`noise_covariance`).
+
+    ``filtered_q``: ``K`` applied to the weighted ``Q`` columns of each block, one
+    row per column (blocks one after the other, ``p`` rows each). For each
+    block ``b`` with noise channel ``chans[b]`` and term coefficients
+    ``beta[b]`` (T1..T5), ``sv = S K Q_b`` (triangle average) and
+    ``acc = D2 K Q_b / Ts^2``; then
+    ``A_1 = [target] acc - (beta1 cos q1 + beta2 c2) sv - (P D1)^T g``,
+    ``g = (beta2 |cos q1| + beta3 3 q3^2 + beta4) sv`` and
+    ``A_2 = [target] acc - (P D1)^T (beta5 sv)``, with
+    ``(P D1)^T y = -D1 P y`` (stencils with zeros outside the file).
+    """
+    n = filtered_q.shape[1]
+    nb = chans.shape[0]
+    inv_ts2 = 1.0 / (Ts * Ts)
+    A1 = np.zeros((p, n))
+    A2 = np.zeros((p, n))
+    g = np.zeros((p, n + 4))  # padded by 2 zeros at both ends for the stencils
+    h = np.zeros((p, n + 4))
+    for b in range(nb):
+        tgt1 = chans[b] == 1
+        b0, b1, b2, b3, b4 = beta[b, 0], beta[b, 1], beta[b, 2], beta[b, 3], beta[b, 4]
+        for j in range(p):
+            row = filtered_q[b * p + j]
+            for t in range(n):
+                x0 = row[t]
+                xm = row[t - 1] if t > 0 else 0.0
+                xp = row[t + 1] if t < n - 1 else 0.0
+                d2 = xp - 2.0 * x0 + xm
+                sv = x0 + d2 / 12.0
+                acc = d2 * inv_ts2
+                if tgt1:
+                    A1[j, t] += acc - (b0 * cos1[t] + b1 * c2[t]) * sv
+                else:
+                    A2[j, t] += acc
+                    A1[j, t] -= (b0 * cos1[t] + b1 * c2[t]) * sv
+                g[j, t + 2] += (b1 * abscos[t] + b2 * v3[t] + b3) * sv
+                h[j, t + 2] += b4 * sv
+    half = 0.5 / Ts
+    for j in range(p):
+        gj = g[j]
+        hj = h[j]
+        for t in range(n):
+            # (P D1)^T y at t = -(z[t+1] - z[t-1]) / (2 Ts), z = y - (second difference of y) / 6
+            i = t + 2
+            zgm = gj[i - 1] - (gj[i] - 2.0 * gj[i - 1] + gj[i - 2]) / 6.0
+            zgp = gj[i + 1] - (gj[i + 2] - 2.0 * gj[i + 1] + gj[i]) / 6.0
+            zhm = hj[i - 1] - (hj[i] - 2.0 * hj[i - 1] + hj[i - 2]) / 6.0
+            zhp = hj[i + 1] - (hj[i + 2] - 2.0 * hj[i + 1] + hj[i]) / 6.0
+            A1[j, t] -= (zgm - zgp) * half
+            A2[j, t] -= (zhm - zhp) * half
+    M = np.zeros((p, p))
+    for i in range(p):
+        for j in range(i, p):
+            acc1 = 0.0
+            acc2 = 0.0
+            ai = A1[i]
+            aj = A1[j]
+            ci = A2[i]
+            cj = A2[j]
+            for t in range(n):
+                acc1 += ai[t] * aj[t]
+                acc2 += ci[t] * cj[t]
+            M[i, j] = s1 * acc1 + s2 * acc2
+            M[j, i] = M[i, j]
+    return M
+
+
+def noise_covariance(setup, sig: Signals, d: Differentiator, Phi: np.ndarray, blocks: np.ndarray | None,
+                      labels: Sequence[str], res: LeastSquaresResult, vals: Mapping[str, float],
+                      pend: Mapping[str, float] | None, p2_known: float) -> tuple[np.ndarray, dict[str, float]] | None:
+    """Covariance of the estimates caused by white measurement noise on q1 and q2.
+
+    The residual of each row is, to first order in the position noise
+    ``w_c`` (quantisation and sensor noise of encoder ``c``), ``r = J_c w_c``
+    with ``J_c`` the known linear map of the differentiator and the model:
+    the target's ``K D2 / Ts^2`` minus the noise that reaches the
+    regressor terms (e.g. ``p1 K S cos(q1) w_1``; it partly cancels the
+    target's, which is why plain formulas overstate the spread of ``p1``).
+    With ``Xs = Q R`` the weighted, column-scaled regressor, the estimate
+    moves by ``R^-1 Q^T W^(1/2) J w``; its covariance is
+    ``R^-1 (sum_c sigma_c^2 A_c^T A_c) R^-T`` with ``A_c = J_c^T W^(1/2) Q``,
+    computed with the adjoint (time-reversed) filters. ``sigma_c^2`` is
+    estimated from the residuals of the row that measures encoder ``c``:
+    ``||r||^2 / ((n - p) ||f||^2)``.
+
+    Returns None when it does not apply (rank deficiency, method
+    ``"savgol_direct"``, nonlinear mode ``"filtered-states"``).
+    """
+    if not res.success or d.method == "savgol_direct" or any(f["v1"] is None for f in sig.files):
+        return None
+    n_rows, p = Phi.shape
+    n = sig.n
+    block_rows = {lab: slice(i * n, (i + 1) * n) for i, lab in enumerate(labels)}
+    wb = block_weights(blocks, res, labels)
+    # R of the weighted regressor from the blocks' R factors (tall-skinny QR), then column scaling:
+    # (W^(1/2) Phi) / D = Q (R_w / D); the big weighted matrices are never formed
+    Rb = [wb[lab] * tsqr_augmented(Phi[rows, :-1], Phi[rows, -1], slice(None), None)
+          for lab, rows in block_rows.items()]
+    Rw = np.linalg.qr(np.vstack(Rb), mode="r")[:p, :p] if len(Rb) > 1 else Rb[0][:p, :p]
+    Dn = np.sqrt(np.einsum("ij,ij->j", Rw, Rw))
+    if np.any(Dn == 0):
+        return None
+    R = Rw / Dn
+    if np.any(np.abs(np.diag(R)) <= 1e-12 * np.abs(R).max()):
+        return None
+    Rinv = solve_triangular(R, np.eye(p))
+    # W^(1/2) Q of each block: w_b^2 Phi_b D^-1 R^-1 (one factor w_b from Xs, one from W^(1/2))
+    Gmat = {lab: (wb[lab] ** 2) * (Rinv / Dn[:, None]) for lab in block_rows}
+    betas = setup.row_betas(vals, pend, p2_known)
+    # noise level per encoder: from the positions (fourth difference), and, for comparison, the level
+    # the residuals of the row that measures it would imply if they were measurement noise only
+    nsamp = np.array([f["n_full"] for f in sig.files], dtype=float)
+    sig2 = {c + 1: float(np.sum(nsamp * np.array([f["noise"][c] ** 2 for f in sig.files])) / nsamp.sum())
+            for c in (0, 1)}
+    resid_sd: dict[int, float] = {}
+    nf = _acc_kernel_norm2(d, sig.files[0]["Ts"])
+    for lab, (chan, _) in betas.items():
+        r = res.residuals[block_rows[lab]]
+        dof = max(r.size - p * r.size / n_rows, 1.0)
+        resid_sd[chan] = math.sqrt(float(np.einsum("i,i->", r, r)) / dof / nf)
+    labs = list(betas)
+    chans = np.array([betas[lab][0] for lab in labs], dtype=np.int64)
+    beta = np.array([[betas[lab][1].get(t, 0.0) for t in TERMS] for lab in labs])
+    M = np.zeros((p, p))
+    for f in sig.files:
+        Ts, n_full, kk, start = f["Ts"], f["n_full"], f["kk"], f["start"]
+        nk = n_full - 2 * kk
+        q1, v1 = f["q1"], f["v1"]
+        Qf = np.zeros((n_full, len(labs) * p))
+        for i, lab in enumerate(labs):
+            r0 = block_rows[lab].start + start
+            for c0 in range(0, nk, _MATMUL_CHUNK):  # small products: no threaded BLAS (it can stall)
+                c1 = min(nk, c0 + _MATMUL_CHUNK)
+                np.matmul(Phi[r0 + c0: r0 + c1], Gmat[lab], out=Qf[kk + c0: kk + c1, i * p: (i + 1) * p])
+        filtered_q = np.ascontiguousarray(apply_K(d, Ts, Qf).T)  # K^T = K (zero-phase): one call for all blocks
+        cos1 = np.cos(q1)
+        M += _noise_moments(filtered_q, p, chans, beta, cos1, -np.sign(cos1) * np.sin(q1) * v1, np.abs(cos1),
+                            3.0 * v1 * v1, Ts, sig2[1], sig2[2])
+    cov = (Rinv @ M @ Rinv.T) / np.outer(Dn, Dn)
+    return cov, {"q1": math.sqrt(sig2[1]), "q2": math.sqrt(sig2[2]),
+                 "from_residuals": {f"q{c}": v for c, v in resid_sd.items()}}
+
+
+def row_weights(blocks: np.ndarray | None, res: LeastSquaresResult, n_rows: int) -> np.ndarray:
+    if blocks is None or len(res.block_sigma) < 2:
+        return np.ones(n_rows)
+    sig = res.block_sigma
+    labels = list(sig)
+    smax = max(v for v in sig.values() if math.isfinite(v))
+    w = np.ones(n_rows)
+    for lab in labels:
+        s = sig[lab]
+        w[blocks == lab] = 1.0 / max(s if math.isfinite(s) else smax, 1e-8 * smax)
+    return w
+
+
+def block_weights(blocks: np.ndarray | None, res: LeastSquaresResult, labels: Sequence[str]) -> dict[str, float]:
+    """Row weight (1 / block sigma) per block label, as the block-weighted least squares used them."""
+    if blocks is None or len(res.block_sigma) < 2:
+        return {lab: 1.0 for lab in labels}
+    sig = list(res.block_sigma.values())
+    smax = max(v for v in sig if math.isfinite(v))
+    return {lab: 1.0 / max(v if math.isfinite(v) else smax, 1e-8 * smax) for lab, v in zip(labels, sig)}
+

@@ -1,0 +1,192 @@
+"""Set-up "dead-zone": the thresholds ``v+`` and ``v-`` of (5)/(8) from a static curve (figure 2a).
+
+On each side the straight part of ``q4(v)`` is fitted by a line and
+extrapolated to ``q4 = 0`` (section 5.1).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ...data import ExperimentData, StaticCurve
+from ...errors import IdentificationError, InputError
+from ..lsq import ParameterEstimate, solve_least_squares
+from .base import RefineSpec, Setup
+
+__all__ = ["DeadZone", "StaticFit", "fit_static_curve"]
+
+
+@dataclass
+class StaticFit:
+    """The dead-zone thresholds fitted on a static curve, with their uncertainty and diagnostics."""
+
+    parameters: dict[str, ParameterEstimate]
+    covariance: np.ndarray
+    correlation: np.ndarray
+    condition_number: float
+    residual_rms: dict[str, float]
+    samples: int
+    warnings: list[str] = field(default_factory=list)
+    details: dict[str, Any] = field(default_factory=dict)
+    message: str = ""
+    sources: list[str] = field(default_factory=list)
+
+
+def fit_static_curve(curve: Any, *, min_fraction: float = 0.2) -> "StaticFit":
+    """Dead-zone thresholds ``v+`` and ``v-`` of (5) from a static curve (figure 2a).
+
+    On each side separately, the *straight part* of the curve -- the points
+    where the disk turns in the input's direction with ``|q4|`` at least
+    ``min_fraction`` of that side's largest ``|q4|`` -- is fitted by the line
+    ``q4 = a (v - v0)`` (ordinary least squares of ``q4 = a v + b``), and the
+    line is extrapolated to ``q4 = 0``: ``v_dz_pos = v0`` on the positive
+    side, ``v_dz_neg = -v0`` on the negative side (both positive numbers, as
+    in (5)). Points with ``q4 = 0`` (the dead zone) and the break-away region
+    just after the disk starts (figure 2a's discontinuity) are excluded by
+    the fraction.
+
+    Parameters
+    ----------
+    curve : StaticCurve or list of StaticCurve
+        Input ``v`` [in] (or ``u`` for a compensated curve) and steady disk
+        velocity ``q4`` [rad/s]; several curves are pooled.
+    min_fraction : float
+        Lower end of the straight part, as a fraction of the side's largest
+        ``|q4|`` (default 0.2).
+
+    Returns
+    -------
+    StaticFit
+        ``v_dz_pos``, ``v_dz_neg`` [in] with standard errors from the delta
+        method on the line fit (white residuals: each point is a separate
+        steady state). ``details`` holds each side's slope ``a`` [rad/s/in]
+        (the static gain ``p3/p2`` of (9)), intercept, points used and
+        residual RMS.
+
+    Notes
+    -----
+    The extrapolated threshold is where the *static* curve meets ``q4 = 0``:
+    with Coulomb friction at the disk it is ``v+ + sigma~_c2/p3`` (the
+    Coulomb torque acts like extra dead zone), which is what a compensation
+    (7)-(8) must cancel. For a compensated curve (input ``u``) the result is
+    the residual dead zone after the compensation.
+    """
+    curves = list(curve) if isinstance(curve, (list, tuple)) else [curve]
+    if not curves:
+        raise InputError("data is empty: give at least one static curve")
+    for c in curves:
+        if isinstance(c, ExperimentData):
+            raise InputError(f"{c.source}: is a time-series log; set-up 'dead-zone' needs a static curve "
+                             "(columns v,q4 or u,q4, one row per steady state)")
+        if not isinstance(c, StaticCurve):
+            raise InputError(f"set-up 'dead-zone' needs a StaticCurve, got {type(c).__name__}")
+    names_in = {c.input_name for c in curves}
+    if len(names_in) > 1:
+        raise InputError("the static curves mix the raw input v and the compensated input u; give one kind")
+    mf = float(min_fraction)
+    if not 0.0 <= mf < 1.0:
+        raise InputError(f"min_fraction must be in [0, 1), got {min_fraction!r}")
+    x = np.concatenate([c.input for c in curves])
+    y = np.concatenate([c.q4 for c in curves])
+    src = ", ".join(c.source for c in curves)
+    warnings: list[str] = []
+    params: dict[str, ParameterEstimate] = {}
+    details: dict[str, Any] = {}
+    rms: dict[str, float] = {}
+    conds = []
+    used_total = 0
+    for side, sgn, name in (("pos", 1.0, "v_dz_pos"), ("neg", -1.0, "v_dz_neg")):
+        moving = (sgn * x > 0) & (sgn * y > 0)
+        if not np.any(moving):
+            raise IdentificationError(f"{src}: the disk never turns on the {'positive' if sgn > 0 else 'negative'} "
+                                      "side; the static curve does not reach beyond the dead zone there")
+        ymax = float(np.max(sgn * y[moving]))
+        sel = moving & (sgn * y >= mf * ymax)
+        m = int(np.count_nonzero(sel))
+        if m < 3:
+            raise IdentificationError(
+                f"{src}: only {m} point(s) on the straight part of the {side} side "
+                f"(|q4| >= {mf:g} x {ymax:.4g} rad/s); need at least 3 to fit the line and estimate its uncertainty")
+        X = np.column_stack([x[sel], np.ones(m)])
+        r = solve_least_squares(X, y[sel], ["a", "b"], covariance="ols", weights="none", allow_rank_deficient=True)
+        a, b = r.values
+        if not r.success or not a > 0:
+            raise IdentificationError(f"{src}: the {side} side's straight part has no usable slope (a = {a:.4g})")
+        v0 = -b / a
+        g = np.array([b / a ** 2, -1.0 / a])  # d v0 / d(a, b)
+        var = float(g @ r.covariance @ g)
+        se = math.sqrt(max(var, 0.0))
+        val = sgn * v0
+        crit = r.critical_value
+        params[name] = ParameterEstimate(name, float(val), se, float(val - crit * se), float(val + crit * se))
+        rms[side] = float(r.residual_rms[0]) if r.residual_rms else math.nan
+        conds.append(r.condition_number)
+        used_total += m
+        # break-away: points between the jump and the straight part
+        excluded = moving & ~sel
+        first = x[moving][np.argmin(sgn * x[moving])]
+        details[side] = {
+            "slope": float(a), "intercept": float(b), "points": m,
+            "excluded_moving_points": int(np.count_nonzero(excluded)),
+            "input_range": [float(np.min(x[sel])), float(np.max(x[sel]))], "first_moving_input": float(first),
+            "residual_rms": rms[side],
+        }
+        if m < 5:
+            warnings.append(f"{side} side: only {m} points on the straight part; the threshold's uncertainty is rough")
+        # points of the straight part that deviate from the line near its low end (curvature)
+        resid = y[sel] - (a * x[sel] + b)
+        lo = np.argmin(sgn * x[sel])
+        others = float(np.sqrt(np.mean(np.delete(resid, lo) ** 2))) if m >= 4 else math.inf
+        if m >= 4 and abs(resid[lo]) > 3.0 * others and abs(resid[lo]) > 0.01 * abs(y[sel][lo]):
+            warnings.append(f"{side} side: the lowest point of the straight part (input {x[sel][lo]:.4g}) is off the "
+                            f"line by {resid[lo]:+.3g} rad/s; the curve bends there, raise min_fraction")
+        gap = abs(first - val * sgn)
+        details[side]["jump_above_threshold"] = float(gap)
+    corr = np.eye(2)
+    se = np.array([params["v_dz_pos"].stderr, params["v_dz_neg"].stderr])
+    cov = np.diag(se ** 2)
+    comp = {}
+    c0 = curves[0]
+    if c0.input_name == "u":
+        md = c0.metadata
+        try:
+            comp = {"v_dz_pos": float(md.get("v_dz_pos", "nan")), "v_dz_neg": float(md.get("v_dz_neg", "nan"))}
+        except ValueError:
+            comp = {}
+        if not comp or not all(math.isfinite(v) for v in comp.values()):
+            comp = {}
+        warnings.append("compensated curve (input u): v_dz_pos and v_dz_neg are the residual dead zone after the "
+                        "compensation" + (f" v_dz = ({comp['v_dz_pos']:g}, {comp['v_dz_neg']:g})" if comp else
+                                          " (its thresholds are not in the metadata)"))
+        if comp:
+            details["compensation"] = comp
+    details["method"] = (f"straight part: |q4| >= {mf:g} x max|q4| per side; line q4 = a v + b, "
+                         "threshold = -b/a; stderr by the delta method")
+    message = (f"set-up 'dead-zone': v_dz_pos = {params['v_dz_pos'].value:.4g} +- {params['v_dz_pos'].stderr:.2g}, "
+               f"v_dz_neg = {params['v_dz_neg'].value:.4g} +- {params['v_dz_neg'].stderr:.2g} from {used_total} points")
+    return StaticFit(parameters=params, covariance=cov, correlation=corr, condition_number=float(max(conds)),
+                     residual_rms=rms, samples=used_total, warnings=warnings, details=details, message=message,
+                     sources=[c.source for c in curves])
+
+
+class DeadZone(Setup):
+    """The dead zone (5) from a static curve (section 5.1, figure 2a)."""
+
+    name = "dead-zone"
+    paper = "(5)/(8), section 5.1, figure 2a"
+    columns = ("v_dz_pos", "v_dz_neg")
+    parameters = columns
+    static = True
+    refine = RefineSpec("motor-disk-raw", ("p2", "p3", "v_dz_pos", "v_dz_neg"), ("q4",))
+
+    def row_betas(self, vals, pend, p2_known):
+        return {}
+
+    def parameter_changes(self, values, details, base):
+        off = details.get("compensation") or {}
+        return {"v_dz_pos": values["v_dz_pos"] + float(off.get("v_dz_pos", 0.0)),
+                "v_dz_neg": values["v_dz_neg"] + float(off.get("v_dz_neg", 0.0))}

@@ -1,0 +1,105 @@
+"""Energy and linearisation of the models.
+
+:func:`energy` is the kinetic and potential energy of eq. (2);
+:func:`linearize` the Jacobian of model (9) at an equilibrium, and
+:func:`to_statespace` the same as a python-control system.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..errors import InputError
+from .parameters import LumpedParameters, PhysicalParameters
+
+
+def energy(params, x) -> dict[str, np.ndarray]:
+    """Kinetic and potential energy.
+
+    For :class:`PhysicalParameters`, in joules:
+    ``T = 1/2 I1_hat q3^2 + 1/2 I2 (q3 + q4)^2`` and
+    ``V = (m1 c + m2 l) g (1 - cos q1)`` (eq. (2)).
+    For :class:`LumpedParameters`, per unit ``I1_hat`` [s^-2]:
+    ``T = 1/2 q3^2 + 1/2 (q3 + q4)^2 / rho`` and ``V = p1 (1 - cos q1)``.
+
+    Parameters
+    ----------
+    x : array_like, shape (4,) or (n, 4)
+        States.
+
+    Returns
+    -------
+    dict
+        ``{"kinetic": T, "potential": V, "total": T + V}``.
+    """
+    x = np.asarray(x, dtype=float)
+    q1, q3, q4 = x[..., 0], x[..., 2], x[..., 3]
+    if isinstance(params, PhysicalParameters):
+        T = 0.5 * params.I1_hat * q3**2 + 0.5 * params.I2 * (q3 + q4) ** 2
+        V = (params.m1 * params.c + params.m2 * params.l) * params.g * (1.0 - np.cos(q1))
+    else:
+        T = 0.5 * q3**2 + 0.5 * (q3 + q4) ** 2 / params.rho
+        V = params.p1 * (1.0 - np.cos(q1))
+    return {"kinetic": T, "potential": V, "total": T + V}
+
+
+def pendulum_energy(params: LumpedParameters, x) -> np.ndarray:
+    """Energy of the pendulum alone per unit ``I1_hat`` [s^-2]: ``q3^2/2 + p1 (1 - cos q1)``.
+
+    Zero hanging at rest, ``2 p1`` upright at rest (the swing-up's target).
+    """
+    x = np.asarray(x, dtype=float)
+    return 0.5 * x[..., 2] ** 2 + params.p1 * (1.0 - np.cos(x[..., 0]))
+
+
+EQUILIBRIA = {"down": 0.0, "hanging": 0.0, "up": math.pi, "upright": math.pi}
+
+
+def linearize(params: LumpedParameters, equilibrium: str = "down") -> tuple[np.ndarray, np.ndarray]:
+    """Linearisation ``(A, B)`` of the compensated model (9) at an equilibrium.
+
+    At ``q1* = 0`` (``"down"``) or ``pi`` (``"up"``), ``q2`` arbitrary,
+    ``q3 = q4 = 0``, ``u = 0``:
+
+    ``A = [[0, 0, 1, 0], [0, 0, 0, 1], [-c, 0, -s, p2], [c, 0, s, -p2 (1 + rho)]]``,
+    ``B = [0, 0, -p3, p3 (1 + rho)]^T`` with ``c = p1 cos q1*`` and
+    ``s = sigma~_a1 + sigma~_v1`` (the ``q3^3`` term has zero slope). The
+    Coulomb term is not part of (9) and is ignored.
+
+    Returns
+    -------
+    A : ndarray, shape (4, 4)
+    B : ndarray, shape (4, 1)
+    """
+    if equilibrium not in EQUILIBRIA:
+        raise InputError(f"equilibrium must be one of {', '.join(EQUILIBRIA)}, got {equilibrium!r}")
+    q1s = EQUILIBRIA[equilibrium]
+    c = params.p1 * math.cos(q1s)
+    s = params.sigma_a1 * abs(math.cos(q1s)) + params.sigma_v1
+    r1 = 1.0 + params.rho
+    A = np.array(
+        [
+            [0.0, 0.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0, 1.0],
+            [-c, 0.0, -s, params.p2],
+            [c, 0.0, s, -params.p2 * r1],
+        ]
+    )
+    B = np.array([[0.0], [0.0], [-params.p3], [params.p3 * r1]])
+    return A, B
+
+
+def to_statespace(params: LumpedParameters, equilibrium: str = "down"):
+    """The linearisation as a python-control ``StateSpace`` (outputs: the full state).
+
+    Needs the optional extra: ``pip install iwp[control]``.
+    """
+    try:
+        import control
+    except ImportError:  # pragma: no cover - exercised only without the extra
+        raise InputError("to_statespace needs python-control: pip install 'iwp[control]'") from None
+    A, B = linearize(params, equilibrium)
+    return control.ss(A, B, np.eye(4), np.zeros((4, 1)), inputs=["u"], outputs=["q1", "q2", "q3", "q4"],
+                      states=["q1", "q2", "q3", "q4"])

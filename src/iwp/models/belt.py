@@ -1,0 +1,64 @@
+"""The flexible rubber belt of eq. (15), with the hysteresis of figure 5.
+
+The belt couples the motor shaft (angle ``q_m``) to the disk. With the motor
+inertia neglected (the paper's reduced form) the motor follows
+``gamma q_m' - Psi/N = (kT beta / R) u``; the belt force ``Psi`` is a
+linear spring ``k`` acting on the output ``w`` of a play (backlash) operator
+of half-width ``d`` applied to the belt stretch ``delta = q2 - q_m / N``
+(our reading of figure 5: a parallelogram loop of slope ``k`` and width
+``2 d``). The states ``delta`` and ``w`` follow ``q1..q4``.
+"""
+
+from __future__ import annotations
+
+from ..jit import jit
+from .actuator import effective_input
+from .friction import coulomb_sign
+from .layout import B2I2, DPLAY, EPSC, KBRG, KG, KI2, LOCK, NB, RHO, SC2
+from .pendulum import pendulum_accel_terms
+
+
+@jit
+def play_rate(gap, ddelta, d):
+    """Rate of the output of a play operator of half-width ``d`` (figure 5); ``gap = delta - w``."""
+    if d <= 0.0:
+        return ddelta
+    if gap >= d and ddelta > 0.0:
+        return ddelta
+    if gap <= -d and ddelta < 0.0:
+        return ddelta
+    return 0.0
+
+
+@jit(inline=True)
+def rhs_belt(x, w, P, dx, free):
+    """Right-hand side of the belt model (15); pendulum locked, or free (``free``, (4a) with (15)).
+
+    Disk torque over ``I2`` (without inertial coupling):
+    ``T = b2/I2 q4 + s_c2 rho sgn q4 + k/I2 w_b``. Motor (``J_m = 0``):
+    ``q_m' = kT beta/(R gamma) w_eff + (k/gamma) w_b / N``. Belt stretch
+    ``delta' = q4 - q_m'/N``; ``w_b`` is the play operator of ``delta``.
+    Locked: ``q4' = -T`` (15). Free: ``q3' = -xi + T/rho``,
+    ``q4' = -q3' - T``.
+    """
+    q1 = x[0]
+    q3 = x[2]
+    q4 = x[3]
+    delta = x[4]
+    wb = x[5]
+    weff = effective_input(w, q4, P)
+    T = P[B2I2] * q4 + P[SC2] * P[RHO] * coulomb_sign(q4, P[EPSC]) + P[KI2] * wb
+    qm_dot = P[KBRG] * weff + P[KG] * wb / P[NB]
+    ddelta = q4 - qm_dot / P[NB]
+    dx[1] = q4
+    dx[4] = ddelta
+    dx[5] = play_rate(delta - wb, ddelta, P[DPLAY])
+    if free and P[LOCK] == 0.0:
+        acc1 = -pendulum_accel_terms(q1, q3, P) + T / P[RHO]
+        dx[0] = q3
+        dx[2] = acc1
+        dx[3] = -acc1 - T
+    else:
+        dx[0] = 0.0
+        dx[2] = 0.0
+        dx[3] = -T

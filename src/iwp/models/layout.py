@@ -1,0 +1,65 @@
+"""Where a plant's numbers sit in the vector that the compiled code reads.
+
+A :class:`~iwp.models.plant.Plant` packs its parameters into one float vector
+of length :data:`N_PACK` (:meth:`~iwp.models.plant.Plant.packed`); the
+compiled right-hand sides of :mod:`iwp.models.equations` read it at the
+indices below. The layout is internal to iwp: the public API takes
+parameter objects, never vectors.
+
+Model codes are the compiled counterpart of the model names of
+:data:`iwp.models.plant.MODELS`.
+"""
+
+from __future__ import annotations
+
+# --------------------------------------------------------------------------
+# model codes
+# --------------------------------------------------------------------------
+M_EL = 0  #: Euler-Lagrange (4) with the motor (3), physical parameters
+M_RAW = 1  #: state space (6), raw input v through the dead zone (5)
+M_COMP = 2  #: compensated model (9), ideal input u
+M_MD = 3  #: motor-disk (14) after exact compensation, input u
+M_MD_RAW = 4  #: motor-disk (14), raw input v through the dead zone
+M_BELT = 5  #: flexible belt (15), pendulum locked
+M_BELT_FULL = 6  #: belt (15) with the pendulum free: the virtual rig's truth plant
+#: model (9) compiled without its optional terms (dead zone, Coulomb, clamp),
+#: for callers that have checked :func:`iwp.models.equations.optional_terms_off`
+M_PLAIN = 7
+M_FREE_HELD = 8  #: free pendulum, wheel held to the arm (section 5.2 on a belt-driven rig)
+M_FREE_NOWHEEL = 9  #: free pendulum without a wheel, section 5.2's equation taken literally
+
+#: models with the belt states ``delta, w`` (six states); all others have four
+BELT_CODES = (M_BELT, M_BELT_FULL)
+
+# --------------------------------------------------------------------------
+# lumped layout (models (6), (9), (14), (15), free pendulum)
+# --------------------------------------------------------------------------
+P1, P2, P3, RHO, SA, SV, SB, VPOS, VNEG, SC2, EPSC, BRK, WS, LOCK, DZ = range(15)
+#: belt (15): k/I2, play half-width d, ratio N, b2/I2, k/gamma, kT beta/(R gamma)
+KI2, DPLAY, NB, B2I2, KG, KBRG = range(15, 21)
+N_LUMPED = 21
+
+# --------------------------------------------------------------------------
+# physical layout (model "el")
+# --------------------------------------------------------------------------
+(E_M1, E_M2, E_I1, E_I2, E_L, E_C, E_G, E_KT, E_KF, E_R, E_N, E_BETA, E_SV1, E_SR, E_RR, E_SV2, E_SC2,
+ E_VPOS, E_VNEG, E_EPSC) = range(20)
+N_PHYS = 20
+#: the physical fields in the order of the layout above
+PHYSICAL_FIELDS = ("m1", "m2", "I1", "I2", "l", "c", "g", "kT", "kF", "R", "N", "beta", "sigma_v1", "sigma_r", "r",
+                   "sigma_v2", "sigma_c2", "V_dz_pos", "V_dz_neg")
+
+#: length of every packed parameter vector (one size for all models)
+N_PACK = max(N_LUMPED, N_PHYS)
+
+#: lumped parameter name -> index (the parameters a fit can vary)
+LUMPED_INDEX = {
+    "p1": P1, "p2": P2, "p3": P3, "rho": RHO, "sigma_a1": SA, "sigma_v1": SV, "sigma_b1": SB,
+    "v_dz_pos": VPOS, "v_dz_neg": VNEG, "sigma_c2": SC2,
+}
+
+# --------------------------------------------------------------------------
+# command chain (feedforward (7)-(8), then saturation)
+# --------------------------------------------------------------------------
+C_FF, C_FFPOS, C_FFNEG, C_SATLO, C_SATHI = range(5)
+N_COMMAND = 5

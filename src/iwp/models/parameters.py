@@ -1,0 +1,508 @@
+"""Parameters of the inertia wheel pendulum.
+
+Two levels, as in the paper:
+
+* :class:`PhysicalParameters` -- masses, inertias, lengths, motor constants
+  and friction coefficients in SI units (sections 2 and 3).
+* :class:`LumpedParameters` -- the lumped parameters of the state-space models
+  (6) and (9) (section 4): ``p1, p2, p3, rho, sigma_a1, sigma_v1, sigma_b1``,
+  the dead-zone thresholds ``v_dz_pos, v_dz_neg`` of (5)/(8) in input units,
+  and the Coulomb coefficient ``sigma_c2`` of section 5.1.
+
+:meth:`PhysicalParameters.to_lumped` is the mapping of section 4.
+:func:`table1` returns the paper's Table 1. Parameter sets load from and save
+to JSON with :func:`load_params` / :func:`save_params`.
+
+Both classes are frozen dataclasses: pass them to the pure functions of
+:mod:`iwp.models` and :mod:`iwp.simulate`; change one field with
+:func:`dataclasses.replace`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import warnings
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError
+from ..files import prepare_output_file, read_json
+
+__all__ = [
+    "PhysicalParameters",
+    "LumpedParameters",
+    "BeltParameters",
+    "table1",
+    "paper_belt",
+    "load_params",
+    "save_params",
+    "named_params",
+]
+
+
+def _check_fields(obj, where: str, positive: tuple[str, ...], nonneg: tuple[str, ...]) -> None:
+    for f in fields(obj):
+        val = getattr(obj, f.name)
+        if isinstance(val, bool) or not isinstance(val, (int, float)):
+            raise InputError(f"{where}: field {f.name!r} must be a number, got {val!r}")
+        if not math.isfinite(val):
+            raise InputError(f"{where}: field {f.name!r} must be finite, got {val!r}")
+    for name in positive:
+        val = getattr(obj, name)
+        if val <= 0.0:
+            raise InputError(f"{where}: field {name!r} must be > 0, got {val!r}")
+    for name in nonneg:
+        val = getattr(obj, name)
+        if val < 0.0:
+            raise InputError(f"{where}: field {name!r} must be >= 0, got {val!r}")
+
+
+@dataclass(frozen=True)
+class LumpedParameters:
+    """Lumped parameters of the state-space models (6) and (9).
+
+    All are normalised by the pendulum inertia about the pivot,
+    ``I1_hat = I1 + m1 c^2 + m2 l^2`` (section 4). The input is the
+    non-dimensional driver command ``v = V_i / beta`` (or the ideal input ``u``
+    of the compensated model (9)); "[in]" below denotes one unit of it.
+
+    Parameters
+    ----------
+    p1 : float
+        ``(m1 c + m2 l) g / I1_hat`` [s^-2]; the small-oscillation frequency of
+        the pendulum is ``sqrt(p1)`` [rad/s].
+    p2 : float
+        ``(N^2 kT kF / R + sigma_v2) / I1_hat`` [s^-1]: back-emf plus viscous
+        friction of the disk joint.
+    p3 : float
+        ``beta N kT / (I1_hat R)`` [rad s^-2 / in]: input gain.
+    rho : float
+        ``I1_hat / I2`` [-]: inertia ratio.
+    sigma_a1 : float
+        ``sigma~_a1`` [s^-1]: rolling friction ``|cos q1| q3`` of the pendulum.
+    sigma_v1 : float
+        ``sigma~_v1`` [s^-1]: viscous friction of the pendulum.
+    sigma_b1 : float
+        ``sigma~_b1`` [s rad^-2]: centrifugal rolling friction ``q3^3``.
+    v_dz_pos, v_dz_neg : float
+        Dead-zone thresholds ``v+ = V_dz+/beta`` and ``v- = V_dz-/beta`` [in]
+        of (5) and (8); both positive numbers (the negative threshold is
+        ``-v_dz_neg``).
+    sigma_c2 : float
+        ``sigma~_c2 = sigma_c2 / I1_hat`` [rad s^-2]: Coulomb friction of the
+        disk joint (section 5.1, "Analysis of the Coulomb friction
+        phenomenon"); 0 in the paper's final model.
+    """
+
+    p1: float  # [s^-2]
+    p2: float  # [s^-1]
+    p3: float  # [rad s^-2 per input unit]
+    rho: float  # [-]
+    sigma_a1: float  # [s^-1]
+    sigma_v1: float  # [s^-1]
+    sigma_b1: float  # [s rad^-2]
+    v_dz_pos: float = 0.0  # [input units]
+    v_dz_neg: float = 0.0  # [input units]
+    sigma_c2: float = 0.0  # [rad s^-2]
+
+    def __post_init__(self) -> None:
+        # Structural checks only: finiteness and rho > 0 (the models divide by
+        # it). Physical signs are checked by :meth:`check_physical`, because
+        # an unconstrained least-squares fit (the paper's eq. (16)) may give a
+        # negative friction coefficient that one still wants to simulate.
+        _check_fields(self, "LumpedParameters", positive=("rho",), nonneg=())
+
+    def check_physical(self, where: str = "LumpedParameters") -> "LumpedParameters":
+        """Check the physical signs; return ``self``.
+
+        ``p1, p3, rho > 0``; ``p2``, the friction coefficients and the dead-zone
+        thresholds ``>= 0``. Raises :class:`~iwp.errors.InputError` naming the
+        first offending field.
+        """
+        _check_fields(
+            self,
+            where,
+            positive=("p1", "p3", "rho"),
+            nonneg=("p2", "sigma_a1", "sigma_v1", "sigma_b1", "v_dz_pos", "v_dz_neg", "sigma_c2"),
+        )
+        return self
+
+    # Derived quantities ---------------------------------------------------
+    @property
+    def p2_1rho(self) -> float:
+        """``p2 (1 + rho)`` [s^-1], as identified by the motor-disk set-up."""
+        return self.p2 * (1.0 + self.rho)
+
+    @property
+    def p3_1rho(self) -> float:
+        """``p3 (1 + rho)`` [rad s^-2 / in], as identified by the motor-disk set-up."""
+        return self.p3 * (1.0 + self.rho)
+
+    @property
+    def sigma_c2_1rho(self) -> float:
+        """``sigma~_c2 (1 + rho)`` [rad s^-2], set-up (b) of section 5.1."""
+        return self.sigma_c2 * (1.0 + self.rho)
+
+    @property
+    def natural_frequency(self) -> float:
+        """Small-oscillation frequency of the free pendulum, ``sqrt(p1)`` [rad/s]."""
+        return math.sqrt(self.p1) if self.p1 > 0 else float("nan")
+
+    def to_dict(self) -> dict[str, float]:
+        """Field name -> value."""
+        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
+
+    def replace(self, **changes: float) -> "LumpedParameters":
+        """A copy with ``changes`` applied (see :func:`dataclasses.replace`)."""
+        return dataclasses.replace(self, **changes)
+
+
+@dataclass(frozen=True)
+class PhysicalParameters:
+    """Physical parameters in SI units (sections 2 and 3 of the paper).
+
+    Parameters
+    ----------
+    m1, m2 : float
+        Mass of the pendulum arm and of the disk [kg].
+    I1, I2 : float
+        Moment of inertia of the arm about its centre of mass and of the disk
+        about its shaft [kg m^2].
+    l, c : float
+        Distance from the pivot to the disk shaft and to the arm's centre of
+        mass [m].
+    g : float
+        Gravitational acceleration [m s^-2].
+    kT : float
+        Motor torque constant [N m / A].
+    kF : float
+        Motor back-emf constant [V s / rad].
+    R : float
+        Rotor coil resistance [ohm].
+    N : float
+        Belt reduction ratio (disk diameter / motor pulley diameter) [-].
+    beta : float
+        Gain of the motor driver: ``V_i = beta v`` [V per input unit].
+    sigma_v1 : float
+        Viscous friction of the pendulum joint [N m s / rad].
+    sigma_r : float
+        Velocity coefficient of the rolling friction ``mu_r = sigma_r q3``
+        [s / rad].
+    r : float
+        Radius of the pendulum shaft [m].
+    sigma_v2 : float
+        Viscous friction of the disk joint [N m s / rad].
+    sigma_c2 : float
+        Coulomb friction of the disk joint [N m].
+    V_dz_pos, V_dz_neg : float
+        Dead-zone thresholds of (5) [V], both positive.
+    """
+
+    m1: float  # [kg]
+    m2: float  # [kg]
+    I1: float  # [kg m^2]
+    I2: float  # [kg m^2]
+    l: float  # [m]
+    c: float  # [m]
+    g: float  # [m s^-2]
+    kT: float  # [N m / A]
+    kF: float  # [V s / rad]
+    R: float  # [ohm]
+    N: float  # [-]
+    beta: float  # [V / input unit]
+    sigma_v1: float  # [N m s / rad]
+    sigma_r: float  # [s / rad]
+    r: float  # [m]
+    sigma_v2: float  # [N m s / rad]
+    sigma_c2: float = 0.0  # [N m]
+    V_dz_pos: float = 0.0  # [V]
+    V_dz_neg: float = 0.0  # [V]
+
+    def __post_init__(self) -> None:
+        _check_fields(
+            self,
+            "PhysicalParameters",
+            positive=("m1", "m2", "I1", "I2", "l", "g", "kT", "R", "N", "beta"),
+            nonneg=("c", "kF", "sigma_v1", "sigma_r", "r", "sigma_v2", "sigma_c2", "V_dz_pos", "V_dz_neg"),
+        )
+
+    @property
+    def I1_hat(self) -> float:
+        """Pendulum inertia about the pivot ``I1 + m1 c^2 + m2 l^2`` [kg m^2] (eq. (2))."""
+        return self.I1 + self.m1 * self.c**2 + self.m2 * self.l**2
+
+    @property
+    def sigma_a1(self) -> float:
+        """Rolling friction, gravity part ``sigma_r (m1 + m2) g r`` [N m s / rad]."""
+        return self.sigma_r * (self.m1 + self.m2) * self.g * self.r
+
+    @property
+    def sigma_b1(self) -> float:
+        """Rolling friction, centrifugal part ``sigma_r (m1 c + m2 l) r`` [kg m^2 s / rad^2]."""
+        return self.sigma_r * (self.m1 * self.c + self.m2 * self.l) * self.r
+
+    def to_lumped(self) -> LumpedParameters:
+        """The lumped parameters of section 4 (definitions below eq. (6))."""
+        I1h = self.I1_hat
+        return LumpedParameters(
+            p1=(self.m1 * self.c + self.m2 * self.l) * self.g / I1h,
+            p2=(self.N**2 * self.kT * self.kF / self.R + self.sigma_v2) / I1h,
+            p3=self.beta * self.N * self.kT / (I1h * self.R),
+            rho=I1h / self.I2,
+            sigma_a1=self.sigma_a1 / I1h,
+            sigma_v1=self.sigma_v1 / I1h,
+            sigma_b1=self.sigma_b1 / I1h,
+            v_dz_pos=self.V_dz_pos / self.beta,
+            v_dz_neg=self.V_dz_neg / self.beta,
+            sigma_c2=self.sigma_c2 / I1h,
+        )
+
+    def to_dict(self) -> dict[str, float]:
+        """Field name -> value."""
+        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class BeltParameters:
+    """Flexible rubber belt of eq. (15) with the hysteresis of figure 5.
+
+    The motor inertia ``J_m`` is neglected (as in the paper), so the motor
+    position ``q_m`` follows ``gamma q_m' - Psi/N = (kT beta / R) u``. The
+    parameters are normalised as the paper gives them. ``Psi`` is the belt
+    force: a linear spring ``k`` acting on the output of a play (backlash)
+    operator of half-width ``d`` applied to the belt stretch
+    ``delta = q2 - q_m / N`` (our reading of figure 5, whose drawing is not in
+    the text: a parallelogram loop of slope ``k`` and width ``2 d``).
+
+    Parameters
+    ----------
+    k_over_I2 : float
+        Belt stiffness over the disk inertia ``k / I2`` [s^-2].
+    d : float
+        Half-width of the hysteresis (play) [rad of disk angle].
+    N : float
+        Reduction ratio [-].
+    b2_over_I2 : float
+        Viscous friction of the disk joint over its inertia ``b2 / I2`` [s^-1].
+    k_over_gamma : float
+        ``k / gamma`` with ``gamma = N^2 kT kF / R + b_m`` [s^-1].
+    kTbeta_over_Rgamma : float
+        ``kT beta / (R gamma)`` [rad s^-1 per input unit]: the motor's no-load
+        speed per input unit.
+    """
+
+    k_over_I2: float = 60.0  # [s^-2]
+    d: float = 2.0  # [rad]
+    N: float = 13.5  # [-]
+    b2_over_I2: float = 10.0  # [s^-1]
+    k_over_gamma: float = 780.0  # [s^-1]
+    kTbeta_over_Rgamma: float = 26.0  # [rad s^-1 / in]
+
+    def __post_init__(self) -> None:
+        _check_fields(
+            self,
+            "BeltParameters",
+            positive=("k_over_I2", "N", "k_over_gamma", "kTbeta_over_Rgamma"),
+            nonneg=("d", "b2_over_I2"),
+        )
+
+    @property
+    def rigid_p2rho(self) -> float:
+        """Disk damping of the rigid limit ``(b2 + N^2 gamma) / I2`` [s^-1]."""
+        gamma_over_I2 = self.k_over_I2 / self.k_over_gamma
+        return self.b2_over_I2 + self.N**2 * gamma_over_I2
+
+    @property
+    def rigid_p3rho(self) -> float:
+        """Input gain of the rigid limit ``N kT beta / (R I2)`` [rad s^-2 / in]."""
+        gamma_over_I2 = self.k_over_I2 / self.k_over_gamma
+        return self.N * self.kTbeta_over_Rgamma * gamma_over_I2
+
+    @classmethod
+    def from_rigid(
+        cls,
+        p2rho: float,
+        p3rho: float,
+        *,
+        k_over_I2: float,
+        d: float,
+        N: float = 13.5,
+        b2_over_I2: float = 0.5,
+    ) -> "BeltParameters":
+        """A belt whose rigid limit (``k -> inf``, ``d = 0``) has the given disk dynamics.
+
+        With the pendulum locked the rigid model is
+        ``q4' = -p2rho q4 + p3rho u``; this solves
+        ``p2rho = b2/I2 + N^2 gamma/I2`` and ``p3rho = N kT beta / (R I2)``
+        for ``gamma`` and ``kT beta / R``.
+
+        Parameters
+        ----------
+        p2rho, p3rho : float
+            Rigid-limit damping [s^-1] and gain [rad s^-2 / in] (for a free
+            pendulum these are ``p2 rho`` and ``p3 rho``).
+        k_over_I2, d, N, b2_over_I2 : float
+            As in the class; ``b2_over_I2`` must be below ``p2rho``.
+        """
+        if not b2_over_I2 < p2rho:
+            raise InputError(
+                f"b2_over_I2 = {b2_over_I2} must be below the rigid damping p2rho = {p2rho}"
+            )
+        gamma_over_I2 = (p2rho - b2_over_I2) / N**2
+        return cls(
+            k_over_I2=k_over_I2,
+            d=d,
+            N=N,
+            b2_over_I2=b2_over_I2,
+            k_over_gamma=k_over_I2 / gamma_over_I2,
+            kTbeta_over_Rgamma=p3rho / N / gamma_over_I2,
+        )
+
+    def to_dict(self) -> dict[str, float]:
+        """Field name -> value."""
+        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
+
+
+#: Typical magnitudes of the lumped parameters (Table 1, section 5.1), to
+#: scale fits and difference steps when a value is 0.
+TYPICAL = {
+    "p1": 26.0, "p2": 0.01, "p3": 0.03, "rho": 250.0, "sigma_a1": 0.003, "sigma_v1": 0.01, "sigma_b1": 5e-4,
+    "v_dz_pos": 31.0, "v_dz_neg": 31.0, "sigma_c2": 0.1,
+}
+
+
+def table1() -> LumpedParameters:
+    """The paper's Table 1, with the dead zone ``v+ = v- = 31`` of section 5.1.
+
+    Table 1 rounds ``sigma~_b1`` to 0.0005 (the free-pendulum identification
+    gave 0.00047, ERRATA item 5); this set keeps Table 1's printed value.
+    Coulomb friction is not part of the final model (``sigma_c2 = 0``).
+    """
+    return LumpedParameters(
+        p1=26.0950,
+        p2=0.0106,
+        p3=0.0286,
+        rho=247.24,
+        sigma_a1=0.0030,
+        sigma_v1=0.01,
+        sigma_b1=0.0005,
+        v_dz_pos=31.0,
+        v_dz_neg=31.0,
+        sigma_c2=0.0,
+    )
+
+
+def paper_belt() -> BeltParameters:
+    """The belt values of section 5.1 (figure 4b): ``k/I2 = 60``, ``d = 2``, ``N = 13.5``,
+    ``b2/I2 = 10``, ``k/gamma = 780``, ``kT beta/(R gamma) = 26``."""
+    return BeltParameters()
+
+
+_NAMED = {"table1": table1}
+
+
+def named_params(name: str) -> LumpedParameters:
+    """A built-in parameter set by name (``"table1"``)."""
+    try:
+        return _NAMED[name]()
+    except KeyError:
+        raise InputError(f"unknown parameter set {name!r}; built-in sets: {', '.join(_NAMED)}") from None
+
+
+_KINDS = {
+    "lumped": LumpedParameters,
+    "physical": PhysicalParameters,
+    "belt": BeltParameters,
+}
+
+
+def save_params(params, path: str | Path, *, force: bool = False, extra: dict[str, Any] | None = None) -> Path:
+    """Write a parameter set to JSON.
+
+    The file is ``{"kind": "lumped"|"physical"|"belt", "parameters": {...}}``
+    plus the optional ``extra`` entries (e.g. uncertainties, provenance).
+    Refuses to overwrite an existing file unless ``force``.
+    """
+    kind = next((k for k, cls in _KINDS.items() if isinstance(params, cls)), None)
+    if kind is None:
+        kinds = ", ".join(c.__name__ for c in _KINDS.values())
+        raise InputError(f"params must be one of {kinds}, got {type(params).__name__}")
+    p = prepare_output_file(path, force=force)
+    doc: dict[str, Any] = {"kind": kind, "parameters": params.to_dict()}
+    if extra:
+        doc.update(extra)
+    p.write_text(json.dumps(doc, indent=2, sort_keys=False) + "\n")
+    return p
+
+
+def load_params(path_or_name: str | Path, *, physical_check: bool = True):
+    """Load a parameter set from a JSON file, or a built-in set by name.
+
+    Accepts ``{"kind": ..., "parameters": {...}}`` as written by
+    :func:`save_params`, or a flat ``{name: value}`` object of lumped
+    parameters. A physical parameter set is returned as
+    :class:`PhysicalParameters`; use ``.to_lumped()`` for the models.
+
+    A lumped set with wrong signs (negative friction, ...) is refused unless
+    the file says ``"unconstrained_fit": true`` (as ``iwp identify --out``
+    writes for an unconstrained fit that came out unphysical, like the
+    paper's eq. (16)); such a file is loaded with a warning.
+
+    Raises
+    ------
+    InputError
+        Naming the file and the field: unknown or missing names, values that
+        are not finite numbers, wrong signs (``physical_check``).
+    """
+    s = str(path_or_name)
+    if s in _NAMED:
+        return named_params(s)
+    path = Path(s)
+    if not path.exists():
+        raise InputError(f"{path}: no such parameter file (built-in sets: {', '.join(_NAMED)})")
+    doc = read_json(path)
+    if not isinstance(doc, dict):
+        raise InputError(f"{path}: expected a JSON object of parameters")
+    kind = doc.get("kind", "lumped")
+    values = doc.get("parameters", doc if "kind" not in doc else None)
+    if kind not in _KINDS:
+        raise InputError(f"{path}: unknown kind {kind!r}; expected one of {', '.join(_KINDS)}")
+    if not isinstance(values, dict):
+        raise InputError(f"{path}: 'parameters' must be an object of name: value")
+    cls = _KINDS[kind]
+    names = {f.name for f in fields(cls)}
+    required = {f.name for f in fields(cls) if f.default is dataclasses.MISSING}
+    unknown = sorted(set(values) - names)
+    if unknown:
+        known = ", ".join(sorted(names))
+        raise InputError(f"{path}: unknown parameter {unknown[0]!r} for a {kind} set; known: {known}")
+    missing = sorted(required - set(values))
+    if missing:
+        raise InputError(f"{path}: missing parameter {missing[0]!r}")
+    for name, val in values.items():
+        if isinstance(val, bool) or not isinstance(val, (int, float)):
+            raise InputError(f"{path}: parameter {name!r} must be a number, got {val!r}")
+        if not math.isfinite(val):
+            raise InputError(f"{path}: parameter {name!r} must be finite, got {val!r}")
+    unconstrained = doc.get("unconstrained_fit") is True
+    try:
+        params = cls(**{k: float(v) for k, v in values.items()})
+        if physical_check and isinstance(params, LumpedParameters):
+            try:
+                params.check_physical(where=str(path))
+            except InputError as exc:
+                if not unconstrained:
+                    raise
+                # a file that declares itself an unconstrained least-squares
+                # fit (e.g. the paper's eq. (16)) is used as given, with a warning
+                warnings.warn(f"{path}: unconstrained fit with an unphysical value: {str(exc).split(': ', 1)[-1]}; "
+                              "using it as given", UserWarning, stacklevel=2)
+    except InputError as exc:
+        msg = str(exc)
+        if not msg.startswith(str(path)):
+            msg = f"{path}: {msg.split(': ', 1)[-1]}"
+        raise InputError(msg) from None
+    return params

@@ -1,0 +1,40 @@
+"""What every figure shares: matplotlib without a screen, signal labels, stacked panels, saving."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg", force=False)
+
+import matplotlib.pyplot as plt  # noqa: E402
+
+__all__ = ["SIGNAL_LABELS", "stacked_axes", "savefig"]
+
+#: Axis labels of the signals [unit], shared by every plotting module.
+SIGNAL_LABELS = {
+    "q1": r"$q_1$ [rad]",
+    "q2": r"$q_2$ [rad]",
+    "q3": r"$q_3$ [rad/s]",
+    "q4": r"$q_4$ [rad/s]",
+    "u": r"$u$ [-]",
+    "v": r"$v$ [-]",
+}
+
+
+def stacked_axes(n: int, axes=None, sharex=True, figsize=None):
+    """``(figure, [n axes])``: the caller's axes (checked to be ``n``) or ``n`` new stacked panels."""
+    if axes is not None:
+        axes = list(axes) if hasattr(axes, "__len__") else [axes]
+        if len(axes) != n:
+            raise ValueError(f"axes must hold {n} axes, got {len(axes)}")
+        return axes[0].figure, axes
+    fig, ax = plt.subplots(n, 1, sharex=sharex, figsize=figsize or (7.0, 1.8 * n + 0.8), constrained_layout=True)
+    return fig, list(ax) if n > 1 else [ax]
+
+
+
+def savefig(fig, path, *, dpi=150):
+    """Save ``fig`` to ``path`` (format from the extension) and close it."""
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path

@@ -1,0 +1,79 @@
+"""Figures of simulations and of measured-against-simulated signals."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg", force=False)
+
+import matplotlib.pyplot as plt  # noqa: E402
+
+from .base import SIGNAL_LABELS, stacked_axes
+
+__all__ = ["plot_simulation", "plot_comparison"]
+
+def plot_simulation(result, signals=("q1", "q2", "q3", "q4", "u"), axes=None, label=None, **line_kw):
+    """Plot simulated signals against time, one panel each.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    signals : sequence of str
+        Names among ``q1 q2 q3 q4 u`` (and ``v`` when the command differs).
+    axes : sequence of Axes, optional
+        One per signal; new figure if omitted.
+    label : str, optional
+        Legend label of the lines.
+
+    Returns
+    -------
+    dict
+        ``{"figure": Figure, "axes": [...], "lines": [...]}``.
+    """
+    cols = result.columns()
+    fig, axs = stacked_axes(len(signals), axes)
+    lines = []
+    for ax, name in zip(axs, signals):
+        if name not in cols:
+            raise ValueError(f"signal {name!r} not in the result; available: {', '.join(cols)}")
+        (ln,) = ax.plot(cols["t"], cols[name], label=label, **line_kw)
+        lines.append(ln)
+        ax.set_ylabel(SIGNAL_LABELS.get(name, name))
+        ax.grid(True, alpha=0.3)
+    axs[-1].set_xlabel("t [s]")
+    if label is not None:
+        axs[0].legend(loc="upper right")
+    return {"figure": fig, "axes": axs, "lines": lines}
+
+
+def plot_comparison(t, measured, simulated, *, name="q4", ax=None, error_ax=None, labels=("experimental data",
+                    "numerical simulation")):
+    """Measured against simulated signal, with the error below (the paper's figures 3-10).
+
+    Returns
+    -------
+    dict
+        ``{"figure", "axes", "lines"}``; ``lines`` holds the measured, simulated and error lines.
+    """
+    if ax is None:
+        fig, (ax, error_ax) = plt.subplots(2, 1, sharex=True, figsize=(7.0, 4.2), constrained_layout=True,
+                                           gridspec_kw={"height_ratios": [2, 1]})
+    else:
+        fig = ax.figure
+    (l1,) = ax.plot(t, measured, "-", lw=1.0, label=labels[0])
+    (l2,) = ax.plot(t, simulated, "--", lw=1.0, label=labels[1])
+    ax.set_ylabel(SIGNAL_LABELS.get(name, name))
+    ax.legend(loc="upper right")
+    ax.grid(True, alpha=0.3)
+    lines = [l1, l2]
+    axes = [ax]
+    if error_ax is not None:
+        (l3,) = error_ax.plot(t, measured - simulated, "-", lw=0.8, color="k")
+        error_ax.set_ylabel(f"e ({name})")
+        error_ax.set_xlabel("t [s]")
+        error_ax.grid(True, alpha=0.3)
+        lines.append(l3)
+        axes.append(error_ax)
+    else:
+        ax.set_xlabel("t [s]")
+    return {"figure": fig, "axes": axes, "lines": lines}

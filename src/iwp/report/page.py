@@ -1,0 +1,256 @@
+"""The page: a self-contained HTML report of sections, tables, checked statements and figures.
+
+:func:`render_html` turns a :class:`Report` into one HTML page that needs
+nothing else: figures are embedded as base64 PNG, styles are inline, nothing
+is fetched from the network. The page carries a small inline script that,
+once the page has loaded, marks every image with ``data-loaded="1"`` (or
+``"0"`` if it failed) and the ``<body>`` with ``data-images-loaded="N/M"``;
+a headless browser can check the page through the DOM.
+"""
+
+from __future__ import annotations
+
+import base64
+import datetime as _dt
+import html
+import math
+import os
+import platform
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+from ..files import jsonable, prepare_output_file
+
+__all__ = ["Statement", "Table", "FigureEntry", "Section", "Report", "render_html", "write_html", "fmt"]
+
+
+# --------------------------------------------------------------------------
+# content
+# --------------------------------------------------------------------------
+@dataclass
+class Statement:
+    """One of the paper's statements, checked with the numbers of this run.
+
+    Attributes
+    ----------
+    key : str
+        Short identifier (``"dead-zone"``).
+    claim : str
+        What the paper says (quoted or paraphrased).
+    reference : str
+        Where in the paper.
+    found : str
+        What this run found, with the numbers.
+    criterion : str
+        The test applied to decide ``passed``.
+    passed : bool or None
+        ``None``: not checked (a step it needs failed); see ``found``.
+    values : dict
+        The numbers behind ``found`` (JSON-ready).
+    """
+
+    key: str
+    claim: str
+    reference: str
+    found: str = ""
+    criterion: str = ""
+    passed: bool | None = None
+    values: dict = field(default_factory=dict)
+
+    @property
+    def verdict(self) -> str:
+        return "not checked" if self.passed is None else ("pass" if self.passed else "fail")
+
+    def to_dict(self) -> dict:
+        return {"key": self.key, "claim": self.claim, "reference": self.reference, "found": self.found,
+                "criterion": self.criterion, "verdict": self.verdict, "values": jsonable(self.values)}
+
+
+@dataclass
+class Table:
+    """A table: ``columns`` and ``rows`` of already formatted cells (str), with an optional note."""
+
+    title: str
+    columns: Sequence[str]
+    rows: Sequence[Sequence[Any]]
+    note: str = ""
+
+
+@dataclass
+class FigureEntry:
+    """An embedded figure: the PNG bytes, and the names of the files written next to the page."""
+
+    name: str
+    title: str
+    caption: str
+    png: bytes
+    files: Sequence[str] = ()
+
+
+@dataclass
+class Section:
+    """A section of the page: a heading, paragraphs, tables and figures, in that order."""
+
+    title: str
+    paragraphs: Sequence[str] = ()
+    tables: Sequence[Table] = ()
+    figures: Sequence[FigureEntry] = ()
+    anchor: str = ""
+
+
+@dataclass
+class Report:
+    """Everything the page shows."""
+
+    title: str
+    subtitle: str = ""
+    summary: Sequence[tuple[str, str]] = ()
+    statements: Sequence[Statement] = ()
+    sections: Sequence[Section] = ()
+    footer: str = ""
+
+
+# --------------------------------------------------------------------------
+# formatting
+# --------------------------------------------------------------------------
+def fmt(x: Any, digits: int = 4) -> str:
+    """A number for a table: ``digits`` significant digits, ``-`` for None/NaN."""
+    if x is None:
+        return "-"
+    if isinstance(x, str):
+        return x
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    if not math.isfinite(v):
+        return "-" if math.isnan(v) else ("inf" if v > 0 else "-inf")
+    if v == 0:
+        return "0"
+    if abs(v) >= 1e5 or abs(v) < 1e-4:
+        return f"{v:.{digits - 1}e}"
+    return f"{v:.{digits}g}"
+
+
+
+_CSS = """
+body{font-family:-apple-system,Segoe UI,Helvetica,Arial,sans-serif;margin:0 auto;max-width:1100px;padding:1em 2em;
+color:#222;background:#fff;line-height:1.4}
+h1{font-size:1.6em;margin-bottom:0.2em}h2{border-bottom:2px solid #ddd;padding-bottom:0.2em;margin-top:1.6em}
+h3{margin-bottom:0.3em}.sub{color:#555;margin-top:0}
+table{border-collapse:collapse;margin:0.6em 0 1em 0;font-size:0.88em}
+th,td{border:1px solid #ccc;padding:0.25em 0.55em;text-align:left;vertical-align:top}
+th{background:#f0f3f7}td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
+.pass{background:#e2f5e2;color:#145214;font-weight:bold}.fail{background:#fbe3e3;color:#8a1010;font-weight:bold}
+.nc{background:#f3f3f3;color:#666;font-weight:bold}
+figure{margin:1em 0 2em 0;padding:0}figure img{max-width:100%;border:1px solid #eee}
+figcaption{font-size:0.9em;color:#333;margin-top:0.3em}.note{font-size:0.88em;color:#444}
+.summary td:first-child{font-weight:bold}code{background:#f4f4f4;padding:0 0.2em}
+nav a{margin-right:0.8em}
+"""
+
+_SCRIPT = """
+window.addEventListener('load', function () {
+  var imgs = document.getElementsByTagName('img'); var ok = 0;
+  for (var i = 0; i < imgs.length; i++) {
+    var good = imgs[i].complete && imgs[i].naturalWidth > 0;
+    imgs[i].setAttribute('data-loaded', good ? '1' : '0'); if (good) { ok++; }
+  }
+  document.body.setAttribute('data-images-loaded', ok + '/' + imgs.length);
+});
+"""
+
+
+def _e(text: Any) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def _cell(value: Any) -> str:
+    text = value if isinstance(value, str) else fmt(value)
+    num = not isinstance(value, str) or _looks_numeric(text)
+    return f'<td class="num">{_e(text)}</td>' if num else f"<td>{_e(text)}</td>"
+
+
+def _looks_numeric(text: str) -> bool:
+    t = text.strip().replace("\u00b1", "").replace(" ", "").replace("%", "")
+    if t in ("-", ""):
+        return True
+    try:
+        float(t)
+        return True
+    except ValueError:
+        return False
+
+
+def _table_html(t: Table) -> str:
+    head = "".join(f"<th>{_e(c)}</th>" for c in t.columns)
+    body = "".join("<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in t.rows)
+    note = f'<p class="note">{_e(t.note)}</p>' if t.note else ""
+    return f"<h3>{_e(t.title)}</h3><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>{note}"
+
+
+def _figure_html(f: FigureEntry) -> str:
+    data = base64.b64encode(f.png).decode("ascii")
+    files = ""
+    if f.files:
+        files = " Files: " + ", ".join(f"<code>{_e(x)}</code>" for x in f.files) + "."
+    return (f'<figure id="fig-{_e(f.name)}"><h3>{_e(f.title)}</h3>'
+            f'<img alt="{_e(f.title)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{_e(f.caption)}{files}</figcaption></figure>")
+
+
+def _statements_html(statements: Sequence[Statement]) -> str:
+    rows = []
+    for i, s in enumerate(statements, 1):
+        cls = {"pass": "pass", "fail": "fail"}.get(s.verdict, "nc")
+        rows.append(
+            f"<tr><td class=\"num\">{i}</td><td>{_e(s.claim)}<br><span class=\"note\">{_e(s.reference)}</span></td>"
+            f"<td>{_e(s.found)}</td><td class=\"note\">{_e(s.criterion)}</td>"
+            f'<td class="{cls}">{_e(s.verdict.upper())}</td></tr>')
+    return ("<table><thead><tr><th>#</th><th>the paper says</th><th>found here</th><th>criterion</th>"
+            "<th>verdict</th></tr></thead><tbody>" + "".join(rows) + "</tbody></table>")
+
+
+def render_html(report: Report) -> str:
+    """The page as one self-contained HTML string (no external resources)."""
+    parts = [
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f"<title>{_e(report.title)}</title><style>{_CSS}</style>",
+        f"<script>{_SCRIPT}</script></head><body>",
+        f"<h1>{_e(report.title)}</h1>",
+    ]
+    if report.subtitle:
+        parts.append(f'<p class="sub">{_e(report.subtitle)}</p>')
+    nav = []
+    if report.statements:
+        nav.append('<a href="#statements">statements</a>')
+    for i, s in enumerate(report.sections):
+        nav.append(f'<a href="#{_e(s.anchor or f"s{i}")}">{_e(s.title)}</a>')
+    if nav:
+        parts.append("<nav>" + "".join(nav) + "</nav>")
+    if report.summary:
+        rows = "".join(f"<tr><td>{_e(k)}</td><td>{_e(v)}</td></tr>" for k, v in report.summary)
+        parts.append(f'<table class="summary"><tbody>{rows}</tbody></table>')
+    if report.statements:
+        parts.append('<h2 id="statements">The paper\'s statements, checked</h2>')
+        parts.append(_statements_html(report.statements))
+    for i, s in enumerate(report.sections):
+        parts.append(f'<h2 id="{_e(s.anchor or f"s{i}")}">{_e(s.title)}</h2>')
+        parts.extend(f"<p>{_e(p)}</p>" for p in s.paragraphs)
+        parts.extend(_table_html(t) for t in s.tables)
+        parts.extend(_figure_html(f) for f in s.figures)
+    footer = report.footer or (f"Generated by iwp on {_dt.datetime.now().isoformat(timespec='seconds')} "
+                               f"(Python {platform.python_version()}, {platform.system()}).")
+    parts.append(f'<hr><p class="note">{_e(footer)}</p></body></html>')
+    return "\n".join(parts) + "\n"
+
+
+def write_html(report: Report, path: str | os.PathLike, *, force: bool = False) -> Path:
+    """Render ``report`` and write it to ``path`` (refuses an existing file unless ``force``)."""
+    p = prepare_output_file(path, force=force)
+    p.write_text(render_html(report), encoding="utf-8")
+    return p
+

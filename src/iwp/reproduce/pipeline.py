@@ -1,0 +1,166 @@
+"""Running the steps: :func:`reproduce`."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+import traceback
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..errors import InputError, IwpError
+from ..models.parameters import table1
+from ..report import prepare_output_dir
+from ..rig import RigTruth, VirtualRig, default_truth
+from .context import ProgressEvent, ReproduceResult, StepRecord
+from .output import step_report
+from .steps import (
+    step_closed_loop,
+    step_coulomb,
+    step_dead_zone,
+    step_free_pendulum,
+    step_full_chirp,
+    step_full_setup,
+    step_motor_disk,
+    step_refine,
+    step_sines,
+    step_two_step,
+)
+
+__all__ = ["Step", "STEPS", "reproduce"]
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step of the reproduction: its name, what it runs, its title, where in the paper, the steps it needs."""
+
+    name: str
+    run: Callable[[ReproduceResult], str]
+    title: str
+    reference: str
+    needs: tuple[str, ...] = ()
+
+
+#: The steps, in the paper's order.
+STEPS: list[Step] = [
+    Step("dead-zone", step_dead_zone, "Static curves and the dead-zone thresholds", "section 5.1, figure 2"),
+    Step("motor-disk", step_motor_disk, "Motor-disk chirp: p2(1+rho) and p3(1+rho)", "section 5.1"),
+    Step("sines", step_sines, "Sinusoids A = 60, 40, 20: rigid and flexible-belt models", "section 5.1, figures 3, 4",
+         ("motor-disk",)),
+    Step("coulomb", step_coulomb, "The Coulomb-friction variant", "section 5.1, figures 6, 7"),
+    Step("full-setup", step_full_setup, "The full 8-parameter set-up", "section 5.2, eq. (16)"),
+    Step("free-pendulum", step_free_pendulum, "The free pendulum", "section 5.2, figure 8"),
+    Step("two-step", step_two_step, "The two-step set-up and rho", "section 5.2, Table 1", ("free-pendulum",)),
+    Step("full-chirp", step_full_chirp, "The full chirp, with and without the restart", "section 5.2, figure 9",
+         ("two-step",)),
+    Step("closed-loop", step_closed_loop, "Closed loop k1 = -10, k2 = 0.1", "section 5.3, figure 10", ("two-step",)),
+    Step("refine", step_refine, "Refinement by simulation error", "beyond the paper", ("two-step",)),
+    Step("report", step_report, "Statements, parameters.json, report.html", ""),
+]
+
+
+# --------------------------------------------------------------------------
+# the runner
+# --------------------------------------------------------------------------
+def reproduce(
+    out: str | os.PathLike,
+    *,
+    force: bool = False,
+    quick: bool = False,
+    seed: int = 0,
+    truth=None,
+    progress: Callable[[ProgressEvent], None] | None = None,
+    keep_going: bool = True,
+) -> ReproduceResult:
+    """Run the paper end to end on the virtual rig and write the report to ``out``.
+
+    Parameters
+    ----------
+    out : path
+        Output folder; created if needed. A folder that exists and is not
+        empty is refused unless ``force`` (files are then overwritten).
+    force : bool
+    quick : bool
+        Shorter experiments and a smaller refinement (for tests).
+    seed : int
+        Seed of the rig's measurement noise.
+    truth : RigTruth, optional
+        The rig's truth (default: :func:`iwp.rig.default_truth`).
+    progress : callable, optional
+        Called with a :class:`ProgressEvent` when a step starts and ends.
+    keep_going : bool
+        After a failed step, run the others that do not need it (default);
+        ``False`` stops at the first failure (the report step still runs).
+
+    Returns
+    -------
+    ReproduceResult
+        ``.ok`` is false if a step failed; ``.failed_steps`` names them.
+
+    Raises
+    ------
+    OutputExistsError
+        ``out`` exists, is not empty, and ``force`` is false.
+    InputError
+        Bad ``seed`` or ``truth``.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"seed must be an integer >= 0, got {seed!r}")
+    if truth is None:
+        truth = default_truth()
+    if not isinstance(truth, RigTruth):
+        raise InputError(f"truth must be a RigTruth, got {type(truth).__name__}")
+    out_dir = prepare_output_dir(out, force=force)
+    ctx = ReproduceResult(out=out_dir, quick=bool(quick), seed=int(seed), truth=truth)
+    ctx._rig = VirtualRig(truth, seed=int(seed))
+    ctx._progress = progress
+    ctx.extra["t_start"] = time.perf_counter()
+    ctx.params["truth"] = truth.lumped
+    ctx.params["table1"] = table1()
+    ctx.steps = [StepRecord(s.name, s.title, s.reference) for s in STEPS]
+    total = len(STEPS)
+    stop = False
+    for i, step in enumerate(STEPS, 1):
+        name, title, needs = step.name, step.title, step.needs
+        rec = ctx.step(name)
+        ctx._current = name
+        blocked = [n for n in needs if ctx.step(n).status != "ok"]
+        if (stop and name != "report") or blocked:
+            rec.status = "skipped"
+            rec.message = (f"needs step '{blocked[0]}', which {ctx.step(blocked[0]).status}" if blocked
+                           else "stopped after a failed step")
+            _emit(progress, ProgressEvent("skipped", name, i, total, title, rec.message))
+            continue
+        _emit(progress, ProgressEvent("start", name, i, total, title))
+        t0 = time.perf_counter()
+        try:
+            msg = step.run(ctx)
+            rec.status = "ok"
+            rec.message = msg or ""
+        except KeyboardInterrupt:
+            raise
+        except Exception as exc:  # noqa: BLE001 - every failure is recorded with the step's name
+            rec.status = "failed"
+            rec.message = f"{type(exc).__name__}: {exc}" if not isinstance(exc, IwpError) else str(exc)
+            rec.detail = traceback.format_exc()
+            if not keep_going:
+                stop = True
+        rec.seconds = time.perf_counter() - t0
+        _emit(progress, ProgressEvent("done" if rec.status == "ok" else "failed", name, i, total, title,
+                                      rec.message, rec.seconds))
+    ctx.elapsed = time.perf_counter() - ctx.extra["t_start"]
+    if ctx.step("report").status == "ok":
+        # the elapsed time in results.json includes the report
+        try:
+            (ctx.out / "results.json").write_text(json.dumps(ctx.to_dict(), indent=2) + "\n")
+        except OSError:
+            pass
+    return ctx
+
+
+def _emit(progress, event: ProgressEvent) -> None:
+    if progress is not None:
+        progress(event)

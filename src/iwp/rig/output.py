@@ -1,0 +1,46 @@
+"""Writing what the virtual rig returns: static curves as CSV, logs in any format of :mod:`iwp.data`."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ..data import ExperimentData, StaticCurve, write_experiment, write_static_curve
+from ..errors import InputError
+from ..files import prepare_output_file
+from .experiments import experiment_spec
+
+__all__ = ["check_output_path", "write_result"]
+
+_STATIC_EXT = (".csv", ".txt")
+_SERIES_EXT = (".csv", ".txt", ".parquet", ".pq", ".mat")  # those of iwp.data.write_experiment
+
+
+def check_output_path(name: str, path: str | os.PathLike, *, force: bool = False) -> Path:
+    """Check, before running experiment ``name``, that its result may be written to ``path``.
+
+    Static curves are CSV (``.csv``/``.txt``); time series are CSV, Parquet
+    or MAT by extension (see :func:`iwp.data.write_experiment`). Refuses an
+    existing file unless ``force``.
+    """
+    experiment_spec(name)
+    p = Path(path)
+    ext = p.suffix.lower()
+    if name.startswith("static-curve"):
+        if ext not in _STATIC_EXT:
+            raise InputError(f"{p}: a static curve is written as CSV; use the extension .csv or .txt")
+    elif ext not in _SERIES_EXT:
+        raise InputError(f"{p}: cannot tell the output format from the extension {ext or '(none)'!r}; "
+                         f"use one of {', '.join(_SERIES_EXT)}")
+    return prepare_output_file(p, force=force)
+
+
+def write_result(result, path: str | os.PathLike, *, force: bool = False) -> Path:
+    """Write what :meth:`iwp.rig.VirtualRig.run` returned: a static curve as CSV, a log by extension."""
+    if isinstance(result, StaticCurve):
+        if Path(path).suffix.lower() not in _STATIC_EXT:
+            raise InputError(f"{path}: a static curve is written as CSV; use the extension .csv or .txt")
+        return write_static_curve(result, path, force=force)
+    if isinstance(result, ExperimentData):
+        return write_experiment(result, path, force=force)
+    raise InputError(f"result must be ExperimentData or StaticCurve, got {type(result).__name__}")

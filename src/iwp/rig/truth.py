@@ -1,0 +1,403 @@
+"""The truth plant of the virtual rig: richer than the identified model, with the rig's sensors.
+
+Model (6) driven by the raw driver input ``v``, made richer than the model
+that the paper identifies (its eq. (9)) in the ways the paper reports
+(sections 3.2 and 5.1); it is the model ``"belt-full"`` of
+:mod:`iwp.models` (:meth:`RigTruth.plant`):
+
+* the pendulum (4a) with viscous and rolling friction (section 3.1);
+* an asymmetric dead zone (5), ``v+ != v-``, with a break-away at start-up
+  (:class:`~iwp.models.StartupFriction`): at rest the thresholds are
+  ``(1 + break_ratio)`` times larger, which gives the discontinuity of
+  figure 2(a) when the disk starts;
+* viscous friction and Coulomb friction ``sigma~_c2 sgn q4`` at the disk
+  (section 5.1, "Analysis of the Coulomb friction phenomenon");
+* the rubber belt of eq. (15) with the play hysteresis of figure 5 between
+  motor and disk (motor inertia neglected, as in the paper);
+* optionally a clamp holding the pendulum at rest (section 5.1).
+
+Default truth values (:func:`default_truth`)
+--------------------------------------------
+Pendulum and ``rho``: Table 1 (``p1 = 26.095``, ``rho = 247.24``,
+``sigma~_a1 = 0.003``, ``sigma~_v1 = 0.01``, ``sigma~_b1 = 0.0005``).
+
+Disk: the values of the paper's Coulomb model (section 5.1, set-up (b)):
+``p2 (1 + rho) = 2.19`` (``p2 = 0.00882``), ``p3 (1 + rho) = 7.795``
+(``p3 = 0.0314``) and ``sigma~_c2 (1 + rho) = 40`` (``sigma~_c2 = 0.161``).
+With this truth a least-squares fit of the motor-disk chirp that neglects
+the Coulomb term finds a larger ``p2 (1 + rho)`` than one that includes it
+(about 2.35 against 2.18 from the encoder positions), as the paper did
+(2.93 against 2.19), though by less.
+
+Dead zone: ``v+ = 33``, ``v- = 29`` (asymmetric, both near the paper's 31);
+break-away ``break_ratio = 0.15`` with ``omega_s = 2 rad/s``. Without
+compensation the disk starts from rest at
+``v = (1 + 0.15) v+ + sigma~_c2 / p3 = 43.1`` and ``-38.5`` (figure 2a).
+With the paper's compensation ``v_dz = 31`` it starts at ``u = 12.1`` and
+``-7.5``, and a moving disk keeps turning down to ``u = 7.1`` (residual
+dead zone 2 plus the Coulomb equivalent ``sigma~_c2/p3 = 5.1``); at
+``u = 15`` the disk turns at ``~28 rad/s`` where the static line
+``q4 = p3 u / p2`` of model (9) predicts ``~53 rad/s``: the paper's "error
+of 25 rad/s at u = 15" (figure 2b). The break-away ratio 0.15 (not larger) keeps the disk moving
+at ``|u| = 15`` after compensation, as the paper reports.
+
+Belt (eq. (15), figure 5): the paper's ``d = 2``, ``N = 13.5``; the stiffness
+``k/I2 = 250 s^-2``, ``b2/I2 = 0.5 s^-1``, and ``k/gamma``,
+``kT beta/(R gamma)`` from :meth:`BeltParameters.from_rigid` so that the rigid
+limit of the belt reproduces the truth's ``p2 rho`` and ``p3 rho``. The
+paper's own belt numbers (``b2/I2 = 10 s^-1``, ``k/gamma = 780 s^-1``,
+``kT beta/(R gamma) = 26``) are not consistent with Table 1: their rigid
+limit is ``p2 rho = 10 + N^2 (k/I2)/(k/gamma) = 24 s^-1`` and
+``p3 rho = N (kT beta/(R gamma)) (k/I2)/(k/gamma) = 27``, against ``2.6`` and
+``7.1`` from Table 1 (and ``b2/I2 = 10`` alone exceeds ``p2 rho``). The
+stiffness was tuned, starting from the paper's 60 s^-2, so that, as in
+figures 3 and 4, the rigid model (9) with the truth's lumped parameters
+predicts the disk velocity for ``u = 60 sin 5t`` well and for
+``u = 20 sin 5t`` clearly worse (a distorted sinusoid). Normalised RMS error
+of the rigid prediction (:func:`iwp.rig.rigid_fit_error`) for A = 60 / 40 / 20:
+
+=========  ======  ======  ======
+k/I2       A = 60  A = 40  A = 20
+=========  ======  ======  ======
+60         0.159   0.182   0.272
+150        0.089   0.115   0.208
+**250**    0.072   0.098   0.191
+1000       0.054   0.081   0.173
+=========  ======  ======  ======
+
+(With a soft belt even A = 60 fits badly; a stiffer belt leaves the play of
+``d = 2`` and the break-away as the only distortions.)
+
+Closed loop (figure 10): with ``k1 = -10``, ``k2 = 0.1`` the rig settles on
+an oscillation of amplitude ~2.55 rad (the paper: 2.58); model (9) with the
+truth's lumped parameters gives 2.51. Coulomb friction and the residual
+dead zone stop oscillations smaller than ~0.15 rad from growing, hence the
+default start ``q1 = 0.3 rad`` (the paper does not give its initial state).
+
+Sensors: 2000 counts/rev, ``Ts = 5 ms``, no noise, saturation 100.
+
+Every value can be overridden from JSON (:meth:`RigTruth.from_json`, one
+field at a time) or in Python (:meth:`RigTruth.replace`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from ..checks import check_nonnegative, check_positive
+from ..errors import InputError
+from ..files import prepare_output_file, read_json
+from ..models.actuator import StartupFriction
+from ..models.encoder import encoder_step
+from ..models.friction import COULOMB_EPS
+from ..models.parameters import BeltParameters, LumpedParameters, table1
+from ..models.plant import Plant
+
+__all__ = ["RigTruth", "default_truth"]
+
+
+def _default_lumped() -> LumpedParameters:
+    """Table 1's pendulum and ``rho``; the disk of the paper's Coulomb model; an asymmetric dead zone."""
+    return table1().replace(
+        p2=0.00882,  # p2 (1 + rho) = 2.19, section 5.1 Coulomb model
+        p3=0.0314,  # p3 (1 + rho) = 7.795
+        v_dz_pos=33.0,
+        v_dz_neg=29.0,
+        sigma_c2=0.161,  # sigma~_c2 (1 + rho) = 40
+    )
+
+
+#: Break-away of the default truth's dead zone (start-up discontinuity of figure 2a).
+DEFAULT_STARTUP = StartupFriction(break_ratio=0.15, omega_s=2.0)
+#: The default belt's shape; its ``k_over_gamma`` and ``kTbeta_over_Rgamma`` follow from the lumped parameters.
+DEFAULT_BELT_SHAPE = {"k_over_I2": 250.0, "d": 2.0, "N": 13.5, "b2_over_I2": 0.5}
+_BELT_DERIVED = ("k_over_gamma", "kTbeta_over_Rgamma")
+
+
+def _rigid_belt(lumped: LumpedParameters, *, k_over_I2: float, d: float, N: float, b2_over_I2: float) -> BeltParameters:
+    """The belt whose rigid limit matches ``lumped``'s ``p2 rho`` and ``p3 rho``."""
+    return BeltParameters.from_rigid(lumped.p2 * lumped.rho, lumped.p3 * lumped.rho, k_over_I2=k_over_I2, d=d,
+                                     N=N, b2_over_I2=b2_over_I2)
+
+
+@dataclass(frozen=True)
+class RigTruth:
+    """Parameters of the virtual rig: the truth plant and its sensors.
+
+    Parameters
+    ----------
+    lumped : LumpedParameters
+        Pendulum, disk, dead zone (``v_dz_pos`` != ``v_dz_neg`` allowed) and
+        Coulomb friction of the truth, in the units of model (6). Must be
+        physical (:meth:`LumpedParameters.check_physical`).
+    belt : BeltParameters or None
+        The rubber belt (15) with the play hysteresis of figure 5; ``None``
+        for a rigid coupling (the truth is then model (6) itself).
+    startup : StartupFriction
+        Break-away of the dead zone at rest (start-up discontinuity,
+        figure 2a).
+    coulomb_eps : float
+        Regularisation of ``sgn(q4)`` in the Coulomb term [rad/s]
+        (``tanh(q4/eps)``).
+    counts_per_rev : int
+        Encoder resolution [counts/rev]; the quantisation step is
+        ``2 pi / counts_per_rev`` [rad] (the paper: 2000).
+    Ts : float
+        Sample time of the logs and of digital controllers [s] (the paper: 5 ms).
+    noise_std : float
+        Standard deviation of the Gaussian position noise added before
+        quantisation [rad]; 0 for none.
+    saturation : float or None
+        The driver command is clipped to ``[-saturation, saturation]`` [input
+        units]; ``None`` for no clipping.
+
+    Notes
+    -----
+    Use :func:`default_truth` for the paper-like truth: ``RigTruth()`` alone
+    has the default lumped parameters but no belt (a rigid coupling).
+    :meth:`replace` changes fields as given; to change lumped parameters
+    and keep the belt's rigid limit consistent, use
+    ``RigTruth.from_dict({"lumped": {...}}, base=truth)``.
+    """
+
+    lumped: LumpedParameters = field(default_factory=_default_lumped)
+    belt: BeltParameters | None = None
+    startup: StartupFriction = DEFAULT_STARTUP
+    coulomb_eps: float = COULOMB_EPS  # [rad/s]
+    counts_per_rev: int = 2000  # [counts/rev]
+    Ts: float = 0.005  # [s]
+    noise_std: float = 0.0  # [rad]
+    saturation: float | None = 100.0  # [input units]
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.lumped, LumpedParameters):
+            raise InputError(f"RigTruth.lumped must be LumpedParameters, got {type(self.lumped).__name__}")
+        self.lumped.check_physical("RigTruth.lumped")
+        if self.belt is not None and not isinstance(self.belt, BeltParameters):
+            raise InputError(f"RigTruth.belt must be BeltParameters or None, got {type(self.belt).__name__}")
+        if not isinstance(self.startup, StartupFriction):
+            raise InputError(f"RigTruth.startup must be StartupFriction, got {type(self.startup).__name__}")
+        check_nonnegative("RigTruth.coulomb_eps", self.coulomb_eps)
+        cpr = self.counts_per_rev
+        if isinstance(cpr, bool) or not isinstance(cpr, (int, np.integer)) and not (
+                isinstance(cpr, float) and cpr.is_integer()):
+            raise InputError(f"RigTruth.counts_per_rev must be a positive integer, got {cpr!r}")
+        if int(cpr) < 1:
+            raise InputError(f"RigTruth.counts_per_rev must be a positive integer, got {cpr!r}")
+        object.__setattr__(self, "counts_per_rev", int(cpr))
+        object.__setattr__(self, "Ts", check_positive("RigTruth.Ts", self.Ts))
+        object.__setattr__(self, "noise_std", check_nonnegative("RigTruth.noise_std", self.noise_std))
+        if self.saturation is not None:
+            object.__setattr__(self, "saturation", check_positive("RigTruth.saturation", self.saturation))
+        object.__setattr__(self, "coulomb_eps", float(self.coulomb_eps))
+
+    # ------------------------------------------------------------------
+    @property
+    def step(self) -> float:
+        """Encoder quantisation step ``2 pi / counts_per_rev`` [rad]."""
+        return encoder_step(self.counts_per_rev)
+
+    @property
+    def model(self) -> str:
+        """The :mod:`iwp.models` model of the truth plant (``"belt-full"``, or ``"raw"`` without belt)."""
+        return "raw" if self.belt is None else "belt-full"
+
+    def plant(self, *, locked: bool = False) -> Plant:
+        """The truth plant: model (6) with the belt (15), driven by ``v`` through the dead zone (5).
+
+        Parameters
+        ----------
+        locked : bool
+            The pendulum clamped at ``q1 = q3 = 0`` (section 5.1).
+        """
+        return Plant(self.lumped, model=self.model, belt=self.belt, startup=self.startup,
+                     coulomb_eps=self.coulomb_eps, locked=locked, dead_zone=True)
+
+    def replace(self, **changes: Any) -> "RigTruth":
+        """A copy with ``changes`` applied (see :func:`dataclasses.replace`)."""
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready nested dict (the format of :meth:`to_json`)."""
+        return {
+            "kind": "rig-truth",
+            "lumped": self.lumped.to_dict(),
+            "belt": None if self.belt is None else self.belt.to_dict(),
+            "startup": {"break_ratio": float(self.startup.break_ratio), "omega_s": float(self.startup.omega_s)},
+            "coulomb_eps": self.coulomb_eps,
+            "counts_per_rev": self.counts_per_rev,
+            "Ts": self.Ts,
+            "noise_std": self.noise_std,
+            "saturation": self.saturation,
+        }
+
+    def to_json(self, path: str | os.PathLike, *, force: bool = False) -> Path:
+        """Write the truth as JSON (all fields); refuses to overwrite unless ``force``."""
+        p = prepare_output_file(path, force=force)
+        p.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        return p
+
+    def to_json_line(self) -> str:
+        """The truth as one line of JSON (for log metadata)."""
+        return json.dumps(self.to_dict(), separators=(",", ":"))
+
+    @classmethod
+    def from_dict(cls, doc: Mapping[str, Any], *, base: "RigTruth | None" = None, where: str = "truth") -> "RigTruth":
+        """Build a truth from a (possibly partial) dict, overriding ``base`` field by field.
+
+        Accepted keys: ``kind`` (``"rig-truth"``), ``lumped`` / ``belt`` /
+        ``startup`` (objects of their fields; ``belt: null`` for a rigid
+        coupling), ``coulomb_eps``, ``counts_per_rev``, ``Ts``, ``noise_std``,
+        ``saturation`` (``null`` for none). Missing entries keep ``base``'s
+        value (default: :func:`default_truth`). When the lumped ``p2``,
+        ``p3`` or ``rho`` or the belt's ``k_over_I2``, ``N`` or
+        ``b2_over_I2`` change, the belt's ``k_over_gamma`` and
+        ``kTbeta_over_Rgamma`` are derived again with
+        :meth:`BeltParameters.from_rigid`, so that the belt's rigid limit
+        stays consistent with the lumped parameters, unless the dict gives
+        them with values other than ``base``'s.
+
+        Raises
+        ------
+        InputError
+            Naming ``where`` and the field (``lumped.p2``, ...): unknown
+            field, not a number, not finite, wrong sign.
+        """
+        base = default_truth() if base is None else base
+        if not isinstance(doc, Mapping):
+            raise InputError(f"{where}: expected a JSON object with the fields of the rig truth")
+        known = {"kind", "lumped", "belt", "startup", "coulomb_eps", "counts_per_rev", "Ts", "noise_std", "saturation"}
+        unknown = sorted(set(doc) - known)
+        if unknown:
+            raise InputError(f"{where}: unknown field {unknown[0]!r}; known: {', '.join(sorted(known))}")
+        kind = doc.get("kind", "rig-truth")
+        if kind != "rig-truth":
+            raise InputError(f"{where}: field 'kind' must be 'rig-truth', got {kind!r}")
+
+        def section(name: str, cls_) -> dict[str, float]:
+            values = doc.get(name, {})
+            if not isinstance(values, Mapping):
+                raise InputError(f"{where}: field {name!r} must be an object of name: number")
+            names = [f.name for f in fields(cls_)]
+            bad = sorted(set(values) - set(names))
+            if bad:
+                raise InputError(f"{where}: unknown field '{name}.{bad[0]}'; known: {', '.join(names)}")
+            out = {}
+            for key, val in values.items():
+                out[key] = _number(f"{where}: field '{name}.{key}'", val)
+            return out
+
+        lumped_over = section("lumped", LumpedParameters)
+        try:
+            lumped = dataclasses.replace(base.lumped, **lumped_over)
+            lumped.check_physical("")
+        except InputError as exc:
+            raise InputError(f"{where}: {_field_msg(str(exc), 'lumped')}") from None
+
+        startup_over = section("startup", StartupFriction)
+        sfield = {"break_ratio": ">= 0", "omega_s": "> 0"}
+        for key, val in startup_over.items():
+            if (key == "omega_s" and val <= 0) or (key == "break_ratio" and val < 0):
+                raise InputError(f"{where}: field 'startup.{key}' must be {sfield[key]}, got {val!r}")
+        startup = dataclasses.replace(base.startup, **startup_over)
+
+        if "belt" in doc and doc["belt"] is None:
+            belt = None
+        else:
+            belt_over = section("belt", BeltParameters)
+            for key, val in belt_over.items():
+                if val < 0 or (val == 0 and key not in ("d", "b2_over_I2")):
+                    rel = ">= 0" if key in ("d", "b2_over_I2") else "> 0"
+                    raise InputError(f"{where}: field 'belt.{key}' must be {rel}, got {val!r}")
+            shape = dict(DEFAULT_BELT_SHAPE)
+            if base.belt is not None:
+                shape = {k: getattr(base.belt, k) for k in DEFAULT_BELT_SHAPE}
+            shape.update({k: v for k, v in belt_over.items() if k in shape})
+            rederive = base.belt is None or any(k in lumped_over for k in ("p2", "p3", "rho")) or any(
+                k in belt_over for k in ("N", "b2_over_I2", "k_over_I2"))
+            if rederive:
+                try:
+                    belt = _rigid_belt(lumped, **shape)
+                except InputError as exc:
+                    raise InputError(f"{where}: field 'belt.b2_over_I2': {exc}") from None
+            else:
+                belt = dataclasses.replace(base.belt, **{k: v for k, v in shape.items()})
+            # derived fields left at the base's values (e.g. a file written by to_json whose
+            # lumped part was edited) are derived again; other values are taken as given
+            explicit = {k: v for k, v in belt_over.items()
+                        if k in _BELT_DERIVED and (base.belt is None or v != getattr(base.belt, k))}
+            if explicit:
+                belt = dataclasses.replace(belt, **explicit)
+
+        scalars: dict[str, Any] = {}
+        for key in ("coulomb_eps", "Ts", "noise_std"):
+            if key in doc:
+                val = _number(f"{where}: field {key!r}", doc[key])
+                if (key == "Ts" and val <= 0) or val < 0:
+                    raise InputError(f"{where}: field {key!r} must be {'> 0' if key == 'Ts' else '>= 0'}, got {val!r}")
+                scalars[key] = val
+        if "counts_per_rev" in doc:
+            val = doc["counts_per_rev"]
+            if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val) \
+                    or val != int(val) or val < 1:
+                raise InputError(f"{where}: field 'counts_per_rev' must be a positive integer, got {val!r}")
+            scalars["counts_per_rev"] = int(val)
+        if "saturation" in doc:
+            if doc["saturation"] is None:
+                scalars["saturation"] = None
+            else:
+                val = _number(f"{where}: field 'saturation'", doc["saturation"])
+                if val <= 0:
+                    raise InputError(f"{where}: field 'saturation' must be > 0 (or null for none), got {val!r}")
+                scalars["saturation"] = val
+        try:
+            return cls(lumped=lumped, belt=belt, startup=startup, **{**_scalars_of(base), **scalars})
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+
+    @classmethod
+    def from_json(cls, path: str | os.PathLike, *, base: "RigTruth | None" = None) -> "RigTruth":
+        """Load a truth from JSON, overriding ``base`` (default: :func:`default_truth`) field by field.
+
+        A file may hold only the fields to change, e.g.
+        ``{"lumped": {"v_dz_pos": 35}, "noise_std": 0.001}``; see
+        :meth:`from_dict` for the format. Errors name the file and the field.
+        """
+        p = Path(path)
+        if not p.is_file():
+            raise InputError(f"{p}: no such truth file")
+        return cls.from_dict(read_json(p), base=base, where=str(p))
+
+
+def _scalars_of(t: RigTruth) -> dict[str, Any]:
+    return {k: getattr(t, k) for k in ("coulomb_eps", "counts_per_rev", "Ts", "noise_std", "saturation")}
+
+
+def _number(what: str, val: Any) -> float:
+    if isinstance(val, bool) or not isinstance(val, (int, float)):
+        raise InputError(f"{what} must be a number, got {val!r}")
+    if not math.isfinite(val):
+        raise InputError(f"{what} must be finite, got {val!r}")
+    return float(val)
+
+
+def _field_msg(msg: str, prefix: str) -> str:
+    """Turn "...: field 'p2' must be ..." into "field 'lumped.p2' must be ..."."""
+    i = msg.find("field '")
+    if i < 0:
+        return msg.lstrip(": ")
+    return "field '" + prefix + "." + msg[i + len("field '"):]
+
+
+def default_truth() -> RigTruth:
+    """The default truth plant, close to the paper (see the module docstring for the values and why)."""
+    lumped = _default_lumped()
+    return RigTruth(lumped=lumped, belt=_rigid_belt(lumped, **DEFAULT_BELT_SHAPE), startup=DEFAULT_STARTUP)

@@ -1,0 +1,174 @@
+"""Simulations with forward sensitivities: how the outputs move with the parameters.
+
+:func:`simulate_sensitivities` integrates a plant together with
+``S = dx/dtheta`` for chosen plant parameters, input parameters (the gains
+of a feedback law) and initial states, with the same compiled DOP853 engine
+as :func:`iwp.sim.simulate.simulate` (:mod:`iwp.sim.engine`): the
+variational equations ``S' = (df/dx) S + df/dtheta`` ride along on the
+steps that the error control chooses for the states. This is what the
+simulation-error fits (:mod:`iwp.ident.refinement`) and the shooting of periodic
+orbits (:mod:`iwp.control.continuation`) differentiate.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError, SimulationError
+from ..models.layout import LUMPED_INDEX, N_PACK
+from ..models.parameters import TYPICAL
+from ..models.plant import Plant
+from . import engine
+from .engine import ST_OK, STATUS_TEXT, Output, Span, sensitivity
+from .inputs import Input
+from .simulate import command_of, initial_state, output_times, segments_of, system_of, tolerances
+
+__all__ = ["SensitivityResult", "simulate_sensitivities", "FD_RELATIVE"]
+
+#: Relative forward-difference step of the parameter derivatives (the models
+#: are linear in most parameters, so truncation errors are small).
+FD_RELATIVE = 1e-7
+
+
+@dataclass(frozen=True, eq=False)
+class SensitivityResult:
+    """States and their sensitivities at the output times.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Output times [s].
+    x : ndarray, shape (N, n)
+        States.
+    S : ndarray, shape (N, n, k)
+        ``dx/d(wrt)`` in the columns of ``wrt`` (parameters first, then
+        initial states, named ``"x0[i]"``).
+    wrt : tuple of str
+        Column names of ``S``.
+    success : bool
+    status : int
+    message : str
+    nfev : int
+        Evaluations of the augmented right-hand side.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    S: np.ndarray
+    wrt: tuple[str, ...]
+    success: bool
+    status: int
+    message: str
+    nfev: int
+
+
+def _parameter_index(name: str, plant: Plant, input) -> tuple[int, float]:
+    """Index in the engine's parameter space and difference step of one parameter name."""
+    names = () if input is None else tuple(input.parameter_names)
+    if name in names:
+        j = names.index(name)
+        v = float(input.parameters()[j])
+        return N_PACK + j, FD_RELATIVE * max(abs(v), 1.0)
+    if plant.info.physical:
+        raise InputError(f"sensitivities to parameters need a lumped model, not {plant.model!r}")
+    if name not in LUMPED_INDEX:
+        known = ", ".join(list(LUMPED_INDEX) + list(names))
+        raise InputError(f"unknown parameter {name!r} for sensitivities; choose among {known}")
+    idx = LUMPED_INDEX[name]
+    return idx, FD_RELATIVE * max(abs(float(plant.packed()[idx])), TYPICAL[name])
+
+
+def simulate_sensitivities(
+    plant: Plant,
+    *,
+    t_end: float | None = None,
+    t0: float = 0.0,
+    Ts: float = 0.005,
+    t_eval=None,
+    x0=None,
+    input: Input | None = None,
+    wrt: Sequence[str] = (),
+    wrt_x0: Sequence[int] = (),
+    feedforward=None,
+    saturation: float | None = None,
+    rtol: float = 1e-9,
+    atol: float | Sequence[float] = 1e-9,
+    max_step: float | None = None,
+    max_steps: int = 50_000_000,
+    check: bool = True,
+) -> SensitivityResult:
+    """Simulate ``plant`` with the sensitivities of its states to parameters and initial states.
+
+    Parameters
+    ----------
+    plant : Plant
+    t_end, t0, Ts, t_eval
+        Output times, as in :func:`~iwp.sim.simulate.simulate` (``t_end``
+        defaults to the last of ``t_eval``).
+    x0 : array_like, optional
+        Initial state (default rest at the bottom).
+    input : Input, optional
+        The input; a log's input is replayed as :class:`~iwp.sim.inputs.Sampled`.
+    wrt : sequence of str
+        Parameters: lumped parameter names (``"p1"``, ``"sigma_a1"``, ...)
+        or names of the input's parameters (``"k1"``, ``"k2"`` of a Hopf law).
+    wrt_x0 : sequence of int
+        Initial states (indices into the state).
+    rtol, atol
+        Error control of the states (the sensitivities ride along).
+
+    Returns
+    -------
+    SensitivityResult
+    """
+    if not isinstance(plant, Plant):
+        raise InputError(f"plant must be a Plant, got {type(plant).__name__}")
+    if t_end is None:
+        if t_eval is None:
+            raise InputError("give t_end or t_eval")
+        t_end = float(np.asarray(t_eval, dtype=float).ravel()[-1])
+    n = plant.n_states
+    x0a = initial_state(x0, plant)
+    t_out = output_times(float(t0), float(t_end), float(Ts), t_eval)
+    pidx, psteps = [], []
+    for name in wrt:
+        i, d = _parameter_index(name, plant, input)
+        pidx.append(i)
+        psteps.append(d)
+    cols = [int(c) for c in wrt_x0]
+    for c in cols:
+        if not 0 <= c < n:
+            raise InputError(f"wrt_x0 entries must be state indices 0..{n - 1}, got {c}")
+    ns = len(pidx) + len(cols)
+    y0 = np.zeros(n * (1 + ns))
+    y0[:n] = x0a
+    for k, c in enumerate(cols):
+        y0[n + (len(pidx) + k) * n + c] = 1.0
+    tol = tolerances(n, rtol, atol, max_step=max_step, max_steps=max_steps)
+    command_params = command_of(plant, feedforward, saturation)
+    system = system_of(plant, input, command_params)
+    seg = segments_of(input, float(t0))
+    X = np.empty((t_out.size, y0.size))
+    # held inputs write the input and the command at every output sample
+    U = np.empty(t_out.size)
+    W = np.empty(t_out.size)
+    span = Span(y0, float(t0), float(t_end), -1.0)
+    if ns == 0:  # nothing to differentiate: the plain kernel
+        stats = engine.kernel(n)(system, seg, tol, span, Output(t_out, X, U, W, False))
+    else:
+        tol = tol._replace(atol=np.concatenate([tol.atol, np.full(n * ns, np.inf)]), n_err=n)
+        sens = sensitivity(n, pidx, psteps, plant.info.depends_on)
+        stats = engine.sensitivity_kernel()(system, seg, tol, sens, span, Output(t_out, X, U, W, False))
+    status = int(stats.status)
+    message = STATUS_TEXT.get(status, "failed")
+    if status != ST_OK:
+        message += f" at t = {stats.t_reached:.6g} s"
+        if check:
+            raise SimulationError(message)
+    S = X[:, n:].reshape(t_out.size, ns, n).transpose(0, 2, 1) if ns else np.zeros((t_out.size, n, 0))
+    names = tuple(wrt) + tuple(f"x0[{c}]" for c in cols)
+    return SensitivityResult(t=t_out, x=X[:, :n], S=np.ascontiguousarray(S), wrt=names, success=status == ST_OK,
+                             status=status, message=message, nfev=int(stats.nfev))

@@ -1,0 +1,614 @@
+"""Simulation of the inertia wheel pendulum models.
+
+:func:`simulate` integrates a :class:`~iwp.models.plant.Plant` with the
+compiled adaptive DOP853 engine (:mod:`iwp.sim.engine`) and returns a
+:class:`~iwp.sim.result.SimulationResult` sampled every ``Ts`` (5 ms by
+default, the paper's sample time). :func:`simulate_batch` runs many
+parameter sets, initial states or gains at once on all cores.
+:func:`simulate_scipy` runs the same right-hand side through
+:func:`scipy.integrate.solve_ivp`, as a reference.
+
+Restarting from a measured state at a given time (figure 9b) is
+``simulate(..., t0=200.0, x0=state_at_200)``: inputs are evaluated at
+absolute time.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numba
+import numpy as np
+
+from ..checks import check_finite, check_positive
+from ..errors import InputError, SimulationError
+from ..models.actuator import command, command_vector
+from ..models.parameters import LumpedParameters, PhysicalParameters
+from ..models.plant import Plant
+from . import engine, lanes
+from .engine import (
+    SEG_CONT,
+    SEG_CONTROLLER,
+    SEG_SAMPLES,
+    ST_DIVERGED,
+    ST_OK,
+    ST_STEP_TOO_SMALL,
+    STATUS_TEXT,
+    Output,
+    Segments,
+    Span,
+    System,
+    Tolerances,
+)
+from .inputs import I_EXTERNAL, I_ZERO, N_INPUT_PARAMS, CallableController, Input, Sampled, input_value
+from .result import BatchResult, SimulationResult
+
+__all__ = ["simulate", "simulate_batch", "simulate_scipy", "as_plant", "output_times", "X_MAX"]
+
+#: States beyond this magnitude count as divergence [rad, rad/s].
+X_MAX = 1e7
+
+
+# --------------------------------------------------------------------------
+# building the engine's arguments
+# --------------------------------------------------------------------------
+def as_plant(plant, model: str | None = None) -> Plant:
+    """A :class:`Plant` from a plant, or from a parameter set and a model name (default ``"compensated"``)."""
+    if isinstance(plant, Plant):
+        if model is not None and model != plant.model:
+            raise InputError(f"model={model!r} contradicts the plant's model {plant.model!r}; give one of them")
+        return plant
+    if isinstance(plant, (LumpedParameters, PhysicalParameters)):
+        return Plant(plant, model=model or "compensated")
+    raise InputError(
+        f"plant must be a Plant or a parameter set (LumpedParameters, PhysicalParameters), got {type(plant).__name__}"
+    )
+
+
+def output_times(t0: float, t_end: float, Ts: float, t_eval=None) -> np.ndarray:
+    """The output times: ``t_eval`` checked, or the grid ``t0, t0 + Ts, ...`` up to ``t_end`` [s]."""
+    if t_eval is not None:
+        # writeable and C-ordered: one compiled signature for every caller
+        te = np.require(np.asarray(t_eval, dtype=float).ravel(), requirements=["C", "W"])
+        if te.size == 0:
+            raise InputError("t_eval is empty")
+        if not np.all(np.isfinite(te)):
+            raise InputError("t_eval contains NaN or inf")
+        if np.any(np.diff(te) <= 0):
+            raise InputError("t_eval must be strictly increasing")
+        if te[0] < t0 - 1e-12 or te[-1] > t_end + 1e-9:
+            raise InputError(f"t_eval must lie within [t0, t_end] = [{t0:g}, {t_end:g}] s")
+        return te
+    n = int(math.floor((t_end - t0) / Ts + 1e-9))
+    return t0 + Ts * np.arange(n + 1)
+
+
+def _check_span(t0, t_end, Ts) -> tuple[float, float, float]:
+    t0 = check_finite("t0", t0)
+    t_end = check_finite("t_end", t_end)
+    if t_end <= t0:
+        raise InputError(f"t_end must be > t0 (t0 = {t0:g} s), got t_end = {t_end:g} s")
+    return t0, t_end, check_positive("Ts", Ts)
+
+
+def _check_input(input) -> None:
+    if input is not None and not isinstance(input, Input):
+        raise InputError(f"input must be an iwp.sim.inputs signal or controller, got {type(input).__name__}")
+
+
+def tolerances(
+    n: int, rtol, atol, *, n_err: int | None = None, max_step=None, max_steps: int = 50_000_000
+) -> Tolerances:
+    """The engine's :class:`~iwp.sim.engine.Tolerances`; ``atol`` is one value or one per state (as scipy's)."""
+    rtol = check_positive("rtol", rtol)
+    h_max = math.inf if max_step is None else check_positive("max_step", max_step)
+    if np.ndim(atol) == 0:
+        a = np.full(n, check_positive("atol", atol))
+    else:
+        try:
+            a = np.asarray(atol, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"atol must be a positive number or {n} positive numbers, one per state") from None
+        if a.shape != (n,):
+            raise InputError(
+                f"atol must be a positive number or {n} positive numbers (one per state), got shape {a.shape}"
+            )
+        for i, v in enumerate(a):
+            check_positive(f"atol[{i}]", float(v))
+        a = np.ascontiguousarray(a)
+    if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
+        raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
+    return Tolerances(rtol, a, h_max, int(max_steps), X_MAX, n if n_err is None else int(n_err))
+
+
+def initial_state(x0, plant: Plant) -> np.ndarray:
+    """``x0`` as the plant's state (zeros by default; a belt model's ``delta, w`` default to 0)."""
+    n = plant.n_states
+    if x0 is None:
+        return np.zeros(n)
+    try:
+        x = np.array(x0, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError(f"x0 must be a sequence of {n} numbers, got {x0!r}") from None
+    if n == 6 and x.size == 4:
+        x = np.concatenate([x, [0.0, 0.0]])
+    if x.size != n:
+        raise InputError(
+            f"x0 must have {n} values [q1, q2, q3, q4{', delta, w' if n == 6 else ''}] for model "
+            f"{plant.model!r}, got {x.size}"
+        )
+    if not np.all(np.isfinite(x)):
+        raise InputError(f"x0 must be finite, got {x.tolist()}")
+    return x
+
+
+def command_of(plant: Plant, feedforward=None, saturation=None) -> np.ndarray:
+    """The command vector: the feedforward (7)-(8) (``True``: the plant's thresholds, or a pair) and saturation."""
+    pair = None
+    if feedforward is not None and feedforward is not False:
+        if feedforward is True:
+            lp = plant.lumped
+            pair = (lp.v_dz_pos, lp.v_dz_neg)
+        else:
+            try:
+                pair = (float(feedforward[0]), float(feedforward[1]))
+            except (TypeError, ValueError, IndexError):
+                raise InputError("feedforward must be True, False or a pair (v_dz_pos, v_dz_neg)") from None
+        check_finite("feedforward v_dz_pos", pair[0])
+        check_finite("feedforward v_dz_neg", pair[1])
+    sat = None if saturation is None else check_positive("saturation", saturation)
+    return command_vector(pair, sat)
+
+
+def system_of(plant: Plant, input, command_params: np.ndarray) -> System:
+    """The engine's :class:`~iwp.sim.engine.System` for a plant driven by ``input``."""
+    kind = I_ZERO if input is None else input.kind
+    input_params = np.zeros(N_INPUT_PARAMS) if input is None else np.asarray(input.parameters(), dtype=float)
+    return System(plant.code, plant.packed(), input_params, command_params, kind)
+
+
+def segments_of(input, t0: float, external: float = 0.0) -> Segments:
+    """How ``input`` is held: continuously evaluated, a held array, or a controller sampled every ``Ts``."""
+    if isinstance(input, Sampled):
+        return Segments(SEG_SAMPLES, float(input.Ts), float(input.t0), input.values, 0.0)
+    Tc = None if input is None else input.sampled_period
+    if Tc is not None:
+        return Segments(SEG_CONTROLLER, float(Tc), float(t0), np.zeros(1), float(external))
+    return Segments(SEG_CONT, 1.0, 0.0, np.zeros(1), 0.0)
+
+
+def _finish(plant, t_out, X, inputs, stats, check, input) -> SimulationResult:
+    """The result; ``inputs`` is ``(U, W)`` or a :class:`_LazyInputs` evaluated on first access."""
+    status = int(stats.status)
+    success = status == ST_OK
+    if success:
+        message = STATUS_TEXT[status]
+    else:
+        message = f"{STATUS_TEXT.get(status, 'failed')} at t = {stats.t_reached:.6g} s"
+        if status == ST_DIVERGED:
+            message += f" (a state exceeded {X_MAX:g} or became NaN); check the parameters and the input"
+        if check:
+            raise SimulationError(message)
+        keep = np.all(np.isfinite(X), axis=1)
+        t_out, X = t_out[keep], X[keep]
+        if not callable(inputs):
+            inputs = (inputs[0][keep], inputs[1][keep])
+    meta = {"input": input.describe() if input is not None else "zero"}
+    return SimulationResult(
+        t=t_out,
+        x=X,
+        inputs=inputs,
+        model=plant.model,
+        success=success,
+        status=status,
+        message=message,
+        nfev=int(stats.nfev),
+        n_steps=int(stats.n_steps),
+        n_rejected=int(stats.n_rejected),
+        metadata=meta,
+    )
+
+
+class _LazyInputs:
+    """``(u, command)`` of a continuous input at given samples, computed when first asked for."""
+
+    def __init__(self, kind, input_params, command_params):
+        self.kind, self.input_params, self.command_params = kind, input_params, command_params
+
+    def __call__(self, t, x):
+        U = np.empty(t.size)
+        W = np.empty(t.size)
+        engine.input_samples(self.kind, self.input_params, self.command_params, t, np.ascontiguousarray(x), U, W)
+        return U, W
+
+
+# --------------------------------------------------------------------------
+# simulate
+# --------------------------------------------------------------------------
+def simulate(
+    plant,
+    *,
+    model: str | None = None,
+    x0=None,
+    t_end: float,
+    t0: float = 0.0,
+    Ts: float = 0.005,
+    input: Input | None = None,
+    feedforward=None,
+    saturation: float | None = None,
+    rtol: float = 1e-10,
+    atol: float | Sequence[float] = 1e-10,
+    max_step: float | None = None,
+    max_steps: int = 50_000_000,
+    t_eval=None,
+    check: bool = True,
+):
+    """Simulate one model of the inertia wheel pendulum.
+
+    Parameters
+    ----------
+    plant : Plant or LumpedParameters or PhysicalParameters
+        The plant (model, parameters and options). A parameter set alone is
+        the plant ``Plant(params, model=model)``.
+    model : str, optional
+        With a parameter set: the model name (default ``"compensated"``,
+        (9)); see :data:`iwp.models.MODELS`.
+    x0 : array_like, optional
+        Initial state ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s] at ``t0``
+        (belt models: optionally ``+ [delta, w]``). Default: rest at the bottom.
+    t_end : float
+        Final time [s], ``> t0``.
+    t0 : float
+        Initial time [s]; inputs are evaluated at absolute time, so a
+        restart (figure 9b) is ``t0=200, x0=measured state``.
+    Ts : float
+        Output sample time [s] (the paper's 5 ms by default).
+    input : signal or controller, optional
+        :mod:`iwp.sim.inputs` object giving the ideal input ``u``. ``None``: zero.
+    feedforward : bool or (float, float), optional
+        Apply the dead-zone feedforward (7)-(8) to ``u`` before the plant:
+        ``True`` uses the plant's ``v_dz_pos, v_dz_neg``, a pair gives the
+        compensator's own thresholds (a compensator tuned on identified
+        values, driving a plant with other ones).
+    saturation : float, optional
+        Clip the command to ``[-saturation, saturation]`` [input units].
+    rtol : float
+        Relative local error tolerance of the DOP853 integrator.
+    atol : float or array_like
+        Absolute local error tolerance, one value for all states or one per
+        state (in the states' units), as in :func:`scipy.integrate.solve_ivp`.
+    max_step : float, optional
+        Largest step [s].
+    max_steps : int
+        Step limit (accepted and rejected steps).
+    t_eval : array_like, optional
+        Output times instead of the ``Ts`` grid.
+    check : bool
+        Raise :class:`~iwp.errors.SimulationError` when the simulation fails
+        (default). With ``False`` the result reports ``success=False`` and
+        carries the samples computed before the failure.
+
+    Returns
+    -------
+    SimulationResult
+    """
+    plant = as_plant(plant, model)
+    t0, t_end, Ts = _check_span(t0, t_end, Ts)
+    _check_input(input)
+    x0a = initial_state(x0, plant)
+    n = plant.n_states
+    tol = tolerances(n, rtol, atol, max_step=max_step, max_steps=max_steps)
+    command_params = command_of(plant, feedforward, saturation)
+    t_out = output_times(t0, t_end, Ts, t_eval)
+    n_out = t_out.size
+    if isinstance(input, CallableController):
+        if input.Ts is None:
+            return _simulate_callable_continuous(plant, x0a, t0, t_end, t_out, input, command_params, tol, check)
+        X = np.full((n_out, n), np.nan)
+        U = np.full(n_out, np.nan)
+        W = np.full(n_out, np.nan)
+        stats = _run_external(plant, x0a, t0, t_end, t_out, input, command_params, tol, X, U, W)
+        return _finish(plant, t_out, X, (U, W), stats, check, input)
+    system = system_of(plant, input, command_params)
+    seg = segments_of(input, t0)
+    # the kernel writes every sample (NaN after a failure); a continuous
+    # input is evaluated afterwards, on demand, from t and x
+    held = engine.is_held(system.kind, seg.mode)
+    X = np.empty((n_out, n))
+    U = np.empty(n_out if held else 0)
+    W = np.empty(n_out if held else 0)
+    stats = engine.kernel(n)(system, seg, tol, Span(x0a.copy(), t0, t_end, -1.0), Output(t_out, X, U, W, False))
+    inputs = (U, W) if held else _LazyInputs(system.kind, system.input_params, command_params)
+    return _finish(plant, t_out, X, inputs, stats, check, input)
+
+
+def integrate_held(
+    plant: Plant, x, t: float, t_next: float, value: float, *, command_params=None, tol: Tolerances, h0: float = -1.0
+) -> engine.RunStats:
+    """Advance ``x`` (in place) from ``t`` to ``t_next`` with the command ``value`` held.
+
+    One held segment of a sampled controller: the building block of Python
+    controllers (:class:`~iwp.sim.inputs.CallableController`), the observer's
+    prediction and the Gymnasium environment. ``h0`` is the step size to
+    start with (the ``h_next`` of the previous segment).
+    """
+    command_params = command_vector() if command_params is None else command_params
+    system = System(plant.code, plant.packed(), np.zeros(N_INPUT_PARAMS), command_params, I_EXTERNAL)
+    seg = Segments(SEG_CONTROLLER, t_next - t, t, np.zeros(1), float(value))
+    t_out = np.array([t_next])
+    X = np.empty((1, plant.n_states))
+    U = np.empty(1)
+    W = np.empty(1)
+    return engine.kernel(plant.n_states)(system, seg, tol, Span(x, t, t_next, h0), Output(t_out, X, U, W, False))
+
+
+def _run_external(plant, x0a, t0, t_end, t_out, ctrl, command_params, tol, X, U, W) -> engine.RunStats:
+    """A Python controller sampled every Ts: call it, integrate one held segment, repeat."""
+    Tc = ctrl.Ts
+    n = plant.n_states
+    x = x0a.copy()
+    t = t0
+    k = 0
+    nfev = nacc = nrej = 0
+    j0 = 0
+    h_nat = -1.0
+    n_out = t_out.size
+    tol_t = 1e-9 * max(1.0, abs(t_end))
+    status = ST_OK
+    run = engine.kernel(n)
+    input_params = np.zeros(N_INPUT_PARAMS)
+    while t < t_end - tol_t:
+        t_b = min(t0 + (k + 1) * Tc, t_end)
+        u = ctrl.evaluate(t, x)
+        # outputs of this segment: [t, t_b) (and t_end at the end)
+        j1 = j0
+        last = t_b >= t_end - tol_t
+        while j1 < n_out and (t_out[j1] < t_b - tol_t or (last and t_out[j1] <= t_end + tol_t)):
+            j1 += 1
+        seg_t = t_out[j0:j1]
+        Xs = np.full((seg_t.size, n), np.nan)
+        Us = np.full(seg_t.size, np.nan)
+        Ws = np.full(seg_t.size, np.nan)
+        # the step size carries over from one held segment to the next
+        st = run(
+            System(plant.code, plant.packed(), input_params, command_params, I_EXTERNAL),
+            Segments(SEG_CONTROLLER, Tc, t, np.zeros(1), u),
+            tol,
+            Span(x, t, t_b, h_nat),
+            Output(seg_t, Xs, Us, Ws, True),
+        )
+        h_nat = st.h_next
+        # the kernel's held value is the command; U records the controller's u
+        X[j0:j1], W[j0:j1] = Xs, Ws
+        U[j0:j1] = u
+        nfev += st.nfev
+        nacc += st.n_steps
+        nrej += st.n_rejected
+        j0 = j1
+        t = st.t_reached
+        if st.status != ST_OK:
+            status = st.status
+            break
+        k += 1
+    return engine.RunStats(status, nfev, nacc, nrej, t, h_nat)
+
+
+def _simulate_callable_continuous(plant, x0a, t0, t_end, t_out, ctrl, command_params, tol, check):
+    from scipy.integrate import solve_ivp
+
+    def f(t, y):
+        return plant.rhs(y, command(ctrl.evaluate(t, y), command_params))
+
+    sol = solve_ivp(
+        f,
+        (t0, t_end),
+        x0a,
+        method="DOP853",
+        t_eval=t_out,
+        rtol=tol.rtol,
+        atol=tol.atol,
+        max_step=tol.h_max if math.isfinite(tol.h_max) else np.inf,
+    )
+    n = plant.n_states
+    X = np.full((t_out.size, n), np.nan)
+    X[: sol.y.shape[1]] = sol.y.T
+    U = np.array([ctrl.evaluate(t, x) if np.all(np.isfinite(x)) else np.nan for t, x in zip(t_out, X)])
+    W = np.array([command(u, command_params) if np.isfinite(u) else np.nan for u in U])
+    status = ST_OK if sol.status == 0 else ST_STEP_TOO_SMALL
+    t_reached = float(sol.t[-1]) if sol.t.size else t0
+    return _finish(plant, t_out, X, (U, W), engine.RunStats(status, sol.nfev, 0, 0, t_reached, -1.0), check, ctrl)
+
+
+# --------------------------------------------------------------------------
+# many runs
+# --------------------------------------------------------------------------
+def simulate_batch(
+    plant,
+    *,
+    model: str | None = None,
+    x0=None,
+    t_end: float,
+    t0: float = 0.0,
+    Ts: float = 0.005,
+    input: Input | list | None = None,
+    feedforward=None,
+    saturation: float | None = None,
+    rtol: float = 1e-10,
+    atol: float | Sequence[float] = 1e-10,
+    max_step: float | None = None,
+    max_steps: int = 50_000_000,
+    t_eval=None,
+) -> BatchResult:
+    """Run many simulations at once, in parallel on all cores.
+
+    Any of ``plant``, ``x0`` and ``input`` may be a list (all lists of the
+    same length, the number of runs); the others are shared. Plants in a
+    list must share their model; inputs in a list must be of one type (e.g.
+    :class:`~iwp.sim.inputs.HopfController` with different gains); Python
+    callables are not supported here.
+
+    The other arguments are those of :func:`simulate`. Failed runs are
+    reported per run in ``status`` (no exception); their samples after the
+    failure are NaN.
+
+    Runs that share one plant and have a continuous input (signals, the
+    continuous Hopf law) advance 16 at a time on each thread, side by side,
+    each with its own step size and error control (:mod:`iwp.sim.lanes`);
+    for model (9) with the Hopf law the compiler vectorises them (10,000
+    closed loops of 300 s in about 6 s on 2 cores, see BENCHMARKS.md). A
+    run's result equals that of :func:`simulate` up to rounding. Other
+    batches run one simulation per thread at a time.
+
+    Returns
+    -------
+    BatchResult
+    """
+    lists = [len(v) for v in (plant, x0, input) if isinstance(v, (list, tuple)) and not _is_state(v)]
+    if lists and len(set(lists)) != 1:
+        raise InputError(f"list arguments of simulate_batch must have one length, got lengths {sorted(set(lists))}")
+    nrun = lists[0] if lists else 1
+    if nrun == 0:
+        raise InputError("simulate_batch needs at least one run")
+    p_list = plant if isinstance(plant, (list, tuple)) else [plant] * nrun
+    x_list = x0 if isinstance(x0, (list, tuple)) and not _is_state(x0) else [x0] * nrun
+    i_list = input if isinstance(input, (list, tuple)) else [input] * nrun
+    if len({type(i) for i in i_list}) != 1:
+        raise InputError("inputs of one batch must all be of one type")
+    for i_ in i_list:
+        _check_input(i_)
+    if any(isinstance(i, (CallableController, Sampled)) for i in i_list):
+        raise InputError("simulate_batch supports built-in signals and the Hopf controller, not callables or arrays")
+    if len({None if i is None else i.sampled_period for i in i_list}) != 1:
+        raise InputError("inputs of one batch must share the sample period Ts")
+    t0, t_end, Ts = _check_span(t0, t_end, Ts)
+    plants = {}
+    for p_ in p_list:
+        if id(p_) not in plants:
+            plants[id(p_)] = as_plant(p_, model)
+    models = {pl.model for pl in plants.values()}
+    if len(models) != 1:
+        raise InputError(f"plants of one batch must share their model, got {sorted(models)}")
+    first = plants[id(p_list[0])]
+    n = first.n_states
+    states = {}
+    for x_ in x_list:
+        if id(x_) not in states:
+            states[id(x_)] = initial_state(x_, first)
+    Pm = np.ascontiguousarray([plants[id(p_)].packed() for p_ in p_list])
+    X0m = np.ascontiguousarray([states[id(x_)] for x_ in x_list])
+    input_params_runs = np.ascontiguousarray(
+        [np.zeros(N_INPUT_PARAMS) if i_ is None else i_.parameters() for i_ in i_list]
+    )
+    command_params = command_of(first, feedforward, saturation)
+    tol = tolerances(n, rtol, atol, max_step=max_step, max_steps=max_steps)
+    seg = segments_of(i_list[0], t0)
+    kind = I_ZERO if i_list[0] is None else i_list[0].kind
+    t_out = output_times(t0, t_end, Ts, t_eval)
+    X = np.empty((nrun, t_out.size, n))
+    U = np.empty((nrun, t_out.size))
+    W = np.empty((nrun, t_out.size))
+    status = np.zeros(nrun, dtype=np.int64)
+    nfev = np.zeros(nrun, dtype=np.int64)
+    held = engine.is_held(kind, seg.mode)
+    if bool(np.all(Pm == Pm[0])) and not held:
+        # one parameter set and a continuous input: many runs side by side
+        lanes.kernel(n)(
+            first.code,
+            Pm[0],
+            X0m,
+            kind,
+            input_params_runs,
+            command_params,
+            tol,
+            t0,
+            t_end,
+            t_out,
+            X,
+            U,
+            W,
+            status,
+            nfev,
+            min(numba.get_num_threads(), nrun),
+        )
+    else:
+        engine.batch_kernel(n)(
+            first.code,
+            Pm,
+            X0m,
+            kind,
+            input_params_runs,
+            command_params,
+            seg,
+            tol,
+            t0,
+            t_end,
+            t_out,
+            X,
+            U,
+            W,
+            status,
+            nfev,
+        )
+    return BatchResult(t=t_out, x=X, u=U, command=W, status=status, nfev=nfev)
+
+
+def _is_state(v) -> bool:
+    """True if ``v`` looks like one state vector (a flat list of numbers)."""
+    return isinstance(v, (list, tuple)) and len(v) > 0 and all(isinstance(e, (int, float)) for e in v)
+
+
+def simulate_scipy(
+    plant,
+    *,
+    model: str | None = None,
+    x0=None,
+    t_end: float,
+    t0: float = 0.0,
+    Ts: float = 0.005,
+    input: Input | None = None,
+    feedforward=None,
+    saturation: float | None = None,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float | Sequence[float] = 1e-12,
+    t_eval=None,
+) -> SimulationResult:
+    """The same simulation through :func:`scipy.integrate.solve_ivp` (a reference).
+
+    Uses the compiled right-hand side of :mod:`iwp.models` with a continuous
+    input (sampled inputs are not supported here). Slower than
+    :func:`simulate`; meant for cross-checks.
+    """
+    from scipy.integrate import solve_ivp
+
+    plant = as_plant(plant, model)
+    t0, t_end, Ts = _check_span(t0, t_end, Ts)
+    _check_input(input)
+    x0a = initial_state(x0, plant)
+    tol = tolerances(plant.n_states, rtol, atol)
+    command_params = command_of(plant, feedforward, saturation)
+    seg = segments_of(input, t0)
+    if seg.mode != SEG_CONT or isinstance(input, CallableController):
+        raise InputError("simulate_scipy supports continuous built-in inputs only")
+    system = system_of(plant, input, command_params)
+    t_out = output_times(t0, t_end, Ts, t_eval)
+
+    def f(t, y):
+        return plant.rhs(y, command(input_value(system.kind, system.input_params, t, y), command_params))
+
+    sol = solve_ivp(f, (t0, t_end), x0a, method=method, t_eval=t_out, rtol=tol.rtol, atol=tol.atol)
+    X = sol.y.T
+    U = np.array([input_value(system.kind, system.input_params, t, x) for t, x in zip(sol.t, X)])
+    W = np.array([command(u, command_params) for u in U])
+    status = ST_OK if sol.status == 0 else ST_STEP_TOO_SMALL
+    return SimulationResult(
+        t=sol.t,
+        x=X,
+        inputs=(U, W),
+        model=plant.model,
+        success=sol.status == 0,
+        status=status,
+        message=sol.message,
+        nfev=sol.nfev,
+    )
