@@ -171,7 +171,9 @@ def system_of(plant: Plant, input, command_params: np.ndarray) -> System:
 def segments_of(input, t0: float, external: float = 0.0) -> Segments:
     """How ``input`` is held: continuously evaluated, a held array, or a controller sampled every ``Ts``."""
     if isinstance(input, Sampled):
-        return Segments(SEG_SAMPLES, float(input.Ts), float(input.t0), input.values, 0.0)
+        # writable, as every array the kernels get: one compiled signature for all callers
+        values = np.require(input.values, dtype=float, requirements=["C", "W"])
+        return Segments(SEG_SAMPLES, float(input.Ts), float(input.t0), values, 0.0)
     Tc = None if input is None else input.sampled_period
     if Tc is not None:
         return Segments(SEG_CONTROLLER, float(Tc), float(t0), np.zeros(1), float(external))
