@@ -37,10 +37,10 @@ def _one_line_error(capsys):
 @pytest.mark.parametrize(
     "args,match",
     [
-        (["--input", "bogus", "--t-end", "1"], "unknown input 'bogus'"),
-        (["--controller", "pid", "--t-end", "1"], "unknown controller 'pid'"),
-        (["--input", "sine", "--t-end", "-1"], "t_end must be > t0"),
-        (["--input", "sine", "--t-end", "1", "--ts", "0"], "Ts must be > 0"),
+        (["--input", "bogus", "--t-end", "1"], "--input 'bogus': unknown"),
+        (["--controller", "pid", "--t-end", "1"], "--controller 'pid': unknown"),
+        (["--input", "sine", "--t-end", "-1"], "--t-end must be > --t0"),
+        (["--input", "sine", "--t-end", "1", "--ts", "0"], "--ts must be > 0"),
         (["--input", "sine", "--t-end", "1", "--x0", "1,2"], "x0 must have 4 values"),
         (["--input", "sine", "--t-end", "1", "--params", "nope.json"], "no such parameter file"),
     ],

@@ -233,7 +233,7 @@ def test_cli_design_hopf_text_check_and_plot(tmp_path, capsys):
 def test_cli_design_errors_are_one_line(capsys):
     assert main(["design", "hopf", "--amplitude", "3.139"]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("iwp: error: amplitude = 3.139 rad is beyond the reach") and "\n" not in err
+    assert err.startswith("iwp: error: --amplitude = 3.139 rad is beyond the reach") and "\n" not in err
 
 
 def test_cli_design_branch_csv(tmp_path, capsys):

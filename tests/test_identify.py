@@ -480,14 +480,32 @@ def test_cli_static_curve_goes_to_dead_zone_only(tmp_path, capsys) -> None:
     assert set(doc["parameters"]) == {"v_dz_pos", "v_dz_neg"}
 
 
-def test_cli_rank_deficient_exits_1(clean, tmp_path, capsys) -> None:
+def test_cli_rank_deficient_exits_2_and_writes_nothing(clean, tmp_path, capsys) -> None:
     md = clean["md"].window(None, 30.0)
     still = ExperimentData(t=md.t, q1=md.q1, q2=np.zeros_like(md.q2), u=np.zeros_like(md.t))
     p = tmp_path / "still.csv"
     still.to_csv(p)
-    assert main(["identify", str(p), "--setup", "motor-disk"]) == 1
+    assert main(["identify", str(p), "--setup", "motor-disk", "--out", str(tmp_path / "P.json")]) == 2
     captured = capsys.readouterr()
-    assert "rank deficient" in captured.out and "incomplete" in captured.err
+    err = captured.err.strip()
+    assert captured.out == "" and "\n" not in err
+    assert err.startswith(f"iwp: error: {p}: set-up 'motor-disk'") and "rank deficient" in err
+    assert not (tmp_path / "P.json").exists()
+
+
+def test_pure_noise_does_not_identify_a_pendulum(tmp_path) -> None:
+    """Quantised white noise: the model explains a fifth of dq3/dt; no p1 is returned as identified."""
+    rng = np.random.default_rng(1)
+    t = 0.005 * np.arange(4000)
+    step = 2 * np.pi / 2000
+    q1 = np.round(rng.normal(0.0, 0.05, t.size) / step) * step
+    res = identify(ExperimentData(t=t, q1=q1, q2=np.zeros_like(t)), "free")
+    frac = res.details["explained_fraction"]["q3"]
+    assert not res.success and frac < 0.5 and "do not determine" in res.message
+    # a real swing of the same length is explained almost entirely
+    swing = np.round(0.5 * np.exp(-0.05 * t) * np.cos(5.1 * t) / step) * step
+    good = identify(ExperimentData(t=t, q1=swing, q2=np.zeros_like(t)), "free")
+    assert good.success and good.details["explained_fraction"]["q3"] > 0.99
 
 
 def test_filtering_the_terms_beats_terms_of_filtered_states(clean) -> None:

@@ -16,7 +16,20 @@ class InputError(IwpError, ValueError):
     """An argument or parameter has a wrong value, type or shape.
 
     The message names the argument and, where it helps, the fix.
+
+    Parameters
+    ----------
+    message : str
+        One line.
+    argument : str or tuple of str, optional
+        The API name(s) of the argument(s) at fault (``"t_end"``). The command
+        line replaces them in the message by the flags the user typed
+        (``--t-end``); when it is not given, the message's first word is tried.
     """
+
+    def __init__(self, message: str = "", *, argument: str | tuple[str, ...] | None = None):
+        super().__init__(message)
+        self.argument = (argument,) if isinstance(argument, str) else tuple(argument or ())
 
 
 class DataFormatError(InputError):
@@ -35,4 +48,4 @@ class IdentificationError(IwpError, RuntimeError):
 
 
 class OutputExistsError(IwpError, FileExistsError):
-    """An output file or folder exists and ``--force`` / ``force=True`` was not given."""
+    """An output file or folder exists and ``--force`` (``force=True`` in Python) was not given."""

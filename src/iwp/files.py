@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+import shutil
+import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Callable
@@ -13,41 +16,184 @@ import numpy as np
 
 from .errors import InputError, OutputExistsError
 
+#: Extensions of the logs iwp writes, and their format.
+LOG_SUFFIXES = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet", ".mat": "mat"}
+#: Extensions of the figures iwp writes (matplotlib's formats).
+FIGURE_SUFFIXES = (".png", ".svg", ".pdf", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
 
-def prepare_output_file(path: str | Path, force: bool = False) -> Path:
-    """Check that ``path`` may be written: refuse an existing file unless ``force``.
 
-    Creates the parent folder if needed.
+def _nearest_existing(p: Path) -> Path:
+    q = p.parent
+    while not q.exists() and q != q.parent:
+        q = q.parent
+    return q
+
+
+def check_output_file(path: str | Path, *, force: bool = False, argument: str = "out",
+                      suffixes=None) -> Path:
+    """Check, without touching anything, that ``path`` may be written.
+
+    Refuses: an extension not in ``suffixes`` (when given), an existing file
+    unless ``force``, a folder in the way, a parent that is a file or that
+    is not writable. The message names ``argument`` (the CLI shows its flag:
+    ``out`` -> ``--out``).
+
+    Returns
+    -------
+    pathlib.Path
     """
     p = Path(path)
+    if str(path).strip() == "":
+        raise InputError(f"{argument}: empty file name", argument=argument)
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        got = f"extension {p.suffix!r}" if p.suffix else "no extension"
+        raise InputError(f"{argument} {p}: {got}; use one of {', '.join(suffixes)}", argument=argument)
+    if p.is_dir():
+        raise InputError(f"{argument} {p}: is a folder, expected a file path", argument=argument)
     if p.exists() and not force:
-        raise OutputExistsError(f"{p}: file exists; pass --force (force=True) to overwrite it")
-    if p.exists() and p.is_dir():
-        raise InputError(f"{p}: is a folder, expected a file path")
+        raise OutputExistsError(f"{argument} {p}: file exists; pass --force to overwrite it")
+    anc = _nearest_existing(p)
+    if not anc.is_dir():
+        raise InputError(f"{argument} {p}: {anc} is a file, not a folder", argument=argument)
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise InputError(f"{argument} {p}: folder {anc} is not writable", argument=argument)
+    if p.exists() and not os.access(p, os.W_OK):
+        raise InputError(f"{argument} {p}: file is not writable", argument=argument)
+    return p
+
+
+def prepare_output_file(path: str | Path, force: bool = False, *, argument: str = "out", suffixes=None) -> Path:
+    """:func:`check_output_file`, then create the parent folder."""
+    p = check_output_file(path, force=force, argument=argument, suffixes=suffixes)
     p.parent.mkdir(parents=True, exist_ok=True)
     return p
 
 
-def read_json(path: str | Path) -> Any:
-    """Parse a JSON file; raise :class:`InputError` naming the file if it is not valid JSON."""
+def check_output_dir(path: str | Path, *, force: bool = False, argument: str = "out") -> Path:
+    """The one folder policy: an output folder must be new or empty, unless ``force``; nothing is created here."""
     p = Path(path)
+    if str(path).strip() == "":
+        raise InputError(f"{argument}: empty folder name", argument=argument)
+    if p.exists() and not p.is_dir():
+        raise InputError(f"{argument} {p}: exists and is not a folder", argument=argument)
+    if p.is_dir() and any(p.iterdir()) and not force:
+        raise OutputExistsError(f"{argument} {p}: folder exists and is not empty; pass --force to write into it")
+    anc = p if p.is_dir() else _nearest_existing(p)
+    if not anc.is_dir():
+        raise InputError(f"{argument} {p}: {anc} is a file, not a folder", argument=argument)
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise InputError(f"{argument} {p}: folder {anc} is not writable", argument=argument)
+    return p
+
+
+def prepare_output_dir(path: str | Path, *, force: bool = False, argument: str = "out") -> Path:
+    """:func:`check_output_dir`, then create the folder."""
+    p = check_output_dir(path, force=force, argument=argument)
+    p.mkdir(parents=True, exist_ok=True)
+    return p
+
+
+@contextlib.contextmanager
+def staged_dir(path: str | Path, *, force: bool = False, argument: str = "out"):
+    """Write a folder's files into a hidden sibling, and move them into ``path`` only when all are written.
+
+    ``with staged_dir(out, force=...) as tmp: ...write into tmp...``: on an
+    error inside the block nothing of the output appears and the hidden
+    folder is removed; on success every file of ``tmp`` replaces its namesake
+    in ``path`` (the folder policy of :func:`check_output_dir` holds).
+    """
+    p = check_output_dir(path, force=force, argument=argument)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".partial", dir=p.parent))
     try:
-        return json.loads(p.read_text())
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"{p}: not valid JSON ({exc})") from None
+        yield tmp
+        if not p.exists():
+            os.replace(tmp, p)
+        else:
+            for item in sorted(tmp.iterdir()):
+                dst = p / item.name
+                if dst.is_dir() and not dst.is_symlink():
+                    shutil.rmtree(dst)
+                os.replace(item, dst)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+#: Largest JSON file iwp reads (parameter, truth and rig files are a few kB).
+MAX_JSON_BYTES = 16 * 2**20
+
+
+def read_json(path: str | Path, *, argument: str | None = None) -> Any:
+    """Parse a JSON file; raise :class:`InputError` naming the file (and ``argument``) if it cannot be.
+
+    Refuses a missing or unreadable file, a folder, a file over
+    :data:`MAX_JSON_BYTES`, text that is not UTF-8 or not JSON (with its line
+    and column), and nesting too deep to parse.
+    """
+    p = Path(path)
+    where = f"{argument} {p}" if argument else f"{p}"
+    try:
+        if p.is_dir():
+            raise InputError(f"{where}: is a folder, expected a JSON file", argument=argument)
+        if p.stat().st_size > MAX_JSON_BYTES:
+            raise InputError(f"{where}: {p.stat().st_size / 2**20:.0f} MB is too large for a JSON file of iwp "
+                             f"(at most {MAX_JSON_BYTES // 2**20} MB)", argument=argument)
+        text = p.read_bytes().decode("utf-8-sig")
+        return json.loads(text)
+    except FileNotFoundError:
+        raise InputError(f"{where}: no such file", argument=argument) from None
+    except OSError as exc:
+        raise InputError(f"{where}: cannot be read ({exc.strerror or exc})", argument=argument) from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{where}: not UTF-8 text (byte {exc.start})", argument=argument) from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{where}: not valid JSON: {exc.msg} (line {exc.lineno}, column {exc.colno})",
+                         argument=argument) from None
+    except RecursionError:
+        raise InputError(f"{where}: JSON nested too deeply", argument=argument) from None
+    except ValueError as exc:  # e.g. an integer of thousands of digits
+        raise InputError(f"{where}: not valid JSON ({str(exc).split(';')[0]})", argument=argument) from None
+
+
+def _temp_name(path: Path) -> Path:
+    # the extension is kept: writers (matplotlib, scipy.io) pick the format from it
+    return path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
 
 
 def atomic_write(path: Path, write: Callable[[Path], None]) -> Path:
     """Write through a temporary file in the same folder, then rename: never a half-written ``path``."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    return write_all([(Path(path), write)])[0]
+
+
+def write_all(writes) -> list[Path]:
+    """Write several files as one: each through a temporary file; all renamed only when every one is written.
+
+    Parameters
+    ----------
+    writes : sequence of (path, write)
+        ``write(tmp_path)`` writes one file; missing parent folders are created.
+
+    Returns
+    -------
+    list of Path
+        The paths written. On an error no target is touched and the temporary files are removed.
+    """
+    pairs = [(Path(p), w) for p, w in writes]
+    temps: list[Path] = []
     try:
-        write(tmp)
-        os.replace(tmp, path)
+        for p, write in pairs:
+            p.parent.mkdir(parents=True, exist_ok=True)
+            tmp = _temp_name(p)
+            temps.append(tmp)
+            write(tmp)
+        for (p, _), tmp in zip(pairs, temps):
+            os.replace(tmp, p)
     finally:
-        if tmp.exists():
-            tmp.unlink()
-    return path
+        for tmp in temps:
+            if tmp.exists():
+                tmp.unlink()
+    return [p for p, _ in pairs]
 
 
 def json_float(x) -> float | None:

@@ -31,10 +31,10 @@ from typing import Callable
 
 #: kernel name -> (what it serves, about how long it compiles [s]); see the module docstring
 KERNELS: dict[str, tuple[str, float]] = {
-    "simulation": ("the simulation kernel (4 states)", 9.0),
-    "belt": ("the simulation kernel of the belt models (6 states)", 11.0),
-    "sensitivity": ("the sensitivity kernel (fits, shooting)", 11.0),
-    "batch": ("the batch kernels (runs side by side)", 30.0),
+    "simulation": ("the simulation kernel of the 4-state models", 9.0),
+    "belt": ("the simulation kernel of the belt models", 11.0),
+    "sensitivity": ("the sensitivity kernel of fits and shooting", 11.0),
+    "batch": ("the kernels of runs side by side", 30.0),
     "identification": ("the kernel of the least-squares uncertainty", 1.0),
 }
 #: compiled function name -> kernel name (what the notice says)

@@ -1,14 +1,22 @@
 """Command-line interface: ``iwp <command> ...``.
 
 The CLI only parses arguments and calls the API. Every subcommand lives in its
-own module with ``register(subparsers)``; errors derived from
-:class:`iwp.errors.IwpError` become one line on stderr and exit status 2.
+own module with ``register(subparsers)``; the API is imported when a command
+runs, not when the parser is built, so that ``iwp --help`` is instant.
+
+Exit status
+    0 done; 1 the command ran but its result is not trustworthy and nothing was
+    written; 2 bad input: one line ``iwp: error: ...`` naming the flag, file,
+    line or column, nothing written; 3 an internal error (a bug: one line, please
+    report it); 130 interrupted.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import re
 import sys
 import warnings
 
@@ -25,15 +33,31 @@ _COMMANDS = [
     "reproduce",
     "report",
     "validate",
+    "warmup",
+    "fit",
 ]
+
+#: API argument names that differ from the flag's name (``Ts`` is ``--ts`` by case alone).
+_API_NAMES = {"input_name": "input", "noise_std": "noise", "from_format": "from", "to_format": "to"}
+#: An error line longer than this is cut (a message should never echo a whole file).
+_MAX_LINE = 400
 
 
 class _Parser(argparse.ArgumentParser):
+    """argparse with iwp's error line, and negative numbers taken as values (``--x0 -0.1,0,0,0``)."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        # argparse takes "-0.1,0,0,0" for an option because it is not a plain number;
+        # iwp has no option that starts with a digit, so anything "-<digit>..." is a value
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
+
     def error(self, message):  # one line, exit 2, as argparse does, but with our prefix
-        self.exit(2, f"iwp: error: {message}\n")
+        self.exit(2, f"iwp: error: {_one_line(message)}\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``iwp`` parser with every subcommand (imports no numerical code)."""
     from .. import __version__
 
     parser = _Parser(prog="iwp", description="Inertia wheel pendulum toolkit.")
@@ -42,26 +66,104 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
     for name in _COMMANDS:
         importlib.import_module(f"{__name__}.{name}").register(sub)
+    _remember_parsers(parser)
     return parser
+
+
+def _remember_parsers(parser: argparse.ArgumentParser) -> None:
+    """Each (sub)parser puts itself in the namespace, so that errors can name its flags."""
+    parser.set_defaults(cli_parser=parser)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for p in action.choices.values():
+                _remember_parsers(p)
+
+
+def _flags(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """dest -> the long flag the user types (``t_end`` -> ``--t-end``)."""
+    out = {}
+    for action in parser._actions:
+        longs = [s for s in action.option_strings if s.startswith("--")]
+        if longs:
+            out[action.dest] = longs[0]
+    return out
+
+
+def _one_line(text: str) -> str:
+    text = " ".join(str(text).split())
+    return text if len(text) <= _MAX_LINE else text[: _MAX_LINE - 3] + "..."
+
+
+def user_message(exc: BaseException, parser: argparse.ArgumentParser | None) -> str:
+    """The error's message with the API's argument names replaced by the command's flags, on one line."""
+    text = str(exc)
+    if parser is not None:
+        flags = _flags(parser)
+        names = list(getattr(exc, "argument", ()) or ())
+        if not names:
+            m = re.match(r"([A-Za-z_][A-Za-z0-9_]*)(\[\d+\])?\b(?! *:)", text)
+            if m:
+                names = [m.group(1)]
+        for name in names:
+            dest = _API_NAMES.get(name, name)
+            flag = flags.get(dest) or flags.get(dest.lower())
+            if flag is None:
+                continue
+            word = rf"(?<![\w\-./\\']){re.escape(name)}(?![\w/\\'])"
+            if not re.fullmatch(r"[a-z]+", name):
+                text = re.sub(word, flag, text)  # t_end, Ts, x0: identifiers, never prose
+            else:  # amplitude, model: replaced where they name the argument, not in prose
+                text = re.sub(rf"^{re.escape(name)}\b|{word}(?= ?(?:must|=|:|\(|\[|-|$))", flag, text)
+    return _one_line(text)
+
+
+def _os_message(exc: OSError) -> str:
+    what = exc.strerror or type(exc).__name__
+    name = exc.filename
+    if name is None:
+        return what
+    return f"{name}: {what.lower() if what[:1].isupper() and what[1:2].islower() else what}"
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``iwp`` console script; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    cli_parser = getattr(args, "cli_parser", None)
     # warnings are one line on stderr, like errors, without source lines
     warnings.showwarning = lambda message, category, filename, lineno, file=None, line=None: print(
-        f"iwp: warning: {message}", file=sys.stderr)
+        f"iwp: warning: {user_message(message, cli_parser)}", file=sys.stderr)
+    if getattr(args, "command", None) != "warmup":
+        from ..warmup import compile_notices
+
+        compile_notices(lambda line: print(f"iwp: {line}", file=sys.stderr, flush=True))
     try:
         status = args.func(args)
     except IwpError as exc:
-        print(f"iwp: error: {exc}", file=sys.stderr)
+        print(f"iwp: error: {user_message(exc, cli_parser)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("iwp: interrupted", file=sys.stderr)
         return 130
+    except OSError as exc:  # a file or folder the system refuses: name it
+        print(f"iwp: error: {_one_line(_os_message(exc))}", file=sys.stderr)
+        return 2
+    except MemoryError:
+        print("iwp: error: not enough memory for this run (shorten it or lengthen the sample time)", file=sys.stderr)
+        return 2
+    except RecursionError:
+        print("iwp: error: the input is nested too deeply to read", file=sys.stderr)
+        return 2
+    except Exception as exc:  # a bug: still one line, no traceback (IWP_TRACEBACK=1 shows it)
+        if os.environ.get("IWP_TRACEBACK"):
+            raise
+        print(f"iwp: internal error: {type(exc).__name__}: {_one_line(exc)} "
+              "(please report it with the command line)", file=sys.stderr)
+        return 3
     return int(status or 0)
 
+
+__all__ = ["main", "build_parser", "user_message"]
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

@@ -3,8 +3,37 @@
 from __future__ import annotations
 
 import argparse
+import importlib
+from collections.abc import Sequence
 
 from ..errors import InputError
+
+
+class LazyChoices(Sequence):
+    """``choices=`` for argparse whose names live in a module that is slow to import.
+
+    The module is imported the first time argparse checks a value or prints
+    the option's help, so that building the parser (``iwp --help``) stays fast.
+    """
+
+    def __init__(self, module: str, attribute: str):
+        self._module = module
+        self._attribute = attribute
+        self._names: list[str] | None = None
+
+    def _load(self) -> list[str]:
+        if self._names is None:
+            self._names = list(getattr(importlib.import_module(self._module), self._attribute))
+        return self._names
+
+    def __getitem__(self, i):
+        return self._load()[i]
+
+    def __len__(self) -> int:
+        return len(self._load())
+
+    def __contains__(self, value) -> bool:
+        return value in self._load()
 
 
 def float_list(text: str) -> list[float]:
@@ -24,12 +53,17 @@ def add_force_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
 
 
-def load_lumped(spec: str):
+def load_lumped(spec: str, flag: str = "--params"):
+    """The lumped parameter set of a ``--params`` argument (file or built-in name); errors name ``flag``."""
     from ..models.parameters import LumpedParameters, PhysicalParameters, load_params
 
-    params = load_params(spec)
+    try:
+        params = load_params(spec)
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(flag) else f"{flag} {msg}") from None
     if isinstance(params, PhysicalParameters):
         return params.to_lumped()
     if not isinstance(params, LumpedParameters):
-        raise InputError(f"{spec}: expected a lumped or physical parameter set")
+        raise InputError(f"{flag} {spec}: expected a lumped or physical parameter set")
     return params

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from ..errors import InputError
 from ._common import add_force_arg, add_params_arg, float_list, load_lumped
@@ -52,33 +51,34 @@ def register(sub) -> None:
 
 
 def run_swingup(args) -> int:
+    from ..checks import check_positive
     from ..control import RigConditions, swing_up
-    from ..files import prepare_output_file
+    from ..files import check_output_dir, staged_dir
     from ..plotting import savefig
 
     params = load_lumped(args.params)
     if len(args.x0) != 4:
         raise InputError(f"--x0 must have 4 values q1,q2,q3,q4, got {len(args.x0)}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out {out}: exists and is not a folder")
-    files = {k: out / f"swingup.{k}" for k in ("csv", "png", "json")}
+    check_positive("t_end", args.t_end)
+    check_positive("u_max", args.u_max)
+    if not 2 <= args.frames <= 2000:
+        raise InputError(f"--frames must be from 2 to 2000, got {args.frames}")
+    out = check_output_dir(args.out, force=args.force, argument="out")
+    names = {k: f"swingup.{k}" for k in ("csv", "png", "json")}
     if not args.no_animation:
-        files["gif"] = out / "swingup.gif"
-    for f in files.values():
-        prepare_output_file(f, force=args.force)
+        names["gif"] = "swingup.gif"
     rig = None if args.ideal else RigConditions(u_max=args.u_max)
     res = swing_up(params, x0=args.x0, t_end=args.t_end, rig=rig, u_max=args.u_max) if rig is None else \
         swing_up(params, x0=args.x0, t_end=args.t_end, rig=rig)
-    res.result.to_csv(files["csv"], force=True)
-    h = res.plot()
-    savefig(h["figure"], files["png"])
-    if "gif" in files:
-        res.animate(files["gif"], frames=args.frames, force=True)
     summary = res.summary()
     summary["x0"] = list(args.x0)
-    summary["files"] = {k: str(v) for k, v in files.items()}
-    files["json"].write_text(json.dumps(summary, indent=2))
+    summary["files"] = {k: str(out / v) for k, v in names.items()}
+    with staged_dir(out, force=args.force, argument="out") as tmp:
+        res.result.to_csv(tmp / names["csv"], force=True)
+        savefig(res.plot()["figure"], tmp / names["png"])
+        if "gif" in names:
+            res.animate(tmp / names["gif"], frames=args.frames, force=True)
+        (tmp / names["json"]).write_text(json.dumps(summary, indent=2))
     if args.json:
         print(json.dumps(summary, indent=2))
     else:
@@ -86,7 +86,7 @@ def run_swingup(args) -> int:
         print(f"swing-up ({res.conditions}): {state}; catch at t = {res.t_catch:.3f} s, within "
               f"{res.tolerance:g} rad from t = {res.t_balanced:.3f} s; max |u| = {res.u_max:.4g}, "
               f"max |q4| = {res.q4_max:.4g} rad/s")
-        print("wrote " + ", ".join(str(v) for v in files.values()))
+        print("wrote " + ", ".join(summary["files"].values()))
     return 0 if res.success else 1
 
 

@@ -7,6 +7,7 @@ import json
 import math
 from pathlib import Path
 
+from ..errors import InputError
 from ._common import add_force_arg, add_params_arg, load_lumped
 
 _HOPF_DESCRIPTION = """\
@@ -67,12 +68,16 @@ def register(sub) -> None:
 
 
 def run_hopf(args) -> int:
+    from ..checks import check_finite
     from ..control import design_hopf, simulated_amplitude
-    from ..files import prepare_output_file
+    from ..files import FIGURE_SUFFIXES, check_output_file, write_all
 
     params = load_lumped(args.params)
+    for name in ("amplitude", "k1", "k2"):
+        if getattr(args, name, None) is not None:
+            check_finite(name, getattr(args, name))
     if args.plot is not None:
-        prepare_output_file(args.plot, force=args.force)
+        check_output_file(args.plot, force=args.force, argument="plot", suffixes=FIGURE_SUFFIXES)
     d = design_hopf(params, args.amplitude, k2=args.k2, k1=args.k1, require_stable=not args.allow_unstable)
     out = d.to_dict()
     sim = None
@@ -85,8 +90,8 @@ def run_hopf(args) -> int:
         from ..plotting import savefig
 
         branch = continue_hopf(params, d.k2)
-        h = branch.plot(design=d, simulations=[sim] if sim is not None else None)
-        savefig(h["figure"], args.plot)
+        fig = branch.plot(design=d, simulations=[sim] if sim is not None else None)["figure"]
+        write_all([(args.plot, lambda tmp: savefig(fig, tmp))])
         out["plot"] = str(args.plot)
     if args.json:
         print(json.dumps(out, indent=2))
@@ -111,19 +116,25 @@ def run_hopf(args) -> int:
 def run_branch(args) -> int:
     import numpy as np
 
+    from ..checks import check_finite
     from ..control import continue_hopf, simulated_amplitude
-    from ..files import prepare_output_file
+    from ..files import FIGURE_SUFFIXES, check_output_file, write_all
 
     params = load_lumped(args.params)
-    for path in (args.out, args.plot):
-        if path is not None:
-            prepare_output_file(path, force=args.force)
+    check_finite("k2", args.k2)
+    if args.simulate < 0 or args.simulate > 100:
+        raise InputError(f"--simulate must be from 0 to 100 simulations, got {args.simulate}")
+    if args.out is not None:
+        check_output_file(args.out, force=args.force, argument="out", suffixes=(".csv", ".txt"))
+    if args.plot is not None:
+        check_output_file(args.plot, force=args.force, argument="plot", suffixes=FIGURE_SUFFIXES)
     branch = continue_hopf(params, args.k2)
     sims = []
     if args.simulate > 0:
         ks = np.linspace(branch.k1[0], branch.k1[-1], args.simulate + 2)[1:-1]
         stable_k = [k for k in ks if np.interp(-k, -branch.k1, branch.stable.astype(float)) > 0.5]
         sims = [simulated_amplitude(params, k, args.k2) for k in stable_k]
+    writes = []
     if args.out is not None:
         mult = np.abs(branch.floquet)
         mult = np.sort(np.nan_to_num(mult, nan=np.nan), axis=1)
@@ -133,12 +144,14 @@ def run_branch(args) -> int:
                   f"# l1: {branch.hopf.l1}\n# criticality: {branch.hopf.criticality}\n"
                   f"# stop_reason: {branch.stop_reason}\n"
                   "k1,amplitude,period,stable,u_max,q4_max,floquet_abs_1,floquet_abs_2,floquet_abs_3")
-        np.savetxt(Path(args.out), cols, delimiter=",", header=header, comments="", fmt="%.10g")
+        writes.append((Path(args.out), lambda tmp: np.savetxt(tmp, cols, delimiter=",", header=header, comments="",
+                                                              fmt="%.10g")))
     if args.plot is not None:
         from ..plotting import savefig
 
-        h = branch.plot(simulations=sims or None)
-        savefig(h["figure"], args.plot)
+        fig = branch.plot(simulations=sims or None)["figure"]
+        writes.append((Path(args.plot), lambda tmp: savefig(fig, tmp)))
+    write_all(writes)
     if args.json:
         d = branch.to_dict()
         d["simulations"] = [{"k1": s.k1, "amplitude": s.amplitude, "period": s.period} for s in sims]

@@ -19,18 +19,17 @@ import json
 import sys
 
 from ..errors import InputError
-from ._common import add_force_arg
+from ._common import LazyChoices, add_force_arg
 
 
 def register(sub) -> None:
-    from ..ident.identification import SETUPS
-
     p = sub.add_parser(
         "identify", help="identify parameters from logs (least squares of section 5, with uncertainty)",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="log(s) of one set-up (stacked); a static curve for dead-zone")
-    p.add_argument("--setup", required=True, choices=SETUPS, help="identification set-up (paper's numbering)")
+    p.add_argument("--setup", required=True, choices=LazyChoices("iwp.ident.setups", "SETUPS"), metavar="SETUP",
+                   help="identification set-up (paper's numbering): %(choices)s")
     p.add_argument("--pendulum", metavar="FREE.json",
                    help="two-step: the free-pendulum result (--json output or --out file of --setup free) "
                         "or a parameter file")
@@ -70,7 +69,7 @@ def _differentiator(args):
     try:
         return Differentiator(method, **settings)
     except InputError as exc:
-        raise InputError(f"--method {method}: {exc}") from None
+        raise InputError(f"{exc} (--method {method})", argument=exc.argument) from None
 
 
 def _load_series(path: str):
@@ -119,7 +118,30 @@ def _p2(spec: str | None):
     return obj
 
 
+def _distinct_files(files: list[str]) -> None:
+    """Refuse a log given twice: stacked, it would shrink the standard errors by sqrt(2) for nothing."""
+    import hashlib
+    from pathlib import Path
+
+    seen: dict[str, str] = {}
+    for f in files:
+        p = Path(f)
+        if not p.is_file():
+            continue  # the reader names a missing file
+        try:
+            key = hashlib.sha256(p.read_bytes()).hexdigest()
+        except OSError:
+            continue
+        if key in seen:
+            same = "the same file" if Path(seen[key]).resolve() == p.resolve() else f"a copy of {seen[key]}"
+            raise InputError(f"FILE {f}: {same} given twice; stacking a log with itself shrinks the standard errors "
+                             "without new information")
+        seen[key] = f
+
+
 def run(args) -> int:
+    from ..errors import IdentificationError
+    from ..files import check_output_file, write_all
     from ..ident.identification import identify, load_pendulum
     from ..models.parameters import save_params
     from ._common import load_lumped
@@ -130,12 +152,11 @@ def run(args) -> int:
         raise InputError("--setup two-step needs --pendulum FREE.json (the result of --setup free)")
     if args.p2 is not None and args.setup != "free":
         raise InputError(f"--p2 is used by --setup free only, not {args.setup}")
-    base = load_lumped(args.base) if args.base is not None else None
+    _distinct_files(args.files)
+    base = load_lumped(args.base, flag="--base") if args.base is not None else None
     out_path = None
     if args.out is not None:
-        from ..files import prepare_output_file
-
-        out_path = prepare_output_file(args.out, force=args.force)
+        out_path = check_output_file(args.out, force=args.force, argument="out", suffixes=(".json",))
     pendulum = load_pendulum(args.pendulum) if args.pendulum is not None else None
     p2 = _p2(args.p2)
     diff = _differentiator(args)
@@ -149,28 +170,29 @@ def run(args) -> int:
     if args.setup != "dead-zone":
         kw = dict(t_start=args.t_start, t_end=args.t_end, differentiator=diff, base=base, covariance=args.covariance)
     res = identify(data if len(data) > 1 else data[0], args.setup, pendulum=pendulum, p2=p2, **kw)
+    files = ", ".join(args.files)
+    if not res.success:
+        raise IdentificationError(f"{files}: {res.message}; nothing written")
 
     if args.refine:
         from ..ident.refinement import refine_identification
 
         r = refine_identification(args.setup, data, res.to_params(base), t_start=args.t_start, t_end=args.t_end)
+        if not r.success:
+            raise IdentificationError(f"{files}: refinement failed: {r.message}; nothing written")
+        if out_path is not None:
+            write_all([(out_path, lambda tmp: save_params(
+                r.params, tmp, force=True, extra={"identification": res.to_dict(), "refinement": r.to_dict()}))])
         if args.json:
             print(json.dumps(r.to_dict()))
         else:
             print(res.summary())
             print()
-            print(r.summary() if hasattr(r, "summary") else r)
-        if out_path is not None:
-            save_params(r.params, out_path, force=True,
-                        extra={"identification": res.to_dict(), "refinement": r.to_dict()})
-            if not args.json:
+            print(r.summary())
+            if out_path is not None:
                 print(f"wrote {out_path}")
         return 0
 
-    if args.json:
-        print(json.dumps(res.to_dict()))
-    else:
-        print(res.summary())
     if out_path is not None:
         params = res.to_params(base)
         note = {
@@ -189,10 +211,11 @@ def run(args) -> int:
             extra["unconstrained_fit"] = True
             print(f"iwp: warning: {out_path}: written as an unconstrained fit ({exc}); "
                   "iwp simulate will use it with a warning", file=sys.stderr)
-        save_params(params, out_path, force=True, extra=extra)
-        if not args.json:
+        write_all([(out_path, lambda tmp: save_params(params, tmp, force=True, extra=extra))])
+    if args.json:
+        print(json.dumps(res.to_dict()))
+    else:
+        print(res.summary())
+        if out_path is not None:
             print(f"wrote {out_path}")
-    if not res.success:
-        print(f"iwp: identification incomplete: {res.message}", file=sys.stderr)
-        return 1
     return 0

@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 
 from ..errors import InputError
-from ..rig import RigTruth, VirtualRig, check_output_path, default_truth, list_experiments, write_result
 from ._common import add_force_arg
 
 
@@ -75,6 +74,8 @@ def register(sub) -> None:
 
 
 def run_list(args) -> int:
+    from ..rig import list_experiments
+
     specs = list_experiments()
     w = max(len(s.name) for s in specs)
     print(f"{'NAME':<{w}}  DESCRIPTION")
@@ -85,10 +86,14 @@ def run_list(args) -> int:
 
 
 def _truth(path):
+    from ..rig import RigTruth, default_truth
+
     return default_truth() if path is None else RigTruth.from_json(path)
 
 
 def run_run(args) -> int:
+    from ..rig import VirtualRig, check_output_path, write_result
+
     overrides = {}
     for opt, key in (("amplitude", "amplitude"), ("step", "step"), ("duration", "duration"), ("seed", "seed"),
                      ("noise", "noise_std"), ("k1", "k1"), ("k2", "k2"), ("x0", "x0"), ("v_dz", "v_dz")):

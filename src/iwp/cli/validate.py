@@ -82,17 +82,26 @@ def _looks_like_angle_log(path: str) -> bool:
     return "sample_rate" in first
 
 
+def _compatible(model: str, input_name: str | None) -> bool:
+    """Whether ``model`` takes the log's input (none, ``u`` or ``v``)."""
+    from ..models.plant import MODELS
+
+    return MODELS[model].input == input_name
+
+
 def run(args) -> int:
+    import warnings
+
     from ..data import read_experiment
     from ..errors import DataFormatError, InputError
-    from ..files import prepare_output_file
+    from ..files import FIGURE_SUFFIXES, check_output_file, write_all
     from ..ident.validation import auto_model, validate
     from ..plotting import savefig
     from ..sim.inputs import HopfController
     from ._common import load_lumped
 
     if args.plot is not None:
-        prepare_output_file(args.plot, force=args.force)
+        check_output_file(args.plot, force=args.force, argument="plot", suffixes=FIGURE_SUFFIXES)
     signals = tuple(s.strip() for s in args.signals.split(",") if s.strip())
     if not signals:
         raise InputError("--signals: give at least one of q1,q2,q3,q4")
@@ -105,15 +114,25 @@ def run(args) -> int:
         raise
     model = args.model
     if model == "auto":
-        model = _model_from_params_file(args.params) or auto_model(data)
+        stored = _model_from_params_file(args.params)
+        model = auto_model(data)
+        if stored is not None and _compatible(stored, data.input_name):
+            model = stored
+        elif stored is not None:
+            has = f"input {data.input_name}" if data.input_name else "no input"
+            warnings.warn(f"{args.params} was fitted with model {stored!r}, which does not take a log with {has}; "
+                          f"simulating model {model!r} (give --model to choose)", UserWarning, stacklevel=2)
+    elif data.input_name is not None and not _compatible(model, data.input_name) and args.controller is None:
+        raise InputError(f"--model {model} does not take the input {data.input_name} of {args.file}; "
+                         f"use --model {auto_model(data)}")
     controller = None
     if args.controller == "hopf":
         controller = HopfController(args.k1, args.k2, args.controller_ts)
     v = validate(data, params, model=model, estimate_x0=args.estimate_x0, t_start=args.t_start,
                  t_end=args.t_end, restart_times=args.restart or (), controller=controller, signals=signals)
     if args.plot is not None:
-        h = v.plot()
-        savefig(h["figure"], args.plot)
+        fig = v.plot()["figure"]
+        write_all([(args.plot, lambda tmp: savefig(fig, tmp))])
     if args.json:
         print(json.dumps(v.to_dict(), indent=2))
     else:

@@ -10,6 +10,7 @@ import numpy as np
 from ..checks import check_positive
 from ..errors import InputError
 from .experiment import ExperimentData
+from .plausibility import check_log_values
 from .tables import check_read_options, fail, read_text_lines, warn_if_degrees
 
 
@@ -127,8 +128,11 @@ def read_angle_log(
         q1 = q1 + math.pi
     metadata = dict(header)
     metadata["source_format"] = "angle-log"
+    t = np.arange(angles.size) / rate
+    check_log_values({"t": t, "q1": q1}, source=src, locate=lambda i, name: f"{src}, line {data_lines[i][0]}, "
+                     f"column {name!r}", names={"t": "sample_rate", "q1": "angle"})
     return ExperimentData(
-        t=np.arange(angles.size) / rate,
+        t=t,
         q1=q1,
         q2=np.zeros(angles.size),
         metadata=metadata,

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from ..errors import InputError
-from ..files import prepare_output_file
+from ..files import LOG_SUFFIXES, check_output_file
 from .angle_log import read_angle_log
 from .csv_format import read_csv, write_csv
 from .experiment import ExperimentData
@@ -163,8 +163,15 @@ def convert(
         The log as written.
     """
     if to_format is None:
-        _format_of(dst, _WRITERS, "output")
-    prepare_output_file(dst, force)  # fail before reading if dst exists
+        check_output_file(dst, force=force, argument="out", suffixes=LOG_SUFFIXES)
+    else:
+        check_output_file(dst, force=force, argument="out")  # fail before reading if dst exists
+    try:
+        same = Path(dst).exists() and Path(src).exists() and Path(dst).samefile(src)
+    except OSError:
+        same = False
+    if same:
+        raise InputError(f"out {dst}: is the input file; write the converted log to another file", argument="out")
     data = read_experiment(src, format=from_format, **read_options)
     data = data.window(t_start, t_end)
     write_experiment(data, dst, format=to_format, force=force)

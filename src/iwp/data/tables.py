@@ -20,17 +20,26 @@ from ..errors import DataFormatError, InputError
 from .experiment import (
     CANONICAL_COLUMNS,
     DEGREES_THRESHOLD,
-    REQUIRED_COLUMNS,
     ExperimentData,
+    missing_required,
 )
+from .plausibility import check_log_values
 
 _ANGLES = ("q1", "q2", "q3", "q4")  # converted by degrees=True
+#: Zero crossings of a pendulum angle beyond 3 pi that make it degrees, not a pendulum that turned over.
+DEGREES_CROSSINGS = 4
 
 # --------------------------------------------------------------------------
 # shared reading machinery
 # --------------------------------------------------------------------------
+#: A message never echoes more than this many characters of a file.
+MAX_MESSAGE = 300
+
+
 def one_line(text: str) -> str:
-    return " ".join(str(text).split())
+    """``text`` on one line, cut to :data:`MAX_MESSAGE` characters."""
+    text = " ".join(str(text).split())
+    return text if len(text) <= MAX_MESSAGE else text[: MAX_MESSAGE - 3] + "..."
 
 
 def fail(msg: str) -> DataFormatError:
@@ -213,7 +222,7 @@ def resolve_columns(
             if alias is not None:
                 used["t"] = alias
                 taken.add(alias)
-    missing = [c for c in REQUIRED_COLUMNS if c not in used]
+    missing = missing_required(used)  # q2 may be replaced by the wheel speed q4
     if missing:
         plural = "s" if len(missing) > 1 else ""
         raise fail(
@@ -251,8 +260,12 @@ def finish_log(
     min_samples: int,
     sampling_tol: float,
     no_rows: str | None = None,
+    units_checked: bool = False,
 ) -> ExperimentData:
     """Checks common to all time-series readers, then build the log.
+
+    ``units_checked``: the angles' units were declared (a rig description) and checked by the caller; the
+    degrees heuristic is skipped.
 
     ``cols`` maps file column names to float arrays; ``locate(i, file_name)``
     describes sample ``i`` (0-based) of a column for messages.
@@ -292,11 +305,12 @@ def finish_log(
                 "onto a uniform grid"
             )
     fields: dict[str, np.ndarray] = {canon: cols[name] for canon, name in used.items()}
+    check_log_values(fields, source=source, locate=locate, names=used)
     if degrees:
         for canon in _ANGLES:
             if canon in fields:
                 fields[canon] = np.deg2rad(fields[canon])
-    else:
+    elif not units_checked:
         warn_if_degrees(fields["q1"], source, used["q1"])
     data = ExperimentData(
         **fields,
@@ -310,16 +324,24 @@ def finish_log(
 
 
 def warn_if_degrees(q1: np.ndarray, source: str, column: str, hint: str | None = None) -> None:
-    """Warn if a pendulum angle [rad] peaks above 3*pi: likely degrees."""
+    """Refuse, or warn about, a pendulum angle [rad] that looks like degrees.
+
+    Beyond ``3 pi`` (:data:`DEGREES_THRESHOLD`) a pendulum angle in radians
+    has turned over at least once. If it also swings back and forth across
+    zero (at least :data:`DEGREES_CROSSINGS` zero crossings, as a swing in
+    degrees does, and a pendulum that turned over does not), the column is
+    refused; otherwise (a pendulum that turned over, a swing-up) a warning.
+    """
     peak = float(np.max(np.abs(q1))) if q1.size else 0.0
-    if peak > DEGREES_THRESHOLD:
-        warnings.warn(
-            f"{source}: column {column!r}{'' if column == 'q1' else ' (q1)'} looks like degrees "
-            f"(peak |q1| = {peak:.4g} > "
-            f"3*pi rad); convert with {hint or '--degrees / degrees=True'}",
-            UserWarning,
-            stacklevel=4,
-        )
+    if peak <= DEGREES_THRESHOLD:
+        return
+    crossings = int(np.count_nonzero(np.diff(np.signbit(q1[q1 != 0.0]))))
+    what = (f"{source}: column {column!r}{'' if column == 'q1' else ' (q1)'} looks like degrees "
+            f"(peak |q1| = {peak:.4g} > 3*pi rad")
+    fix = f"convert with {hint or '--degrees / degrees=True'}"
+    if crossings >= DEGREES_CROSSINGS and peak <= 400.0:
+        raise fail(f"{what} while it swings across zero {crossings} times); {fix}")
+    warnings.warn(f"{what}); {fix}", UserWarning, stacklevel=4)
 
 
 def check_read_options(min_samples: int, sampling_tol: float) -> tuple[int, float]:

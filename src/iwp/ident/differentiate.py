@@ -200,7 +200,8 @@ class Differentiator:
         if p >= w:
             raise InputError(
                 f"window ({w}) must be larger than polyorder ({p}); "
-                f"use window >= {p + 1 + (p % 2 == 0)} or a smaller polyorder"
+                f"use window >= {p + 1 + (p % 2 == 0)} or a smaller polyorder",
+                argument=("window", "polyorder"),
             )
         object.__setattr__(self, "window", int(w))
         object.__setattr__(self, "polyorder", int(p))

@@ -178,6 +178,23 @@ _MIN_EFF_PER_PARAM = 20
 _CORR_EXPLAIN = 0.99
 #: residuals this many times larger than the measurement noise explains -> model misfit (HAC covariance)
 _MISFIT_RATIO = 2.0
+#: Least fraction of the regressand's mean square the model must explain, in every row of (10):
+#: below it the estimates describe noise or a signal the set-up does not model, not the rig.
+MIN_EXPLAINED = 0.5
+
+
+def explained_fraction(Phi: np.ndarray, phi: np.ndarray, theta: np.ndarray, blocks: np.ndarray | None,
+                       labels: list[str]) -> dict[str, float]:
+    """``1 - |phi - Phi theta|^2 / |phi|^2`` per row of (10) (the uncentred R^2 of each block)."""
+    r = phi - Phi @ theta
+    out = {}
+    ids = [None] if blocks is None else list(np.unique(blocks))
+    for k, b in enumerate(ids):
+        rows = slice(None) if b is None else (blocks == b)
+        den = float(np.sum(phi[rows] ** 2))
+        label = labels[int(b)] if b is not None and int(b) < len(labels) else (labels[0] if labels else str(k))
+        out[label] = 1.0 - float(np.sum(r[rows] ** 2)) / den if den > 0.0 else float("nan")
+    return out
 #: expected signs (for the "unphysical value" warning)
 _POSITIVE = ("p1", "p3", "rho", "p3_1rho")
 _NONNEG = ("p2", "p2_1rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2_1rho", "v_dz_pos", "v_dz_neg")
@@ -383,13 +400,24 @@ def identify(
     details.update(extra_d)
 
     success = bool(res.success)
+    explained = explained_fraction(reg.Phi, reg.phi, np.asarray(res.values, dtype=float), reg.blocks, reg.labels)
+    details["explained_fraction"] = explained
+    poor = {k: v for k, v in explained.items() if not (v >= MIN_EXPLAINED)}
+    if success and poor:
+        row, frac = next(iter(poor.items()))
+        success = False
+        res_msg = (f"the data do not determine the parameters: the model explains {100 * frac:.0f} % of d{row}/dt "
+                   f"(at least {100 * MIN_EXPLAINED:.0f} % needed); too little excitation, noise only, or the "
+                   "wrong set-up for this log")
+    else:
+        res_msg = res.message
     if success:
         message = (f"set-up {setup!r}: identified {len(names)} parameter(s) from {sig.n} samples "
                    f"({sig.n_files} file(s), {res.n_equations} equations)")
         if warnings:
             message += f"; {len(warnings)} warning(s)"
     else:
-        message = f"set-up {setup!r}: {res.message}"
+        message = f"set-up {setup!r}: {res_msg}"
     residual_rms = {reg.labels[i] if isinstance(k, (int, np.integer)) else str(k): float(v)
                     for i, (k, v) in enumerate(res.residual_rms.items())}
     return IdentificationResult(
@@ -481,15 +509,30 @@ def load_pendulum(path: str | os.PathLike) -> Any:
     IdentificationResult or LumpedParameters
     """
     p = Path(path)
+    obj: Any = None
     if p.is_file():
-        doc = read_json(p)
+        doc = read_json(p, argument="pendulum")
         if isinstance(doc, Mapping):
             if "setup" in doc and "parameters" in doc:
-                return IdentificationResult.from_dict(doc, where=str(p))
-            ident = doc.get("identification")
-            if isinstance(ident, Mapping) and "setup" in ident:
-                return IdentificationResult.from_dict(ident, where=f"{p}: identification")
-    params = load_params(str(path), physical_check=False)
-    if hasattr(params, "to_lumped"):
-        params = params.to_lumped()
-    return params
+                obj = IdentificationResult.from_dict(doc, where=str(p))
+            else:
+                ident = doc.get("identification")
+                if isinstance(ident, Mapping) and "setup" in ident:
+                    obj = IdentificationResult.from_dict(ident, where=f"{p}: identification")
+    if obj is None:
+        obj = load_params(str(path), physical_check=True)
+        if hasattr(obj, "to_lumped"):
+            obj = obj.to_lumped()
+        p1 = obj.p1
+    else:
+        if not obj.success:
+            raise InputError(f"pendulum {p}: the identification in this file did not succeed ({obj.message}); "
+                             "it cannot serve as the pendulum", argument="pendulum")
+        p1 = obj.parameters["p1"].value if "p1" in obj.parameters else None
+        if p1 is None:
+            raise InputError(f"pendulum {p}: the {obj.setup!r} result has no p1; give the result of --setup free",
+                             argument="pendulum")
+    if not (math.isfinite(p1) and p1 > 0.0):
+        raise InputError(f"pendulum {p}: p1 = {p1!r} is not a pendulum's (p1 = g (m1 c + m2 l) / I1 > 0)",
+                         argument="pendulum")
+    return obj

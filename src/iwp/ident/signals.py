@@ -196,7 +196,7 @@ def prepare_signals(setup, datas: list, d: Differentiator, t_start, t_end, *, no
         try:
             w = data.window(t_start, t_end)
         except InputError as exc:
-            raise InputError(f"{src}: {exc}") from None
+            raise InputError(f"{src}: {exc}", argument=exc.argument) from None
         Ts = w.Ts
         k = d.edge_samples_at(Ts)
         need = max(d.min_samples(Ts), 4) + 2 * max(k, EDGE_MIN) + n_params + 1

@@ -8,34 +8,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, OutputExistsError
+from ..files import prepare_output_dir  # the one folder policy, re-exported here
 
 __all__ = ["prepare_output_dir", "save_figure", "decimate", "PLOT_POINTS"]
 
 #: Plotted series are decimated to at most this many points (min/max per bucket, see :func:`decimate`).
 PLOT_POINTS = 3000
-
-
-def prepare_output_dir(path: str | os.PathLike, *, force: bool = False) -> Path:
-    """Create the output folder; refuse one that exists and is not empty unless ``force``.
-
-    Raises
-    ------
-    OutputExistsError
-        The folder exists and holds files, and ``force`` is false.
-    InputError
-        ``path`` is an existing file.
-    """
-    p = Path(path)
-    if p.exists() and not p.is_dir():
-        raise InputError(f"{p}: exists and is not a folder; give a folder for --out")
-    if p.is_dir() and any(p.iterdir()) and not force:
-        raise OutputExistsError(f"{p}: folder exists and is not empty; pass --force to write into it")
-    try:
-        p.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"{p}: cannot create the output folder ({exc.strerror or exc})") from None
-    return p
 
 
 def save_figure(fig, out_dir: str | os.PathLike, name: str, *, dpi: int = 110) -> tuple[bytes, list[Path]]:

@@ -17,13 +17,13 @@ import numpy as np
 
 from ..data import StaticCurve, read_experiment, read_static_curve
 from ..errors import DataFormatError, InputError
-from ..files import jsonable
+from ..files import check_output_dir, jsonable, staged_dir
 from ..ident.fit import fit_percent
 from ..ident.validation import auto_model, validate
 from ..models.parameters import LumpedParameters
 from ..plotting.report import plot_comparisons, plot_static_curve
 from ..sim.inputs import HopfController
-from .folder import decimate, prepare_output_dir, save_figure
+from .folder import decimate, save_figure
 from .page import FigureEntry, Report, Section, Table, fmt, write_html
 
 __all__ = ["report_logs", "LogComparison"]
@@ -100,48 +100,51 @@ def report_logs(
     logs = []
     for p in paths:
         logs.append((p, _read_any(p, read_experiment, read_static_curve)))
-    out_dir = prepare_output_dir(out, force=force)
-    say = progress or (lambda msg: None)
-    comparisons: list[LogComparison] = []
-    figures: list[FigureEntry] = []
-    fig_paths: list[Path] = []
-    used = set()
-    for p, log in logs:
-        stem = _unique(_safe_name(p.stem), used)
-        if isinstance(log, StaticCurve):
-            comp, fig, caption = _compare_static(p, log, params, plot_static_curve)
-        else:
-            comp, fig, caption = _compare_series(p, log, params, plot_comparisons)
-        png, written = save_figure(fig, out_dir, stem)
-        comp.figure = stem
-        fig_paths += written
-        figures.append(FigureEntry(stem, f"{p.name}: {comp.kind}", caption, png,
-                                   [str(w.relative_to(out_dir)) for w in written]))
-        comparisons.append(comp)
-        fits = ", ".join(f"{k} {fmt(v, 3)} %" for k, v in comp.fit.items())
-        say(f"{p.name}: {comp.kind}, {comp.model}" + (f", fit {fits}" if fits else ""))
-    rows = [[c.file, c.kind, c.model, *(
-        [", ".join(f"{k}: {fmt(v, 3)} %" for k, v in c.fit.items()) or "-",
-         ", ".join(f"{k}: {fmt(v, 3)}" for k, v in c.rms.items()) or "-"]), c.note] for c in comparisons]
-    ptab = Table("Parameters", ["parameter", "value"],
-                 [[k, v] for k, v in params.to_dict().items()] +
-                 [["p2(1+rho)", params.p2_1rho], ["p3(1+rho)", params.p3_1rho]],
-                 note=f"from {params_name}" if params_name else "")
-    ftab = Table("Fits", ["log", "kind", "model", "fit (100 (1 - |y - y_sim| / |y - mean y|))", "RMS error",
-                          "note"], rows)
-    rep = Report(
-        title="Model against measured logs",
-        subtitle=f"{len(comparisons)} log(s) compared with the compensated model (9) of the paper"
-                 + (f"; parameters: {params_name}" if params_name else ""),
-        summary=[("logs", ", ".join(str(p) for p in paths)), ("parameters", params_name or "(given)")],
-        sections=[Section("Parameters and fits", tables=[ptab, ftab], anchor="fits"),
-                  Section("Figures", figures=figures, anchor="figures")],
-    )
-    report = write_html(rep, out_dir / "report.html", force=True)
-    (out_dir / "comparison.json").write_text(json.dumps(jsonable({
-        "parameters": params.to_dict(), "parameters_from": params_name,
-        "logs": [c.__dict__ for c in comparisons]}), indent=2) + "\n")
-    return {"report": report, "comparisons": comparisons, "figures": fig_paths}
+    final = check_output_dir(out, force=force)
+    # every file is written into a hidden sibling folder and moved into place only when all are written
+    with staged_dir(final, force=force) as out_dir:
+        say = progress or (lambda msg: None)
+        comparisons: list[LogComparison] = []
+        figures: list[FigureEntry] = []
+        fig_paths: list[Path] = []
+        used = set()
+        for p, log in logs:
+            stem = _unique(_safe_name(p.stem), used)
+            if isinstance(log, StaticCurve):
+                comp, fig, caption = _compare_static(p, log, params, plot_static_curve)
+            else:
+                comp, fig, caption = _compare_series(p, log, params, plot_comparisons)
+            png, written = save_figure(fig, out_dir, stem)
+            comp.figure = stem
+            fig_paths += written
+            figures.append(FigureEntry(stem, f"{p.name}: {comp.kind}", caption, png,
+                                       [str(w.relative_to(out_dir)) for w in written]))
+            comparisons.append(comp)
+            fits = ", ".join(f"{k} {fmt(v, 3)} %" for k, v in comp.fit.items())
+            say(f"{p.name}: {comp.kind}, {comp.model}" + (f", fit {fits}" if fits else ""))
+        rows = [[c.file, c.kind, c.model, *(
+            [", ".join(f"{k}: {fmt(v, 3)} %" for k, v in c.fit.items()) or "-",
+             ", ".join(f"{k}: {fmt(v, 3)}" for k, v in c.rms.items()) or "-"]), c.note] for c in comparisons]
+        ptab = Table("Parameters", ["parameter", "value"],
+                     [[k, v] for k, v in params.to_dict().items()] +
+                     [["p2(1+rho)", params.p2_1rho], ["p3(1+rho)", params.p3_1rho]],
+                     note=f"from {params_name}" if params_name else "")
+        ftab = Table("Fits", ["log", "kind", "model", "fit (100 (1 - |y - y_sim| / |y - mean y|))", "RMS error",
+                              "note"], rows)
+        rep = Report(
+            title="Model against measured logs",
+            subtitle=f"{len(comparisons)} log(s) compared with the compensated model (9) of the paper"
+                     + (f"; parameters: {params_name}" if params_name else ""),
+            summary=[("logs", ", ".join(str(p) for p in paths)), ("parameters", params_name or "(given)")],
+            sections=[Section("Parameters and fits", tables=[ptab, ftab], anchor="fits"),
+                      Section("Figures", figures=figures, anchor="figures")],
+        )
+        write_html(rep, out_dir / "report.html", force=True)
+        (out_dir / "comparison.json").write_text(json.dumps(jsonable({
+            "parameters": params.to_dict(), "parameters_from": params_name,
+            "logs": [c.__dict__ for c in comparisons]}), indent=2) + "\n")
+    fig_paths = [final / p.relative_to(out_dir) for p in fig_paths]
+    return {"report": final / "report.html", "comparisons": comparisons, "figures": fig_paths}
 
 
 def _safe_name(stem: str) -> str:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from ..data import ExperimentData, StaticCurve, write_experiment, write_static_curve
 from ..errors import InputError
-from ..files import prepare_output_file
+from ..files import check_output_file
 from .experiments import experiment_spec
 
 __all__ = ["check_output_path", "write_result"]
@@ -24,15 +24,8 @@ def check_output_path(name: str, path: str | os.PathLike, *, force: bool = False
     existing file unless ``force``.
     """
     experiment_spec(name)
-    p = Path(path)
-    ext = p.suffix.lower()
-    if name.startswith("static-curve"):
-        if ext not in _STATIC_EXT:
-            raise InputError(f"{p}: a static curve is written as CSV; use the extension .csv or .txt")
-    elif ext not in _SERIES_EXT:
-        raise InputError(f"{p}: cannot tell the output format from the extension {ext or '(none)'!r}; "
-                         f"use one of {', '.join(_SERIES_EXT)}")
-    return prepare_output_file(p, force=force)
+    suffixes = _STATIC_EXT if name.startswith("static-curve") else _SERIES_EXT
+    return check_output_file(path, force=force, argument="out", suffixes=suffixes)
 
 
 def write_result(result, path: str | os.PathLike, *, force: bool = False) -> Path:

@@ -337,5 +337,5 @@ def make_input(name: str, **kw) -> Input | None:
     if name == "hopf":
         return HopfController(kw["k1"], kw["k2"], kw.get("Ts"))
     raise InputError(
-        f"unknown input {name!r}; choose one of: {', '.join(INPUT_NAMES + CONTROLLER_NAMES)}"
+        f"input {name!r}: unknown; choose one of: {', '.join(INPUT_NAMES + CONTROLLER_NAMES)}", argument="input"
     )

@@ -7,7 +7,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..files import prepare_output_file
 from .engine import ST_OK
 
 __all__ = ["SimulationResult", "BatchResult"]
@@ -92,25 +91,39 @@ class SimulationResult:
         return self.x[:, 3]
 
     def columns(self) -> dict[str, np.ndarray]:
-        """The columns of the CSV: ``t, q1, q2, q3, q4, u`` (and ``v`` if it differs from ``u``)."""
+        """Every signal of the run by name: ``t, q1..q4, u`` and ``v`` (the command) where it differs from ``u``."""
         cols = {"t": self.t, "q1": self.q1, "q2": self.q2, "q3": self.q3, "q4": self.q4, "u": self.u}
         if not np.array_equal(self.command, self.u):
             cols["v"] = self.command
         return cols
 
-    def to_csv(self, path, *, force: bool = False) -> "object":
-        """Write the result as CSV with the header ``t,q1,q2,q3,q4,u`` (+ ``v``).
+    def to_experiment(self):
+        """The run as a log (:class:`~iwp.data.ExperimentData`) that iwp's readers and identification take.
 
-        Metadata lines (``# key: value``) come first. Refuses to overwrite
-        an existing file unless ``force``.
+        One input column, named as the model's input (``u``, or ``v`` for the
+        raw models) and holding what reached the model (:attr:`command`, after
+        the optional feedforward and saturation), so that replaying the log
+        reproduces the run. Motor-disk runs carry ``pendulum: locked``.
         """
-        p = prepare_output_file(path, force=force)
-        cols = self.columns()
-        data = np.column_stack(list(cols.values()))
-        meta = {"source": "iwp simulate", "model": self.model, **self.metadata}
-        header = "".join(f"# {k}: {v}\n" for k, v in meta.items()) + ",".join(cols)
-        np.savetxt(p, data, delimiter=",", header=header, comments="", fmt="%.17g")
-        return p
+        from ..data import ExperimentData
+        from ..models.plant import MODELS
+
+        info = MODELS[self.model]
+        meta = {"source": "iwp simulate", "model": self.model}
+        if info.input is not None and self.model.startswith("motor-disk"):
+            meta["pendulum"] = "locked"
+        meta.update({str(k): str(v) for k, v in self.metadata.items()})
+        x = self.x
+        cols = dict(t=self.t, q1=x[:, 0], q2=x[:, 1], q3=x[:, 2], q4=x[:, 3])
+        if info.input is not None:
+            cols[info.input] = self.command
+        return ExperimentData(**cols, metadata=meta, source="iwp simulate")
+
+    def to_csv(self, path, *, force: bool = False):
+        """Write the run as an iwp CSV (:meth:`to_experiment`, exact round trip); no overwrite without ``force``."""
+        from ..data import write_experiment
+
+        return write_experiment(self.to_experiment(), path, format="csv", force=force)
 
     def plot(self, **kw):
         """Plot the states and the input; see :func:`iwp.plotting.plot_simulation`."""

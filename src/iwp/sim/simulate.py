@@ -21,7 +21,7 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
-from ..checks import check_finite, check_positive
+from ..checks import check_finite, check_positive, check_samples
 from ..errors import InputError, SimulationError
 from ..models.actuator import command, command_vector
 from ..models.parameters import LumpedParameters, PhysicalParameters
@@ -80,7 +80,8 @@ def output_times(t0: float, t_end: float, Ts: float, t_eval=None) -> np.ndarray:
         if te[0] < t0 - 1e-12 or te[-1] > t_end + 1e-9:
             raise InputError(f"t_eval must lie within [t0, t_end] = [{t0:g}, {t_end:g}] s")
         return te
-    n = int(math.floor((t_end - t0) / Ts + 1e-9))
+    n = check_samples(math.floor((t_end - t0) / Ts + 1e-9) + 1.0, argument=("t_end", "t0", "Ts"),
+                      what=f"t_end - t0 = {t_end - t0:.6g} s at Ts = {Ts:.6g} s") - 1
     return t0 + Ts * np.arange(n + 1)
 
 
@@ -88,7 +89,7 @@ def _check_span(t0, t_end, Ts) -> tuple[float, float, float]:
     t0 = check_finite("t0", t0)
     t_end = check_finite("t_end", t_end)
     if t_end <= t0:
-        raise InputError(f"t_end must be > t0 (t0 = {t0:g} s), got t_end = {t_end:g} s")
+        raise InputError(f"t_end must be > t0 (t0 = {t0:g} s), got t_end = {t_end:g} s", argument=("t_end", "t0"))
     return t0, t_end, check_positive("Ts", Ts)
 
 
@@ -139,7 +140,10 @@ def initial_state(x0, plant: Plant) -> np.ndarray:
             f"{plant.model!r}, got {x.size}"
         )
     if not np.all(np.isfinite(x)):
-        raise InputError(f"x0 must be finite, got {x.tolist()}")
+        raise InputError(f"x0 must be finite, got {x.tolist()}", argument="x0")
+    if np.any(np.abs(x) >= X_MAX):
+        raise InputError(f"x0 must lie within +-{X_MAX:.0e} [rad, rad/s] (beyond it a run counts as diverged), "
+                         f"got {x.tolist()}", argument="x0")
     return x
 
 
