@@ -22,7 +22,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..jit import jit
-from .layout import BRK, C_FF, C_FFNEG, C_FFPOS, C_SATHI, C_SATLO, DZ, VNEG, VPOS, WS
+from .layout import BRK, C_FF, C_FFNEG, C_FFPOS, C_SATHI, C_SATLO, DZ, UOFF, VNEG, VPOS, WS
 
 __all__ = ["StartupFriction", "dead_zone", "dead_zone_output", "feedforward", "saturate", "command_vector"]
 
@@ -84,7 +84,9 @@ def breakaway_scale(q4, break_ratio, omega_s):
 
 @jit
 def effective_input(w, q4, P):
-    """The input after the dead zone when the plant has it active (models (6), (14) raw), else ``w``."""
+    """The input that reaches the disk: ``w + u_offset``, through the dead zone when the plant has it
+    active (models (6), (14) raw)."""
+    w = w + P[UOFF]
     if P[DZ] == 0.0:
         return w
     scale = breakaway_scale(q4, P[BRK], P[WS])

@@ -14,8 +14,8 @@ from __future__ import annotations
 from ..jit import jit
 from .actuator import effective_input
 from .friction import coulomb_sign
-from .layout import B2I2, DPLAY, EPSC, KBRG, KG, KI2, LOCK, NB, RHO, SC2
-from .pendulum import pendulum_accel_terms
+from .layout import B2I2, DPLAY, EPSC, KBRG, KG, KI2, KNEG, LOCK, NB, RHO, SC2
+from .pendulum import pendulum_accel_terms, pendulum_coulomb
 
 
 @jit
@@ -36,7 +36,8 @@ def rhs_belt(x, w, P, dx, free):
 
     Disk torque over ``I2`` (without inertial coupling):
     ``T = b2/I2 q4 + s_c2 rho sgn q4 + k/I2 w_b``. Motor (``J_m = 0``):
-    ``q_m' = kT beta/(R gamma) w_eff + (k/gamma) w_b / N``. Belt stretch
+    ``q_m' = kT beta/(R gamma) w_eff + (k/gamma) w_b / N``, the gain times
+    ``gain_neg`` when ``w_eff < 0`` (section 3.2). Belt stretch
     ``delta' = q4 - q_m'/N``; ``w_b`` is the play operator of ``delta``.
     Locked: ``q4' = -T`` (15). Free: ``q3' = -xi + T/rho``,
     ``q4' = -q3' - T``.
@@ -48,13 +49,14 @@ def rhs_belt(x, w, P, dx, free):
     wb = x[5]
     weff = effective_input(w, q4, P)
     T = P[B2I2] * q4 + P[SC2] * P[RHO] * coulomb_sign(q4, P[EPSC]) + P[KI2] * wb
-    qm_dot = P[KBRG] * weff + P[KG] * wb / P[NB]
+    gain = P[KBRG] * P[KNEG] if weff < 0.0 else P[KBRG]  # the motor's gain may differ by sign (section 3.2)
+    qm_dot = gain * weff + P[KG] * wb / P[NB]
     ddelta = q4 - qm_dot / P[NB]
     dx[1] = q4
     dx[4] = ddelta
     dx[5] = play_rate(delta - wb, ddelta, P[DPLAY])
     if free and P[LOCK] == 0.0:
-        acc1 = -pendulum_accel_terms(q1, q3, P) + T / P[RHO]
+        acc1 = -pendulum_accel_terms(q1, q3, P) - pendulum_coulomb(q3, P) + T / P[RHO]
         dx[0] = q3
         dx[2] = acc1
         dx[3] = -acc1 - T

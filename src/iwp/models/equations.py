@@ -69,10 +69,12 @@ from .layout import (
     P2,
     P3,
     RHO,
+    SC1,
     SC2,
+    UOFF,
 )
 from .mathfn import sincos
-from .pendulum import pendulum_accel_terms, rhs_free_pendulum
+from .pendulum import pendulum_accel_terms, pendulum_coulomb, rhs_free_pendulum
 
 
 @jit(inline=True)
@@ -85,8 +87,8 @@ def rhs_state_space(x, w, P, dx, optional):
     zone (5) active), eq. (9) when ``w_eff = u``.
 
     ``optional=False`` (a compile-time constant, see :data:`M_PLAIN`) leaves
-    out the dead zone, the Coulomb term and the clamp; the compiled code then
-    has no branch and no library call.
+    out the dead zone, the input offset, the Coulomb terms and the clamp; the
+    compiled code then has no branch and no library call.
     """
     q1 = x[0]
     q3 = x[2]
@@ -106,6 +108,8 @@ def rhs_state_space(x, w, P, dx, optional):
         dx[3] = P[RHO] * m
         return
     xi = pendulum_accel_terms(q1, q3, P)
+    if optional:
+        xi += pendulum_coulomb(q3, P)
     dx[2] = -xi - m
     dx[3] = xi + (1.0 + P[RHO]) * m
 
@@ -181,14 +185,14 @@ def rhs(model, x, w, P, dx):
 
 @jit(inline=True)
 def optional_terms_off(model, P):
-    """True if ``model`` with parameters ``P`` is model (9) without the dead zone, Coulomb term and clamp.
+    """True if ``model`` with parameters ``P`` is model (9) without dead zone, input offset, Coulomb terms, clamp.
 
     Then ``rhs_of(M_PLAIN, ...)`` gives the same derivatives with code that
     has no branch and no library call (it vectorises across lanes).
     """
     if model != M_RAW and model != M_COMP:
         return False
-    return P[DZ] == 0.0 and P[SC2] == 0.0 and P[LOCK] == 0.0
+    return P[DZ] == 0.0 and P[SC2] == 0.0 and P[LOCK] == 0.0 and P[SC1] == 0.0 and P[UOFF] == 0.0
 
 
 def rhs_of(model, x, w, P, dx):

@@ -37,7 +37,11 @@ BELT_CODES = (M_BELT, M_BELT_FULL)
 P1, P2, P3, RHO, SA, SV, SB, VPOS, VNEG, SC2, EPSC, BRK, WS, LOCK, DZ = range(15)
 #: belt (15): k/I2, play half-width d, ratio N, b2/I2, k/gamma, kT beta/(R gamma)
 KI2, DPLAY, NB, B2I2, KG, KBRG = range(15, 21)
-N_LUMPED = 21
+#: options of other rigs: Coulomb friction of the pendulum joint, offset of the input
+SC1, UOFF = range(21, 23)
+#: belt (15): motor gain for a negative net input over the positive one (section 3.2 allows them to differ)
+KNEG = 23
+N_LUMPED = 24
 
 # --------------------------------------------------------------------------
 # physical layout (model "el")
@@ -55,7 +59,7 @@ N_PACK = max(N_LUMPED, N_PHYS)
 #: lumped parameter name -> index (the parameters a fit can vary)
 LUMPED_INDEX = {
     "p1": P1, "p2": P2, "p3": P3, "rho": RHO, "sigma_a1": SA, "sigma_v1": SV, "sigma_b1": SB,
-    "v_dz_pos": VPOS, "v_dz_neg": VNEG, "sigma_c2": SC2,
+    "v_dz_pos": VPOS, "v_dz_neg": VNEG, "sigma_c2": SC2, "sigma_c1": SC1, "u_offset": UOFF,
 }
 
 # --------------------------------------------------------------------------

@@ -7,7 +7,9 @@ Two levels, as in the paper:
 * :class:`LumpedParameters` -- the lumped parameters of the state-space models
   (6) and (9) (section 4): ``p1, p2, p3, rho, sigma_a1, sigma_v1, sigma_b1``,
   the dead-zone thresholds ``v_dz_pos, v_dz_neg`` of (5)/(8) in input units,
-  and the Coulomb coefficient ``sigma_c2`` of section 5.1.
+  and the Coulomb coefficient ``sigma_c2`` of section 5.1; for other rigs,
+  the Coulomb friction ``sigma_c1`` of the pendulum joint and an input
+  offset ``u_offset`` (both 0 in the paper's model).
 
 :meth:`PhysicalParameters.to_lumped` is the mapping of section 4.
 :func:`table1` returns the paper's Table 1. Parameter sets load from and save
@@ -43,6 +45,10 @@ __all__ = [
 ]
 
 
+#: Largest magnitude of any parameter: a guard against overflow in the models, far beyond any rig's value.
+MAX_MAGNITUDE = 1e9
+
+
 def _check_fields(obj, where: str, positive: tuple[str, ...], nonneg: tuple[str, ...]) -> None:
     for f in fields(obj):
         val = getattr(obj, f.name)
@@ -50,6 +56,9 @@ def _check_fields(obj, where: str, positive: tuple[str, ...], nonneg: tuple[str,
             raise InputError(f"{where}: field {f.name!r} must be a number, got {val!r}")
         if not math.isfinite(val):
             raise InputError(f"{where}: field {f.name!r} must be finite, got {val!r}")
+        if abs(val) > MAX_MAGNITUDE:
+            raise InputError(f"{where}: field {f.name!r} = {val:.3g} is beyond +-{MAX_MAGNITUDE:.0e}, "
+                             "no rig of this kind has such a value (check the units)")
     for name in positive:
         val = getattr(obj, name)
         if val <= 0.0:
@@ -95,6 +104,17 @@ class LumpedParameters:
         ``sigma~_c2 = sigma_c2 / I1_hat`` [rad s^-2]: Coulomb friction of the
         disk joint (section 5.1, "Analysis of the Coulomb friction
         phenomenon"); 0 in the paper's final model.
+    sigma_c1 : float
+        ``sigma~_c1 = sigma_c1 / I1_hat`` [rad s^-2]: Coulomb friction of the
+        pendulum joint, ``xi`` gains ``sigma~_c1 sgn q3`` (regularised as
+        ``tanh(q3/eps)``, :func:`iwp.models.pendulum.pendulum_coulomb`). The paper
+        neglects it for large oscillations (section 3.1); small-amplitude runs
+        of other rigs show it. 0 by default.
+    u_offset : float
+        Offset of the input [in]: the plant is driven by ``w + u_offset``
+        where ``w`` is the logged ``u`` (or ``v``), e.g. a driver whose zero
+        command is not zero torque (:func:`iwp.models.actuator.effective_input`).
+        0 by default.
     """
 
     p1: float  # [s^-2]
@@ -107,6 +127,8 @@ class LumpedParameters:
     v_dz_pos: float = 0.0  # [input units]
     v_dz_neg: float = 0.0  # [input units]
     sigma_c2: float = 0.0  # [rad s^-2]
+    sigma_c1: float = 0.0  # [rad s^-2]
+    u_offset: float = 0.0  # [input units]
 
     def __post_init__(self) -> None:
         # Structural checks only: finiteness and rho > 0 (the models divide by
@@ -126,7 +148,7 @@ class LumpedParameters:
             self,
             where,
             positive=("p1", "p3", "rho"),
-            nonneg=("p2", "sigma_a1", "sigma_v1", "sigma_b1", "v_dz_pos", "v_dz_neg", "sigma_c2"),
+            nonneg=("p2", "sigma_a1", "sigma_v1", "sigma_b1", "v_dz_pos", "v_dz_neg", "sigma_c2", "sigma_c1"),
         )
         return self
 
@@ -291,7 +313,13 @@ class BeltParameters:
         ``k / gamma`` with ``gamma = N^2 kT kF / R + b_m`` [s^-1].
     kTbeta_over_Rgamma : float
         ``kT beta / (R gamma)`` [rad s^-1 per input unit]: the motor's no-load
-        speed per input unit.
+        speed per input unit (for a positive net input).
+    gain_neg : float
+        Ratio of the motor gain ``N kT / R`` for a negative net input to that
+        for a positive one [-]; section 3.2: "a more general model may also
+        use different values for coefficient ``N kT / R`` depending on the sign
+        of ``V_i``". 1 (symmetric) by default. It scales the dead zone's
+        torque (5) with the drive, since both are ``N kT / R`` times a voltage.
     """
 
     k_over_I2: float = 60.0  # [s^-2]
@@ -300,12 +328,13 @@ class BeltParameters:
     b2_over_I2: float = 10.0  # [s^-1]
     k_over_gamma: float = 780.0  # [s^-1]
     kTbeta_over_Rgamma: float = 26.0  # [rad s^-1 / in]
+    gain_neg: float = 1.0  # [-]
 
     def __post_init__(self) -> None:
         _check_fields(
             self,
             "BeltParameters",
-            positive=("k_over_I2", "N", "k_over_gamma", "kTbeta_over_Rgamma"),
+            positive=("k_over_I2", "N", "k_over_gamma", "kTbeta_over_Rgamma", "gain_neg"),
             nonneg=("d", "b2_over_I2"),
         )
 
@@ -331,6 +360,7 @@ class BeltParameters:
         d: float,
         N: float = 13.5,
         b2_over_I2: float = 0.5,
+        gain_neg: float = 1.0,
     ) -> "BeltParameters":
         """A belt whose rigid limit (``k -> inf``, ``d = 0``) has the given disk dynamics.
 
@@ -344,8 +374,9 @@ class BeltParameters:
         p2rho, p3rho : float
             Rigid-limit damping [s^-1] and gain [rad s^-2 / in] (for a free
             pendulum these are ``p2 rho`` and ``p3 rho``).
-        k_over_I2, d, N, b2_over_I2 : float
-            As in the class; ``b2_over_I2`` must be below ``p2rho``.
+        k_over_I2, d, N, b2_over_I2, gain_neg : float
+            As in the class; ``b2_over_I2`` must be below ``p2rho``; ``p3rho``
+            is the gain for a positive input.
         """
         if not b2_over_I2 < p2rho:
             raise InputError(
@@ -359,6 +390,7 @@ class BeltParameters:
             b2_over_I2=b2_over_I2,
             k_over_gamma=k_over_I2 / gamma_over_I2,
             kTbeta_over_Rgamma=p3rho / N / gamma_over_I2,
+            gain_neg=gain_neg,
         )
 
     def to_dict(self) -> dict[str, float]:
@@ -370,7 +402,7 @@ class BeltParameters:
 #: scale fits and difference steps when a value is 0.
 TYPICAL = {
     "p1": 26.0, "p2": 0.01, "p3": 0.03, "rho": 250.0, "sigma_a1": 0.003, "sigma_v1": 0.01, "sigma_b1": 5e-4,
-    "v_dz_pos": 31.0, "v_dz_neg": 31.0, "sigma_c2": 0.1,
+    "v_dz_pos": 31.0, "v_dz_neg": 31.0, "sigma_c2": 0.1, "sigma_c1": 0.05, "u_offset": 1.0,
 }
 
 

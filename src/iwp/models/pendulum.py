@@ -13,13 +13,18 @@ The free pendulum (``u = 0``, section 5.2) comes in two forms:
   ``q2'' = 0`` gives ``q3' = -xi rho/(1 + rho)``;
 * no wheel (a plain pendulum, or a wheel that turns without torque):
   ``q3' = -xi``, the paper's free-pendulum equation taken literally.
+
+Other rigs may need a Coulomb term at the pendulum joint,
+``sigma~_c1 sgn q3`` (:func:`pendulum_coulomb`, parameter ``sigma_c1``),
+which the paper neglects for large oscillations (section 3.1); it adds to
+``xi`` wherever ``xi`` enters, and is 0 by default.
 """
 
 from __future__ import annotations
 
 from ..jit import jit
-from .friction import pendulum_friction
-from .layout import P1, RHO, SA, SB, SV
+from .friction import coulomb_sign, pendulum_friction
+from .layout import EPSC, P1, RHO, SA, SB, SC1, SV
 from .mathfn import sincos
 
 
@@ -30,13 +35,25 @@ def pendulum_accel_terms(q1, q3, P):
     return P[P1] * s + pendulum_friction(abs(c), q3, P[SA], P[SV], P[SB])
 
 
+@jit
+def pendulum_coulomb(q3, P):
+    """Coulomb friction of the pendulum joint over ``I1_hat``, ``sigma~_c1 sgn q3`` [s^-2] (0 when off).
+
+    ``sgn`` regularised as ``tanh(q3/eps)`` with the plant's ``coulomb_eps``
+    (:func:`iwp.models.friction.coulomb_sign`); it adds to ``xi``.
+    """
+    if P[SC1] == 0.0:
+        return 0.0
+    return P[SC1] * coulomb_sign(q3, P[EPSC])
+
+
 @jit(inline=True)
 def rhs_free_pendulum(x, P, dx, held):
     """The free pendulum of section 5.2: ``q3' = -xi rho/(1 + rho)`` (wheel ``held``) or ``-xi``.
 
     The wheel does not move relative to the arm: ``q2' = q4' = 0``.
     """
-    a = -pendulum_accel_terms(x[0], x[2], P)
+    a = -pendulum_accel_terms(x[0], x[2], P) - pendulum_coulomb(x[2], P)
     if held:
         a = a * (P[RHO] / (1.0 + P[RHO]))
     dx[0] = x[2]

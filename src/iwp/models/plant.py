@@ -36,6 +36,7 @@ from .layout import (
     KBRG,
     KG,
     KI2,
+    KNEG,
     LOCK,
     M_BELT,
     M_BELT_FULL,
@@ -55,8 +56,10 @@ from .layout import (
     RHO,
     SA,
     SB,
+    SC1,
     SC2,
     SV,
+    UOFF,
     VNEG,
     VPOS,
     WS,
@@ -276,6 +279,7 @@ def _pack(plant: Plant, info: ModelInfo) -> np.ndarray:
     P[P1], P[P2], P[P3], P[RHO] = params.p1, params.p2, params.p3, params.rho
     P[SA], P[SV], P[SB] = params.sigma_a1, params.sigma_v1, params.sigma_b1
     P[VPOS], P[VNEG], P[SC2] = params.v_dz_pos, params.v_dz_neg, params.sigma_c2
+    P[SC1], P[UOFF] = params.sigma_c1, params.u_offset
     P[EPSC] = plant.coulomb_eps
     if plant.startup is not None:
         P[BRK], P[WS] = plant.startup.break_ratio, plant.startup.omega_s
@@ -289,6 +293,7 @@ def _pack(plant: Plant, info: ModelInfo) -> np.ndarray:
         b = plant.belt
         P[KI2], P[DPLAY], P[NB] = b.k_over_I2, b.d, b.N
         P[B2I2], P[KG], P[KBRG] = b.b2_over_I2, b.k_over_gamma, b.kTbeta_over_Rgamma
+        P[KNEG] = b.gain_neg
     return P
 
 
