@@ -63,6 +63,9 @@ def register(subparsers) -> None:
         "(csv, mat, parquet)",
     )
     p.add_argument("--struct", metavar="NAME", help="MAT struct holding the signals (mat)")
+    p.add_argument("--rig", metavar="RIG.json",
+                   help="rig description: the log's columns, units, zero, input and drive (csv, mat; "
+                   "see docs/rig-description.md)")
     p.add_argument(
         "--degrees", action="store_true",
         help="angles are in degrees and velocities in deg/s: convert to rad, rad/s",
@@ -116,6 +119,17 @@ def _reader_options(args, fmt: str) -> dict:
     refuse("--sample-rate", args.sample_rate is not None)
     refuse("--angle-unit", args.angle_unit is not None)
     refuse("--zero", args.zero is not None)
+    if getattr(args, "rig", None) is not None:
+        if fmt == "parquet":
+            raise InputError("--rig reads CSV and .mat logs, not --from parquet")
+        for flag, given in (("--map", args.mapping is not None), ("--degrees", args.degrees)):
+            if given:
+                raise InputError(f"{flag} does not apply with --rig (the rig description gives columns and units)")
+        opts["rig"] = args.rig
+        if args.struct is not None:
+            opts["struct"] = args.struct
+        opts.update(resample=args.resample, min_samples=args.min_samples, sampling_tol=args.sampling_tol)
+        return opts
     if fmt != "mat":
         refuse("--struct", args.struct is not None)
     elif args.struct is not None:

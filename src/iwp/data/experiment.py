@@ -3,12 +3,20 @@
 Units: time [s], angles [rad], velocities [rad/s]. The inputs ``u`` (ideal
 input of the dead-zone-compensated system) and ``v`` (raw, non-dimensional
 input of the motor driver, ``v = V_i / beta``) are in the rig's input units.
+
+A log holds what the rig measured: the pendulum angle ``q1`` always, the
+wheel's angle ``q2`` or its speed ``q4`` (or both), the motor current when
+logged (the extra column ``current`` [A], :attr:`ExperimentData.current`),
+and the glitches found in it (:class:`~iwp.data.glitches.Glitch` records,
+:meth:`ExperimentData.with_glitches_found`).
 """
 
 from __future__ import annotations
 
+import json
 import math
 import os
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping
@@ -17,10 +25,24 @@ import numpy as np
 
 from ..checks import check_finite, check_positive
 from ..errors import InputError
+from .glitches import Glitch, find_glitches, repair, summarize
 
 CANONICAL_COLUMNS = ("t", "q1", "q2", "q3", "q4", "u", "v")
-#: Columns every time-series log must have.
+#: Columns every time-series log must have (``q2`` may be replaced by ``q4``, see :func:`missing_required`).
 REQUIRED_COLUMNS = ("t", "q1", "q2")
+#: The extra column that holds the motor current [A].
+CURRENT_COLUMN = "current"
+#: Metadata keys iwp reads: how the wheel speed ``q4`` was sampled (``instant`` or ``mean``, the mean over
+#: the preceding sample period, a board's backward difference) and the glitch records (JSON).
+Q4_SAMPLING_KEY = "q4_sampling"
+GLITCHES_KEY = "glitches"
+Q4_SAMPLINGS = ("instant", "mean")
+
+
+def missing_required(names) -> list[str]:
+    """The required columns missing from ``names``: ``t``, ``q1``, and ``q2`` unless the wheel speed ``q4`` is there."""
+    have = set(names)
+    return [c for c in REQUIRED_COLUMNS if c not in have and not (c == "q2" and "q4" in have)]
 #: Input formats known to :func:`read_experiment` (``format=``).
 FORMATS = ("csv", "mat", "parquet", "angle-log")
 
@@ -67,6 +89,19 @@ def _check_metadata(owner: str, metadata: Mapping[str, Any] | None) -> dict[str,
     return out
 
 
+def _parse_glitches(owner: str, text: str) -> tuple[Glitch, ...]:
+    try:
+        items = json.loads(text)
+    except ValueError:
+        raise InputError(f"{owner}: metadata {GLITCHES_KEY!r} is not JSON (a list of glitch records)") from None
+    if not isinstance(items, list):
+        raise InputError(f"{owner}: metadata {GLITCHES_KEY!r} must be a JSON list of glitch records")
+    try:
+        return tuple(Glitch.from_dict(d) for d in items)
+    except (InputError, AttributeError) as exc:
+        raise InputError(f"{owner}: metadata {GLITCHES_KEY!r}: {exc}") from None
+
+
 def _check_extra_name(owner: str, name: Any) -> str:
     if not isinstance(name, str) or not name or name != name.strip():
         raise InputError(
@@ -100,8 +135,8 @@ class ExperimentData:
         Time of each sample [s], strictly increasing.
     q1 : array_like
         Pendulum angle [rad], zero with the pendulum hanging down.
-    q2 : array_like
-        Disk (wheel) angle [rad].
+    q2 : array_like or None
+        Disk (wheel) angle [rad]; None when only the wheel speed ``q4`` was logged.
     q3 : array_like or None, optional
         Measured pendulum velocity [rad/s]; None if not logged.
     q4 : array_like or None, optional
@@ -120,18 +155,27 @@ class ExperimentData:
         strings; keys must not contain ``:`` or line breaks).
     source : str, optional
         Where the data came from (file name), used in messages.
+    glitches : sequence of Glitch, optional
+        Glitches found in the log (:meth:`with_glitches_found`); kept in the
+        metadata as JSON under ``glitches`` so that they survive a round trip
+        through a file. Default: those of the metadata, if any.
+
+    Metadata that iwp reads: ``q4_sampling: mean`` (the wheel speed is the
+    mean over the preceding sample period, as a board's backward difference
+    of an encoder gives it; default ``instant``), ``q1_offset`` (the zero
+    offset already removed from ``q1`` [rad], informative), ``glitches``.
 
     Raises
     ------
     InputError
         On a wrong shape or length (naming the field), a non-finite value,
         a time that does not strictly increase, both ``u`` and ``v`` given,
-        fewer than 2 samples, or bad metadata.
+        neither ``q2`` nor ``q4``, fewer than 2 samples, or bad metadata.
     """
 
     t: np.ndarray
     q1: np.ndarray
-    q2: np.ndarray
+    q2: np.ndarray | None = None
     q3: np.ndarray | None = None
     q4: np.ndarray | None = None
     u: np.ndarray | None = None
@@ -139,6 +183,7 @@ class ExperimentData:
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     metadata: dict[str, str] = field(default_factory=dict)
     source: str = "<memory>"
+    glitches: tuple[Glitch, ...] = ()
 
     def __post_init__(self):
         src = str(self.source) if self.source is not None else "<memory>"
@@ -160,8 +205,9 @@ class ExperimentData:
         for name in ("q1", "q2", "q3", "q4", "u", "v"):
             value = getattr(self, name)
             if value is None:
-                if name in REQUIRED_COLUMNS:
-                    raise InputError(f"{owner}: {name} is required")
+                if name in REQUIRED_COLUMNS and (name != "q2" or self.q4 is None):
+                    raise InputError(f"{owner}: {name} is required" + (
+                        " (or the wheel speed q4)" if name == "q2" else ""))
                 continue
             arr = _vector(owner, name, value)
             if arr.size != n:
@@ -188,7 +234,25 @@ class ExperimentData:
                 )
             extra[name] = arr
         object.__setattr__(self, "extra", extra)
-        object.__setattr__(self, "metadata", _check_metadata(owner, self.metadata))
+        meta = _check_metadata(owner, self.metadata)
+        sampling = meta.get(Q4_SAMPLING_KEY)
+        if sampling is not None and sampling not in Q4_SAMPLINGS:
+            raise InputError(f"{owner}: metadata {Q4_SAMPLING_KEY!r} must be one of {', '.join(Q4_SAMPLINGS)}, "
+                             f"got {sampling!r}")
+        glitches = tuple(self.glitches or ())
+        if not glitches and meta.get(GLITCHES_KEY):
+            glitches = _parse_glitches(owner, meta[GLITCHES_KEY])
+        for g in glitches:
+            if not isinstance(g, Glitch):
+                raise InputError(f"{owner}: glitches must be Glitch records, got {type(g).__name__}")
+            if not 0 <= g.index < n:
+                raise InputError(f"{owner}: glitch of {g.column} at sample {g.index} is outside the log ({n} samples)")
+        if glitches:
+            meta[GLITCHES_KEY] = json.dumps([g.to_dict() for g in glitches], separators=(",", ":"))
+        else:
+            meta.pop(GLITCHES_KEY, None)
+        object.__setattr__(self, "glitches", glitches)
+        object.__setattr__(self, "metadata", meta)
 
     # -- properties ---------------------------------------------------------
     @property
@@ -225,6 +289,51 @@ class ExperimentData:
         z = np.zeros_like(self.t)
         z.setflags(write=False)
         return z
+
+    @property
+    def current(self) -> np.ndarray | None:
+        """The motor current [A] (extra column ``current``), or None if not logged."""
+        return self.extra.get(CURRENT_COLUMN)
+
+    @property
+    def q4_sampling(self) -> str:
+        """How ``q4`` was sampled: ``"instant"`` or ``"mean"`` (over the preceding sample period)."""
+        return self.metadata.get(Q4_SAMPLING_KEY, "instant")
+
+    def glitch_mask(self, column: str) -> np.ndarray:
+        """Boolean array, True at the samples of ``column`` that were replaced (spikes, dropouts)."""
+        m = np.zeros(self.n_samples, dtype=bool)
+        for g in self.glitches:
+            if g.column == column and g.repaired:
+                m[g.index] = True
+        return m
+
+    def with_glitches_found(self, *, warn: bool = True) -> "ExperimentData":
+        """This log with its glitches found, recorded and (spikes, dropouts) replaced.
+
+        Checks the measured signals ``q1``..``q4`` and the current (never the
+        input) with :func:`iwp.data.glitches.find_glitches`; glitch samples are
+        replaced by the mean of their neighbours, pendulum-angle jumps are
+        only recorded. The records are in :attr:`glitches` (and the metadata)
+        and, with ``warn``, in one :func:`warnings.warn` line. Glitches
+        already recorded are kept and the search is not repeated.
+        """
+        if self.glitches:
+            return self
+        cols = {n: getattr(self, n) for n in ("q1", "q2", "q3", "q4") if getattr(self, n) is not None}
+        if self.current is not None:
+            cols[CURRENT_COLUMN] = self.current
+        found = find_glitches(self.t, cols)
+        if not found:
+            return self
+        if warn:
+            warnings.warn(f"{self.source}: {summarize(found)}; replaced samples are left out of fits",
+                          UserWarning, stacklevel=2)
+        fixed = {n: repair(cols[n], [g for g in found if g.column == n]) for n in cols}
+        extra = dict(self.extra)
+        if CURRENT_COLUMN in fixed:
+            extra[CURRENT_COLUMN] = fixed.pop(CURRENT_COLUMN)
+        return replace(self, **fixed, extra=extra, glitches=tuple(found))
 
     def as_columns(self) -> dict[str, np.ndarray]:
         """All present columns, canonical ones first (in :data:`CANONICAL_COLUMNS`
@@ -273,7 +382,7 @@ class ExperimentData:
         lo = check_finite("t_start", t_start) if t_start is not None else None
         hi = check_finite("t_end", t_end) if t_end is not None else None
         if lo is not None and hi is not None and lo >= hi:
-            raise InputError(f"t_start ({lo!r} s) must be < t_end ({hi!r} s)")
+            raise InputError(f"t_start ({lo!r} s) must be < t_end ({hi!r} s)", argument=("t_start", "t_end"))
         i0 = 0 if lo is None else int(np.searchsorted(self.t, lo, side="left"))
         i1 = self.n_samples if hi is None else int(np.searchsorted(self.t, hi, side="right"))
         kept = max(0, i1 - i0)
@@ -285,12 +394,14 @@ class ExperimentData:
             )
             raise InputError(
                 f"{args} keeps {kept} sample(s) of {self.source} (t from "
-                f"{float(self.t[0])!r} to {float(self.t[-1])!r} s); at least 2 are needed"
+                f"{float(self.t[0])!r} to {float(self.t[-1])!r} s); at least 2 are needed",
+                argument=("t_start", "t_end"),
             )
         return replace(
             self,
             **{n: a[i0:i1] for n, a in self.as_columns().items() if n in CANONICAL_COLUMNS},
             extra={n: a[i0:i1] for n, a in self.extra.items()},
+            glitches=tuple(replace(g, index=g.index - i0) for g in self.glitches if i0 <= g.index < i1),
         )
 
     def resample(self, Ts: float | None = None) -> "ExperimentData":
@@ -325,7 +436,9 @@ class ExperimentData:
             if name != "t"
         }
         extra = {name: cols.pop(name) for name in self.extra}
-        return replace(self, t=t_new, extra=extra, **cols)
+        moved = tuple(replace(g, index=int(np.argmin(np.abs(t_new - g.t))), t=float(t_new[np.argmin(
+            np.abs(t_new - g.t))])) for g in self.glitches)
+        return replace(self, t=t_new, extra=extra, glitches=moved, **cols)
 
     # -- writers -------------------------------------------------------------
     def to_csv(self, path: str | os.PathLike, force: bool = False) -> Path:

@@ -14,6 +14,7 @@ from .csv_format import read_csv, write_csv
 from .experiment import ExperimentData
 from .mat_format import read_mat, write_mat
 from .parquet_format import read_parquet, write_parquet
+from .rig_log import read_rig_log
 
 #: Input formats known to :func:`read_experiment` (``format=``).
 FORMATS = ("csv", "mat", "parquet", "angle-log")
@@ -70,7 +71,9 @@ def read_experiment(path: str | os.PathLike, format: str | None = None, **kw) ->
     **kw
         Options of the chosen reader (``mapping``, ``struct``, ``degrees``,
         ``resample``, ``min_samples``, ``sampling_tol``, ``angle_unit``,
-        ``sample_rate``, ``zero``).
+        ``sample_rate``, ``zero``), or ``rig=`` a rig description
+        (:func:`iwp.data.rig_log.read_rig_log`: another rig's CSV or ``.mat`` log,
+        its columns and units mapped by the description).
 
     Returns
     -------
@@ -89,6 +92,15 @@ def read_experiment(path: str | os.PathLike, format: str | None = None, **kw) ->
         fmt = format
     else:
         raise InputError(f"format must be one of {', '.join(_READERS)}, got {format!r}")
+    rig = kw.pop("rig", None)
+    if rig is not None:
+        if fmt not in ("csv", "mat"):
+            raise InputError(f"rig: a rig description reads CSV and .mat logs, not {fmt} files", argument="rig")
+        bad = sorted(set(kw) - {"struct", "resample", "min_samples", "sampling_tol"})
+        if bad:
+            raise InputError(f"{bad[0]}: does not apply with a rig description (it gives the columns and units)",
+                             argument=bad[0])
+        return read_rig_log(path, rig, format=fmt, **kw)
     reader = _READERS[fmt]
     accepted = set(inspect.signature(reader).parameters) - {"path"}
     unknown = sorted(set(kw) - accepted)

@@ -1,0 +1,258 @@
+"""Glitches of logged signals: found, reported, and (spikes only) replaced, never silently.
+
+Real rigs log samples that are not measurements of the motion:
+
+* **spikes**: one sample far from both neighbours, which agree with each
+  other, e.g. a wheel speed of 1500-2700 rad/s at ``t = 0`` (the board's
+  first backward difference of an encoder that was not reset);
+* **dropouts**: a spike to exactly 0 (a lost sample);
+* **jumps**: the pendulum angle steps by a few hundredths of a radian
+  between two samples and stays there (play at the encoder's coupling).
+
+:func:`find_glitches` finds them with robust statistics of the signal's
+own sample-to-sample behaviour (no model). Every glitch becomes a
+:class:`Glitch` record. Spikes and dropouts are replaced by the mean of
+their neighbours (the record keeps the logged value); jumps are only
+recorded (the angle may really have moved). :meth:`iwp.data.ExperimentData.with_glitches_found`
+attaches the records to a log, and the fits leave the replaced samples out
+of their residuals.
+
+Criteria
+--------
+For a sample ``y[k]`` with neighbours, the deviation from the neighbours'
+mean is ``e[k] = y[k] - (y[k-1] + y[k+1]) / 2`` (at the first sample: from the
+linear extrapolation of the two next samples; the last sample is not
+checked, a step there looks the same). ``s`` is 1.4826 times the
+median absolute ``e`` over the signal (the spread of a smooth signal's
+curvature plus its noise). A spike is a sample with
+
+    |e[k]| > SPIKE_SIGMAS * s,  |e[k]| > floor,  |e[k]| > 2 |y[k+1] - y[k-1]|
+
+(it sticks out and its neighbours agree), with ``floor = SPIKE_FLOOR`` of the
+signal's robust range (1st to 99th percentile). A jump of an angle is an
+outlier of the first difference ``d[k] = y[k+1] - y[k]`` against its
+neighbours' mean, beyond ``JUMP_SIGMAS`` robust spreads and
+``jump_floor`` [rad], that is not followed by the opposite step (which would
+make it a spike).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["Glitch", "find_glitches", "repair", "summarize", "GLITCH_KINDS", "SPIKE_SIGMAS", "SPIKE_FLOOR",
+           "JUMP_SIGMAS", "JUMP_FLOOR"]
+
+#: Kinds of glitch.
+GLITCH_KINDS = ("spike", "dropout", "jump")
+#: A spike deviates from its neighbours' mean by more than this many robust spreads ...
+SPIKE_SIGMAS = 12.0
+#: ... and by more than this fraction of the signal's robust range.
+SPIKE_FLOOR = 0.05
+#: A jump of an angle is a first difference this many robust spreads from its neighbours' ...
+JUMP_SIGMAS = 8.0
+#: ... and at least this large [rad].
+JUMP_FLOOR = 0.01
+
+
+@dataclass(frozen=True)
+class Glitch:
+    """One glitch of one logged signal.
+
+    Attributes
+    ----------
+    column : str
+        The iwp signal (``"q1"``, ``"q4"``, ``"current"``, ...).
+    index : int
+        Sample number in the log (0-based).
+    t : float
+        Its time [s].
+    kind : {"spike", "dropout", "jump"}
+    value : float
+        The logged value (a jump: the size of the step) [unit of the signal].
+    replacement : float or None
+        The value put in its place (mean of the neighbours), None if the sample was kept (jumps).
+    """
+
+    column: str
+    index: int
+    t: float
+    kind: str
+    value: float
+    replacement: float | None = None
+
+    def __post_init__(self):
+        if self.kind not in GLITCH_KINDS:
+            raise InputError(f"Glitch.kind must be one of {', '.join(GLITCH_KINDS)}, got {self.kind!r}")
+
+    @property
+    def repaired(self) -> bool:
+        """True if the sample was replaced."""
+        return self.replacement is not None
+
+    def describe(self) -> str:
+        """One short phrase, e.g. ``"q4 spike at t = 0 s (2345 -> 12.1)"``."""
+        if self.kind == "jump":
+            return f"{self.column} jump of {self.value:+.3g} at t = {self.t:.6g} s (kept)"
+        return f"{self.column} {self.kind} at t = {self.t:.6g} s ({self.value:.4g} -> {self.replacement:.4g})"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"column": self.column, "index": int(self.index), "t": float(self.t), "kind": self.kind,
+                "value": float(self.value),
+                "replacement": None if self.replacement is None else float(self.replacement)}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Glitch":
+        try:
+            rep = d.get("replacement")
+            return cls(str(d["column"]), int(d["index"]), float(d["t"]), str(d["kind"]), float(d["value"]),
+                       None if rep is None else float(rep))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise InputError(f"a glitch record needs column, index, t, kind, value: {exc}") from None
+
+
+def _robust_spread(x: np.ndarray) -> float:
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return 0.0
+    return 1.4826 * float(np.median(np.abs(x - np.median(x))))
+
+
+def _deviation(y: np.ndarray) -> np.ndarray:
+    """``y[k]`` minus its neighbours' mean; at the ends minus the extrapolation of the next two samples."""
+    e = np.zeros_like(y)
+    e[1:-1] = y[1:-1] - 0.5 * (y[:-2] + y[2:])
+    e[0] = y[0] - (2.0 * y[1] - y[2])
+    e[-1] = y[-1] - (2.0 * y[-2] - y[-3])
+    return e
+
+
+def _spikes(y: np.ndarray) -> list[int]:
+    n = y.size
+    if n < 5:
+        return []
+    e = _deviation(y)
+    s = _robust_spread(e[1:-1])
+    lo, hi = np.percentile(y, [1.0, 99.0])
+    floor = SPIKE_FLOOR * float(hi - lo)
+    thr = max(SPIKE_SIGMAS * s, floor, 1e-12)
+    out = []
+    for k in np.flatnonzero(np.abs(e) > thr):
+        k = int(k)
+        if k == n - 1:  # a step at the last sample looks the same: not told apart, not reported
+            continue
+        spread = abs(y[k + 1] - y[k - 1]) if k > 0 else abs(y[2] - y[1])
+        if abs(e[k]) > 2.0 * spread:
+            out.append(k)
+    # a spike makes its neighbours look odd at the ends: keep the largest of adjacent candidates
+    kept: list[int] = []
+    for k in out:
+        if kept and k == kept[-1] + 1:
+            if abs(e[k]) > abs(e[kept[-1]]):
+                kept[-1] = k
+            continue
+        kept.append(k)
+    return kept
+
+
+def _jumps(y: np.ndarray, floor: float, skip: set[int]) -> list[tuple[int, float]]:
+    n = y.size
+    if n < 6:
+        return []
+    d = np.diff(y)
+    e = np.zeros_like(d)
+    e[1:-1] = d[1:-1] - 0.5 * (d[:-2] + d[2:])
+    s = _robust_spread(e[1:-1])
+    thr = max(JUMP_SIGMAS * s, floor)
+    out = []
+    a = np.abs(e)
+    for k in np.flatnonzero(a > thr):
+        k = int(k)
+        if k == 0 or k >= d.size - 1:
+            continue
+        if k in skip or k + 1 in skip:  # a spike's own steps
+            continue
+        if a[k] < a[k - 1] or a[k] < a[k + 1]:
+            continue  # a step's neighbours deviate by half of it: keep the largest
+        if any(np.sign(e[j]) == -np.sign(e[k]) and a[j] > 0.7 * a[k] for j in (k - 1, k + 1)):
+            continue  # up and down again (deviations -1.5A, +1.5A): a spike, not a step
+        out.append((k + 1, float(e[k])))
+    return out
+
+
+def find_glitches(t, columns: Mapping[str, Any], *, angles: Sequence[str] = ("q1",),
+                  jump_floor: float = JUMP_FLOOR) -> list[Glitch]:
+    """Find spikes, dropouts and (for ``angles``) jumps in logged signals.
+
+    Parameters
+    ----------
+    t : array_like
+        Sample times [s].
+    columns : dict of str to array_like
+        The signals to check, by iwp name (``q1``, ``q3``, ``q4``, ``current``, ...).
+        Inputs should not be passed: a pseudo-random input legitimately jumps.
+    angles : sequence of str
+        Columns that are angles [rad], checked for jumps too.
+    jump_floor : float
+        Smallest jump reported [rad].
+
+    Returns
+    -------
+    list of Glitch
+        Sorted by time; spikes and dropouts carry their replacement (mean
+        of the neighbours, or the extrapolation at the ends).
+    """
+    t = np.asarray(t, dtype=float)
+    out: list[Glitch] = []
+    for name, col in columns.items():
+        if col is None:
+            continue
+        y = np.asarray(col, dtype=float)
+        if y.size != t.size:
+            raise InputError(f"find_glitches: column {name!r} has {y.size} samples but t has {t.size}")
+        spikes = _spikes(y)
+        for k in spikes:
+            rep = _neighbour_value(y, k)
+            kind = "dropout" if y[k] == 0.0 and rep != 0.0 else "spike"
+            out.append(Glitch(name, k, float(t[k]), kind, float(y[k]), float(rep)))
+        if name in angles:
+            fixed = repair(y, [g for g in out if g.column == name])
+            for k, size in _jumps(fixed, jump_floor, set(spikes)):
+                out.append(Glitch(name, k, float(t[k]), "jump", size, None))
+    out.sort(key=lambda g: (g.t, g.column))
+    return out
+
+
+def _neighbour_value(y: np.ndarray, k: int) -> float:
+    n = y.size
+    if 0 < k < n - 1:
+        return 0.5 * (y[k - 1] + y[k + 1])
+    if k == 0:
+        return 2.0 * y[1] - y[2]
+    return 2.0 * y[-2] - y[-3]
+
+
+def repair(y, glitches: Sequence[Glitch]) -> np.ndarray:
+    """A copy of ``y`` with each replaced glitch's sample set to its replacement."""
+    out = np.array(y, dtype=float)
+    for g in glitches:
+        if g.replacement is not None:
+            if not 0 <= g.index < out.size:
+                raise InputError(f"glitch at sample {g.index} outside the signal ({out.size} samples)")
+            out[g.index] = g.replacement
+    return out
+
+
+def summarize(glitches: Sequence[Glitch], limit: int = 4) -> str:
+    """``"3 glitches: q4 spike at t = 0 s (2345 -> 12.1), ..."``."""
+    n = len(glitches)
+    if n == 0:
+        return "no glitches"
+    shown = "; ".join(g.describe() for g in glitches[:limit])
+    more = f"; and {n - limit} more" if n > limit else ""
+    return f"{n} glitch{'es' if n != 1 else ''}: {shown}{more}"

@@ -1,0 +1,456 @@
+"""The rig description: what another inertia wheel pendulum logs, and how (a small JSON file).
+
+A rig description tells iwp how a rig's log maps onto iwp's signals: which
+columns hold the time, the pendulum angle, the wheel's angle or speed, the
+motor current and the input; their units; where the pendulum angle's zero
+is; how the wheel speed is sampled (at an instant, or as the board's
+backward difference: the mean over the preceding period); the input's kind,
+scale and limits; the drive (belt, gear, direct) and the sample period. The
+format, with every key, is in ``docs/rig-description.md``; this module
+checks a description key by key (one-line errors naming the key, the
+equivalent of a JSON schema) and holds it as frozen dataclasses.
+:func:`iwp.data.rig_log.read_rig_log` reads a log with it;
+:mod:`iwp.rig.described` runs the virtual rig as such a rig.
+
+>>> rig = RigDescription.from_dict({"pendulum": {"column": "theta", "unit": "deg"},
+...                                 "wheel": {"column": "phidot", "quantity": "speed", "sampling": "mean"},
+...                                 "input": {"column": "u", "kind": "duty"}})
+>>> rig.input.limits
+(-1.0, 1.0)
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+from ..errors import InputError
+from ..files import read_json
+
+__all__ = [
+    "RigDescription",
+    "TimeSpec",
+    "PendulumSpec",
+    "WheelSpec",
+    "CurrentSpec",
+    "InputSpec",
+    "DriveSpec",
+    "load_rig",
+    "ANGLE_UNITS",
+    "SPEED_UNITS",
+    "TIME_UNITS",
+    "INPUT_KINDS",
+    "DRIVE_KINDS",
+]
+
+#: time units and their factor to seconds
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
+#: angle units and their factor to rad (``counts`` uses ``counts_per_rev``)
+ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0, "counts": None}
+#: speed units and their factor to rad/s
+SPEED_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0}
+#: current units and their factor to A
+CURRENT_UNITS = {"A": 1.0, "mA": 1e-3}
+#: input kinds: volts at the driver, the paper's units, a PWM duty in [-1, 1], counts of a DAC
+INPUT_KINDS = ("volts", "units", "duty", "dac")
+DRIVE_KINDS = ("direct", "gear", "belt")
+ZEROS = {"down": 0.0, "up": math.pi}
+
+
+def _where(where: str, key: str) -> str:
+    return f"{where}: key {key!r}"
+
+
+def _obj(where: str, key: str, value: Any, known: tuple[str, ...]) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise InputError(f"{_where(where, key)} must be an object {{...}}, got {value!r}")
+    bad = sorted(set(value) - set(known))
+    if bad:
+        raise InputError(f"{where}: unknown key '{key}.{bad[0]}'; known: {', '.join(known)}")
+    return value
+
+
+def _num(where: str, key: str, value: Any, *, positive: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise InputError(f"{_where(where, key)} must be a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise InputError(f"{_where(where, key)} must be > 0, got {value!r}")
+    return float(value)
+
+
+def _choice(where: str, key: str, value: Any, choices) -> str:
+    if value not in choices:
+        raise InputError(f"{_where(where, key)} must be one of {', '.join(map(str, choices))}, got {value!r}")
+    return value
+
+
+def _column(where: str, key: str, value: Any, *, optional: bool = False) -> str | None:
+    if value is None and optional:
+        return None
+    if not isinstance(value, str) or not value.strip():
+        raise InputError(f"{_where(where, key)} must name a column of the log (a non-empty string), got {value!r}")
+    return value.strip()
+
+
+def _sign(where: str, key: str, value: Any) -> float:
+    if value not in (1, -1) or isinstance(value, bool):
+        raise InputError(f"{_where(where, key)} must be 1 or -1 (the direction of positive angles), got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class TimeSpec:
+    """The time column: its name (None: none, times from ``sample_period``) and unit (``s``, ``ms``, ``us``)."""
+
+    column: str | None = "t"
+    unit: str = "s"
+
+
+@dataclass(frozen=True)
+class PendulumSpec:
+    """The pendulum angle.
+
+    Attributes
+    ----------
+    column : str
+    unit : {"rad", "deg", "counts"}
+        ``counts``: encoder counts, ``counts_per_rev`` per turn (an IMU logs ``deg``).
+    counts_per_rev : float or None
+    zero : float
+        Where the log's 0 is, in iwp's angle [rad]: 0 for ``"down"`` (hanging), pi for ``"up"``.
+    offset : float or None
+        The log's angle minus the true angle after ``zero`` [rad] (a reset a few hundredths off),
+        subtracted from ``q1``; None (``"estimate"``): estimated per log by the fit.
+    sign : float
+        1, or -1 if the log counts the other way round.
+    """
+
+    column: str
+    unit: str = "rad"
+    counts_per_rev: float | None = None
+    zero: float = 0.0
+    offset: float | None = None
+    sign: float = 1.0
+
+    @property
+    def factor(self) -> float:
+        """Log unit -> rad."""
+        f = ANGLE_UNITS[self.unit]
+        return 2.0 * math.pi / self.counts_per_rev if f is None else f
+
+
+@dataclass(frozen=True)
+class WheelSpec:
+    """The wheel's sensor: its angle or its speed, at the wheel or at the motor shaft.
+
+    Attributes
+    ----------
+    column : str
+    quantity : {"speed", "angle"}
+    unit : str
+        Speed: ``rad/s``, ``deg/s``, ``rpm``; angle: ``rad``, ``deg``, ``counts``.
+    sampling : {"instant", "mean"}
+        Speed only: the speed at the sample instant, or the mean over the
+        preceding sample period (a board's backward difference of an encoder).
+    at : {"wheel", "motor"}
+        Where the sensor sits; at the motor shaft the reading is divided by the drive's ratio.
+    counts_per_rev : float or None
+        Angle in counts (required then); for a speed, the encoder behind it (informative,
+        and the virtual rig's quantisation).
+    sign : float
+    """
+
+    column: str
+    quantity: str = "speed"
+    unit: str = "rad/s"
+    sampling: str = "instant"
+    at: str = "wheel"
+    counts_per_rev: float | None = None
+    sign: float = 1.0
+
+    def factor(self, ratio: float) -> float:
+        """Log unit -> rad (or rad/s) of the wheel relative to the arm."""
+        if self.quantity == "speed":
+            f = SPEED_UNITS[self.unit]
+        else:
+            f = ANGLE_UNITS[self.unit]
+            f = 2.0 * math.pi / self.counts_per_rev if f is None else f
+        return f / ratio if self.at == "motor" else f
+
+
+@dataclass(frozen=True)
+class CurrentSpec:
+    """The motor current: column and unit (``A``, ``mA``)."""
+
+    column: str
+    unit: str = "A"
+
+
+@dataclass(frozen=True)
+class InputSpec:
+    """The logged input and how it maps to the model's input.
+
+    The model's input is ``scale (clip(x, limits) - offset)`` for a logged
+    value ``x``: values beyond ``limits`` (a controller's output before the
+    driver saturates it) are clipped, counted and reported.
+
+    Attributes
+    ----------
+    column : str or None
+        None: no input logged (zero input, e.g. free swings).
+    kind : {"volts", "units", "duty", "dac"}
+    scale : float
+        Model input units per logged unit (e.g. 12 V per unit of duty; default 1).
+    offset : float
+        The logged value of zero command (a DAC's mid-scale count; default 0).
+    limits : (float, float) or None
+        Saturation of the logged value: default ``(-1, 1)`` for ``duty``,
+        ``(0, 2**bits - 1)`` for ``dac`` with ``bits``, none otherwise.
+    bits : int or None
+        DAC resolution.
+    compensated : bool
+        The log holds the paper's ideal input ``u`` (the rig's software adds
+        the dead-zone feedforward (7)-(8)); default False: the raw command ``v``.
+    """
+
+    column: str | None = "u"
+    kind: str = "units"
+    scale: float = 1.0
+    offset: float = 0.0
+    limits: tuple[float, float] | None = None
+    bits: int | None = None
+    compensated: bool = False
+
+    @property
+    def name(self) -> str:
+        """The iwp input name the log gets: ``u`` (compensated) or ``v``."""
+        return "u" if self.compensated else "v"
+
+
+@dataclass(frozen=True)
+class DriveSpec:
+    """How the motor drives the wheel: ``direct``, ``gear`` or ``belt``, with the ratio ``N`` (motor turns per
+    wheel turn)."""
+
+    kind: str = "direct"
+    ratio: float = 1.0
+
+
+_TOP = ("kind", "name", "notes", "sample_period", "time", "pendulum", "wheel", "current", "input", "drive")
+
+
+@dataclass(frozen=True)
+class RigDescription:
+    """A rig: its signals, input, drive and sample period (see the module docstring and ``docs/rig-description.md``).
+
+    Build it with :meth:`from_dict` or :func:`load_rig` (which check every key).
+    """
+
+    pendulum: PendulumSpec
+    wheel: WheelSpec | None = None
+    current: CurrentSpec | None = None
+    input: InputSpec | None = None
+    drive: DriveSpec = field(default_factory=DriveSpec)
+    time: TimeSpec = field(default_factory=TimeSpec)
+    sample_period: float | None = None
+    name: str = ""
+    notes: str = ""
+    source: str = "<memory>"
+
+    def to_dict(self) -> dict[str, Any]:
+        """The description as JSON-ready dict (the format :meth:`from_dict` reads)."""
+        d: dict[str, Any] = {"kind": "iwp-rig", "name": self.name}
+        if self.notes:
+            d["notes"] = self.notes
+        if self.sample_period is not None:
+            d["sample_period"] = self.sample_period
+        d["time"] = asdict(self.time)
+        p = asdict(self.pendulum)
+        p["zero"] = next((k for k, v in ZEROS.items() if v == self.pendulum.zero), self.pendulum.zero)
+        p["offset"] = "estimate" if self.pendulum.offset is None else self.pendulum.offset
+        d["pendulum"] = _drop_none(p)
+        for key in ("wheel", "current", "input"):
+            val = getattr(self, key)
+            if val is not None:
+                dd = asdict(val)
+                if key == "input" and dd["limits"] is not None:
+                    dd["limits"] = list(dd["limits"])
+                d[key] = _drop_none(dd) if key != "input" else {k: v for k, v in dd.items()
+                                                                  if v is not None or k == "column"}
+        d["drive"] = asdict(self.drive)
+        return d
+
+    @classmethod
+    def from_dict(cls, doc: Mapping[str, Any], *, where: str = "rig") -> "RigDescription":
+        """Check a description key by key and build it; errors are one line naming ``where`` and the key."""
+        if not isinstance(doc, Mapping):
+            raise InputError(f"{where}: expected a JSON object (the rig description)")
+        bad = sorted(set(doc) - set(_TOP))
+        if bad:
+            raise InputError(f"{where}: unknown key {bad[0]!r}; known: {', '.join(_TOP)}")
+        kind = doc.get("kind", "iwp-rig")
+        if kind != "iwp-rig":
+            raise InputError(f"{_where(where, 'kind')} must be 'iwp-rig', got {kind!r}")
+        name = doc.get("name", "")
+        notes = doc.get("notes", "")
+        for key, val in (("name", name), ("notes", notes)):
+            if not isinstance(val, str):
+                raise InputError(f"{_where(where, key)} must be a string, got {val!r}")
+        Ts = doc.get("sample_period")
+        if Ts is not None:
+            Ts = _num(where, "sample_period", Ts, positive=True)
+        # time
+        tdoc = _obj(where, "time", doc.get("time", {}), ("column", "unit"))
+        time = TimeSpec(_column(where, "time.column", tdoc.get("column", "t"), optional=True),
+                        _choice(where, "time.unit", tdoc.get("unit", "s"), tuple(TIME_UNITS)))
+        if time.column is None and Ts is None:
+            raise InputError(f"{where}: key 'time.column' is null (no time column): give 'sample_period' [s]")
+        # pendulum
+        if "pendulum" not in doc:
+            raise InputError(f"{where}: key 'pendulum' is required (the pendulum angle's column and unit)")
+        pdoc = _obj(where, "pendulum", doc["pendulum"],
+                    ("column", "unit", "counts_per_rev", "zero", "offset", "sign"))
+        if "column" not in pdoc:
+            raise InputError(f"{where}: key 'pendulum.column' is required")
+        unit = _choice(where, "pendulum.unit", pdoc.get("unit", "rad"), tuple(ANGLE_UNITS))
+        cpr = _counts(where, "pendulum", pdoc, unit == "counts")
+        zero = pdoc.get("zero", "down")
+        if isinstance(zero, str):
+            zero_v = ZEROS[_choice(where, "pendulum.zero", zero, tuple(ZEROS))]
+        else:
+            zero_v = _num(where, "pendulum.zero", zero)
+        off = pdoc.get("offset", "estimate")
+        if off == "estimate":
+            off_v = None
+        else:
+            try:
+                off_v = _num(where, "pendulum.offset", off)
+            except InputError:
+                raise InputError(f"{_where(where, 'pendulum.offset')} must be a number [rad] or 'estimate', "
+                                 f"got {off!r}") from None
+            if abs(off_v) > 0.5:
+                raise InputError(f"{_where(where, 'pendulum.offset')} = {off_v!r} rad: an offset is a small "
+                                 "correction (|offset| <= 0.5 rad); put the angle of the log's zero in "
+                                 "'pendulum.zero'")
+        pend = PendulumSpec(_column(where, "pendulum.column", pdoc["column"]), unit, cpr, zero_v, off_v,
+                            _sign(where, "pendulum.sign", pdoc.get("sign", 1)))
+        # drive
+        ddoc = _obj(where, "drive", doc.get("drive", {}), ("kind", "ratio"))
+        dkind = _choice(where, "drive.kind", ddoc.get("kind", "direct"), DRIVE_KINDS)
+        if dkind != "direct" and "ratio" not in ddoc:
+            raise InputError(f"{where}: key 'drive.ratio' is required for a {dkind} drive (motor turns per wheel "
+                             "turn)")
+        ratio = _num(where, "drive.ratio", ddoc.get("ratio", 1.0), positive=True)
+        if dkind == "direct" and ratio != 1.0:
+            raise InputError(f"{_where(where, 'drive.ratio')} must be 1 for a direct drive, got {ratio!r}")
+        drive = DriveSpec(dkind, ratio)
+        # wheel
+        wheel = None
+        if doc.get("wheel") is not None:
+            wdoc = _obj(where, "wheel", doc["wheel"],
+                        ("column", "quantity", "unit", "sampling", "at", "counts_per_rev", "sign"))
+            if "column" not in wdoc:
+                raise InputError(f"{where}: key 'wheel.column' is required")
+            qty = _choice(where, "wheel.quantity", wdoc.get("quantity", "speed"), ("speed", "angle"))
+            units = tuple(SPEED_UNITS) if qty == "speed" else tuple(ANGLE_UNITS)
+            wunit = _choice(where, "wheel.unit", wdoc.get("unit", units[0]), units)
+            sampling = _choice(where, "wheel.sampling", wdoc.get("sampling", "instant"), ("instant", "mean"))
+            if qty == "angle" and sampling != "instant":
+                raise InputError(f"{_where(where, 'wheel.sampling')} applies to a speed; the wheel.quantity is "
+                                 "'angle'")
+            at = _choice(where, "wheel.at", wdoc.get("at", "wheel"), ("wheel", "motor"))
+            wcpr = _counts(where, "wheel", wdoc, wunit == "counts")
+            wheel = WheelSpec(_column(where, "wheel.column", wdoc["column"]), qty, wunit, sampling, at, wcpr,
+                              _sign(where, "wheel.sign", wdoc.get("sign", 1)))
+        current = None
+        if doc.get("current") is not None:
+            cdoc = _obj(where, "current", doc["current"], ("column", "unit"))
+            if "column" not in cdoc:
+                raise InputError(f"{where}: key 'current.column' is required")
+            current = CurrentSpec(_column(where, "current.column", cdoc["column"]),
+                                  _choice(where, "current.unit", cdoc.get("unit", "A"), tuple(CURRENT_UNITS)))
+        inp = None
+        if doc.get("input") is not None:
+            idoc = _obj(where, "input", doc["input"],
+                        ("column", "kind", "scale", "offset", "limits", "bits", "compensated"))
+            col = _column(where, "input.column", idoc.get("column", "u"), optional=True)
+            ikind = _choice(where, "input.kind", idoc.get("kind", "units"), INPUT_KINDS)
+            bits = idoc.get("bits")
+            if bits is not None:
+                if isinstance(bits, bool) or not isinstance(bits, int) or not 1 <= bits <= 32:
+                    raise InputError(f"{_where(where, 'input.bits')} must be an integer from 1 to 32, got {bits!r}")
+                if ikind != "dac":
+                    raise InputError(f"{_where(where, 'input.bits')} applies to input.kind 'dac', not {ikind!r}")
+            limits = idoc.get("limits")
+            if limits is None:
+                lim = (-1.0, 1.0) if ikind == "duty" else ((0.0, float(2 ** bits - 1)) if bits else None)
+            else:
+                if not isinstance(limits, (list, tuple)) or len(limits) != 2:
+                    raise InputError(f"{_where(where, 'input.limits')} must be [low, high], got {limits!r}")
+                lo = _num(where, "input.limits", limits[0])
+                hi = _num(where, "input.limits", limits[1])
+                if not lo < hi:
+                    raise InputError(f"{_where(where, 'input.limits')} must have low < high, got {limits!r}")
+                lim = (lo, hi)
+            if ikind == "duty" and lim is not None and (lim[0] < -1.0 or lim[1] > 1.0):
+                raise InputError(f"{_where(where, 'input.limits')} of a PWM duty must lie within [-1, 1], got "
+                                 f"{list(lim)}")
+            if ikind == "dac" and "offset" not in idoc:
+                raise InputError(f"{where}: key 'input.offset' is required for a DAC (the count of zero command, "
+                                 "e.g. 2048 for 12 bits)")
+            comp = idoc.get("compensated", False)
+            if not isinstance(comp, bool):
+                raise InputError(f"{_where(where, 'input.compensated')} must be true or false, got {comp!r}")
+            inp = InputSpec(col, ikind, _num(where, "input.scale", idoc.get("scale", 1.0)),
+                            _num(where, "input.offset", idoc.get("offset", 0.0)), lim, bits, comp)
+            if inp.scale == 0:
+                raise InputError(f"{_where(where, 'input.scale')} must not be 0")
+            if inp.column is None:
+                inp = None
+        if wheel is None:
+            raise InputError(f"{where}: key 'wheel' is required (the wheel's angle or speed column); iwp's models "
+                             "need the wheel")
+        return cls(pend, wheel, current, inp, drive, time, Ts, name, notes, where)
+
+    def columns(self) -> dict[str, str]:
+        """iwp signal -> the log's column (``t``, ``q1``, ``q2`` or ``q4``, ``current``, ``input``)."""
+        out = {}
+        if self.time.column is not None:
+            out["t"] = self.time.column
+        out["q1"] = self.pendulum.column
+        if self.wheel is not None:
+            out["q4" if self.wheel.quantity == "speed" else "q2"] = self.wheel.column
+        if self.current is not None:
+            out["current"] = self.current.column
+        if self.input is not None:
+            out["input"] = self.input.column
+        return out
+
+
+def _counts(where: str, part: str, d: Mapping[str, Any], required: bool) -> float | None:
+    v = d.get("counts_per_rev")
+    if v is None:
+        if required:
+            raise InputError(f"{where}: key '{part}.counts_per_rev' is required with unit 'counts'")
+        return None
+    return _num(where, f"{part}.counts_per_rev", v, positive=True)
+
+
+def _drop_none(d: dict) -> dict:
+    return {k: v for k, v in d.items() if v is not None}
+
+
+def load_rig(path: str | os.PathLike | RigDescription, *, flag: str = "--rig") -> RigDescription:
+    """Load a rig description from JSON (a :class:`RigDescription` is returned as it is).
+
+    Errors are one line naming the file (and ``flag`` when the file is missing).
+    """
+    if isinstance(path, RigDescription):
+        return path
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(f"{flag} {p}: no such file")
+    return RigDescription.from_dict(read_json(p), where=str(p))
