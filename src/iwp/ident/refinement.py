@@ -85,7 +85,7 @@ from ..data import ExperimentData, StaticCurve
 from ..errors import InputError
 from ..files import json_float
 from ..models.layout import LUMPED_INDEX
-from ..models.parameters import TYPICAL, LumpedParameters
+from ..models.parameters import TYPICAL, BeltParameters, LumpedParameters
 from ..models.plant import MODELS, ModelInfo, Plant
 from ..sim.inputs import Sampled
 from ..sim.sensitivity import simulate_sensitivities
@@ -109,9 +109,9 @@ __all__ = [
 # --------------------------------------------------------------------------
 # models and parameters
 # --------------------------------------------------------------------------
-_FREE_PARAMS = ("p1", "sigma_a1", "sigma_v1", "sigma_b1")
-_LUMPED_ALL = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2")
-_MD = ("p2", "p3", "rho", "sigma_c2")
+_FREE_PARAMS = ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c1")
+_LUMPED_ALL = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2", "sigma_c1", "u_offset")
+_MD = ("p2", "p3", "rho", "sigma_c2", "u_offset")
 #: The models :func:`refine` fits, and the parameters that enter each (see the module docstring).
 REFINE_MODELS: dict[str, tuple[str, ...]] = {
     "free": _FREE_PARAMS,
@@ -122,6 +122,7 @@ REFINE_MODELS: dict[str, tuple[str, ...]] = {
     "motor-disk-raw": _MD + ("v_dz_pos", "v_dz_neg"),
 }
 _POSITIVE = ("p1", "p3", "rho")
+_SIGNED = ("u_offset",)
 _STATE_NAMES = ("q1", "q2", "q3", "q4")
 _OUTPUTS = {"q1": 0, "q2": 1, "q3": 2, "q4": 3}
 _LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
@@ -190,6 +191,8 @@ def measured_signals(data: ExperimentData, names: Sequence[str], differentiator:
         if n not in _OUTPUTS:
             raise InputError(f"unknown signal {n!r}; choose among q1, q2, q3, q4")
         if n in ("q1", "q2"):
+            if getattr(data, n) is None:
+                raise InputError(f"{data.source} has no wheel angle q2 (only the wheel speed q4); use the output q4")
             out[n] = np.asarray(getattr(data, n), dtype=float)
         else:
             col = getattr(data, n)
@@ -197,6 +200,8 @@ def measured_signals(data: ExperimentData, names: Sequence[str], differentiator:
                 out[n] = np.asarray(col, dtype=float)
             else:
                 pos = getattr(data, "q1" if n == "q3" else "q2")
+                if pos is None:
+                    raise InputError(f"{data.source} logs neither q2 nor q4; the output q4 cannot be formed")
                 out[n] = d.derivatives(data.Ts, pos).velocity
     return out
 
@@ -204,7 +209,7 @@ def measured_signals(data: ExperimentData, names: Sequence[str], differentiator:
 def measured_state(data: ExperimentData, index: int, differentiator: Differentiator | None = None) -> np.ndarray:
     """The state ``[q1, q2, q3, q4]`` of a log at sample ``index``: smoothed positions, differentiated velocities."""
     d = differentiator or _DIFF
-    q = np.column_stack([data.q1, data.q2])
+    q = np.column_stack([data.q1, data.q2 if data.q2 is not None else np.zeros_like(data.q1)])
     if data.n_samples >= d.min_samples(data.Ts):
         pos, vel, _ = d.derivatives(data.Ts, q)
     else:  # too short to filter: plain central differences
@@ -215,6 +220,11 @@ def measured_state(data: ExperimentData, index: int, differentiator: Differentia
         x[2] = data.q3[index]
     if data.q4 is not None:
         x[3] = data.q4[index]
+        if data.q4_sampling == "mean" and index + 2 < data.n_samples:
+            # samples are means over the preceding periods (at t_k - Ts/2): the speed at t_k lies between two
+            # of them; the first sample has no preceding period, extrapolate the next two
+            y = data.q4
+            x[3] = 0.5 * (y[index] + y[index + 1]) if index > 0 else 1.5 * y[1] - 0.5 * y[2]
     return x
 
 
@@ -245,6 +255,25 @@ class _FitLog:
     x0_guess: np.ndarray
     est: tuple[int, ...]
     window: tuple[float, float]
+    #: per output: weight of each sample (0 at replaced glitches and where a mean has no preceding period)
+    w: dict[str, np.ndarray] = field(default_factory=dict)
+    #: outputs logged as the mean over the preceding sample period (``q4_sampling: mean``)
+    mean: tuple[str, ...] = ()
+    #: per estimated output offset, its start value
+    off0: dict[str, float] = field(default_factory=dict)
+    Ts: float = 0.0
+
+    def predict(self, o: str, X: np.ndarray) -> np.ndarray:
+        """The model's output ``o`` from states ``X`` (N, n) or sensitivities (N, n, k): the state, or for a
+        mean-sampled speed the difference of its angle over the preceding period over ``Ts``."""
+        si = _OUTPUTS[o]
+        if o in self.mean:
+            pos = X[:, si - 2]
+            out = np.empty_like(X[:, si])
+            out[1:] = (pos[1:] - pos[:-1]) / self.Ts
+            out[0] = X[0, si]  # weight 0
+            return out
+        return X[:, si]
 
 
 def _as_list(experiments) -> list[ExperimentData]:
@@ -287,7 +316,7 @@ def _windows(windows, n: int) -> list[tuple[float | None, float | None]]:
 
 
 def _prepare_experiment(data: ExperimentData, info: ModelInfo, model: str, window, outputs, estimate_x0: bool,
-                        locked: bool, i: int) -> _FitLog:
+                        locked: bool, i: int, offsets: tuple[str, ...] = ()) -> _FitLog:
     t_start, t_end = window
     wdata = data.window(t_start, t_end)
     i0 = int(np.searchsorted(data.t, wdata.t[0]))
@@ -309,11 +338,21 @@ def _prepare_experiment(data: ExperimentData, info: ModelInfo, model: str, windo
     x0 = initial_state(data, i0, model, locked=locked)
     moving = (1, 3) if _is_locked(model, locked) else info.moving
     est: tuple[int, ...] = ()
+    mean = tuple(o for o in outputs if o == "q4" and data.q4 is not None and data.q4_sampling == "mean")
     if estimate_x0:
-        # q2 enters no right-hand side: estimate it only when it is an output
+        # q2 enters no right-hand side: estimate it only when it is an output (or a mean speed needs it)
         est = tuple(s for s in moving if s != 1 or "q2" in outputs)
+    weights = {}
+    for o in outputs:
+        wt = np.ones(wdata.n_samples)
+        col = "q2" if o == "q4" and data.q4 is None else ("q1" if o == "q3" and data.q3 is None else o)
+        wt[data.glitch_mask(col)[i0:i0 + wdata.n_samples]] = 0.0
+        if o in mean:
+            wt[0] = 0.0
+        weights[o] = wt
+    off0 = {o: 0.0 for o in offsets}
     return _FitLog(wdata, np.ascontiguousarray(wdata.t, dtype=float), w, y, x0, est,
-                (float(wdata.t[0]), float(wdata.t[-1])))
+                   (float(wdata.t[0]), float(wdata.t[-1])), weights, mean, off0, float(wdata.Ts))
 
 
 # --------------------------------------------------------------------------
@@ -386,6 +425,17 @@ class RefineResult:
     n_samples: int = 0
     elapsed: float = 0.0
     sources: list[str] = field(default_factory=list)
+    #: per experiment and output, at the optimum: the model's output (offsets included), the measured
+    #: signal, the sample times and the weights (0: left out, e.g. a replaced glitch)
+    simulated: list[dict[str, np.ndarray]] = field(default_factory=list)
+    measured: list[dict[str, np.ndarray]] = field(default_factory=list)
+    times: list[np.ndarray] = field(default_factory=list)
+    weights: list[dict[str, np.ndarray]] = field(default_factory=list)
+    #: per experiment, ``{output: (offset, stderr)}`` of the estimated output offsets
+    offsets: list[dict[str, tuple[float, float]]] = field(default_factory=list)
+    #: the belt models (``model="belt"``, :func:`iwp.ident.belt_fit.refine_belt`): the fitted belt and its start
+    belt: BeltParameters | None = None
+    belt_start: BeltParameters | None = None
 
     def value(self, name: str) -> float:
         """Value of one parameter."""
@@ -429,6 +479,8 @@ class RefineResult:
                     "fit_start": {k: json_float(v) for k, v in self.fit_start[i].items()},
                     "rms": {k: json_float(v) for k, v in self.rms[i].items()},
                     "rms_start": {k: json_float(v) for k, v in self.rms_start[i].items()},
+                    "offsets": ({k: {"value": json_float(v), "stderr": json_float(s)}
+                                 for k, (v, s) in self.offsets[i].items()} if i < len(self.offsets) else {}),
                 }
                 for i in range(len(self.x0))
             ],
@@ -444,6 +496,7 @@ class RefineResult:
             "elapsed_s": json_float(self.elapsed),
             "warnings": list(self.warnings),
             "lumped": self.params.to_dict(),
+            **({"belt": self.belt.to_dict()} if self.belt is not None else {}),
         }
 
     def summary(self) -> str:
@@ -453,7 +506,8 @@ class RefineResult:
         lines.append(f"{'parameter':<10} {'start':>12} {'refined':>12} {'stderr':>10}")
         for name in self.free:
             pe = self.parameters[name]
-            lines.append(f"{name:<10} {getattr(self.start, name):>12.6g} {pe.value:>12.6g} {pe.stderr:>10.3g}")
+            first = getattr(self.belt_start if hasattr(self.belt_start, name) else self.start, name)
+            lines.append(f"{name:<10} {first:>12.6g} {pe.value:>12.6g} {pe.stderr:>10.3g}")
         for i, f in enumerate(self.fit):
             fs = ", ".join(f"{k} {v:.2f} % (start {self.fit_start[i][k]:.2f} %)" for k, v in f.items())
             lines.append(f"experiment {i} [{self.windows[i][0]:g}, {self.windows[i][1]:g}] s: fit {fs}")
@@ -488,8 +542,8 @@ def _check_bounds(free, bounds, start: LumpedParameters) -> tuple[np.ndarray, np
             if not a < b or math.isnan(a) or math.isnan(b):
                 raise InputError(f"bounds[{n!r}] = ({a}, {b}): low must be < high")
         else:
-            # physical signs (LumpedParameters.check_physical)
-            a = 1e-12 * TYPICAL[n] if n in _POSITIVE else 0.0
+            # physical signs (LumpedParameters.check_physical); an input offset has either sign
+            a = 1e-12 * TYPICAL[n] if n in _POSITIVE else (-np.inf if n in _SIGNED else 0.0)
             b = np.inf
         lo[i], hi[i] = a, b
     return lo, hi
@@ -515,6 +569,8 @@ def refine(
     atol: float = 1e-8,
     tr_solver: str = "exact",
     warn: bool = True,
+    output_offsets: Sequence[str] = (),
+    belt: BeltParameters | None = None,
 ) -> RefineResult:
     """Refine model parameters by minimising the simulation error of the measured outputs.
 
@@ -533,7 +589,7 @@ def refine(
         Empty: estimate the initial states only.
     bounds : dict, optional
         ``{name: (low, high)}`` for free parameters (``None`` for no bound).
-        Default: ``p1, p3, rho > 0`` and the other parameters ``>= 0``.
+        Default: ``p1, p3, rho > 0``, ``u_offset`` free, the other parameters ``>= 0``.
     outputs : sequence of str
         Measured signals compared: ``q1``, ``q2`` and the velocities ``q3``,
         ``q4`` (from the log, else differentiated). Each output is weighted
@@ -571,6 +627,23 @@ def refine(
         problems such as Coulomb friction).
     warn : bool
         Also issue the warnings with :func:`warnings.warn` (they are always in ``.warnings``).
+    output_offsets : sequence of str
+        Outputs whose sensor has an unknown constant offset (``("q1",)``: a
+        pendulum angle whose zero is a few hundredths off), estimated per
+        experiment: the model's output is ``y^ + offset``.
+    belt : BeltParameters, optional
+        ``model="belt"`` (the rubber belt (15), pendulum locked): the belt's
+        starting values. The fit is then :func:`iwp.ident.belt_fit.refine_belt`
+        (``free`` among its parameters, output ``q4``, Jacobian by finite
+        differences of whole simulations, for the play of figure 5 is not smooth);
+        the defaults of ``free`` and ``outputs``, which concern the pendulum
+        that this model locks, become the belt's (:data:`~iwp.ident.belt_fit.BELT_FREE`, ``q4``).
+
+    Other rigs' sensors are read from each log: a wheel speed ``q4`` logged
+    as the mean over the preceding sample period (metadata ``q4_sampling:
+    mean``) is compared with ``(q2(t_k) - q2(t_k-1)) / Ts`` of the model,
+    and samples replaced as glitches (:attr:`ExperimentData.glitches`) are
+    left out of the residuals.
 
     Returns
     -------
@@ -582,6 +655,17 @@ def refine(
         Unknown model, parameter or output; a parameter that does not enter
         the model; bad bounds or windows; an output constant in every experiment.
     """
+    if model == "belt" or belt is not None:
+        from .belt_fit import BELT_FREE, refine_belt
+
+        if model != "belt" or belt is None:
+            raise InputError("the belt model (15) is fitted with model='belt' and belt=BeltParameters(...)")
+        free = BELT_FREE if tuple(free) == _FREE_PARAMS[:4] else free
+        outputs = ("q4",) if tuple(outputs) == ("q1",) else outputs
+        if tuple(outputs) != ("q4",):
+            raise InputError(f"the belt model is fitted to the disk velocity: outputs must be ('q4',), got {outputs!r}")
+        return refine_belt(experiments, start, belt, free=free, bounds=bounds, windows=windows, max_nfev=max_nfev,
+                           tol=tol, rtol=rtol, atol=atol, warn=warn)
     t_begin = time.perf_counter()
     info = _check_model(model)
     if not isinstance(start, LumpedParameters):
@@ -617,7 +701,13 @@ def refine(
         raise InputError("the pendulum is locked in this model; its outputs are q2 and q4")
     exps_in = _as_list(experiments)
     wins = _windows(windows, len(exps_in))
-    exps = [_prepare_experiment(e, info, model, w, outputs, estimate_x0, locked, i)
+    if isinstance(output_offsets, str):
+        output_offsets = (output_offsets,)
+    output_offsets = tuple(output_offsets)
+    for o in output_offsets:
+        if o not in outputs:
+            raise InputError(f"output_offsets names {o!r}, which is not an output ({', '.join(outputs)})")
+    exps = [_prepare_experiment(e, info, model, w, outputs, estimate_x0, locked, i, output_offsets)
             for i, (e, w) in enumerate(zip(exps_in, wins))]
     if x0 is not None:
         x0l = list(x0)
@@ -632,7 +722,7 @@ def refine(
     # output weights: the spread of each output over the data
     scale_o = {}
     for o in outputs:
-        v = np.mean([np.var(e.y[o]) for e in exps])
+        v = np.mean([np.var(e.y[o][e.w[o] > 0]) for e in exps])
         if not v > 0:
             raise InputError(f"output {o} is constant in every experiment (nothing to fit); choose other outputs")
         scale_o[o] = math.sqrt(v)
@@ -655,7 +745,7 @@ def refine(
     k = npar
     for e in exps:
         xoff.append(k)
-        k += len(e.est)
+        k += len(e.est) + len(output_offsets)
     nz = k
     x_scale_state = np.array([1.0, 1.0, 1.0, 1.0])
     z0 = np.empty(nz)
@@ -667,6 +757,8 @@ def refine(
     for e, off in zip(exps, xoff):
         for j, s in enumerate(e.est):
             z0[off + j] = e.x0_guess[s] / x_scale_state[s]
+        for j, o in enumerate(output_offsets):
+            z0[off + len(e.est) + j] = e.off0[o]
     n_rows = sum(e.t.size * len(outputs) for e in exps)
     if n_rows <= nz:
         raise InputError(f"{n_rows} residuals for {nz} unknowns: give longer windows or fewer free parameters")
@@ -683,6 +775,10 @@ def refine(
             x0s.append(x)
         return theta, x0s
 
+    def offsets_of(z):
+        return [{o: float(z[off + len(e.est) + j]) for j, o in enumerate(output_offsets)}
+                for e, off in zip(exps, xoff)]
+
     def simulate_all(z, sens: bool):
         """Per experiment ``(status, X (N, 4), S (N, 4, npar + len(est)))``, one engine run each."""
         theta, x0s = unpack(z)
@@ -695,11 +791,11 @@ def refine(
             out.append((r.status, r.x, r.S))
         return out
 
-    def residuals_of(sims):
+    def residuals_of(sims, z):
         parts = []
-        for e, (status, X, _S) in zip(exps, sims):
+        for e, (status, X, _S), offs in zip(exps, sims, offsets_of(z)):
             for o in outputs:
-                r = (X[:, _OUTPUTS[o]] - e.y[o]) / scale_o[o]
+                r = e.w[o] * (e.predict(o, X) + offs.get(o, 0.0) - e.y[o]) / scale_o[o]
                 if status != 0:
                     r = np.where(np.isfinite(r), r, _BAD_RESIDUAL)
                 parts.append(r)
@@ -713,7 +809,7 @@ def refine(
             return cache["fun_r"].copy()
         counters["nfev"] += 1
         sims = simulate_all(z, False)
-        r = residuals_of(sims)
+        r = residuals_of(sims, z)
         cache["fun_key"], cache["fun_r"] = key, r
         cache["fun_X"] = [X.copy() for (_st, X, _S) in sims]
         cache["fun_status"] = [st for (st, _X, _S) in sims]
@@ -723,7 +819,7 @@ def refine(
         counters["njev"] += 1
         sims = simulate_all(z, True)
         cache["jac_key"] = z.tobytes()
-        cache["jac_r"] = residuals_of(sims)
+        cache["jac_r"] = residuals_of(sims, z)
         cache["jac_X"] = [X.copy() for (_st, X, _S) in sims]
         J = jac_of(sims)
         cache["jac_J"] = J
@@ -735,11 +831,13 @@ def refine(
         for e, off, (status, _X, S) in zip(exps, xoff, sims):
             n = e.t.size
             for o in outputs:
-                si = _OUTPUTS[o]
                 blk = J[row:row + n]
-                blk[:, :npar] = S[:, si, :npar] * (pscale / scale_o[o])
+                Sp = e.predict(o, S) * e.w[o][:, None]
+                blk[:, :npar] = Sp[:, :npar] * (pscale / scale_o[o])
                 for j, s in enumerate(e.est):
-                    blk[:, off + j] = S[:, si, npar + j] * (x_scale_state[s] / scale_o[o])
+                    blk[:, off + j] = Sp[:, npar + j] * (x_scale_state[s] / scale_o[o])
+                if o in output_offsets:
+                    blk[:, off + len(e.est) + output_offsets.index(o)] = e.w[o] / scale_o[o]
                 row += n
         if not np.all(np.isfinite(J)):
             J = np.nan_to_num(J, nan=0.0, posinf=0.0, neginf=0.0)
@@ -800,20 +898,22 @@ def refine(
             n = e.t.size
             seg = r[row:row + n] * scale_o[o]
             ssr[o] += float(seg @ seg)
-            cnt[o] += n
+            cnt[o] += int(np.count_nonzero(e.w[o]))
             row_out.append((row, n, o))
             row += n
-    dof = max(n_rows - nz, 1)
-    sig2 = {o: ssr[o] / cnt[o] * n_rows / dof for o in outputs}
+    n_used = sum(cnt.values())
+    dof = max(n_used - nz, 1)
+    sig2 = {o: ssr[o] / max(cnt[o], 1) * n_used / dof for o in outputs}
     Jw = J.copy()
     for (r0_, n, o) in row_out:
         s = math.sqrt(sig2[o]) / scale_o[o]  # residual std in weighted units
         Jw[r0_:r0_ + n] /= s if s > 0 else 1.0
-    cov_z, rank_msgs = _covariance(Jw, [*free] + [f"{_STATE_NAMES[s]}(0) of experiment {i}"
-                                                 for i, e in enumerate(exps) for s in e.est])
+    cov_z, rank_msgs = _covariance(Jw, [*free] + [name for i, e in enumerate(exps) for name in (
+        [f"{_STATE_NAMES[s]}(0) of experiment {i}" for s in e.est]
+        + [f"offset of {o} in experiment {i}" for o in output_offsets])])
     msgs.extend(rank_msgs)
-    D = np.concatenate([pscale, np.concatenate([x_scale_state[list(e.est)] for e in exps]) if nz > npar
-                        else np.zeros(0)])
+    D = np.concatenate([pscale] + [np.concatenate([x_scale_state[list(e.est)], np.ones(len(output_offsets))])
+                                   for e in exps])
     cov_full = cov_z * np.outer(D, D)
     cov = cov_full[:npar, :npar]
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None)) if npar else np.zeros(0)
@@ -841,19 +941,28 @@ def refine(
     if not success:
         msgs.append(f"the optimiser did not converge: {message}")
     # fit per experiment, at the start and at the optimum
-    fit, fit0, rms, rms0, x0_sd = [], [], [], [], []
+    fit, fit0, rms, rms0, x0_sd, sim_out, off_out = [], [], [], [], [], [], []
     off_sd = npar
-    for e, X, st0, X0 in zip(exps, X_opt, status_start, X_start):
-        fit.append({o: fit_percent(e.y[o], X[:, _OUTPUTS[o]]) for o in outputs})
-        fit0.append({o: fit_percent(e.y[o], X0[:, _OUTPUTS[o]]) if st0 == 0 else float("nan") for o in outputs})
-        rms.append({o: float(np.sqrt(np.mean((e.y[o] - X[:, _OUTPUTS[o]]) ** 2))) for o in outputs})
-        rms0.append({o: float(np.sqrt(np.mean((e.y[o] - X0[:, _OUTPUTS[o]]) ** 2))) if st0 == 0 else float("inf")
+    offs_opt = offsets_of(z_opt)
+    offs_start = offsets_of(z0)
+    for e, X, st0, X0, oo, o0 in zip(exps, X_opt, status_start, X_start, offs_opt, offs_start):
+        used = {o: e.w[o] > 0 for o in outputs}
+        yh = {o: e.predict(o, X) + oo.get(o, 0.0) for o in outputs}
+        yh0 = {o: e.predict(o, X0) + o0.get(o, 0.0) for o in outputs}
+        sim_out.append(yh)
+        fit.append({o: fit_percent(e.y[o][used[o]], yh[o][used[o]]) for o in outputs})
+        fit0.append({o: fit_percent(e.y[o][used[o]], yh0[o][used[o]]) if st0 == 0 else float("nan") for o in outputs})
+        rms.append({o: float(np.sqrt(np.mean((e.y[o] - yh[o])[used[o]] ** 2))) for o in outputs})
+        rms0.append({o: float(np.sqrt(np.mean((e.y[o] - yh0[o])[used[o]] ** 2))) if st0 == 0 else float("inf")
                      for o in outputs})
         s4 = np.zeros(4)
         for j, s in enumerate(e.est):
             s4[s] = math.sqrt(max(cov_full[off_sd + j, off_sd + j], 0.0))
         off_sd += len(e.est)
         x0_sd.append(s4)
+        off_out.append({o: (v, math.sqrt(max(cov_full[off_sd + j, off_sd + j], 0.0)))
+                        for j, (o, v) in enumerate(oo.items())})
+        off_sd += len(output_offsets)
     # x0 of the held/no-wheel models: the wheel does not move
     res = RefineResult(
         params=params, parameters=parameters, free=free, covariance=cov, correlation=corr, fit=fit,
@@ -863,6 +972,8 @@ def refine(
         outputs=outputs, loss=loss, start=start, residual_std={o: math.sqrt(ssr[o] / cnt[o]) for o in outputs},
         n_samples=n_rows // len(outputs), elapsed=time.perf_counter() - t_begin,
         sources=[e.data.source for e in exps],
+        simulated=sim_out, measured=[dict(e.y) for e in exps], times=[e.t for e in exps],
+        weights=[dict(e.w) for e in exps], offsets=off_out,
     )
     if warn:
         for m in msgs:
@@ -871,7 +982,8 @@ def refine(
 
 
 _UNITS = {"p1": "s^-2", "p2": "s^-1", "p3": "s^-2/in", "rho": "-", "sigma_a1": "s^-1", "sigma_v1": "s^-1",
-          "sigma_b1": "s rad^-2", "v_dz_pos": "in", "v_dz_neg": "in", "sigma_c2": "s^-2"}
+          "sigma_b1": "s rad^-2", "v_dz_pos": "in", "v_dz_neg": "in", "sigma_c2": "s^-2", "sigma_c1": "s^-2",
+          "u_offset": "in"}
 
 
 def _correlation_messages(free, theta, cov, corr, Jp) -> list[str]:

@@ -210,6 +210,9 @@ def prepare_signals(setup, datas: list, d: Differentiator, t_start, t_end, *, no
             raise InputError(
                 f"{src}: the sampling is not uniform (steps from {dt.min():.6g} to {dt.max():.6g} s); "
                 "resample the log first (ExperimentData.resample)")
+        if w.q2 is None:
+            raise InputError(f"{src}: set-up {setup.name!r} differentiates the wheel angle q2, which this log does "
+                             "not have (only the wheel speed q4); fit it with `iwp fit` (iwp.ident.logfit)")
         q = np.column_stack([w.q1, w.q2])
         pos, vel, acc = fast_derivatives(d, Ts, q)
         noise_sd = _position_noise(q)

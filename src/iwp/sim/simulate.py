@@ -80,7 +80,7 @@ def output_times(t0: float, t_end: float, Ts: float, t_eval=None) -> np.ndarray:
         if te[0] < t0 - 1e-12 or te[-1] > t_end + 1e-9:
             raise InputError(f"t_eval must lie within [t0, t_end] = [{t0:g}, {t_end:g}] s")
         return te
-    n = check_samples(math.floor((t_end - t0) / Ts + 1e-9) + 1.0, argument=("t_end", "t0", "Ts"),
+    n = check_samples(np.floor((t_end - t0) / Ts + 1e-9) + 1.0, argument=("t_end", "t0", "Ts"),
                       what=f"t_end - t0 = {t_end - t0:.6g} s at Ts = {Ts:.6g} s") - 1
     return t0 + Ts * np.arange(n + 1)
 

@@ -1,0 +1,133 @@
+"""``iwp fit --out DIR``: the fitted model, its uncertainty and its fits, as files and one HTML page.
+
+:func:`write_fit_report` writes into the folder (new or empty, unless
+``force``; written to a hidden sibling first and moved in when complete,
+so that a failure leaves no partial output):
+
+* ``fit.json``: :meth:`iwp.ident.logfit.LogFitResult.to_dict` (parameters
+  with stderr and 95 % intervals, correlations, fits per log and signal,
+  warnings, the rig description);
+* ``parameters.json``: the refined parameters, readable by ``--params``;
+* ``report.html``: one self-contained page like ``iwp report``'s, with the
+  parameter and fit tables, the warnings, the correlation matrix and, for
+  every log, measured against simulated signals with the error below;
+* ``figures/*.png``, ``figures/*.svg``.
+
+The figures are drawn by :mod:`iwp.plotting` from series prepared here
+(decimated to :data:`~iwp.report.folder.PLOT_POINTS`); plotting computes nothing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+from ..files import jsonable, staged_dir
+from ..models.parameters import save_params
+from ..plotting.report import plot_comparisons
+from ..plotting.validation import plot_correlation
+from .folder import decimate, save_figure
+from .page import FigureEntry, Report, Section, Table, fmt, write_html
+
+__all__ = ["write_fit_report"]
+
+
+def _safe(stem: str, used: set) -> str:
+    s = "".join(c if c.isalnum() or c in "-_" else "_" for c in stem) or "log"
+    cand, i = s, 2
+    while cand in used:
+        cand, i = f"{s}_{i}", i + 1
+    used.add(cand)
+    return cand
+
+
+def _log_figure(f, out_dir: Path, name: str) -> tuple[bytes, list[Path]]:
+    panels = []
+    for o in f.measured:
+        m = f.used[o]
+        t = f.t[m]
+        ym, ys = f.measured[o][m], f.simulated[o][m]
+        panels.append({"measured": decimate(t, ym), "simulated": (*decimate(t, ys), "model"),
+                       "error": (*decimate(t, ym - ys), "error"), "signal": o,
+                       "title": f"{Path(f.source).name} ({f.role}): {o}, fit {fmt(f.fit[o], 3)} %",
+                       "measured_label": "measured"})
+    res = plot_comparisons(panels)
+    return save_figure(res["figure"], out_dir, name)
+
+
+def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> dict:
+    """Write the files of a :class:`~iwp.ident.logfit.LogFitResult` into the folder ``out`` (see the module).
+
+    Returns
+    -------
+    dict
+        ``{"folder": Path, "report": Path, "json": Path, "parameters": Path, "figures": [Path]}``.
+    """
+    out = Path(out)
+    r = result.refinement
+    with staged_dir(out, force=force) as tmp:
+        figures: list[FigureEntry] = []
+        fig_paths: list[Path] = []
+        used: set = set()
+        for f in result.train + result.validation:
+            name = _safe(f"{f.role}_{Path(f.source).stem}", used)
+            png, written = _log_figure(f, tmp, name)
+            fig_paths += [out / w.relative_to(tmp) for w in written]
+            cap = ("Measured (solid) and simulated (dashed) signals and their difference; "
+                   + ("training log, at the joint optimum with its estimated initial state."
+                      if f.role == "train" else "held-out log, simulated from its measured initial state "
+                      "without re-fitting.")
+                   + (f" Glitches: {'; '.join(f.glitches)}." if f.glitches else ""))
+            figures.append(FigureEntry(name, f"{Path(f.source).name} ({f.role})", cap, png,
+                                       [str(w.relative_to(tmp)) for w in written]))
+        corr_fig = []
+        if len(r.free) > 1:
+            cres = plot_correlation(list(r.free), np.nan_to_num(r.correlation, nan=np.nan))
+            png, written = save_figure(cres["figure"], tmp, "correlation")
+            fig_paths += [out / w.relative_to(tmp) for w in written]
+            corr_fig.append(FigureEntry("correlation", "Correlation of the estimates",
+                                        "Pairs above 0.95 in magnitude (bold) are not separated by these data.",
+                                        png, [str(w.relative_to(tmp)) for w in written]))
+        rows = []
+        for n in r.free:
+            pe = r.parameters[n]
+            ls = result.least_squares.get(n)
+            rows.append([n, fmt(pe.value, 6), fmt(pe.stderr, 2), f"[{fmt(pe.ci95_low, 5)}, {fmt(pe.ci95_high, 5)}]",
+                         fmt(getattr(result.start, n), 5), fmt(ls, 5) if ls is not None else "-"])
+        ptab = Table("Parameters (simulation-error fit on all training logs)",
+                     ["parameter", "value", "stderr", "95 % interval", "start", "least squares"], rows,
+                     note="stderr from the Jacobian at the optimum, a lower bound (simulation residuals are "
+                          "correlated in time); start: " + result.start_method)
+        frows = []
+        for f in result.train + result.validation:
+            frows.append([Path(f.source).name, f.role] + [fmt(f.fit.get(o), 4) for o in result.outputs]
+                         + [fmt(f.rms.get(o), 3) for o in result.outputs] + [fmt(f.q1_offset, 3)])
+        ftab = Table("Fits per log and signal",
+                     ["log", "role"] + [f"fit {o} [%]" for o in result.outputs]
+                     + [f"RMS {o}" for o in result.outputs] + ["q1 offset [rad]"], frows,
+                     note="fit = 100 (1 - |y - y_sim| / |y - mean y|); replaced glitch samples left out")
+        warn_par = [f"Warning: {w}" for w in result.warnings] or ["No warnings."]
+        rep = Report(
+            title="Model fitted to a rig's logs and validated on held-out logs",
+            subtitle=f"model {result.model} ({'(6) with dead zone' if result.model == 'raw' else '(9)'}), "
+                     f"outputs {', '.join(result.outputs)}",
+            summary=[("rig", result.rig.name or result.rig.source if result.rig is not None else "(iwp logs)"),
+                     ("training logs", ", ".join(Path(f.source).name for f in result.train)),
+                     ("held-out logs", ", ".join(Path(f.source).name for f in result.validation) or "none"),
+                     ("validation fit", ", ".join(f"{k} {fmt(v, 4)} %" for k, v in result.validation_fit.items())),
+                     ("time", f"{result.elapsed:.3g} s")],
+            sections=[Section("Parameters and fits", tables=[ptab, ftab], anchor="fits"),
+                      Section("Warnings", paragraphs=warn_par, anchor="warnings"),
+                      Section("Figures", figures=corr_fig + figures, anchor="figures")],
+        )
+        write_html(rep, tmp / "report.html", force=True)
+        doc = result.to_dict()
+        (tmp / "fit.json").write_text(json.dumps(jsonable(doc), indent=2) + "\n")
+        save_params(result.params, tmp / "parameters.json", force=True,
+                    extra={"model": result.model, "source": "iwp fit",
+                           "stderr": {n: r.parameters[n].stderr for n in r.free}})
+    return {"folder": out, "report": out / "report.html", "json": out / "fit.json",
+            "parameters": out / "parameters.json", "figures": fig_paths}

@@ -1,0 +1,415 @@
+"""Other rigs: rig descriptions, their logs, glitches, and ``iwp fit`` on the virtual rig with known truth."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+import pytest
+from scipy import integrate, optimize
+
+from iwp.cli import main
+from iwp.data import ExperimentData
+from iwp.data.glitches import find_glitches
+from iwp.data.rig_description import RigDescription
+from iwp.data.rig_log import read_rig_log
+from iwp.errors import DataFormatError, InputError
+from iwp.ident.logfit import fit_logs, least_squares_start, load_logs
+from iwp.models.parameters import LumpedParameters
+from iwp.models.plant import Plant
+from iwp.rig.described import DescribedRig, prbs, write_rig_csv
+from iwp.sim.inputs import Chirp
+
+#: a direct-drive rig unlike the paper's: shorter pendulum, heavy wheel, PWM duty input
+TRUTH = LumpedParameters(p1=40.0, p2=0.06, p3=12.0, rho=30.0, sigma_a1=0.02, sigma_v1=0.05, sigma_b1=1e-4)
+
+BASE = {
+    "kind": "iwp-rig", "name": "virtual direct-drive rig", "sample_period": 0.02,
+    "time": {"column": "t", "unit": "s"},
+    "pendulum": {"column": "theta", "unit": "counts", "counts_per_rev": 4096},
+    "wheel": {"column": "phidot", "quantity": "speed", "unit": "rad/s", "sampling": "mean", "counts_per_rev": 1200},
+    "current": {"column": "I", "unit": "A"},
+    "input": {"column": "u", "kind": "duty"},
+    "drive": {"kind": "direct"},
+}
+
+
+def rig_of(**changes) -> RigDescription:
+    doc = json.loads(json.dumps(BASE))
+    for key, val in changes.items():
+        if isinstance(val, dict) and isinstance(doc.get(key), dict):
+            doc[key].update(val)
+        else:
+            doc[key] = val
+    return RigDescription.from_dict(doc, where="rig.json")
+
+
+def write_logs(tmp_path, rig, *, amplitude=0.3, q1_offset=0.0, first_sample=None, dropouts=(), jumps=(),
+               duration=30.0):
+    """Two chirps for training and one PRBS held out, written as the rig's CSV logs."""
+    vr = DescribedRig(rig, TRUTH, q1_offset=q1_offset, first_sample=first_sample, dropouts=dropouts, jumps=jumps)
+    files = []
+    for i, inp in enumerate((Chirp(amplitude, 2.0, 15.0), Chirp(0.7 * amplitude, 3.0, 20.0))):
+        files.append(write_rig_csv(vr.run(inp, duration=duration), tmp_path / f"chirp{i}.csv"))
+    n = int(round(20.0 / rig.sample_period)) + 1
+    held = write_rig_csv(vr.run(prbs(n, hold=max(1, int(round(0.3 / rig.sample_period))), amplitude=0.6 * amplitude,
+                                     seed=3), duration=20.0), tmp_path / "prbs.csv")
+    return files, held
+
+
+def fit(tmp_path, rig, **kw):
+    files, held = write_logs(tmp_path, rig, **kw)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return fit_logs(files, rig=rig, validate=[held], warn=False)
+
+
+def check_truth(p: LumpedParameters):
+    """The tolerances of the identification: p1 1 %, p2 (1 + rho) and p3 (1 + rho) 3 %, rho 5 %,
+    small-angle damping sigma_a1 + sigma_v1 15 %."""
+    assert p.p1 == pytest.approx(TRUTH.p1, rel=0.01)
+    assert p.p2_1rho == pytest.approx(TRUTH.p2_1rho, rel=0.03)
+    assert p.p3_1rho == pytest.approx(TRUTH.p3_1rho, rel=0.03)
+    assert p.rho == pytest.approx(TRUTH.rho, rel=0.05)
+    assert p.sigma_a1 + p.sigma_v1 == pytest.approx(TRUTH.sigma_a1 + TRUTH.sigma_v1, rel=0.15)
+
+
+# --------------------------------------------------------------------------
+# the rig description and the mapping of a log
+# --------------------------------------------------------------------------
+@pytest.mark.parametrize("doc, words", [
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"}, "inputs": {}}, ["unknown key 'inputs'"]),
+    ({"wheel": {"column": "w"}}, ["'pendulum' is required"]),
+    ({"pendulum": {"column": "theta", "unit": "grad"}, "wheel": {"column": "w"}}, ["'pendulum.unit'", "rad, deg"]),
+    ({"pendulum": {"column": "theta", "unit": "counts"}, "wheel": {"column": "w"}},
+     ["'pendulum.counts_per_rev' is required"]),
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w", "sampling": "avg"}}, ["'wheel.sampling'"]),
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"}, "input": {"kind": "duty", "limits": [-2, 2]}},
+     ["'input.limits'", "within [-1, 1]"]),
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"}, "drive": {"kind": "gear"}}, ["'drive.ratio'"]),
+    ({"pendulum": {"column": "theta", "offset": 1.2}, "wheel": {"column": "w"}}, ["'pendulum.offset'"]),
+])
+def test_bad_rig_description_is_one_line_naming_the_key(doc, words):
+    with pytest.raises(InputError) as exc:
+        RigDescription.from_dict(doc, where="rig.json")
+    msg = str(exc.value)
+    assert "\n" not in msg and msg.startswith("rig.json")
+    for w in words:
+        assert w in msg
+
+
+def _csv(path, header, rows):
+    path.write_text(",".join(header) + "\n" + "\n".join(",".join(repr(float(v)) for v in r) for r in rows) + "\n")
+    return path
+
+
+def _columns(n=200, Ts=0.02):
+    t = Ts * np.arange(n)
+    return {"t": t, "theta": np.round(300 * np.sin(3 * t)), "phidot": 20 * np.sin(2 * t), "I": 0.2 * np.cos(t),
+            "u": 0.3 * np.sin(2 * t)}
+
+
+@pytest.mark.parametrize("change, rig_change, words", [
+    ("drop phidot", {}, ["column 'phidot'", "key 'wheel.column'", "not found", "found: t, theta, I, u"]),
+    ("theta in rad", {}, ["column 'theta'", "encoder counts must be whole numbers", "pendulum.unit"]),
+    ("theta in deg declared rad", {"pendulum": {"unit": "rad", "counts_per_rev": None}},
+     ["column 'theta'", "looks like degrees"]),
+    ("t in ms", {}, ["column 't'", "cannot be the sample period", "time.unit"]),
+    ("phidot in rpm*100", {}, ["column 'phidot'", "cannot be right", "rpm"]),
+    ("I in mA", {}, ["column 'I'", "cannot be right", "mA"]),
+    ("u in percent", {}, ["column 'u'", "PWM duty"]),
+])
+def test_mapping_error_is_one_line_naming_the_column(tmp_path, change, rig_change, words):
+    cols = _columns()
+    if change == "drop phidot":
+        del cols["phidot"]
+    elif change == "theta in rad":
+        cols["theta"] = 0.3 * np.sin(3 * cols["t"])
+    elif change == "theta in deg declared rad":
+        cols["theta"] = 90 * np.sin(3 * cols["t"])
+    elif change == "t in ms":
+        cols["t"] = 1000 * cols["t"]
+    elif change == "phidot in rpm*100":
+        cols["phidot"] = 1e4 * np.sin(2 * cols["t"])
+    elif change == "I in mA":
+        cols["I"] = 200 * np.cos(cols["t"])
+    elif change == "u in percent":
+        cols["u"] = 30 * np.sin(2 * cols["t"])
+    path = _csv(tmp_path / "log.csv", list(cols), np.column_stack(list(cols.values())))
+    rig = rig_of(**rig_change) if not rig_change.get("pendulum") else RigDescription.from_dict(
+        {**BASE, "pendulum": {"column": "theta", "unit": "rad"}}, where="rig.json")
+    with pytest.raises(DataFormatError) as exc:
+        read_rig_log(path, rig)
+    msg = str(exc.value)
+    assert "\n" not in msg and str(path) in msg
+    for w in words:
+        assert w in msg
+
+
+def test_log_maps_units_zero_sign_and_input(tmp_path):
+    """Every conversion of the reader against its definition: counts, upright zero with wrap, gear at the motor,
+    rpm, mA, DAC counts with clipping."""
+    rig = RigDescription.from_dict({
+        "sample_period": 0.01, "time": {"column": "time_ms", "unit": "ms"},
+        "pendulum": {"column": "ang", "unit": "deg", "zero": "up", "offset": 0.02, "sign": -1},
+        "wheel": {"column": "rpm", "quantity": "speed", "unit": "rpm", "at": "motor"},
+        "current": {"column": "i_ma", "unit": "mA"},
+        "input": {"column": "dac", "kind": "dac", "bits": 12, "offset": 2048, "scale": 0.005, "limits": [48, 4048]},
+        "drive": {"kind": "gear", "ratio": 5.0}}, where="rig.json")
+    n = 300
+    t = 0.01 * np.arange(n)
+    q1 = 0.5 * np.sin(4 * t)  # true angle, hanging down
+    ang = -(np.degrees(q1 + 0.02 - math.pi) + 180) % 360 + 180  # upright zero, reversed, within (-180, 180]
+    ang = np.where(ang > 180, ang - 360, ang)
+    q4 = 30 * np.cos(t)
+    dac = np.clip(2048 + 2500 * np.sin(t), 0, 4095)
+    path = _csv(tmp_path / "gear.csv", ["time_ms", "ang", "rpm", "i_ma", "dac"],
+                np.column_stack([1000 * t, ang, q4 * 5 * 60 / (2 * math.pi), 150 * np.ones(n), dac]))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        d = read_rig_log(path, rig, glitches=False)
+    said = " ".join(str(w.message) for w in caught)
+    assert "exceeds its limits" in said and "q1 unwrapped" in said
+    np.testing.assert_allclose(d.t, t, atol=1e-12)
+    np.testing.assert_allclose(d.q1, q1, atol=1e-9)
+    np.testing.assert_allclose(d.q4, q4, atol=1e-9)
+    np.testing.assert_allclose(d.current, 0.15, atol=1e-12)
+    np.testing.assert_allclose(d.v, 0.005 * (np.clip(dac, 48, 4048) - 2048), atol=1e-12)
+    assert d.q2 is None and d.input_name == "v"
+    np.testing.assert_array_equal(d.extra["input_logged"], dac)
+    assert d.metadata["input_saturated"].startswith(f"{int(np.sum((dac < 48) | (dac > 4048)))} samples")
+
+
+def test_mat_log_and_classdef_objects_are_refused_clearly(tmp_path, monkeypatch):
+    from scipy.io import savemat
+    from scipy.io.matlab import MatlabOpaque
+
+    cols = _columns()
+    savemat(tmp_path / "log.mat", {"run": {k: v for k, v in cols.items()}})
+    d = read_rig_log(tmp_path / "log.mat", rig_of())
+    np.testing.assert_allclose(d.q1, cols["theta"] * 2 * math.pi / 4096)
+    # a MATLAB timeseries object comes out of scipy.io.loadmat as opaque data
+    rec = np.zeros(1, dtype=[("s0", "O"), ("s1", "O"), ("s2", "O"), ("arr", "O")])
+    rec[0] = (b"theta", b"MCOS", b"timeseries", np.zeros(3))
+    import scipy.io
+
+    monkeypatch.setattr(scipy.io, "loadmat", lambda *a, **k: {"t": cols["t"], "theta": MatlabOpaque(rec)})
+    with pytest.raises(DataFormatError) as exc:
+        read_rig_log(tmp_path / "log.mat", rig_of())
+    msg = str(exc.value)
+    assert "'theta' is a MATLAB 'timeseries' object" in msg and "save(" in msg and "\n" not in msg
+
+
+# --------------------------------------------------------------------------
+# the data model: what is measured
+# --------------------------------------------------------------------------
+def test_q2_optional_when_q4_is_measured_and_current_is_a_signal():
+    t = np.arange(20) * 0.01
+    d = ExperimentData(t=t, q1=np.zeros(20), q4=np.ones(20), extra={"current": np.full(20, 0.3)},
+                       metadata={"q4_sampling": "mean"})
+    assert d.q2 is None and d.q4_sampling == "mean" and np.all(d.current == 0.3)
+    with pytest.raises(InputError, match="q2 is required .or the wheel speed q4."):
+        ExperimentData(t=t, q1=np.zeros(20))
+    with pytest.raises(InputError, match="q4_sampling"):
+        ExperimentData(t=t, q1=np.zeros(20), q4=np.ones(20), metadata={"q4_sampling": "average"})
+
+
+def test_glitches_are_found_replaced_recorded_and_survive_a_file(tmp_path):
+    t = 0.02 * np.arange(500)
+    q1 = 0.6 * np.sin(5.0 * t) * np.exp(-0.05 * t)
+    q4 = 40 * np.sin(1.3 * t) + 5 * np.sin(7 * t)
+    clean = find_glitches(t, {"q1": q1, "q4": q4})
+    assert clean == []  # a smooth log has none
+    q4g = q4.copy()
+    q4g[0], q4g[250] = 2345.0, 0.0
+    q1g = q1.copy()
+    q1g[300:] += 0.03
+    d = ExperimentData(t=t, q1=q1g, q4=q4g).with_glitches_found(warn=False)
+    kinds = {(g.column, g.index, g.kind) for g in d.glitches}
+    assert kinds == {("q4", 0, "spike"), ("q4", 250, "dropout"), ("q1", 300, "jump")}
+    jump = next(g for g in d.glitches if g.kind == "jump")
+    assert jump.value == pytest.approx(0.03, abs=0.003) and jump.replacement is None
+    assert d.q4[250] == pytest.approx(q4[250], abs=0.3)  # replaced by the neighbours' mean
+    assert d.q4[0] == pytest.approx(q4[0], abs=0.5)
+    assert d.q1[300] == q1g[300]  # a jump is kept
+    with pytest.warns(UserWarning, match="3 glitches"):
+        ExperimentData(t=t, q1=q1g, q4=q4g).with_glitches_found()
+    back = ExperimentData(**{k: v for k, v in d.as_columns().items()}, metadata=d.metadata)
+    assert back.glitches == d.glitches
+    w = d.window(1.0, 8.0)
+    assert [(g.index, g.column) for g in w.glitches] == [(250 - 50, "q4"), (300 - 50, "q1")]
+
+
+# --------------------------------------------------------------------------
+# the virtual rig as other rigs: truth recovered by iwp fit
+# --------------------------------------------------------------------------
+SETUPS = {
+    # sensor set-up: (rig changes, run options)
+    "wheel speed only, 20 ms": ({}, {}),
+    "50 ms sampling": ({"sample_period": 0.05}, {}),
+    "saturating normalised input": ({"input": {"scale": 0.25}}, {"amplitude": 1.6}),
+    "upright zero": ({"pendulum": {"zero": "up"}}, {"q1_offset": 0.025}),
+    "degrees (IMU)": ({"pendulum": {"unit": "deg", "counts_per_rev": None}}, {"q1_offset": -0.03}),
+    "first-sample glitch": ({}, {"first_sample": 2345.0, "dropouts": (400,), "jumps": ((900, 0.02),)}),
+}
+
+
+@pytest.mark.parametrize("name", list(SETUPS))
+def test_virtual_rig_of_other_sensors_gives_back_its_truth(tmp_path, name):
+    changes, opts = SETUPS[name]
+    doc = json.loads(json.dumps(BASE))
+    for k, v in changes.items():
+        if isinstance(v, dict):
+            doc[k].update(v)
+            doc[k] = {kk: vv for kk, vv in doc[k].items() if vv is not None}
+        else:
+            doc[k] = v
+    rig = RigDescription.from_dict(doc, where="rig.json")
+    r = fit(tmp_path, rig, **opts)
+    check_truth(r.params)
+    if "q1_offset" in opts:
+        for f in r.train:
+            assert f.q1_offset == pytest.approx(opts["q1_offset"], abs=2e-3)
+    if name == "saturating normalised input":
+        assert any("exceeds its limits" in w for w in r.warnings)
+    if name == "first-sample glitch":
+        assert all(any("q4 spike at t = 0 s" in g for g in f.glitches) for f in r.train)
+    # held out, simulated from the measured initial state without re-fitting
+    for o in ("q1", "q4"):
+        assert r.validation[0].fit[o] > 90.0, (o, r.validation[0].fit)
+
+
+def test_data_that_cannot_separate_parameters_are_reported(tmp_path):
+    r = fit(tmp_path, rig_of())
+    assert any("sigma_a1 and sigma_v1 cannot be told apart" in w for w in r.warnings)
+
+
+# --------------------------------------------------------------------------
+# cross-check: an independent reference fit (scipy least_squares + solve_ivp)
+# --------------------------------------------------------------------------
+def _reference_fit(d: ExperimentData, start: LumpedParameters, free, x0):
+    """An independent reference: model (9) written out here in numpy, integrated by scipy's solve_ivp (RK45)
+    sample by sample with the input held, fitted by scipy's least_squares with 2-point differences."""
+    u = np.asarray(d.input)
+    Ts = d.Ts
+    y1, y4 = d.q1, d.q4
+
+    def simulate(theta):
+        p = start.replace(**dict(zip(free, theta)))
+
+        def f(t, x, uk):
+            q1, q2, q3, q4 = x
+            xi = (p.p1 * math.sin(q1) + p.sigma_a1 * abs(math.cos(q1)) * q3 + p.sigma_v1 * q3
+                  + p.sigma_b1 * q3 ** 3)
+            m = p.p3 * uk - p.p2 * q4
+            return [q3, q4, -xi - m, xi + (1 + p.rho) * m]
+
+        X = np.empty((d.n_samples, 4))
+        X[0] = x
+        for k in range(d.n_samples - 1):
+            sol = integrate.solve_ivp(f, (d.t[k], d.t[k + 1]), X[k], args=(u[k],), rtol=1e-10, atol=1e-10)
+            X[k + 1] = sol.y[:, -1]
+        return X.T
+
+    x = np.asarray(x0, dtype=float)
+
+    def res(theta):
+        X = simulate(theta)
+        mean4 = np.diff(X[1]) / Ts  # the board's mean speed over each period
+        return np.concatenate([(X[0] - y1) / np.std(y1), (mean4 - y4[1:]) / np.std(y4[1:])])
+
+    th0 = np.array([getattr(start, n) for n in free])
+    sol = optimize.least_squares(res, th0, x_scale=np.maximum(np.abs(th0), 1e-3), diff_step=1e-6, xtol=1e-10,
+                                 ftol=1e-10, bounds=(1e-9, np.inf))
+    X = simulate(sol.x)
+    mean4 = np.diff(X[1]) / Ts
+    fit = {"q1": 100 * (1 - np.linalg.norm(y1 - X[0]) / np.linalg.norm(y1 - y1.mean())),
+           "q4": 100 * (1 - np.linalg.norm(y4[1:] - mean4) / np.linalg.norm(y4[1:] - y4[1:].mean()))}
+    return dict(zip(free, sol.x)), fit
+
+
+def test_iwp_fit_matches_an_independent_scipy_reference_fit(tmp_path):
+    rig = rig_of(pendulum={"offset": 0.0})  # zero given: both fits have the same unknowns
+    vr = DescribedRig(rig, TRUTH.replace(sigma_a1=0.0), noise_std=0.002, seed=5)
+    path = write_rig_csv(vr.run(Chirp(0.3, 3.0, 5.0), duration=6.0), tmp_path / "chirp.csv")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        log = load_logs([path], rig)[0]
+        ref_log = ExperimentData(t=log.t, q1=log.q1, q4=log.q4, u=log.v, metadata=log.metadata)
+        start, _m, _d, _n = least_squares_start([ref_log])
+        start = start.replace(sigma_a1=0.0, sigma_b1=TRUTH.sigma_b1)
+        free = ("p1", "p2", "p3", "rho", "sigma_v1")
+        from iwp.ident.refinement import refine
+
+        ours = refine(ref_log, start, model="compensated", free=free, outputs=("q1", "q4"), estimate_x0=False,
+                      x0=[np.zeros(4)], warn=False)
+    ref, ref_fit = _reference_fit(ref_log, start, free, np.zeros(4))
+    for n in free:
+        assert ours.params.to_dict()[n] == pytest.approx(ref[n], rel=1e-5), n
+    for o in ("q1", "q4"):
+        assert ours.fit[0][o] == pytest.approx(ref_fit[o], abs=1e-3), o
+
+
+# --------------------------------------------------------------------------
+# the command
+# --------------------------------------------------------------------------
+def test_iwp_fit_command_writes_the_report_and_refuses_bad_input(tmp_path, capsys):
+    rig = rig_of()
+    rig_path = tmp_path / "rig.json"
+    rig_path.write_text(json.dumps(BASE))
+    files, held = write_logs(tmp_path, rig, duration=20.0, first_sample=2345.0)
+    out = tmp_path / "out"
+    status = main(["fit", *map(str, files), "--rig", str(rig_path), "--validate", str(held), "--out", str(out)])
+    assert status == 0
+    doc = json.loads((out / "fit.json").read_text())
+    assert doc["validation"][0]["fit"]["q1"] > 90 and doc["parameters"]["p1"]["stderr"] > 0
+    assert (out / "report.html").read_text().count("<img") == 4  # correlation, 2 training logs, 1 held out
+    assert json.loads((out / "parameters.json").read_text())["parameters"]["p1"] == pytest.approx(40, rel=0.01)
+    err = capsys.readouterr().err
+    assert "q4 spike at t = 0 s" in err
+    # the folder is not overwritten, and a mapping error is one line naming the column
+    assert main(["fit", str(files[0]), "--rig", str(rig_path), "--out", str(out)]) == 2
+    assert "--force" in capsys.readouterr().err
+    bad = dict(BASE, pendulum={"column": "angle", "unit": "counts", "counts_per_rev": 4096})
+    rig_path.write_text(json.dumps(bad))
+    assert main(["fit", str(files[0]), "--rig", str(rig_path), "--out", str(tmp_path / "o2")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "column 'angle'" in err[0] and "pendulum.column" in err[0]
+    assert not (tmp_path / "o2").exists()
+
+
+# --------------------------------------------------------------------------
+# model options of other rigs, against analytic references
+# --------------------------------------------------------------------------
+def test_pendulum_coulomb_friction_decays_the_swing_linearly():
+    """Free pendulum with Coulomb friction only: in the linear range each half swing loses 2 sigma_c1 / p1."""
+    from iwp.sim.simulate import simulate
+
+    p = LumpedParameters(p1=26.0, p2=0.0, p3=1.0, rho=100.0, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0, sigma_c1=0.2)
+    res = simulate(Plant(p, model="free-nowheel", coulomb_eps=1e-5), x0=[0.02, 0, 0, 0], t_end=2.0, Ts=1e-4,
+                   rtol=1e-10, atol=1e-12)
+    q1, q3 = res.x[:, 0], res.x[:, 2]
+    turns = np.flatnonzero(np.sign(q3[1:]) != np.sign(q3[:-1]))
+    peaks = np.abs(q1[turns[:4]])
+    drops = -np.diff(peaks)
+    assert drops == pytest.approx(2 * 0.2 / 26.0, rel=2e-3)
+    # without it, no loss at all
+    res0 = simulate(Plant(p.replace(sigma_c1=0.0), model="free-nowheel"), x0=[0.02, 0, 0, 0], t_end=2.0, Ts=1e-3,
+                    rtol=1e-10, atol=1e-12)
+    assert np.max(np.abs(res0.x[:, 0])) == pytest.approx(0.02, rel=1e-6)
+
+
+def test_input_offset_shifts_the_input():
+    """u_offset c with input U is the plant driven by U + c: the disk settles at p3 (U + c) / p2 (model (14))."""
+    from iwp.sim.inputs import Constant
+    from iwp.sim.simulate import simulate
+
+    p = TRUTH.replace(u_offset=0.05)
+    res = simulate(Plant(p, model="motor-disk"), input=Constant(0.2), t_end=20.0, rtol=1e-10, atol=1e-10)
+    assert res.x[-1, 3] == pytest.approx(p.p3 * 0.25 / p.p2, rel=1e-8)
+    a = simulate(Plant(p), input=Chirp(0.3, 2.0, 10.0), t_end=5.0, rtol=1e-11, atol=1e-11)
+    b = simulate(Plant(p.replace(u_offset=0.0)), input=Chirp(0.3, 2.0, 10.0, offset=0.05),
+                 t_end=5.0, rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(a.x, b.x, atol=1e-9)
