@@ -23,13 +23,15 @@ class BuildPyWithKernels(build_py):
         super().run()
         if os.environ.get("IWP_NO_PRECOMPILE", "").strip() not in ("", "0"):
             return
+        # an editable install (pip install -e .) runs the sources in place: compile there
+        root = os.path.abspath("src") if getattr(self, "editable_mode", False) else os.path.abspath(self.build_lib)
         env = dict(os.environ)
-        env["PYTHONPATH"] = os.path.abspath(self.build_lib) + os.pathsep + env.get("PYTHONPATH", "")
+        env["PYTHONPATH"] = root + os.pathsep + env.get("PYTHONPATH", "")
         env.pop("NUMBA_CACHE_DIR", None)  # the cache must land in the package
         env.setdefault("MPLBACKEND", "Agg")
         try:
             subprocess.run([sys.executable, "-m", "iwp.warmup"], env=env, check=True, timeout=1800,
-                           cwd=os.path.abspath(self.build_lib))
+                           cwd=root)
         except (OSError, subprocess.SubprocessError) as exc:
             print(f"warning: iwp's kernels were not compiled at build time ({exc}); they compile at first use",
                   file=sys.stderr)
