@@ -642,3 +642,34 @@ def test_cli_degrees_and_resample_flags(tmp_path, cli, capsys):
     assert captured.err == ""
     d = io.read_csv(out)
     assert np.max(np.abs(d.q1)) < 1.3 and np.allclose(np.diff(d.t), d.Ts, rtol=1e-9)
+
+
+def test_degrees_swing_is_refused_but_a_pendulum_that_turned_over_is_read(tmp_path):
+    """Beyond 3 pi: a swing across zero is degrees (refused, naming the column); a turning pendulum is not."""
+    t = 0.005 * np.arange(2000)
+    swing = np.rad2deg(0.6 * np.cos(5.1 * t))  # a 0.6 rad swing logged in degrees: 34 "rad", 16 zero crossings
+    path = io.ExperimentData(t=t, q1=swing, q2=np.zeros_like(t)).to_csv(tmp_path / "deg.csv")
+    with pytest.raises(DataFormatError, match=r"column 'q1' looks like degrees .* swings across zero 16 times"):
+        io.read_csv(path)
+    spin = 2.0 * t + 0.3 * np.sin(5.0 * t)  # turns over and over: 20 rad after 10 s, never back across zero
+    path = io.ExperimentData(t=t, q1=spin, q2=np.zeros_like(t)).to_csv(tmp_path / "spin.csv")
+    with pytest.warns(UserWarning, match="looks like degrees"):
+        back = io.read_csv(path)
+    np.testing.assert_array_equal(back.q1, spin)
+
+
+def test_reader_refuses_magnitudes_beyond_any_rig_and_implausible_sample_periods(tmp_path):
+    t = 0.005 * np.arange(500)
+    q1 = 0.1 * np.cos(5 * t)
+    ok = io.ExperimentData(t=t, q1=q1, q2=np.zeros_like(t))
+    bad = dataclasses.replace(ok, q2=np.where(np.arange(500) == 57, 1e308, 0.0))
+    with pytest.raises(DataFormatError, match=r"line 59, column 'q2': 1e\+308 rad is beyond any rig"):
+        io.read_csv(bad.to_csv(tmp_path / "big.csv"))
+    ms = dataclasses.replace(ok, t=t * 1000.0)
+    with pytest.raises(DataFormatError, match=r"sample period 5 s is implausible .* milliseconds"):
+        io.read_csv(ms.to_csv(tmp_path / "ms.csv"))
+    fast = dataclasses.replace(ok, t=t * 1e-9)
+    with pytest.raises(DataFormatError, match="sample period 5e-12 s is implausible"):
+        io.read_csv(fast.to_csv(tmp_path / "fast.csv"))
+    far = dataclasses.replace(ok, t=t + 1e9)  # absolute UNIX-like times: 1e9 s keeps 5 ms with 12 digits
+    assert io.read_csv(far.to_csv(tmp_path / "far.csv")).n_samples == 500

@@ -109,7 +109,7 @@ def user_message(exc: BaseException, parser: argparse.ArgumentParser | None) -> 
             flag = flags.get(dest) or flags.get(dest.lower())
             if flag is None:
                 continue
-            word = rf"(?<![\w\-./\\']){re.escape(name)}(?![\w/\\'])"
+            word = rf"(?<![\w\-./\\']){re.escape(name)}(?![\w/\\'*])"
             if not re.fullmatch(r"[a-z]+", name):
                 text = re.sub(word, flag, text)  # t_end, Ts, x0: identifiers, never prose
             else:  # amplitude, model: replaced where they name the argument, not in prose

@@ -29,21 +29,21 @@ _MAT_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,62}$")
 # --------------------------------------------------------------------------
 # MATLAB
 # --------------------------------------------------------------------------
-def _is_mat_struct(value: Any) -> bool:
+def is_mat_struct(value: Any) -> bool:
     return hasattr(value, "_fieldnames")
 
 
-def _struct_fields(value: Any) -> dict[str, Any]:
+def struct_fields(value: Any) -> dict[str, Any]:
     return {name: getattr(value, name) for name in value._fieldnames}
 
 
-def _flatten_simulink(container: dict[str, Any]) -> dict[str, Any]:
+def flatten_simulink(container: dict[str, Any]) -> dict[str, Any]:
     """Expand a Simulink 'structure with time' (``time`` + ``signals(k).values``)."""
     signals = container.get("signals")
     if signals is None:
         return container
-    items = [signals] if _is_mat_struct(signals) else list(np.atleast_1d(signals))
-    if not items or not all(_is_mat_struct(s) and "values" in s._fieldnames for s in items):
+    items = [signals] if is_mat_struct(signals) else list(np.atleast_1d(signals))
+    if not items or not all(is_mat_struct(s) and "values" in s._fieldnames for s in items):
         return container
     out = {k: v for k, v in container.items() if k != "signals"}
     for k, sig in enumerate(items, start=1):
@@ -157,24 +157,24 @@ def read_mat(
         node = top[parts[0]]
         for k, part in enumerate(parts):
             if k:
-                if not _is_mat_struct(node) or part not in node._fieldnames:
+                if not is_mat_struct(node) or part not in node._fieldnames:
                     raise fail(f"{src}: struct {'.'.join(parts[:k])!r} has no field {part!r}")
                 node = getattr(node, part)
-            if not _is_mat_struct(node):
+            if not is_mat_struct(node):
                 raise fail(f"{src}: variable {'.'.join(parts[:k + 1])!r} is not a struct")
-        container = _struct_fields(node)
+        container = struct_fields(node)
         prefix = struct + "."
     else:
         container = top
-        structs = [k for k, v in top.items() if _is_mat_struct(v)]
+        structs = [k for k, v in top.items() if is_mat_struct(v)]
         has_all = all(n in top or (n == "t" and "time" in top) for n in needed)
         if not has_all and len(structs) == 1:
-            container = _struct_fields(top[structs[0]])
+            container = struct_fields(top[structs[0]])
             prefix = structs[0] + "."
     metadata_value = container.pop(_MAT_METADATA, None)
     if metadata_value is None:
         metadata_value = top.get(_MAT_METADATA)
-    container = _flatten_simulink(container)
+    container = flatten_simulink(container)
     where = src if not prefix else f"{src}, struct {prefix[:-1]!r}"
     used, leftovers = resolve_columns(list(container), mapping, where, kind="variable", time_aliases=("time",))
     cols: dict[str, np.ndarray] = {}
@@ -189,7 +189,7 @@ def read_mat(
             )
     extras = []
     for name in leftovers:
-        arr = np.asarray(container[name]) if not _is_mat_struct(container[name]) else None
+        arr = np.asarray(container[name]) if not is_mat_struct(container[name]) else None
         if arr is None or arr.dtype.kind not in "biuf":
             continue
         arr = np.atleast_1d(np.squeeze(arr))

@@ -48,9 +48,9 @@ import numpy as np
 
 from ..errors import DataFormatError, InputError
 from .experiment import CANONICAL_COLUMNS, CURRENT_COLUMN, GLITCHES_KEY, Q4_SAMPLING_KEY, ExperimentData
-from .mat_format import _flatten_simulink, _is_mat_struct, _struct_fields
+from .mat_format import flatten_simulink, is_mat_struct, struct_fields
 from .rig_description import CURRENT_UNITS, TIME_UNITS, RigDescription, load_rig
-from .tables import Table, check_input_file, check_read_options, fail, finish_log
+from .tables import Table, check_input_file, check_read_options, fail, finish_log, warn_if_degrees
 
 __all__ = ["read_rig_log", "MAX_WHEEL_SPEED", "MAX_CURRENT", "INPUT_LOGGED_COLUMN"]
 
@@ -118,14 +118,14 @@ def _read_mat_raw(path: str | os.PathLike, rig: RigDescription, struct: str | No
     if struct is not None:
         node: Any = top.get(struct.split(".")[0])
         for part in struct.split(".")[1:]:
-            node = getattr(node, part, None) if _is_mat_struct(node) else None
-        if not _is_mat_struct(node):
+            node = getattr(node, part, None) if is_mat_struct(node) else None
+        if not is_mat_struct(node):
             raise fail(f"{src}: no struct {struct!r}; found: {', '.join(top) or 'nothing'}")
-        container, prefix = _struct_fields(node), struct + "."
+        container, prefix = struct_fields(node), struct + "."
     else:
-        structs = [k for k, v in top.items() if _is_mat_struct(v)]
+        structs = [k for k, v in top.items() if is_mat_struct(v)]
         if not all(w in top for w in wanted) and len(structs) == 1:
-            container, prefix = _struct_fields(top[structs[0]]), structs[0] + "."
+            container, prefix = struct_fields(top[structs[0]]), structs[0] + "."
     for name, value in container.items():
         if isinstance(value, MatlabOpaque) and name in wanted:
             cls = _opaque_class(value)
@@ -133,10 +133,10 @@ def _read_mat_raw(path: str | os.PathLike, rig: RigDescription, struct: str | No
                 f"{src}: variable {prefix + name!r} is a MATLAB {cls} object: scipy.io cannot read it, nor reliably "
                 f"any reader on PyPI; export it in MATLAB: s.t = {name}.Time; s.{name} = {name}.Data; "
                 "save('log.mat','-struct','s','-v7')")
-    container = _flatten_simulink(container)
+    container = flatten_simulink(container)
     cols: dict[str, np.ndarray] = {}
     for name, value in container.items():
-        if _is_mat_struct(value) or isinstance(value, MatlabOpaque):
+        if is_mat_struct(value) or isinstance(value, MatlabOpaque):
             continue
         arr = np.asarray(value)
         if arr.dtype.kind not in "biuf":
@@ -268,10 +268,10 @@ def read_rig_log(
             i = int(bad[0])
             raise fail(f"{raw.locate(i, ps.column)}: encoder counts must be whole numbers, found {x[i]!r}; is the "
                        f"angle in rad or deg? set 'pendulum.unit' in {where}")
-    span = float(np.ptp(x)) if x.size else 0.0
-    if ps.unit == "rad" and span > 3.0 * math.pi:
-        raise fail(f"{raw.locate(int(np.argmax(np.abs(x - np.median(x)))), ps.column)}: the pendulum angle spans "
-                   f"{span:.4g} but {where} declares rad: it looks like degrees (or counts); set 'pendulum.unit'")
+    if ps.unit == "rad" and x.size:
+        # the readers' heuristic about the median: an angle swinging across it beyond 3 pi is degrees,
+        # one that turned over (a swing-up, a spinning pendulum) only gets a warning
+        warn_if_degrees(x - np.median(x), raw.source, ps.column, hint=f"'pendulum.unit' in {where}")
     q1 = ps.sign * x * ps.factor + ps.zero
     notes = []
     steps = np.diff(q1)
