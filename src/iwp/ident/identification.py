@@ -212,6 +212,7 @@ def identify(
     p2: Any = None,
     covariance: str = "noise",
     nonlinear: str = "filter-terms",
+    weights: str = "blocks",
 ) -> IdentificationResult:
     """Identify the parameters of one set-up of section 5 from logs.
 
@@ -255,6 +256,14 @@ def identify(
         filtered equation exact; ``"filtered-states"`` evaluates the term at
         the filtered states, ``f(K q1, K q3)`` (the usual way; biased when
         the filter is not flat over the signal band, kept for comparison).
+    weights : {"blocks", "none"}
+        Set-ups on both rows of (10) (``"full"``, ``"two-step"``):
+        ``"blocks"`` (default) weighs each row by the inverse variance of its
+        residuals (feasible weighted least squares,
+        :func:`iwp.ident.lsq.solve_least_squares`); ``"none"`` is the paper's
+        (13) as printed, the plain sum over both rows, in which the larger
+        misfit of the ``dq4/dt`` row moves the parameters shared by both rows
+        (the pendulum's in ``"full"``: the paper's eq. (16)).
 
     Returns
     -------
@@ -279,6 +288,8 @@ def identify(
         raise InputError(f"covariance must be 'noise', 'hac' or 'ols', got {covariance!r}")
     if nonlinear not in ("filter-terms", "filtered-states"):
         raise InputError(f"nonlinear must be 'filter-terms' or 'filtered-states', got {nonlinear!r}")
+    if weights not in ("blocks", "none"):
+        raise InputError(f"weights must be 'blocks' or 'none', got {weights!r}")
     spec.check_options(pendulum, p2)
     if spec.static:
         if t_start is not None or t_end is not None:
@@ -307,7 +318,8 @@ def identify(
     # where it does not apply, lsq's HAC covariance is used
     noise_ok = covariance == "noise" and d.method != "savgol_direct" and nonlinear == "filter-terms"
     lsq_cov = "hac" if covariance == "hac" or (covariance == "noise" and not noise_ok) else "ols"
-    kw: dict[str, Any] = dict(covariance=lsq_cov, allow_rank_deficient=True, sample_index=reg.sample_index)
+    kw: dict[str, Any] = dict(covariance=lsq_cov, allow_rank_deficient=True, sample_index=reg.sample_index,
+                              weights=weights)
     if reg.blocks is not None:
         kw.update(blocks=reg.blocks)
 
