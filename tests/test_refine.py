@@ -21,7 +21,7 @@ from iwp.ident.refinement import (
     simulation_equivalent,
 )
 from iwp.models import Plant, table1
-from iwp.rig import VirtualRig
+from iwp.rig import VirtualRig, uncalibrated_truth
 from iwp.sim import simulate
 from iwp.sim.inputs import Sampled
 from iwp.sim.sensitivity import simulate_sensitivities
@@ -49,7 +49,9 @@ def _ls_start(data, setup, **kw):
 
 @pytest.fixture(scope="module")
 def rig():
-    return VirtualRig(seed=0)
+    # the hand-set truth these tests were designed on (Table 1's pendulum); the calibrated default rig is
+    # exercised by test_calibrate.py and test_reproduce.py
+    return VirtualRig(uncalibrated_truth(), seed=0)
 
 
 @pytest.fixture(scope="module")
@@ -135,7 +137,7 @@ def _every_rig_experiment():
 
 @pytest.mark.parametrize("name,duration,setup", _every_rig_experiment())
 def test_refinement_lowers_the_simulation_error_of_the_least_squares_start(name, duration, setup):
-    rig = VirtualRig(seed=3)
+    rig = VirtualRig(uncalibrated_truth(), seed=3)
     data = rig.run(name, duration=duration)
     kw = {}
     if setup == "two-step":

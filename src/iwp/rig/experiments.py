@@ -52,6 +52,12 @@ class ExperimentSpec:
         The paper's settings (defaults of the run).
     options : tuple of str
         The overrides :meth:`VirtualRig.run` accepts for it.
+    session : str
+        The session of the paper's experiments it belongs to: ``"5.1"`` (the
+        motor-disk experiments of section 5.1) or ``"5.2"`` (the free
+        pendulum, the full chirp and the closed loop of sections 5.2 and 5.3).
+        The truth may differ between sessions
+        (:attr:`iwp.rig.RigTruth.resistance_ratio`).
     """
 
     name: str
@@ -59,6 +65,7 @@ class ExperimentSpec:
     reference: str
     settings: dict
     options: tuple[str, ...]
+    session: str = "5.1"
 
     def settings_text(self) -> str:
         """The settings as ``key=value`` pairs."""
@@ -117,6 +124,7 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
             "section 5.2, figure 8 (the caption says -1.442 rad, ERRATA item 4)",
             {"x0": [-1.422, 0.0, 0.0, 0.0], "duration": 60.0, "locked": False},
             _COMMON + ("x0",),
+            "5.2",
         ),
         ExperimentSpec(
             "full-chirp",
@@ -124,6 +132,7 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
             "section 5.2, eq. (16), figure 9",
             {"amplitude": 60.0, "w0": 3.0, "tau": 100.0, "duration": 300.0, "locked": False, "v_dz": PAPER_V_DZ},
             ("amplitude",) + _COMMON + ("v_dz", "x0"),
+            "5.2",
         ),
         ExperimentSpec(
             "closed-loop",
@@ -132,6 +141,7 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
             {"k1": -10.0, "k2": 0.1, "x0": [0.3, 0.0, 0.0, 0.0], "duration": 60.0, "locked": False,
              "v_dz": PAPER_V_DZ, "filter_tau": VELOCITY_FILTER_TAU},
             _COMMON + ("k1", "k2", "x0", "v_dz", "filter_tau"),
+            "5.2",
         ),
     ]
 }

@@ -47,7 +47,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from ..checks import check_finite, check_nonnegative, check_positive
+from ..checks import check_finite, check_nonnegative, check_positive, check_samples
 from ..data import ExperimentData, StaticCurve
 from ..errors import InputError
 from ..models.encoder import quantize
@@ -143,6 +143,10 @@ class VirtualRig:
             filter_tau : float
                 Time constant of the velocity filter of the controller [s].
 
+        The experiment runs on the truth of its session
+        (:attr:`ExperimentSpec.session`, :meth:`RigTruth.for_session`); the
+        log's metadata ``truth`` is that session's truth.
+
         Returns
         -------
         ExperimentData or StaticCurve
@@ -158,6 +162,9 @@ class VirtualRig:
         if bad:
             raise InputError(
                 f"experiment {name!r} does not take {bad[0]!r}; it takes: {', '.join(spec.options)}")
+        session_truth = self.truth.for_session(spec.session)
+        if session_truth is not self.truth:  # the truth of the experiment's session (RigTruth.resistance_ratio)
+            return VirtualRig(session_truth, seed=self.seed).run(name, **overrides)
         s = dict(spec.settings)
         s.update({k: v for k, v in overrides.items()})
         seed = self.seed if overrides.get("seed") is None else check_seed(overrides["seed"])
@@ -167,7 +174,8 @@ class VirtualRig:
             return self._static_curve(spec, s, seed, noise)
         duration = check_positive("duration", s["duration"])
         v_dz = compensation_thresholds(s.get("v_dz"))
-        meta = {"experiment": name, "reference": spec.reference, "description": spec.description}
+        meta = {"experiment": name, "reference": spec.reference, "description": spec.description,
+                "session": spec.session}
         x0 = initial_state(s["x0"]) if "x0" in s else None
         if name == "free-pendulum":
             return self.record(None, duration=duration, x0=x0, locked=False, v_dz=None, seed=seed,
@@ -253,7 +261,8 @@ class VirtualRig:
         if locked and (x[0] != 0.0 or x[2] != 0.0):
             raise InputError(f"a locked pendulum starts at q1 = q3 = 0, got x0 = {x.tolist()}")
 
-        n = int(math.floor(duration / truth.Ts + 1e-9)) + 1
+        n = check_samples(np.floor(duration / truth.Ts + 1e-9) + 1.0, argument="duration",
+                          what=f"duration {duration:.6g} s at Ts = {truth.Ts:g} s")
         rng = np.random.default_rng(seed)
         noise_arr = rng.normal(0.0, noise, size=(n, 2)) if noise > 0 else np.zeros((n, 2))
         step = truth.step
@@ -331,7 +340,10 @@ class VirtualRig:
             raise InputError("static-curve-compensated needs v_dz (use static-curve for no compensation)")
         rng = np.random.default_rng(seed)
         Ts = truth.Ts
-        n = int(math.floor(hold / Ts + 1e-9)) + 1
+        n = check_samples(np.floor(hold / Ts + 1e-9) + 1.0, argument="duration",
+                          what=f"duration {hold:.6g} s per point at Ts = {Ts:g} s")
+        check_samples(float(n) * grid.size, argument=("duration", "amplitude", "step"),
+                      what=f"{grid.size} points of {n} samples")
         t = Ts * np.arange(n)
         win = t >= t[-1] - STATIC_WINDOW - 1e-9
         plant = truth.plant(locked=True)
