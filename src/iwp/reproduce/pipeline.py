@@ -12,6 +12,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import InputError, IwpError
+from ..files import atomic_write
 from ..models.parameters import table1
 from ..report import prepare_output_dir
 from ..rig import RigTruth, VirtualRig, default_truth
@@ -25,6 +26,7 @@ from .steps import (
     step_full_chirp,
     step_full_setup,
     step_motor_disk,
+    step_paper_numbers,
     step_refine,
     step_sines,
     step_two_step,
@@ -57,6 +59,8 @@ STEPS: list[Step] = [
     Step("full-chirp", step_full_chirp, "The full chirp, with and without the restart", "section 5.2, figure 9",
          ("two-step",)),
     Step("closed-loop", step_closed_loop, "Closed loop k1 = -10, k2 = 0.1", "section 5.3, figure 10", ("two-step",)),
+    Step("paper-numbers", step_paper_numbers, "The paper's numbers, published against reproduced",
+         "sections 5.1-5.3"),
     Step("refine", step_refine, "Refinement by simulation error", "beyond the paper", ("two-step",)),
     Step("report", step_report, "Statements, parameters.json, report.html", ""),
 ]
@@ -153,12 +157,29 @@ def reproduce(
                                       rec.message, rec.seconds))
     ctx.elapsed = time.perf_counter() - ctx.extra["t_start"]
     if ctx.step("report").status == "ok":
-        # the elapsed time in results.json includes the report
-        try:
-            (ctx.out / "results.json").write_text(json.dumps(ctx.to_dict(), indent=2) + "\n")
-        except OSError:
-            pass
+        write_results(ctx, progress)  # the elapsed time in results.json includes the report
     return ctx
+
+
+def write_results(ctx: ReproduceResult, progress: Callable[[ProgressEvent], None] | None = None) -> bool:
+    """Write ``DIR/results.json`` (atomically); a failure marks the step ``report`` failed and says why.
+
+    Returns True when written. On an :class:`OSError` (no space, no permission, a folder in the way) the
+    report step's record becomes ``failed`` with the file and the reason, a ``failed`` progress event is
+    emitted and the run is not ``ok`` (``iwp reproduce`` then exits 1 naming it).
+    """
+    path = ctx.out / "results.json"
+    text = json.dumps(ctx.to_dict(), indent=2) + "\n"
+    try:
+        atomic_write(path, lambda tmp: tmp.write_text(text))
+    except OSError as exc:
+        rec = ctx.step("report")
+        rec.status = "failed"
+        rec.message = f"could not write {path}: {exc.strerror or exc}"
+        idx = next(i for i, s in enumerate(ctx.steps, 1) if s.name == "report")
+        _emit(progress, ProgressEvent("failed", "report", idx, len(ctx.steps), rec.title, rec.message))
+        return False
+    return True
 
 
 def _emit(progress, event: ProgressEvent) -> None:

@@ -5,17 +5,34 @@ from __future__ import annotations
 import math
 
 from ..report import Statement
+from ..rig.targets import PaperTarget, load_targets
 from .context import ReproduceResult, rel_diff
 from .paper import (
-    AMPLITUDE_TOL,
-    DZ_NEAR_PAPER,
+    COULOMB_SIMILAR,
     FIT_CLOSE,
     FRICTION_FAR,
     LINEAR_RESIDUAL,
     P3_SAME,
+    RELATIVELY_CLOSE,
     RHO_CLOSE,
-    TRUTH_TOLERANCES,
 )
+
+_TARGETS: dict[str, PaperTarget] = {}
+
+
+def target(key: str) -> PaperTarget:
+    """One of the paper's published numbers (:func:`iwp.rig.targets.load_targets`), by key."""
+    if not _TARGETS:
+        _TARGETS.update({t.key: t for t in load_targets()})
+    return _TARGETS[key]
+
+
+def _within(key: str, value: float) -> bool:
+    return target(key).within(value)
+
+
+def _tol(key: str) -> str:
+    return f"{100 * target(key).tolerance:.0f} %"
 
 
 # --------------------------------------------------------------------------
@@ -56,53 +73,57 @@ _STEP_OF_NUMBER = {"dead-zone": "dead-zone", "motor-disk": "motor-disk", "sines-
 
 
 def st_dead_zone(ctx, st):
-    st.claim = "The dead zone is about 31 on each side: v+ ~ v- ~ 31 (linear extrapolation of figure 2a)."
+    st.claim = ("A linear approximation of the straight part of the curve in figure 2(a) and a linear extrapolation "
+                "suggest that a fairly good approximation of the dead-zone parameters is v+ ~ v- ~ 31.")
     st.reference = "section 5.1, figure 2(a)"
-    t = ctx.truth.lumped if ctx.truth is not None else None
-    st.criterion = (f"both identified thresholds within {100 * DZ_NEAR_PAPER:.0f} % of 31 "
-                    f"(the rig's truth is not symmetric, see 'found')")
+    st.criterion = f"both thresholds from set-up 'dead-zone' within {_tol('v_dz_pos')} of 31"
     _need(ctx, "dead-zone")
     n = ctx.numbers["dead-zone"]
     vp, vn = n["v_dz_pos"], n["v_dz_neg"]
     truth = ""
-    if t is not None:
+    if ctx.truth is not None:
+        t = ctx.truth.lumped
         eq = t.sigma_c2 / t.p3 if t.p3 > 0 else 0.0
-        truth = (f"; rig truth v+ = {t.v_dz_pos:g}, v- = {t.v_dz_neg:g} (plus the Coulomb equivalent "
-                 f"sigma_c2/p3 = {eq:.1f}: {t.v_dz_pos + eq:.1f}, {t.v_dz_neg + eq:.1f}, which a straight-line "
-                 f"extrapolation absorbs)")
+        truth = (f"; the twin's dead zone is v+ = {t.v_dz_pos:.3g}, v- = {t.v_dz_neg:.3g}, plus the Coulomb "
+                 f"friction's equivalent sigma_c2/p3 = {eq:.2g}, which the straight-line extrapolation absorbs")
         st.values = {"truth_v_dz_pos": t.v_dz_pos, "truth_v_dz_neg": t.v_dz_neg, "coulomb_equivalent": eq}
     st.found = f"v+ = {vp:.2f}, v- = {vn:.2f}{truth}"
     st.values.update({"v_dz_pos": vp, "v_dz_neg": vn})
-    st.passed = rel_diff(vp, 31.0) <= DZ_NEAR_PAPER and rel_diff(vn, 31.0) <= DZ_NEAR_PAPER
+    st.passed = _within("v_dz_pos", vp) and _within("v_dz_neg", vn)
 
 
 def st_linear_after_compensation(ctx, st):
-    st.claim = ("With the compensation v = u + 31 sgn u, the relation between u and q4 is linear with reasonable "
-                "accuracy for |u| > 20; the fitted line is off by 25 rad/s at u = 15.")
+    st.claim = ("Although the dead zone is not completely cancelled, a linear static relationship between u and q4 "
+                "can be fitted with an error of 25 rad/s at u = 15; the motor-disk model is linear with reasonable "
+                "accuracy for |u| > 20.")
     st.reference = "section 5.1, figure 2(b)"
-    st.criterion = (f"a straight line fitted for |u| > 20 leaves residuals below {100 * LINEAR_RESIDUAL:.0f} % "
-                    f"of the largest |q4| there")
+    st.criterion = (f"a straight line fitted for |u| > 20 leaves residuals below {100 * LINEAR_RESIDUAL:.0f} % of "
+                    "the largest |q4| there, and the curve lies below it at u = 15 (the dead zone not completely "
+                    "cancelled); the size of that error, 25 rad/s in the paper, is compared in the table of the "
+                    "paper's numbers")
     _need(ctx, "dead-zone")
     n = ctx.numbers["dead-zone"]
     a, b = n["line"]
     st.found = (f"line q4 = {a:.3f} u {b:+.2f}; largest residual for |u| > 20: {100 * n['linearity']:.2f} % of "
-                f"max |q4|; off by {abs(n['error_at_u15']):.1f} rad/s at u = 15")
+                f"max |q4|; the line is off by {n['error_at_u15']:.1f} rad/s at u = 15 (paper: 25 rad/s, "
+                f"{'within' if _within('compensated_error_u15', n['error_at_u15']) else 'not within'} "
+                f"{_tol('compensated_error_u15')})")
     st.values = {"line": n["line"], "linearity": n["linearity"], "error_at_u15": n["error_at_u15"]}
-    st.passed = n["linearity"] <= LINEAR_RESIDUAL
+    st.passed = n["linearity"] <= LINEAR_RESIDUAL and n["error_at_u15"] > 0.0
 
 
 def st_motor_disk(ctx, st):
     st.claim = "The motor-disk chirp gives p2(1+rho) = 2.930 and p3(1+rho) = 7.759."
-    st.reference = "section 5.1"
-    st.criterion = (f"p3(1+rho) within {100 * TRUTH_TOLERANCES['p3_1rho']:.0f} % of the rig's truth; p2(1+rho) "
-                    f"above the truth (the neglected Coulomb friction appears as extra viscous damping)")
+    st.reference = "section 5.1, set-up theta^a"
+    st.criterion = f"both within {_tol('a_p2_1rho')} of the published values"
     _need(ctx, "motor-disk")
     n = ctx.numbers["motor-disk"]
-    t = ctx.truth.lumped
-    st.found = (f"p2(1+rho) = {n['p2_1rho']:.4g} (truth {t.p2_1rho:.4g}, viscous only), p3(1+rho) = "
-                f"{n['p3_1rho']:.4g} (truth {t.p3_1rho:.4g})")
-    st.values = {**n, "truth_p2_1rho": t.p2_1rho, "truth_p3_1rho": t.p3_1rho}
-    st.passed = rel_diff(n["p3_1rho"], t.p3_1rho) <= TRUTH_TOLERANCES["p3_1rho"] and n["p2_1rho"] > t.p2_1rho
+    t = ctx.truth.for_session("5.1").lumped if ctx.truth is not None else None
+    st.found = (f"p2(1+rho) = {n['p2_1rho']:.4g}, p3(1+rho) = {n['p3_1rho']:.4g}"
+                + (f" (the twin's rigid limit p2 rho = {t.p2 * t.rho:.4g}, p3 rho = {t.p3 * t.rho:.4g}: the "
+                   "neglected Coulomb friction and residual dead zone move the estimates)" if t is not None else ""))
+    st.values = dict(n)
+    st.passed = _within("a_p2_1rho", n["p2_1rho"]) and _within("a_p3_1rho", n["p3_1rho"])
 
 
 def st_rigid_error_grows(ctx, st):
@@ -118,79 +139,96 @@ def st_rigid_error_grows(ctx, st):
 
 
 def st_belt_reduces_error(ctx, st):
-    st.claim = "The flexible (rubber belt) coupling model reduces the error for u = 20 sin 5t."
-    st.reference = "section 5.1, figure 4(b)"
-    st.criterion = ("fit of the belt model (15) with the paper's k/I2 = 60, d = 2 (rigid limit = the identified "
-                    "model) above the rigid model's fit at A = 20")
+    st.claim = ("With the flexible (rubber belt) coupling (15) the identification error for u = 20 sin 5t is "
+                "reduced and a closer matching with the experimental data is obtained (figure 4b against 4a).")
+    st.reference = "section 5.1, figure 4"
+    st.criterion = ("the belt model (15), identified by simulation error from the disk velocity of the sinusoids, "
+                    "fits q4 at A = 20 better than the rigid model (14); a belt simulation that fails fails this")
     _need(ctx, "sines-rigid", "sines-belt")
     rigid = ctx.numbers["sines-rigid"]["20"]["fit"]
-    belt = ctx.numbers["sines-belt"]["paper"]["20"]["fit"]
-    extra = ""
-    if "rig" in ctx.numbers["sines-belt"]:
-        rb = ctx.numbers["sines-belt"]["rig"]
-        extra = f"; with the rig's stiffness k/I2 = {rb['k_over_I2']:g}: {rb['20']['fit']:.1f} %"
-    st.found = f"A = 20: belt {belt:.1f} % against rigid {rigid:.1f} %{extra}"
-    st.values = {"rigid": rigid, "belt": belt}
-    st.passed = belt > rigid
+    ident = ctx.numbers["sines-belt"]["identified"]
+    belt = ident["20"]["fit"]
+    paper = ctx.numbers["sines-belt"].get("paper", {}).get("20", {}).get("fit", float("nan"))
+    st.found = (f"A = 20: identified belt {belt:.1f} % against rigid {rigid:.1f} % (k/I2 = {ident['k_over_I2']:.4g}, "
+                f"d = {ident['d']:.3g}); the paper's k/I2 = 60, d = 2 with the identified rigid limit: {paper:.1f} %"
+                + (f"; {ident['20']['simulation_error']}" if ident["20"].get("simulation_error") else ""))
+    st.values = {"rigid": rigid, "belt": belt, "paper_belt": paper}
+    st.passed = bool(math.isfinite(belt) and belt > rigid)
 
 
 def st_coulomb_parameters(ctx, st):
-    st.claim = ("With Coulomb friction, p2(1+rho) is rather lower (2.190 against 2.930) and p3(1+rho) is very "
-                "close (7.794 against 7.759).")
-    st.reference = "section 5.1"
-    st.criterion = f"p2(1+rho) lower with Coulomb; p3(1+rho) within {100 * P3_SAME:.0f} % of the model without"
+    st.claim = ("With Coulomb friction the identified parameters are p2(1+rho) = 2.190, p3(1+rho) = 7.794 and "
+                "sigma_c2(1+rho) = 40: p3(1+rho) is very close to the value obtained before (7.759), but p2(1+rho) "
+                "has a rather lower value.")
+    st.reference = "section 5.1, set-up theta^b"
+    st.criterion = (f"the three within their tolerances of the published values ({_tol('b_p2_1rho')}, "
+                    f"{_tol('b_p3_1rho')}, {_tol('b_sigma_c2_1rho')}); p2(1+rho) lower than without the Coulomb "
+                    f"term; p3(1+rho) within {100 * P3_SAME:.0f} % of the value without")
     _need(ctx, "motor-disk", "coulomb")
     a, c = ctx.numbers["motor-disk"], ctx.numbers["coulomb"]
-    t = ctx.truth.lumped
-    st.found = (f"p2(1+rho) {c['p2_1rho']:.4g} with Coulomb against {a['p2_1rho']:.4g} without (truth "
-                f"{t.p2_1rho:.4g}); p3(1+rho) {c['p3_1rho']:.4g} against {a['p3_1rho']:.4g}; sigma_c2(1+rho) = "
-                f"{c['sigma_c2_1rho']:.4g} (truth {t.sigma_c2_1rho:.4g}, paper 40)")
-    st.values = {"with": c, "without": a}
-    st.passed = c["p2_1rho"] < a["p2_1rho"] and rel_diff(c["p3_1rho"], a["p3_1rho"]) <= P3_SAME
+    st.found = (f"p2(1+rho) {c['p2_1rho']:.4g} with Coulomb against {a['p2_1rho']:.4g} without; p3(1+rho) "
+                f"{c['p3_1rho']:.4g} against {a['p3_1rho']:.4g}; sigma_c2(1+rho) = {c['sigma_c2_1rho']:.4g}")
+    st.values = {"with": {k: v for k, v in c.items() if k != "by_window"}, "without": a}
+    st.passed = (_within("b_p2_1rho", c["p2_1rho"]) and _within("b_p3_1rho", c["p3_1rho"])
+                 and _within("b_sigma_c2_1rho", c["sigma_c2_1rho"]) and c["p2_1rho"] < a["p2_1rho"]
+                 and rel_diff(c["p3_1rho"], a["p3_1rho"]) <= P3_SAME)
 
 
 def st_coulomb_negligible(ctx, st):
-    st.claim = ("Coulomb friction can be neglected: with it the results for A = 60 and 40 are very similar and for "
-                "A = 20 the error is larger than without.")
+    st.claim = ("Coulomb friction can be neglected: with it the results for A = 60 and 40 are very similar to those "
+                "without, and for A = 20 the approximation error is larger than without.")
     st.reference = "section 5.1, figures 6 and 7"
-    st.criterion = "the Coulomb model's fit at A = 20 is not better than the rigid model's without Coulomb"
+    st.criterion = (f"RMS errors of q4 with and without the Coulomb term within {100 * COULOMB_SIMILAR:.0f} % of each "
+                    "other at A = 60 and 40; at A = 20 the RMS error with it is larger")
     _need(ctx, "sines-rigid", "sines-coulomb")
     r, c = ctx.numbers["sines-rigid"], ctx.numbers["sines-coulomb"]
-    st.found = ("fit with / without Coulomb: " + ", ".join(
-        f"A = {A}: {c[str(A)]['fit']:.1f} / {r[str(A)]['fit']:.1f} %" for A in (60, 40, 20)))
+    st.found = ("RMS error of q4 with / without Coulomb: " + ", ".join(
+        f"A = {A}: {c[str(A)]['rms']:.3g} / {r[str(A)]['rms']:.3g} rad/s" for A in (60, 40, 20)))
     st.values = {"with": c, "without": r}
-    st.passed = c["20"]["fit"] <= r["20"]["fit"]
+    similar = all(rel_diff(c[str(A)]["rms"], r[str(A)]["rms"]) <= COULOMB_SIMILAR for A in (60, 40))
+    st.passed = similar and c["20"]["rms"] > r["20"]["rms"]
 
 
 def st_full_setup_far(ctx, st):
     st.claim = ("The full 8-parameter set-up gives pendulum parameters (p1 and the sigmas) significantly far from "
                 "those of the free pendulum, and a poor prediction.")
     st.reference = "section 5.2, eq. (16)"
-    st.criterion = (f"a friction coefficient differs from the free-pendulum value by more than a factor "
-                    f"{FRICTION_FAR:g} (or in sign), and the q1 fit on the full chirp is below the two-step model's")
+    st.criterion = (f"eq. (16) computed as the paper computes it, with (13) as printed (the plain sum over both rows, "
+                    f"identify(..., weights='none')): a friction coefficient differs from the free-pendulum value by "
+                    f"more than a factor {FRICTION_FAR:g} (or in sign), and the q1 fit on the full chirp is below the "
+                    "two-step model's; a simulation with these parameters that fails fails this")
     _need(ctx, "full-setup", "free")
-    th, fr = ctx.numbers["full-setup"]["theta"], ctx.numbers["free"]
+    fs, fr = ctx.numbers["full-setup"], ctx.numbers["free"]
+    if "unweighted" not in fs:
+        raise KeyError("full-setup")
+    th = fs["unweighted"]["theta"]
     ratios = {}
     for k in ("sigma_a1", "sigma_v1", "sigma_b1"):
         ratios[k] = th[k] / fr[k] if fr[k] != 0 else float("inf")
     far = any((not math.isfinite(r)) or r <= 0 or r > FRICTION_FAR or r < 1.0 / FRICTION_FAR
               for r in ratios.values())
-    fit_full = ctx.numbers["full-setup"].get("fit_q1", float("nan"))
+    fit_full = fs["unweighted"].get("fit_q1", float("nan"))
     fit_two = ctx.numbers.get("full-chirp", {}).get("fit_q1", float("nan"))
-    sim_err = ctx.numbers["full-setup"].get("simulation_error")
-    worse = (sim_err is not None) or (math.isfinite(fit_two) and not (fit_full >= fit_two))
-    st.found = (f"full set-up p1 = {th['p1']:.4g}, sigma_a1 = {th['sigma_a1']:.3g}, sigma_v1 = {th['sigma_v1']:.3g}, "
-                f"sigma_b1 = {th['sigma_b1']:.3g}; free pendulum p1 = {fr['p1']:.4g}, sigma_a1 = {fr['sigma_a1']:.3g}, "
-                f"sigma_v1 = {fr['sigma_v1']:.3g}, sigma_b1 = {fr['sigma_b1']:.3g}; q1 fit "
-                + (f"not available ({sim_err})" if sim_err else f"{fit_full:.1f} %")
-                + f" against {fit_two:.1f} % (two-step); condition number "
-                  f"{ctx.numbers['full-setup']['condition_number']:.3g}")
-    st.values = {"ratios": ratios, "fit_full": fit_full, "fit_two_step": fit_two}
-    if not math.isfinite(fit_two) and sim_err is None:
+    sim_err = fs["unweighted"].get("simulation_error")
+    dw = fs["theta"]
+    st.found = (f"(13) as printed: p1 = {th['p1']:.4g}, sigma_a1 = {th['sigma_a1']:.3g}, sigma_v1 = "
+                f"{th['sigma_v1']:.3g}, sigma_b1 = {th['sigma_b1']:.3g}; free pendulum p1 = {fr['p1']:.4g}, sigma_a1 = "
+                f"{fr['sigma_a1']:.3g}, sigma_v1 = {fr['sigma_v1']:.3g}, sigma_b1 = {fr['sigma_b1']:.3g}; q1 fit "
+                + (f"not available, the simulation failed ({sim_err})" if sim_err else f"{fit_full:.1f} %")
+                + f" against {fit_two:.1f} % (two-step). With iwp's default weights per row instead: p1 = "
+                  f"{dw['p1']:.4g}, sigma_a1 = {dw['sigma_a1']:.3g}, sigma_v1 = {dw['sigma_v1']:.3g}, sigma_b1 = "
+                  f"{dw['sigma_b1']:.3g}, q1 fit {fs.get('fit_q1', float('nan')):.1f} %: the paper's finding is a "
+                  "property of the unweighted (13)")
+    st.values = {"ratios": ratios, "fit_full": fit_full, "fit_two_step": fit_two, "simulation_error": sim_err,
+                 "default_weights": {"theta": dw, "fit_q1": fs.get("fit_q1")}}
+    if sim_err is not None:  # no prediction to judge: the check fails rather than pass on a missing number
+        st.passed = False
+        return
+    if not math.isfinite(fit_two):
         st.passed = None  # the comparison needs the two-step model's fit
         st.found += " (not checked: the two-step model's fit is missing)"
         return
-    st.passed = bool(far and worse)
+    st.passed = bool(far and fit_full < fit_two)
 
 
 def st_free_pendulum(ctx, st):
@@ -199,10 +237,8 @@ def st_free_pendulum(ctx, st):
     st.criterion = "q1 fit above 90 %"
     _need(ctx, "free")
     n = ctx.numbers["free"]
-    t = ctx.truth.lumped
-    st.found = (f"fit {n['fit_q1']:.1f} %; p1 = {n['p1']:.4g} (truth {t.p1:g}), sigma_a1 = {n['sigma_a1']:.3g} "
-                f"({t.sigma_a1:g}), sigma_v1 = {n['sigma_v1']:.3g} ({t.sigma_v1:g}), sigma_b1 = "
-                f"{n['sigma_b1']:.3g} ({t.sigma_b1:g})")
+    st.found = (f"fit {n['fit_q1']:.1f} %; p1 = {n['p1']:.4g}, sigma_a1 = {n['sigma_a1']:.3g}, sigma_v1 = "
+                f"{n['sigma_v1']:.3g}, sigma_b1 = {n['sigma_b1']:.3g}")
     st.values = n
     st.passed = n["fit_q1"] > 90.0
 
@@ -217,24 +253,24 @@ def st_rho_close(ctx, st):
     r1, r2 = n["rho_1"], n["rho_2"]
     mean = 0.5 * (r1 + r2)
     diff = abs(r1 - r2) / abs(mean) if mean else float("inf")
-    st.found = (f"rho_1 = {r1:.2f}, rho_2 = {r2:.2f} ({100 * diff:.2f} % apart), mean {mean:.2f}; rig truth "
-                f"{ctx.truth.lumped.rho:g}")
+    st.found = f"rho_1 = {r1:.2f}, rho_2 = {r2:.2f} ({100 * diff:.2f} % apart), mean {mean:.2f}"
     st.values = {"rho_1": r1, "rho_2": r2, "mean": mean, "relative_difference": diff}
     st.passed = diff <= RHO_CLOSE
 
 
-def st_truth_recovered(ctx, st):
-    st.claim = ("(Virtual rig, not in the paper) The two-step identification recovers the rig's parameters.")
-    st.reference = "Table 1 against the rig's truth"
-    st.criterion = "relative errors within " + ", ".join(f"{k} {100 * v:.0f} %" for k, v in TRUTH_TOLERANCES.items())
-    if "least-squares" not in ctx.params:
-        raise KeyError("two-step")
-    p, t = ctx.params["least-squares"], ctx.truth.lumped
-    errs = {k: rel_diff(getattr(p, k), getattr(t, k)) for k in TRUTH_TOLERANCES}
-    st.found = ", ".join(f"{k} = {getattr(p, k):.4g} (truth {getattr(t, k):.4g}, off by {100 * errs[k]:.1f} %)"
-                         for k in errs)
-    st.values = {"relative_errors": errs}
-    st.passed = all(errs[k] <= TRUTH_TOLERANCES[k] for k in errs)
+def st_full_motor_close(ctx, st):
+    st.claim = ("With the full set-up, p2(1+rho) = theta7 and p3(1+rho) = theta8 are relatively close to the values "
+                "obtained before for the motor-disk subsystem (2.5194 and 7.2813 against 2.930 and 7.759).")
+    st.reference = "section 5.2, after eq. (16)"
+    st.criterion = (f"theta7 and theta8 of the full set-up within {100 * RELATIVELY_CLOSE:.0f} % of the motor-disk "
+                    "set-up's p2(1+rho) and p3(1+rho) (the paper's own pairs differ by 14 % and 6 %)")
+    _need(ctx, "full-setup", "motor-disk")
+    th, md = ctx.numbers["full-setup"]["theta"], ctx.numbers["motor-disk"]
+    d2, d3 = rel_diff(th["p2_1rho"], md["p2_1rho"]), rel_diff(th["p3_1rho"], md["p3_1rho"])
+    st.found = (f"theta7 = {th['p2_1rho']:.4g} against {md['p2_1rho']:.4g} ({100 * d2:.1f} %), theta8 = "
+                f"{th['p3_1rho']:.4g} against {md['p3_1rho']:.4g} ({100 * d3:.1f} %)")
+    st.values = {"theta7": th["p2_1rho"], "theta8": th["p3_1rho"], "relative": [d2, d3]}
+    st.passed = d2 <= RELATIVELY_CLOSE and d3 <= RELATIVELY_CLOSE
 
 
 def st_full_chirp_close(ctx, st):
@@ -248,6 +284,19 @@ def st_full_chirp_close(ctx, st):
         r = ctx.numbers["refine"]
         st.found += (f"; with only p1 changed to the refined value the q1 fit is {r['fit_ls_with_refined_p1']:.1f} %, "
                      f"with all refined parameters {r['fit_full_chirp_q1']:.1f} %")
+    c, fr, ts = ctx.numbers.get("coulomb"), ctx.numbers.get("free"), ctx.numbers.get("two-step")
+    if c and fr and ts and not n["fit_q1"] > FIT_CLOSE:
+        held = c["sigma_c2_1rho"] > fr["p1"] * math.sin(1.422)
+        rho = ts["rho"]
+        st.found += (f". Why: set-up theta^b finds the disk's Coulomb friction sigma_c2(1+rho) = "
+                     f"{c['sigma_c2_1rho']:.3g} rad/s^2, {'above' if held else 'below'} the largest pendulum term "
+                     f"that drives the wheel in the free decay, p1 sin 1.422 = {fr['p1'] * math.sin(1.422):.3g} "
+                     f"rad/s^2: " + ("the wheel is held, the arm carries its inertia, and theta^c returns "
+                                     f"p1 rho/(1 + rho), {100 / (1 + rho):.2f} % below the p1 that the chirp's "
+                                     "spinning wheel leaves; over 300 s that frequency error becomes a phase error. "
+                                     "The paper's own theta^b (40 rad/s^2) and theta^c (26.095 sin 1.422 = 25.8) say "
+                                     "the "
+                                     "same of its rig" if held else "the wheel may turn"))
     st.values = n
     st.passed = n["fit_q1"] > FIT_CLOSE
 
@@ -268,13 +317,14 @@ def st_amplitude(ctx, st):
     st.claim = "With k1 = -10 and k2 = 0.1 the system oscillates with an amplitude q1max ~ 2.58 rad, and the model " \
                "matches closely."
     st.reference = "section 5.3, figure 10"
-    st.criterion = (f"rig and model amplitudes within {100 * AMPLITUDE_TOL:.0f} % of 2.58 rad and of each other")
+    st.criterion = (f"the rig's amplitude within {_tol('cl_amplitude_rig')} of 2.58 rad, and the identified model's "
+                    f"within {_tol('cl_model_over_rig')} of the rig's")
     _need(ctx, "closed-loop")
     n = ctx.numbers["closed-loop"]
     a, m = n["amplitude_rig"], n["amplitude_model"]
     st.found = f"rig {a:.3f} rad, identified model {m:.3f} rad (q1 fit {n['fit_q1']:.1f} %)"
     st.values = n
-    st.passed = all(rel_diff(x, ref) <= AMPLITUDE_TOL for x, ref in ((a, 2.58), (m, 2.58), (m, a)))
+    st.passed = _within("cl_amplitude_rig", a) and _within("cl_model_over_rig", m / a)
 
 
 def st_refinement(ctx, st):
@@ -297,7 +347,6 @@ def st_refinement(ctx, st):
 
 #: The statements, in the paper's order.
 STATEMENTS = [st_dead_zone, st_linear_after_compensation, st_motor_disk, st_rigid_error_grows,
-               st_belt_reduces_error, st_coulomb_parameters, st_coulomb_negligible, st_full_setup_far,
-               st_free_pendulum, st_rho_close, st_truth_recovered, st_full_chirp_close, st_restart, st_amplitude,
-               st_refinement]
-
+              st_belt_reduces_error, st_coulomb_parameters, st_coulomb_negligible, st_full_setup_far,
+              st_free_pendulum, st_rho_close, st_full_motor_close, st_full_chirp_close, st_restart, st_amplitude,
+              st_refinement]
