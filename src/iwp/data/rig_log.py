@@ -63,6 +63,14 @@ INPUT_LOGGED_COLUMN = "input_logged"
 _MIN_TS, _MAX_TS = 1e-5, 2.0
 
 
+def _check_counts(raw: "_Raw", column: str, x: np.ndarray, fix: str) -> None:
+    """Refuse a column declared in encoder counts that holds fractions (naming the sample and the fix)."""
+    bad = np.flatnonzero(np.abs(x - np.round(x)) > 1e-6)
+    if bad.size:
+        i = int(bad[0])
+        raise fail(f"{raw.locate(i, column)}: encoder counts must be whole numbers, found {x[i]!r}; {fix}")
+
+
 class _Raw:
     """The named numeric columns of a log, and where each sample is (for messages)."""
 
@@ -262,12 +270,7 @@ def read_rig_log(
     ps = rig.pendulum
     x = raw.get(ps.column, "pendulum.column", rig)
     if ps.unit == "counts":
-        frac = np.abs(x - np.round(x))
-        bad = np.flatnonzero(frac > 1e-6)
-        if bad.size:
-            i = int(bad[0])
-            raise fail(f"{raw.locate(i, ps.column)}: encoder counts must be whole numbers, found {x[i]!r}; is the "
-                       f"angle in rad or deg? set 'pendulum.unit' in {where}")
+        _check_counts(raw, ps.column, x, f"is the angle in rad or deg? set 'pendulum.unit' in {where}")
     if ps.unit == "rad" and x.size:
         # the readers' heuristic about the median: an angle swinging across it beyond 3 pi is degrees,
         # one that turned over (a swing-up, a spinning pendulum) only gets a warning
@@ -295,12 +298,7 @@ def read_rig_log(
     ws = rig.wheel
     w = raw.get(ws.column, "wheel.column", rig)
     if ws.unit == "counts":
-        frac = np.abs(w - np.round(w))
-        bad = np.flatnonzero(frac > 1e-6)
-        if bad.size:
-            i = int(bad[0])
-            raise fail(f"{raw.locate(i, ws.column)}: encoder counts must be whole numbers, found {w[i]!r}; set "
-                       f"'wheel.unit' in {where}")
+        _check_counts(raw, ws.column, w, f"set 'wheel.unit' in {where}")
     f = ws.factor(rig.drive.ratio)
     if ws.quantity == "speed":
         at_sensor = np.abs(w) * ws.factor(1.0) * (rig.drive.ratio if ws.at == "motor" else 1.0)
