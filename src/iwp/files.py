@@ -22,11 +22,15 @@ LOG_SUFFIXES = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "par
 FIGURE_SUFFIXES = (".png", ".svg", ".pdf", ".eps", ".ps", ".jpg", ".jpeg", ".tif", ".tiff", ".webp")
 
 
-def _nearest_existing(p: Path) -> Path:
-    q = p.parent
-    while not q.exists() and q != q.parent:
-        q = q.parent
-    return q
+def _check_writable_place(p: Path, argument: str) -> None:
+    """The nearest existing folder at or above ``p`` (``p`` itself if it is a folder) must be a writable folder."""
+    anc = p if p.is_dir() else p.parent
+    while not anc.exists() and anc != anc.parent:
+        anc = anc.parent
+    if not anc.is_dir():
+        raise InputError(f"{argument} {p}: {anc} is a file, not a folder", argument=argument)
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise InputError(f"{argument} {p}: folder {anc} is not writable", argument=argument)
 
 
 def check_output_file(path: str | Path, *, force: bool = False, argument: str = "out",
@@ -52,11 +56,7 @@ def check_output_file(path: str | Path, *, force: bool = False, argument: str = 
         raise InputError(f"{argument} {p}: is a folder, expected a file path", argument=argument)
     if p.exists() and not force:
         raise OutputExistsError(f"{argument} {p}: file exists; pass --force to overwrite it")
-    anc = _nearest_existing(p)
-    if not anc.is_dir():
-        raise InputError(f"{argument} {p}: {anc} is a file, not a folder", argument=argument)
-    if not os.access(anc, os.W_OK | os.X_OK):
-        raise InputError(f"{argument} {p}: folder {anc} is not writable", argument=argument)
+    _check_writable_place(p, argument)
     if p.exists() and not os.access(p, os.W_OK):
         raise InputError(f"{argument} {p}: file is not writable", argument=argument)
     return p
@@ -78,11 +78,7 @@ def check_output_dir(path: str | Path, *, force: bool = False, argument: str = "
         raise InputError(f"{argument} {p}: exists and is not a folder", argument=argument)
     if p.is_dir() and any(p.iterdir()) and not force:
         raise OutputExistsError(f"{argument} {p}: folder exists and is not empty; pass --force to write into it")
-    anc = p if p.is_dir() else _nearest_existing(p)
-    if not anc.is_dir():
-        raise InputError(f"{argument} {p}: {anc} is a file, not a folder", argument=argument)
-    if not os.access(anc, os.W_OK | os.X_OK):
-        raise InputError(f"{argument} {p}: folder {anc} is not writable", argument=argument)
+    _check_writable_place(p, argument)
     return p
 
 

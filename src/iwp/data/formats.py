@@ -18,14 +18,6 @@ from .rig_log import read_rig_log
 
 #: Input formats known to :func:`read_experiment` (``format=``).
 FORMATS = ("csv", "mat", "parquet", "angle-log")
-_EXTENSIONS = {
-    ".csv": "csv",
-    ".txt": "csv",
-    ".mat": "mat",
-    ".parquet": "parquet",
-    ".pq": "parquet",
-}
-#: A pendulum angle whose peak magnitude exceeds this is taken for degrees [rad].
 
 # --------------------------------------------------------------------------
 # dispatch and conversion
@@ -46,9 +38,9 @@ def format_of(path: str | os.PathLike, *, writing: bool = False) -> str:
 
 def _format_of(path: str | os.PathLike, kinds: dict[str, Any], what: str) -> str:
     ext = Path(path).suffix.lower()
-    fmt = _EXTENSIONS.get(ext)
+    fmt = LOG_SUFFIXES.get(ext)
     if fmt is None or fmt not in kinds:
-        known = ", ".join(e for e, f in _EXTENSIONS.items() if f in kinds)
+        known = ", ".join(e for e, f in LOG_SUFFIXES.items() if f in kinds)
         raise InputError(
             f"{path}: cannot tell the {what} format from the extension {ext or '(none)'!r}; "
             f"use one of {known} or give the format ({', '.join(kinds)})"

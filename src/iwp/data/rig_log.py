@@ -49,6 +49,7 @@ import numpy as np
 from ..errors import DataFormatError, InputError
 from .experiment import CANONICAL_COLUMNS, CURRENT_COLUMN, GLITCHES_KEY, Q4_SAMPLING_KEY, ExperimentData
 from .mat_format import flatten_simulink, is_mat_struct, struct_fields
+from .plausibility import SAMPLE_PERIOD_RANGE
 from .rig_description import CURRENT_UNITS, TIME_UNITS, RigDescription, load_rig
 from .tables import Table, check_input_file, check_read_options, fail, finish_log, warn_if_degrees
 
@@ -60,7 +61,6 @@ MAX_WHEEL_SPEED = 3000.0
 MAX_CURRENT = 100.0
 #: The logged input before clipping to its limits, kept as an extra column when something was clipped.
 INPUT_LOGGED_COLUMN = "input_logged"
-_MIN_TS, _MAX_TS = 1e-5, 2.0
 
 
 def _check_counts(raw: "_Raw", column: str, x: np.ndarray, fix: str) -> None:
@@ -258,8 +258,9 @@ def read_rig_log(
     if t.size >= 2:
         dt = np.diff(t)
         med = float(np.median(dt))
-        if med > 0 and not _MIN_TS <= med <= _MAX_TS:
-            hint = "ms" if med > _MAX_TS else "s"
+        lo, hi = SAMPLE_PERIOD_RANGE  # the readers' plausible range, with the key to change named
+        if med > 0 and not lo <= med <= hi:
+            hint = "ms" if med > hi else "s"
             raise fail(f"{raw.locate(1, tname)}: a median time step of {med:.6g} s cannot be the sample period of "
                        f"a rig; is the time in {hint}? set 'time.unit' in {where}")
         if rig.sample_period is not None and med > 0 and abs(med - rig.sample_period) > 0.01 * rig.sample_period:

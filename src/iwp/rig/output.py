@@ -7,13 +7,13 @@ from pathlib import Path
 
 from ..data import ExperimentData, StaticCurve, write_experiment, write_static_curve
 from ..errors import InputError
-from ..files import check_output_file
+from ..files import LOG_SUFFIXES, check_output_file
 from .experiments import experiment_spec
 
 __all__ = ["check_output_path", "write_result"]
 
 _STATIC_EXT = (".csv", ".txt")
-_SERIES_EXT = (".csv", ".txt", ".parquet", ".pq", ".mat")  # those of iwp.data.write_experiment
+_SERIES_EXT = tuple(LOG_SUFFIXES)  # those of iwp.data.write_experiment
 
 
 def check_output_path(name: str, path: str | os.PathLike, *, force: bool = False) -> Path:
