@@ -1,4 +1,4 @@
-"""Benchmark of the calibration of the twin (``iwp rig calibrate``, :func:`iwp.rig.calibrate`).
+"""Benchmark of the calibration of the twin (``iwp rig calibrate``, :func:`iwp.calibration.calibrate`).
 
 Every iteration of the calibration runs the paper's experiments on the twin
 and applies the paper's procedures: one *twin evaluation*. Its time is the
@@ -6,7 +6,7 @@ baseline, measured in the same run; the calibration's time is reported in
 seconds and as a multiple of it (the number of evaluations the optimiser
 needed, plus the overhead of the optimiser).
 
-(a) one twin evaluation: :func:`iwp.rig.statistics.paper_numbers` on the default truth, full-length experiments;
+(a) one twin evaluation: :func:`iwp.calibration.statistics.paper_numbers` on the default truth, full-length experiments;
 (b) a calibration of 5 structural parameters from a perturbed start (full-length experiments, the paper's targets);
 (c) the calibration of all 17 parameters from the uncalibrated truth (Table 1 with the paper's Coulomb model,
     :func:`iwp.rig.uncalibrated_truth`), as ``iwp rig calibrate --truth START.json`` runs it; a few minutes.
@@ -24,8 +24,8 @@ import os
 import sys
 import time
 
-from iwp.rig import calibrate, default_truth, paper_numbers, truth_with, uncalibrated_truth
-from iwp.rig.calibrate import DEFAULT_FREE
+from iwp.calibration import DEFAULT_FREE, calibrate, paper_numbers, truth_with
+from iwp.rig import default_truth, uncalibrated_truth
 
 FREE5 = ("lumped.p3", "lumped.v_dz_pos", "lumped.v_dz_neg", "lumped.sigma_c2", "resistance_ratio")
 

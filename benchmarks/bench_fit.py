@@ -34,7 +34,7 @@ from scipy import integrate, optimize
 from iwp.data import ExperimentData
 from iwp.data.rig_description import RigDescription
 from iwp.ident.logfit import least_squares_start, load_logs
-from iwp.ident.refinement import refine
+from iwp.ident.refinement import as_experiments, refine
 from iwp.models.parameters import LumpedParameters
 from iwp.rig.described import DescribedRig, prbs, write_rig_csv
 from iwp.sim.inputs import Chirp
@@ -120,13 +120,12 @@ def main(argv=None) -> int:
             warnings.simplefilter("ignore")
             log = load_logs([path], rig0)[0]
         d = ExperimentData(t=log.t, q1=log.q1, q4=log.q4, u=log.v, metadata=log.metadata)
-        start = least_squares_start([d])[0].replace(sigma_a1=0.0, sigma_b1=TRUTH.sigma_b1)
+        start = least_squares_start([d]).params.replace(sigma_a1=0.0, sigma_b1=TRUTH.sigma_b1)
         free = ("p1", "p2", "p3", "rho", "sigma_v1")
-        refine(d, start, model="compensated", free=free, outputs=("q1", "q4"), estimate_x0=False,
-               x0=[np.zeros(4)], warn=False)  # load the kernel
+        exps = as_experiments(d, estimate_x0=False, x0=[np.zeros(4)])
+        refine(exps, start, free=free, outputs=("q1", "q4"), warn=False)  # load the kernel
         t0 = time.perf_counter()
-        ours = refine(d, start, model="compensated", free=free, outputs=("q1", "q4"), estimate_x0=False,
-                      x0=[np.zeros(4)], warn=False)
+        ours = refine(exps, start, free=free, outputs=("q1", "q4"), warn=False)
         t_ours = time.perf_counter() - t0
         t0 = time.perf_counter()
         ref, nfev = reference(d, start, free)

@@ -47,8 +47,8 @@ from scipy.integrate import solve_ivp  # noqa: E402
 
 import iwp.ident.refinement as R  # noqa: E402
 from iwp.ident.identification import identify  # noqa: E402
+from iwp.ident.output_error import OutputError, initial_state  # noqa: E402
 from iwp.models import Plant, table1  # noqa: E402
-from iwp.models.parameters import TYPICAL  # noqa: E402
 from iwp.rig import VirtualRig  # noqa: E402
 from iwp.sim import simulate  # noqa: E402
 
@@ -62,14 +62,15 @@ def least_squares_start(data):
 
 def _problem(data, start):
     """Unknowns, scaling and bounds of the free-decay fit, as iwp.ident.refinement sets them."""
-    x0 = R.initial_state(data, 0, "free")
-    theta0 = np.array([getattr(start, n) for n in FREE])
-    lo, hi = R._check_bounds(FREE, None, start)
-    theta0 = np.clip(theta0, lo, hi)
-    pscale = np.array([max(abs(v), TYPICAL[n] * 1e-3) if v != 0 else TYPICAL[n] for v, n in zip(theta0, FREE)])
-    z0 = np.concatenate([theta0 / pscale, [x0[0], x0[2]]])
-    zlo = np.concatenate([lo / pscale, [-np.inf, -np.inf]])
-    zhi = np.concatenate([hi / pscale, [np.inf, np.inf]])
+    plant = R.fit_plant(start, "free")
+    model = OutputError(plant, R.as_experiments(data), ("q1",))
+    params = model.parameters(FREE)
+    x0 = initial_state(data, 0, plant)
+    pscale = np.array([params[n].optimiser_scale() for n in FREE])
+    lo, hi = params.internal_bounds()
+    z0 = np.concatenate([params.to_internal()[:4], [x0[0], x0[2]]])
+    zlo = np.concatenate([lo[:4], [-np.inf, -np.inf]])
+    zhi = np.concatenate([hi[:4], [np.inf, np.inf]])
     return x0, pscale, z0, (zlo, zhi)
 
 

@@ -72,8 +72,9 @@ def main() -> int:
     print("|---|---:|---:|")
     for name, t, r in rows:
         print(f"| {name} | {t:.2f} | {r:.1f} |")
-    print("\nTargets (issue 15): `iwp --help` under 0.3 s; first `iwp simulate` of a fresh install under 10 s and first "
-          "`iwp reproduce` under 30 s, compilation included (the install compiles: the rows 'after `iwp warmup`').")
+    print("\nTargets (issue 15): `iwp --help` under 0.3 s; first `iwp simulate` of a fresh install under 10 s and "
+          "first `iwp reproduce` under 30 s, compilation included (the install compiles: the rows 'after "
+          "`iwp warmup`').")
     return 0
 
 

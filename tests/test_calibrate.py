@@ -16,28 +16,25 @@ import numpy as np
 import pytest
 
 import iwp.cli
+from iwp.calibration import (
+    PaperTarget,
+    calibrate,
+    compare_targets,
+    load_targets,
+    paper_numbers,
+    truth_with,
+    twin_statistics,
+)
 from iwp.data import ExperimentData
 from iwp.errors import InputError
+from iwp.ident.belt_fit import refine_belt
 from iwp.ident.identification import identify
-from iwp.ident.refinement import refine
+from iwp.ident.problem import SolverOptions
 from iwp.ident.validation import validate
 from iwp.models import Plant
 from iwp.models.encoder import quantize
 from iwp.models.parameters import BeltParameters, table1
-from iwp.rig import (
-    DEFAULT_TRUTH_FILE,
-    PaperTarget,
-    RigTruth,
-    VirtualRig,
-    calibrate,
-    compare_targets,
-    default_truth,
-    load_targets,
-    paper_numbers,
-    truth_record,
-    truth_with,
-)
-from iwp.rig.calibrate import twin_statistics
+from iwp.rig import DEFAULT_TRUTH_FILE, RigTruth, VirtualRig, default_truth, truth_record
 from iwp.sim import simulate
 from iwp.sim.inputs import Sampled
 
@@ -241,7 +238,7 @@ def test_belt_fit_recovers_a_known_belt_from_the_disk_velocity():
     true = BeltParameters.from_rigid(2.6, 7.5, k_over_I2=150.0, d=0.4, N=13.5, b2_over_I2=0.6)
     logs = _belt_logs(true, lumped)
     start = BeltParameters.from_rigid(2.3, 7.0, k_over_I2=80.0, d=1.0, N=13.5, b2_over_I2=1.0)
-    res = refine(logs, lumped, model="belt", belt=start, warn=False, rtol=1e-6, atol=1e-6)
+    res = refine_belt(logs, Plant(lumped, model="belt", belt=start), warn=False)
     assert res.success and res.belt is not None
     # recovered within the bias left by the encoder's quantisation and the differentiated q4; b2/I2 and
     # kT beta/(R gamma) are 0.99 correlated (the velocity determines their combination best), hence 8 %
@@ -260,7 +257,8 @@ def test_belt_model_reduces_the_error_at_a20_on_the_twin():
     sines = [rig.run(f"sine-{A}", duration=8.0) for A in (60, 40, 20)]
     start = BeltParameters.from_rigid(md.value("p2_1rho"), md.value("p3_1rho"), k_over_I2=60.0, d=2.0, N=13.5,
                                       b2_over_I2=0.5)
-    res = refine(sines, params, model="belt", belt=start, warn=False, max_nfev=20, rtol=1e-6, atol=1e-6)
+    res = refine_belt(sines, Plant(params, model="belt", belt=start), warn=False,
+                      options=SolverOptions(max_nfev=20, rtol=1e-6, atol=1e-6))
     rigid20 = validate(sines[2], params, model="compensated", signals=("q4",)).fit["q4"]
     assert res.fit[2]["q4"] > rigid20 + 1.0
     assert res.cost < res.cost_start
@@ -268,12 +266,12 @@ def test_belt_model_reduces_the_error_at_a20_on_the_twin():
 
 def test_refine_belt_bad_input():
     lumped = table1()
-    with pytest.raises(InputError, match="model='belt' and belt="):
-        refine([], lumped, model="belt")
+    with pytest.raises(InputError, match="model='belt', belt="):
+        refine_belt([], Plant(lumped))
     logs = _belt_logs(BeltParameters.from_rigid(2.6, 7.5, k_over_I2=150.0, d=0.4), lumped, amplitudes=(20.0,),
                       duration=1.0)
     with pytest.raises(InputError, match="unknown belt parameter 'p1'"):
-        refine(logs, lumped, model="belt", belt=BeltParameters(), free=("p1",))
+        refine_belt(logs, Plant(lumped, model="belt", belt=BeltParameters()), free=("p1",))
     moving = dataclasses.replace(logs[0], q1=np.linspace(0, 1, logs[0].n_samples))
     with pytest.raises(InputError, match="the pendulum moves"):
-        refine([moving], lumped, model="belt", belt=BeltParameters())
+        refine_belt([moving], Plant(lumped, model="belt", belt=BeltParameters()))

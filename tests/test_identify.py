@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from iwp.cli import main
-from iwp.data import ExperimentData, StaticCurve
+from iwp.data import ExperimentData, StaticCurve, write_experiment, write_static_curve
 from iwp.errors import IdentificationError, InputError
 from iwp.ident.differentiate import Differentiator
 from iwp.ident.identification import (
@@ -424,8 +424,8 @@ def test_other_differentiators_are_accepted(clean) -> None:
 def test_cli_free_then_two_step_then_simulate(clean, tmp_path, capsys) -> None:
     free_csv = tmp_path / "free.csv"
     full_csv = tmp_path / "full.csv"
-    clean["free"].to_csv(free_csv)
-    clean["full"].window(None, 60.0).to_csv(full_csv)
+    write_experiment(clean["free"], free_csv)
+    write_experiment(clean["full"].window(None, 60.0), full_csv)
     free_json = tmp_path / "FREE.json"
     assert main(["identify", str(free_csv), "--setup", "free", "--out", str(free_json)]) == 0
     out = capsys.readouterr().out
@@ -449,7 +449,7 @@ def test_cli_free_then_two_step_then_simulate(clean, tmp_path, capsys) -> None:
 
 def test_cli_options_window_and_differentiator(clean, tmp_path, capsys) -> None:
     md_csv = tmp_path / "md.csv"
-    clean["md"].to_csv(md_csv)
+    write_experiment(clean["md"], md_csv)
     assert main(["identify", str(md_csv), "--setup", "motor-disk", "--t-start", "10", "--t-end", "70",
                  "--method", "butter", "--cutoff", "5", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
@@ -466,7 +466,7 @@ def test_cli_options_window_and_differentiator(clean, tmp_path, capsys) -> None:
 ])
 def test_cli_errors_are_one_line_with_exit_2(clean, tmp_path, capsys, args, text) -> None:
     md_csv = tmp_path / "md.csv"
-    clean["md"].window(None, 30.0).to_csv(md_csv)
+    write_experiment(clean["md"].window(None, 30.0), md_csv)
     assert main(["identify", str(md_csv), *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("iwp: error:") and text in err and err.count("\n") == 1
@@ -474,7 +474,7 @@ def test_cli_errors_are_one_line_with_exit_2(clean, tmp_path, capsys, args, text
 
 def test_cli_static_curve_goes_to_dead_zone_only(tmp_path, capsys) -> None:
     sc = tmp_path / "sc.csv"
-    VirtualRig(seed=1).run("static-curve").to_csv(sc)
+    write_static_curve(VirtualRig(seed=1).run("static-curve"), sc)
     assert main(["identify", str(sc), "--setup", "free"]) == 2
     assert "static curve" in capsys.readouterr().err
     assert main(["identify", str(sc), "--setup", "dead-zone", "--json"]) == 0
@@ -486,7 +486,7 @@ def test_cli_rank_deficient_exits_2_and_writes_nothing(clean, tmp_path, capsys) 
     md = clean["md"].window(None, 30.0)
     still = ExperimentData(t=md.t, q1=md.q1, q2=np.zeros_like(md.q2), u=np.zeros_like(md.t))
     p = tmp_path / "still.csv"
-    still.to_csv(p)
+    write_experiment(still, p)
     assert main(["identify", str(p), "--setup", "motor-disk", "--out", str(tmp_path / "P.json")]) == 2
     captured = capsys.readouterr()
     err = captured.err.strip()

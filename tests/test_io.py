@@ -15,6 +15,7 @@ import scipy.io
 
 import iwp.cli
 from iwp import data as io
+from iwp.data import write_experiment, write_static_curve
 from iwp.errors import DataFormatError, InputError, OutputExistsError
 
 REAL_LOG = Path(__file__).resolve().parents[2] / "shared/data/real/pendulum_free_swing_data_01.txt"
@@ -150,7 +151,7 @@ def test_csv_round_trip_bit_exact(tmp_path):
     mode = np.asarray(d.extra["mode"], dtype=float).copy()
     mode[:2] = [1.7976931348623157e308, -1.7976931348623157e308]
     d = dataclasses.replace(d, q2=q2, extra={**d.extra, "mode": mode})
-    path = d.to_csv(tmp_path / "log.csv")
+    path = write_experiment(d, tmp_path / "log.csv")
     text = path.read_text()
     assert text.startswith("# rig: IWP-1\n# note: a: b, c\n# Ts: 0.01\nt,q1,q2,q3,q4,u,current,mode\n")
     back = io.read_csv(path)
@@ -163,7 +164,7 @@ def test_csv_round_trip_bit_exact(tmp_path):
 @pytest.mark.parametrize("input_name", ["v", None])
 def test_csv_round_trip_inputs(tmp_path, input_name):
     d = make_data(input_name=input_name, velocities=False, extra=False, metadata={})
-    back = io.read_experiment(d.to_csv(tmp_path / "x.txt"))
+    back = io.read_experiment(write_experiment(d, tmp_path / "x.txt"))
     assert back.input_name == input_name
     assert back.q3 is None and back.q4 is None and back.extra == {}
     assert_same(d, back)
@@ -191,7 +192,7 @@ def test_static_curve_round_trip(tmp_path):
     back = io.read_static_curve(path)
     assert back.input_name == "v" and back.metadata == {"fig": "2a"}
     assert np.array_equal(back.input, c.input) and np.array_equal(back.q4, c.q4)
-    u = io.read_static_curve(io.StaticCurve("u", [1.0, 2.0], [3.0, 4.0]).to_csv(tmp_path / "u.csv"))
+    u = io.read_static_curve(write_static_curve(io.StaticCurve("u", [1.0, 2.0], [3.0, 4.0]), tmp_path / "u.csv"))
     assert u.input_name == "u" and list(u.q4) == [3.0, 4.0]
     with pytest.raises(OutputExistsError):
         io.write_static_curve(c, path)
@@ -199,7 +200,7 @@ def test_static_curve_round_trip(tmp_path):
 
 def test_mat_round_trip(tmp_path):
     d = make_data(input_name="v")
-    path = d.to_mat(tmp_path / "log.mat")
+    path = write_experiment(d, tmp_path / "log.mat")
     back = io.read_mat(path)
     assert_same(d, back)
     assert io.read_experiment(path).input_name == "v"
@@ -211,7 +212,7 @@ def test_mat_round_trip(tmp_path):
 def test_mat_write_refuses_bad_extra_name(tmp_path):
     d = dataclasses.replace(make_data(extra=False), extra={"motor current": np.zeros(50)})
     with pytest.raises(InputError, match="'motor current'"):
-        d.to_mat(tmp_path / "x.mat")
+        write_experiment(d, tmp_path / "x.mat")
 
 
 def test_mat_struct_with_mapping(tmp_path):
@@ -245,7 +246,7 @@ def test_mat_simulink_structure_with_time(tmp_path):
 def test_parquet_round_trip(tmp_path):
     pytest.importorskip("pyarrow")
     d = make_data(metadata={"rig": "IWP-1", "empty": ""})
-    path = d.to_parquet(tmp_path / "log.parquet")
+    path = write_experiment(d, tmp_path / "log.parquet")
     back = io.read_parquet(path)
     assert_same(d, back)
     assert_same(d, io.read_experiment(path))
@@ -255,7 +256,7 @@ def test_parquet_without_pyarrow(tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "pyarrow", None)
     monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
     with pytest.raises(InputError, match=m("pip install pyarrow", "iwp[parquet]")):
-        make_data().to_parquet(tmp_path / "x.parquet")
+        write_experiment(make_data(), tmp_path / "x.parquet")
     (tmp_path / "y.pq").write_bytes(b"PAR1")
     with pytest.raises(InputError, match="pip install pyarrow"):
         io.read_experiment(tmp_path / "y.pq")
@@ -441,10 +442,10 @@ def test_degrees_warning_and_conversion(tmp_path):
     deg = io.ExperimentData(t=t, q1=np.rad2deg(q1), q2=np.rad2deg(3 * t), q3=np.rad2deg(-6 * np.sin(5 * t)))
     rad = io.ExperimentData(t=t, q1=q1, q2=3 * t)
     with pytest.warns(UserWarning, match=m("deg.csv", "'q1'", "looks like degrees", "--degrees / degrees=True")):
-        io.read_csv(deg.to_csv(tmp_path / "deg.csv"))
+        io.read_csv(write_experiment(deg, tmp_path / "deg.csv"))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        io.read_csv(rad.to_csv(tmp_path / "rad.csv"))
+        io.read_csv(write_experiment(rad, tmp_path / "rad.csv"))
         converted = io.read_csv(tmp_path / "deg.csv", degrees=True)
     assert np.allclose(converted.q1, q1, rtol=1e-14, atol=1e-15)
     assert np.allclose(converted.q2, 3 * t, rtol=1e-14)
@@ -462,7 +463,7 @@ def test_resample_uniform_grid_and_linear_exact(tmp_path):
     rng = np.random.default_rng(1)
     t = np.cumsum(0.01 * (1 + 0.2 * rng.uniform(-1, 1, size=100)))
     d = io.ExperimentData(t=t, q1=2 * t + 1, q2=-3 * t, u=0.5 * t, extra={"x": 4 * t - 2})
-    path = d.to_csv(tmp_path / "jitter.csv")
+    path = write_experiment(d, tmp_path / "jitter.csv")
     with pytest.raises(DataFormatError, match=m("jitter.csv", "column 't'", "irregular", "resample=True")):
         io.read_csv(path)
     r = io.read_csv(path, resample=True)
@@ -648,11 +649,11 @@ def test_degrees_swing_is_refused_but_a_pendulum_that_turned_over_is_read(tmp_pa
     """Beyond 3 pi: a swing across zero is degrees (refused, naming the column); a turning pendulum is not."""
     t = 0.005 * np.arange(2000)
     swing = np.rad2deg(0.6 * np.cos(5.1 * t))  # a 0.6 rad swing logged in degrees: 34 "rad", 16 zero crossings
-    path = io.ExperimentData(t=t, q1=swing, q2=np.zeros_like(t)).to_csv(tmp_path / "deg.csv")
+    path = write_experiment(io.ExperimentData(t=t, q1=swing, q2=np.zeros_like(t)), tmp_path / "deg.csv")
     with pytest.raises(DataFormatError, match=r"column 'q1' looks like degrees .* swings across zero 16 times"):
         io.read_csv(path)
     spin = 2.0 * t + 0.3 * np.sin(5.0 * t)  # turns over and over: 20 rad after 10 s, never back across zero
-    path = io.ExperimentData(t=t, q1=spin, q2=np.zeros_like(t)).to_csv(tmp_path / "spin.csv")
+    path = write_experiment(io.ExperimentData(t=t, q1=spin, q2=np.zeros_like(t)), tmp_path / "spin.csv")
     with pytest.warns(UserWarning, match="looks like degrees"):
         back = io.read_csv(path)
     np.testing.assert_array_equal(back.q1, spin)
@@ -664,12 +665,12 @@ def test_reader_refuses_magnitudes_beyond_any_rig_and_implausible_sample_periods
     ok = io.ExperimentData(t=t, q1=q1, q2=np.zeros_like(t))
     bad = dataclasses.replace(ok, q2=np.where(np.arange(500) == 57, 1e308, 0.0))
     with pytest.raises(DataFormatError, match=r"line 59, column 'q2': 1e\+308 rad is beyond any rig"):
-        io.read_csv(bad.to_csv(tmp_path / "big.csv"))
+        io.read_csv(write_experiment(bad, tmp_path / "big.csv"))
     ms = dataclasses.replace(ok, t=t * 1000.0)
     with pytest.raises(DataFormatError, match=r"sample period 5 s is implausible .* milliseconds"):
-        io.read_csv(ms.to_csv(tmp_path / "ms.csv"))
+        io.read_csv(write_experiment(ms, tmp_path / "ms.csv"))
     fast = dataclasses.replace(ok, t=t * 1e-9)
     with pytest.raises(DataFormatError, match="sample period 5e-12 s is implausible"):
-        io.read_csv(fast.to_csv(tmp_path / "fast.csv"))
+        io.read_csv(write_experiment(fast, tmp_path / "fast.csv"))
     far = dataclasses.replace(ok, t=t + 1e9)  # absolute UNIX-like times: 1e9 s keeps 5 ms with 12 digits
-    assert io.read_csv(far.to_csv(tmp_path / "far.csv")).n_samples == 500
+    assert io.read_csv(write_experiment(far, tmp_path / "far.csv")).n_samples == 500

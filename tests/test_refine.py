@@ -13,9 +13,12 @@ import pytest
 
 from iwp.data import read_angle_log
 from iwp.errors import InputError
+from iwp.ident.identification import identify
 from iwp.ident.refinement import (
     REFINE_MODELS,
     RefineResult,
+    as_experiments,
+    fit_plant,
     refine,
     refine_identification,
     simulation_equivalent,
@@ -31,19 +34,8 @@ from iwp.sim.sensitivity import simulate_sensitivities
 REAL_LOG = (Path(__file__).resolve().parents[2] / "shared/data/real/pendulum_free_swing_data_01.txt")
 
 
-def _identify():
-    try:
-        from iwp.ident.identification import identify
-    except ImportError:  # pragma: no cover - the identification module is part of iwp
-        return None
-    return identify
-
-
 def _ls_start(data, setup, **kw):
     """The least-squares start of a set-up (iwp.identify), Table 1 for what it does not identify."""
-    identify = _identify()
-    if identify is None:  # pragma: no cover
-        pytest.skip("iwp.identify is not available")
     return identify(data, setup, **kw).to_params(base=table1())
 
 
@@ -141,7 +133,7 @@ def test_refinement_lowers_the_simulation_error_of_the_least_squares_start(name,
     data = rig.run(name, duration=duration)
     kw = {}
     if setup == "two-step":
-        kw["pendulum"] = _identify()(rig.run("free-pendulum", duration=30.0), "free")
+        kw["pendulum"] = identify(rig.run("free-pendulum", duration=30.0), "free")
     start = _ls_start(data, setup, **kw)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -158,7 +150,7 @@ def test_fixed_parameters_stay_fixed(free_log, rig):
     start = rig.truth.lumped.replace(p1=26.3, sigma_a1=0.004, sigma_v1=0.012, sigma_b1=0.0006)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = refine(free_log, start, model="free", free=("p1", "sigma_v1"), windows=(0.0, 20.0))
+        r = refine(as_experiments(free_log, windows=(0.0, 20.0)), fit_plant(start, "free"), free=("p1", "sigma_v1"))
     assert r.free == ("p1", "sigma_v1")
     for f in dataclasses.fields(start):
         if f.name not in r.free:
@@ -174,7 +166,7 @@ def test_bounds_hold(free_log, rig):
     start = truth.replace(p1=25.5, sigma_v1=-0.02)  # a negative friction, as least squares can give
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = refine(free_log, start, model="free", windows=(0.0, 20.0),
+        r = refine(as_experiments(free_log, windows=(0.0, 20.0)), fit_plant(start, "free"),
                    bounds={"p1": (25.0, 26.0), "sigma_b1": (0.0, 2e-4)})
     assert 25.0 <= r.params.p1 <= 26.0
     assert r.params.p1 == pytest.approx(26.0, abs=1e-6)  # the truth (26.095) is outside: on the bound
@@ -193,7 +185,7 @@ def test_several_experiments_with_windows_and_initial_states(rig):
     windows = [(1.0, 25.0), (2.0, None)]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = refine([a, b], start, model="free", windows=windows)
+        r = refine(as_experiments([a, b], windows=windows), fit_plant(start, "free"))
     assert r.success
     assert r.windows[0] == (pytest.approx(1.0), pytest.approx(25.0))
     assert r.windows[1] == (pytest.approx(2.0), pytest.approx(40.0))
@@ -219,7 +211,7 @@ def test_robust_loss_resists_outliers(rig):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for loss in ("linear", "soft_l1"):
-            r = refine(bad, start, model="free", loss=loss)
+            r = refine(bad, fit_plant(start, "free"), loss=loss)
             err[loss] = abs((r.params.sigma_a1 + r.params.sigma_v1) / (truth.sigma_a1 + truth.sigma_v1) - 1)
             assert r.loss == loss
     assert err["soft_l1"] < 0.25 * err["linear"]  # measured: 0.16 % against 3.8 %
@@ -233,7 +225,7 @@ def test_rank_deficiency_is_reported():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         # model (14) depends on p2 (1 + rho) and p3 (1 + rho) only: rho cannot be found with p2 and p3
-        r = refine(data, start, model="motor-disk", free=("p2", "p3", "rho"), outputs=("q4",))
+        r = refine(data, fit_plant(start, "motor-disk"), free=("p2", "p3", "rho"), outputs=("q4",))
     assert any("rank deficient" in w for w in r.warnings)
     # the null direction involves p2, p3 and rho: none of them has a finite variance
     for name in ("p2", "p3", "rho"):
@@ -245,7 +237,7 @@ def test_rank_deficiency_is_reported():
 def test_initial_state_only(free_log, rig):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = refine(free_log, rig.truth.lumped, model="free", free=(), windows=(5.0, 15.0))
+        r = refine(as_experiments(free_log, windows=(5.0, 15.0)), fit_plant(rig.truth.lumped, "free"), free=())
     assert r.free == () and r.covariance.shape == (0, 0)
     k = int(np.searchsorted(free_log.t, 5.0))
     assert r.x0[0][0] == pytest.approx(free_log.extra["true_q1"][k], abs=2e-3)
@@ -253,23 +245,23 @@ def test_initial_state_only(free_log, rig):
 
 
 @pytest.mark.parametrize(
-    "kw,match",
+    "model,kw,windows,match",
     [
-        (dict(model="nope"), "model must be one of"),
-        (dict(model="el"), "model must be one of"),
-        (dict(model="free", free=("p2",)), "does not enter model"),
-        (dict(model="free", free=("p9",)), "unknown parameter"),
-        (dict(model="free", outputs=("q4",)), "no wheel motion"),
-        (dict(model="free", loss="l1"), "loss must be one of"),
-        (dict(model="free", windows=[(0, 1), (0, 2)]), "one per experiment"),
-        (dict(model="free", bounds={"p2": (0, 1)}), "not free"),
-        (dict(model="free", bounds={"p1": (30, 20)}), "low must be < high"),
-        (dict(model="motor-disk", free=("p2",), outputs=("q1",)), "locked"),
+        ("nope", {}, None, "model must be one of"),
+        ("el", {}, None, "model must be one of"),
+        ("free", dict(free=("p2",)), None, "does not enter model"),
+        ("free", dict(free=("p9",)), None, "unknown parameter"),
+        ("free", dict(outputs=("q4",)), None, "no wheel motion"),
+        ("free", dict(loss="l1"), None, "loss must be one of"),
+        ("free", {}, [(0, 1), (0, 2)], "one per experiment"),
+        ("free", dict(bounds={"p2": (0, 1)}), None, "not free"),
+        ("free", dict(bounds={"p1": (30, 20)}), None, "low must be < high"),
+        ("motor-disk", dict(free=("p2",), outputs=("q1",)), None, "locked"),
     ],
 )
-def test_bad_arguments_raise_input_error(free_log, kw, match):
+def test_bad_arguments_raise_input_error(free_log, model, kw, windows, match):
     with pytest.raises(InputError, match=match):
-        refine(free_log, table1(), **kw)
+        refine(as_experiments(free_log, windows=windows), fit_plant(table1(), model), **kw)
 
 
 def test_constant_output_is_refused(free_log):
@@ -281,7 +273,7 @@ def test_constant_output_is_refused(free_log):
 def test_input_kind_must_match_the_model():
     data = VirtualRig(seed=0).run("sine-60", duration=2.0)  # logs u
     with pytest.raises(InputError, match="takes 'v'"):
-        refine(data, table1(), model="motor-disk-raw", free=("p2",), outputs=("q4",))
+        refine(data, fit_plant(table1(), "motor-disk-raw"), free=("p2",), outputs=("q4",))
 
 
 def test_unknown_setup():
@@ -367,11 +359,10 @@ def test_sensitivities_match_finite_differences_of_simulate(model, wrt, with_inp
 @pytest.mark.skipif(not REAL_LOG.exists(), reason=f"real log not found at {REAL_LOG}")
 def test_real_free_swing_log():
     data = read_angle_log(REAL_LOG)
-    identify = _identify()
-    start = identify(data, "free", t_start=0.5).to_params() if identify else table1().replace(p1=120.0)
+    start = identify(data, "free", t_start=0.5).to_params()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        r = refine_identification("free", data, start, t_start=0.5)
+        r = refine_identification("free", data, start, window=(0.5, None))
     assert r.model == "free-nowheel"  # an angle log: a pendulum without a wheel
     assert r.success
     assert r.fit[0]["q1"] > 95.0

@@ -17,6 +17,7 @@ from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
 from iwp.errors import DataFormatError, InputError
 from iwp.ident.logfit import fit_logs, least_squares_start, load_logs
+from iwp.ident.refinement import as_experiments, refine
 from iwp.models.parameters import LumpedParameters
 from iwp.models.plant import Plant
 from iwp.rig.described import DescribedRig, prbs, write_rig_csv
@@ -338,13 +339,10 @@ def test_iwp_fit_matches_an_independent_scipy_reference_fit(tmp_path):
         warnings.simplefilter("ignore")
         log = load_logs([path], rig)[0]
         ref_log = ExperimentData(t=log.t, q1=log.q1, q4=log.q4, u=log.v, metadata=log.metadata)
-        start, _m, _d, _n = least_squares_start([ref_log])
-        start = start.replace(sigma_a1=0.0, sigma_b1=TRUTH.sigma_b1)
+        start = least_squares_start([ref_log]).params.replace(sigma_a1=0.0, sigma_b1=TRUTH.sigma_b1)
         free = ("p1", "p2", "p3", "rho", "sigma_v1")
-        from iwp.ident.refinement import refine
-
-        ours = refine(ref_log, start, model="compensated", free=free, outputs=("q1", "q4"), estimate_x0=False,
-                      x0=[np.zeros(4)], warn=False)
+        ours = refine(as_experiments(ref_log, estimate_x0=False, x0=[np.zeros(4)]), start, free=free,
+                      outputs=("q1", "q4"), warn=False)
     ref, ref_fit = _reference_fit(ref_log, start, free, np.zeros(4))
     for n in free:
         assert ours.params.to_dict()[n] == pytest.approx(ref[n], rel=1e-5), n

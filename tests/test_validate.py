@@ -12,6 +12,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from iwp.cli import main
+from iwp.data import write_experiment
 from iwp.errors import InputError
 from iwp.ident.validation import ValidationResult, auto_model, fit_percent, validate
 from iwp.models import Plant, save_params, table1
@@ -50,7 +51,7 @@ def test_fit_percent_on_known_signals():
 # validate
 # ---------------------------------------------------------------------------
 def test_validate_the_truth_on_the_free_decay(rig, free_log):
-    v = validate(free_log, rig.truth.lumped, model="free", estimate_x0=True, t_start=1.0)
+    v = validate(free_log, rig.truth.lumped, model="free", estimate_x0=True, window=(1.0, None))
     assert isinstance(v, ValidationResult)
     assert v.t[0] == pytest.approx(1.0) and v.t.size == free_log.n_samples - 200
     assert v.fit["q1"] > 99.0
@@ -110,7 +111,7 @@ def test_locked_motor_disk_log(rig):
 def test_closed_loop_with_the_hopf_controller(rig):
     data = rig.run("closed-loop", duration=20.0)
     v = validate(data, table1(), model="compensated", controller=HopfController(-10.0, 0.1),
-                 t_start=10.0, estimate_x0=True, signals=("q1",))
+                 window=(10.0, None), estimate_x0=True, signals=("q1",))
     assert v.closed_loop
     amp_meas = np.max(np.abs(v.measured["q1"]))
     amp_sim = np.max(np.abs(v.simulated["q1"]))
@@ -119,7 +120,7 @@ def test_closed_loop_with_the_hopf_controller(rig):
 
 
 def test_velocity_signals_and_input_errors(rig, free_log):
-    v = validate(free_log, rig.truth.lumped, model="free", signals=("q3",), t_end=20.0)
+    v = validate(free_log, rig.truth.lumped, model="free", signals=("q3",), window=(None, 20.0))
     assert v.fit["q3"] > 90.0  # against the differentiated velocity
     with pytest.raises(InputError, match="model must be one of"):
         validate(free_log, table1(), model="bogus")
@@ -136,7 +137,7 @@ def test_velocity_signals_and_input_errors(rig, free_log):
 def test_plot(rig, free_log):
     from iwp.plotting.validation import plot_correlation
 
-    v = validate(free_log, rig.truth.lumped, model="free", t_end=10.0, restart_times=[5.0])
+    v = validate(free_log, rig.truth.lumped, model="free", window=(None, 10.0), restart_times=[5.0])
     h = v.plot()
     assert len(h["axes"]) == 4 and len(h["restart_lines"]) == 4
     h2 = plot_correlation(["a", "b"], np.array([[1.0, -0.99], [-0.99, 1.0]]))
@@ -149,7 +150,7 @@ def test_plot(rig, free_log):
 @pytest.fixture()
 def free_files(tmp_path, rig):
     log = tmp_path / "free.csv"
-    rig.run("free-pendulum", duration=30.0).to_csv(log)
+    write_experiment(rig.run("free-pendulum", duration=30.0), log)
     par = tmp_path / "p.json"
     save_params(rig.truth.lumped, par, extra={"model": "free"})
     return log, par

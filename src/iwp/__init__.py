@@ -17,6 +17,7 @@ subpackage          what
 :mod:`iwp.ident`    identification (section 5), refinement, validation
 :mod:`iwp.control`  Hopf design and continuation, LQR balance, swing-up
 :mod:`iwp.rig`      the virtual rig
+:mod:`iwp.calibration`  the twin calibrated so that the paper's procedures return its numbers
 :mod:`iwp.reproduce`  the paper end to end on the virtual rig
 :mod:`iwp.report`   self-contained HTML reports
 :mod:`iwp.plotting`  figures
@@ -52,6 +53,8 @@ _EXPORTS: dict[str, str] = {
     "identify": "iwp.ident", "refine": "iwp.ident", "refine_identification": "iwp.ident", "validate": "iwp.ident",
     "fit_percent": "iwp.ident", "Differentiator": "iwp.ident", "IdentificationResult": "iwp.ident",
     "RefineResult": "iwp.ident", "ValidationResult": "iwp.ident", "SETUPS": "iwp.ident",
+    "FitProblem": "iwp.ident", "FitResult": "iwp.ident", "Parameter": "iwp.ident", "Parameters": "iwp.ident",
+    "Experiment": "iwp.ident", "refine_belt": "iwp.ident",
     # control
     "hopf_point": "iwp.control", "continue_hopf": "iwp.control", "design_hopf": "iwp.control",
     "find_orbit": "iwp.control", "lqr_balance": "iwp.control", "swing_up": "iwp.control",

@@ -1,12 +1,12 @@
-"""Compile iwp's kernels ahead of their first use: ``iwp warmup``, and the notice when they compile.
+"""Compile iwp's kernels ahead of their first use: ``iwp warmup``.
 
 numba compiles each kernel the first time it runs and keeps it in its
 on-disk cache (see :mod:`iwp.jit`). A kernel takes 1-12 s to compile, so the
 first run of a command is slower than the next ones. :func:`warmup` compiles
 them ahead, in parallel processes (one kernel a process); ``pip install``
 runs it while it builds the package, so that an installed iwp starts warm
-(see ``setup.py``). :func:`compile_notices` prints one line when a command
-is about to wait for a compilation.
+(see ``setup.py``). :func:`iwp.compiling.compile_notices` prints one line
+when a command is about to wait for a compilation.
 
 ======================  ===============================================  =========
 kernel                  used by                                          about [s]
@@ -26,34 +26,22 @@ import multiprocessing
 import os
 import sys
 import time
+import warnings
 from concurrent.futures import ProcessPoolExecutor
 from typing import Callable
 
-#: kernel name -> (what it serves, about how long it compiles [s]); see the module docstring
-KERNELS: dict[str, tuple[str, float]] = {
-    "simulation": ("the simulation kernel of the 4-state models", 9.0),
-    "belt": ("the simulation kernel of the belt models", 11.0),
-    "sensitivity": ("the sensitivity kernel of fits and shooting", 11.0),
-    "batch": ("the kernels of runs side by side", 30.0),
-    "identification": ("the kernel of the least-squares uncertainty", 1.0),
-}
-#: compiled function name -> kernel name (what the notice says)
-_DISPATCHERS = {
-    "integrate_4": "simulation",
-    "integrate_6": "belt",
-    "integrate_sens": "sensitivity",
-    "run_lanes_4": "batch",
-    "integrate_batch_4": "batch",
-    "_noise_moments": "identification",
-}
+import numpy as np
+
+from .compiling import KERNELS
+from .data import ExperimentData
+from .errors import InputError
+from .ident import identify
+from .models import Plant, paper_belt, table1
+from .sim import HopfController, Sampled, Sine, simulate, simulate_batch
+from .sim.sensitivity import simulate_sensitivities
 
 
 def _warm_simulation() -> None:
-    import numpy as np
-
-    from .models import Plant, table1
-    from .sim import HopfController, Sampled, Sine, simulate
-
     p = table1()
     simulate(Plant(p), x0=[0.1, 0.0, 0.0, 0.0], t_end=0.05, input=HopfController(-10.0, 0.1))
     r = simulate(Plant(p, model="raw"), t_end=0.05, input=Sine(40.0), feedforward=True)
@@ -62,23 +50,12 @@ def _warm_simulation() -> None:
 
 
 def _warm_belt() -> None:
-    import numpy as np
-
-    from .models import Plant, paper_belt, table1
-    from .sim import Sampled, Sine, simulate
-
     plant = Plant(table1(), model="belt-full", belt=paper_belt(), dead_zone=True)
     simulate(plant, t_end=0.05, input=Sine(40.0), feedforward=True, saturation=100.0)
     simulate(plant, t_end=0.05, input=Sampled(np.zeros(11), 0.005), feedforward=True, saturation=100.0)
 
 
 def _warm_sensitivity() -> None:
-    import numpy as np
-
-    from .models import Plant, table1
-    from .sim import HopfController, Sampled
-    from .sim.sensitivity import simulate_sensitivities
-
     p = table1()
     simulate_sensitivities(Plant(p, model="free"), t_end=0.05, x0=[1.0, 0.0, 0.0, 0.0], wrt=("p1",), wrt_x0=(0, 2))
     simulate_sensitivities(Plant(p), t_end=0.05, input=Sampled(np.zeros(11), 0.005), wrt=("p2",), wrt_x0=(0,))
@@ -87,9 +64,6 @@ def _warm_sensitivity() -> None:
 
 
 def _warm_batch() -> None:
-    from .models import table1
-    from .sim import HopfController, simulate_batch
-
     p = table1()
     simulate_batch(p, input=[HopfController(-10.0, 0.1), HopfController(-9.0, 0.1)], x0=[0.1, 0.0, 0.0, 0.0],
                    t_end=0.05)
@@ -98,11 +72,6 @@ def _warm_batch() -> None:
 
 
 def _warm_identification() -> None:
-    import numpy as np
-
-    from .data import ExperimentData
-    from .ident import identify
-
     t = np.arange(2001) * 0.005
     q1 = np.round(0.5 * np.exp(-0.05 * t) * np.cos(5.1 * t) / 3.14e-3) * 3.14e-3
     identify(ExperimentData(t=t, q1=q1, q2=np.zeros(t.size), source="warmup"), "free")
@@ -118,8 +87,6 @@ _TASKS: dict[str, Callable[[], None]] = {
 
 
 def _run_task(name: str) -> tuple[str, float]:
-    import warnings
-
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -146,8 +113,6 @@ def warmup(kernels=None, *, processes: int | None = None,
     dict
         Seconds per kernel (load or compile).
     """
-    from .errors import InputError
-
     names = list(KERNELS) if kernels is None else list(kernels)
     unknown = [n for n in names if n not in KERNELS]
     if unknown:
@@ -170,31 +135,6 @@ def warmup(kernels=None, *, processes: int | None = None,
             if progress is not None:
                 progress(name, seconds)
     return out
-
-
-# --------------------------------------------------------------------------
-# the notice when a command is about to compile
-# --------------------------------------------------------------------------
-def compile_notices(say: Callable[[str], None]) -> None:
-    """Call ``say(line)`` once per kernel when it starts to compile (not when it loads from the cache)."""
-    from numba.core import event
-
-    class _Notice(event.Listener):
-        def __init__(self):
-            self.seen: set[str] = set()
-
-        def on_start(self, ev):
-            name = _DISPATCHERS.get(ev.data["dispatcher"].py_func.__name__)
-            if name is None or name in self.seen:
-                return
-            self.seen.add(name)
-            what, seconds = KERNELS[name]
-            say(f"compiling {what} (first run only, about {seconds:.0f} s; `iwp warmup` compiles every kernel ahead)")
-
-        def on_end(self, ev):
-            return None
-
-    event.register("numba:compile", _Notice())
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = lambda message, category, filename, lineno, file=None, line=None: print(
         f"iwp: warning: {user_message(message, cli_parser)}", file=sys.stderr)
     if getattr(args, "command", None) != "warmup":
-        from ..warmup import compile_notices
+        from ..compiling import compile_notices
 
         compile_notices(lambda line: print(f"iwp: {line}", file=sys.stderr, flush=True))
     try:

@@ -42,13 +42,14 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from ..files import check_output_dir, jsonable
-    from ..ident.logfit import fit_logs
+    from ..ident.logfit import LogFitOptions, fit_logs
+    from ..report.fit_page import write_fit_report
 
     check_output_dir(args.out, force=args.force)  # refuse before the work, not after
-    res = fit_logs(args.train, rig=args.rig, validate=args.validate, dead_zone=args.dead_zone,
-                   coulomb=args.coulomb, pendulum_coulomb=args.pendulum_coulomb, input_offset=args.input_offset,
-                   loss=args.loss, t_start=args.t_start, t_end=args.t_end)
-    files = res.write(args.out, force=args.force)
+    options = LogFitOptions(dead_zone=args.dead_zone, coulomb=args.coulomb, pendulum_coulomb=args.pendulum_coulomb,
+                            input_offset=args.input_offset, loss=args.loss, window=(args.t_start, args.t_end))
+    res = fit_logs(args.train, rig=args.rig, validate=args.validate, options=options)
+    files = write_fit_report(res, args.out, force=args.force)
     if args.json:
         print(json.dumps(jsonable(res.to_dict()), indent=2))
     else:

@@ -118,41 +118,16 @@ def _p2(spec: str | None):
     return obj
 
 
-def _distinct_files(files: list[str]) -> None:
-    """Refuse a log given twice: stacked, it would shrink the standard errors by sqrt(2) for nothing."""
-    import hashlib
-    from pathlib import Path
-
-    seen: dict[str, str] = {}
-    for f in files:
-        p = Path(f)
-        if not p.is_file():
-            continue  # the reader names a missing file
-        try:
-            key = hashlib.sha256(p.read_bytes()).hexdigest()
-        except OSError:
-            continue
-        if key in seen:
-            same = "the same file" if Path(seen[key]).resolve() == p.resolve() else f"a copy of {seen[key]}"
-            raise InputError(f"FILE {f}: {same} given twice; stacking a log with itself shrinks the standard errors "
-                             "without new information")
-        seen[key] = f
-
-
 def run(args) -> int:
     from ..errors import IdentificationError
     from ..files import check_output_file, write_all
     from ..ident.identification import identify, load_pendulum
+    from ..ident.setups import get_setup
     from ..models.parameters import save_params
     from ._common import load_lumped
 
-    if args.pendulum is not None and args.setup != "two-step":
-        raise InputError(f"--pendulum is used by --setup two-step only, not {args.setup}")
-    if args.setup == "two-step" and args.pendulum is None:
-        raise InputError("--setup two-step needs --pendulum FREE.json (the result of --setup free)")
-    if args.p2 is not None and args.setup != "free":
-        raise InputError(f"--p2 is used by --setup free only, not {args.setup}")
-    _distinct_files(args.files)
+    spec = get_setup(args.setup)
+    spec.check_options(args.pendulum, args.p2)  # the set-up's own rules, before any work
     base = load_lumped(args.base, flag="--base") if args.base is not None else None
     out_path = None
     if args.out is not None:
@@ -160,16 +135,13 @@ def run(args) -> int:
     pendulum = load_pendulum(args.pendulum) if args.pendulum is not None else None
     p2 = _p2(args.p2)
     diff = _differentiator(args)
-    if args.setup == "dead-zone":
-        if args.t_start is not None or args.t_end is not None:
-            raise InputError("--t-start/--t-end do not apply to --setup dead-zone (a static curve has no time)")
+    if spec.static:
         data = [_load_curve(f) for f in args.files]
+        res = identify(data if len(data) > 1 else data[0], args.setup, t_start=args.t_start, t_end=args.t_end)
     else:
         data = [_load_series(f) for f in args.files]
-    kw = {}
-    if args.setup != "dead-zone":
-        kw = dict(t_start=args.t_start, t_end=args.t_end, differentiator=diff, base=base, covariance=args.covariance)
-    res = identify(data if len(data) > 1 else data[0], args.setup, pendulum=pendulum, p2=p2, **kw)
+        res = identify(data if len(data) > 1 else data[0], args.setup, pendulum=pendulum, p2=p2, t_start=args.t_start,
+                       t_end=args.t_end, differentiator=diff, base=base, covariance=args.covariance)
     files = ", ".join(args.files)
     if not res.success:
         raise IdentificationError(f"{files}: {res.message}; nothing written")
@@ -177,7 +149,7 @@ def run(args) -> int:
     if args.refine:
         from ..ident.refinement import refine_identification
 
-        r = refine_identification(args.setup, data, res.to_params(base), t_start=args.t_start, t_end=args.t_end)
+        r = refine_identification(args.setup, data, res.to_params(base), window=(args.t_start, args.t_end))
         if not r.success:
             raise IdentificationError(f"{files}: refinement failed: {r.message}; nothing written")
         if out_path is not None:
@@ -195,15 +167,7 @@ def run(args) -> int:
 
     if out_path is not None:
         params = res.to_params(base)
-        note = {
-            "motor-disk": "p2, p3 (, sigma_c2) split from p2_1rho, p3_1rho with the base rho (clamped rig: / rho)",
-            "motor-disk-coulomb": "p2, p3, sigma_c2 split from the (1+rho) products with the base rho (/ rho)",
-            "free": "p2, p3, rho, dead zone from the base set",
-            "two-step": "p1, sigma_* from --pendulum; dead zone from the base set",
-            "full": "dead zone from the base set",
-            "dead-zone": "all but v_dz_pos, v_dz_neg from the base set",
-        }[args.setup]
-        extra = {"note": note, "identification": res.to_dict()}
+        extra = {"note": spec.note, "identification": res.to_dict()}
         try:
             params.check_physical()
         except InputError as exc:

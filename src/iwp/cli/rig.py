@@ -149,8 +149,8 @@ def run_truth(args) -> int:
 
 
 def run_calibrate(args) -> int:
+    from ..calibration import calibrate, load_targets
     from ..files import check_output_file
-    from ..rig import calibrate, load_targets
 
     if args.max_nfev < 1:
         raise InputError(f"--max-nfev must be a positive integer, got {args.max_nfev}")

@@ -54,25 +54,6 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _model_from_params_file(spec: str) -> str | None:
-    from pathlib import Path
-
-    path = Path(spec)
-    if not path.is_file():
-        return None
-    try:
-        doc = json.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-        return None  # load_params reports it
-    if not isinstance(doc, dict):
-        return None
-    m = doc.get("model")
-    ref = doc.get("refinement")
-    if m is None and isinstance(ref, dict):  # written by iwp identify --refine --out
-        m = ref.get("model")
-    return m if isinstance(m, str) and m in _MODELS[1:] else None
-
-
 def _looks_like_angle_log(path: str) -> bool:
     try:
         with open(path, encoding="utf-8", errors="replace") as fh:
@@ -82,20 +63,12 @@ def _looks_like_angle_log(path: str) -> bool:
     return "sample_rate" in first
 
 
-def _compatible(model: str, input_name: str | None) -> bool:
-    """Whether ``model`` takes the log's input (none, ``u`` or ``v``)."""
-    from ..models.plant import MODELS
-
-    return MODELS[model].input == input_name
-
-
 def run(args) -> int:
-    import warnings
-
     from ..data import read_experiment
     from ..errors import DataFormatError, InputError
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
-    from ..ident.validation import auto_model, validate
+    from ..ident.validation import choose_model, validate
+    from ..models.parameters import stored_model
     from ..plotting import savefig
     from ..sim.inputs import HopfController
     from ._common import load_lumped
@@ -112,24 +85,13 @@ def run(args) -> int:
         if args.format is None and _looks_like_angle_log(args.file):
             raise DataFormatError(f"{exc}; this looks like an angle log: give --format angle-log") from None
         raise
-    model = args.model
-    if model == "auto":
-        stored = _model_from_params_file(args.params)
-        model = auto_model(data)
-        if stored is not None and _compatible(stored, data.input_name):
-            model = stored
-        elif stored is not None:
-            has = f"input {data.input_name}" if data.input_name else "no input"
-            warnings.warn(f"{args.params} was fitted with model {stored!r}, which does not take a log with {has}; "
-                          f"simulating model {model!r} (give --model to choose)", UserWarning, stacklevel=2)
-    elif data.input_name is not None and not _compatible(model, data.input_name) and args.controller is None:
-        raise InputError(f"--model {model} does not take the input {data.input_name} of {args.file}; "
-                         f"use --model {auto_model(data)}")
+    model = choose_model(data, args.model, stored=stored_model(args.params), closed_loop=args.controller is not None,
+                         source=args.params, log=args.file)
     controller = None
     if args.controller == "hopf":
         controller = HopfController(args.k1, args.k2, args.controller_ts)
-    v = validate(data, params, model=model, estimate_x0=args.estimate_x0, t_start=args.t_start,
-                 t_end=args.t_end, restart_times=args.restart or (), controller=controller, signals=signals)
+    v = validate(data, params, model=model, estimate_x0=args.estimate_x0, window=(args.t_start, args.t_end),
+                 restart_times=args.restart or (), controller=controller, signals=signals)
     if args.plot is not None:
         fig = v.plot()["figure"]
         write_all([(args.plot, lambda tmp: savefig(fig, tmp))])

@@ -21,8 +21,9 @@ def register(sub) -> None:
 def run(args) -> int:
     import time
 
+    from ..compiling import KERNELS
     from ..errors import InputError
-    from ..warmup import KERNELS, warmup
+    from ..warmup import warmup
 
     unknown = [k for k in args.kernels if k not in KERNELS]
     if unknown:

@@ -24,7 +24,14 @@ from __future__ import annotations
 
 from .angle_log import read_angle_log
 from .csv_format import read_csv, read_static_curve, write_csv, write_static_curve
-from .experiment import CANONICAL_COLUMNS, DEGREES_THRESHOLD, REQUIRED_COLUMNS, ExperimentData, StaticCurve
+from .experiment import (
+    CANONICAL_COLUMNS,
+    DEGREES_THRESHOLD,
+    REQUIRED_COLUMNS,
+    ExperimentData,
+    StaticCurve,
+    check_distinct,
+)
 from .formats import FORMATS, convert, format_of, read_experiment, write_experiment
 from .mat_format import read_mat, write_mat
 from .parquet_format import read_parquet, write_parquet
@@ -36,6 +43,7 @@ __all__ = [
     "REQUIRED_COLUMNS",
     "ExperimentData",
     "StaticCurve",
+    "check_distinct",
     "convert",
     "format_of",
     "read_angle_log",

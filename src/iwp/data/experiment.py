@@ -13,13 +13,12 @@ and the glitches found in it (:class:`~iwp.data.glitches.Glitch` records,
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
-import os
 import warnings
 from dataclasses import dataclass, field, replace
-from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -119,6 +118,28 @@ def _check_extra_name(owner: str, name: Any) -> str:
             "line break, nor start with '#'"
         )
     return name
+
+
+def check_distinct(logs: Sequence["ExperimentData"], what: str = "logs") -> None:
+    """Refuse a log given twice (the same samples under any name).
+
+    Stacked or fitted jointly, a log with itself shrinks the standard errors
+    by ``sqrt(2)`` without new information.
+    """
+    seen: dict[bytes, int] = {}
+    for i, d in enumerate(logs):
+        if not isinstance(d, ExperimentData):
+            continue
+        h = hashlib.sha256()
+        for col in d.as_columns().values():
+            h.update(np.ascontiguousarray(col, dtype=float).tobytes())
+        key = h.digest()
+        if key in seen:
+            first = logs[seen[key]].source
+            same = "given twice" if first == d.source else f"the same log as {first}"
+            raise InputError(f"{what}: {d.source} is {same}; using a log twice shrinks the standard errors "
+                             "without new information")
+        seen[key] = i
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -440,25 +461,6 @@ class ExperimentData:
             np.abs(t_new - g.t))])) for g in self.glitches)
         return replace(self, t=t_new, extra=extra, glitches=moved, **cols)
 
-    # -- writers -------------------------------------------------------------
-    def to_csv(self, path: str | os.PathLike, force: bool = False) -> Path:
-        """Write the log as an iwp CSV; see :func:`write_csv`."""
-        from .csv_format import write_csv  # the writer imports this module
-
-        return write_csv(self, path, force=force)
-
-    def to_parquet(self, path: str | os.PathLike, force: bool = False) -> Path:
-        """Write the log as Parquet; see :func:`write_parquet`."""
-        from .parquet_format import write_parquet  # the writer imports this module
-
-        return write_parquet(self, path, force=force)
-
-    def to_mat(self, path: str | os.PathLike, force: bool = False) -> Path:
-        """Write the log as a MATLAB ``.mat`` file; see :func:`write_mat`."""
-        from .mat_format import write_mat  # the writer imports this module
-
-        return write_mat(self, path, force=force)
-
 
 @dataclass(frozen=True, eq=False, repr=False)
 class StaticCurve:
@@ -514,10 +516,4 @@ class StaticCurve:
             f"StaticCurve(source={self.source!r}, input_name={self.input_name!r}, "
             f"n_points={self.n_points}, metadata={self.metadata!r})"
         )
-
-    def to_csv(self, path: str | os.PathLike, force: bool = False) -> Path:
-        """Write the curve; see :func:`write_static_curve`."""
-        from .csv_format import write_static_curve  # the writer imports this module
-
-        return write_static_curve(self, path, force=force)
 

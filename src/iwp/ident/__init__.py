@@ -5,12 +5,20 @@ module                 what
 =====================  ============================================================
 :mod:`.identification`  the least squares (13) of every set-up of section 5, with uncertainty
 :mod:`.setups`         the set-ups (10)-(12), theta^a..theta^d, the dead zone: one file each
+:mod:`.regressors`     the regressor (11) of the rows of (9), written once
 :mod:`.signals`        windowed, differentiated, filtered signals of the logs
 :mod:`.noise`          covariance from the encoder noise through the differentiator
 :mod:`.differentiate`  velocities and accelerations of quantised positions
 :mod:`.lsq`            stable least squares with honest uncertainty
+:mod:`.parameters`     a fit's parameters: value, bounds, free/fixed, expression, stderr
+:mod:`.problem`        one fit problem: prepare, solve, report (:class:`FitProblem`)
+:mod:`.output_error`   the simulation error of measured outputs (the residual model of fits)
+:mod:`.covariance`     the covariance of a fit from its Jacobian; what the data cannot tell
+:mod:`.jacobian`       the one forward-difference Jacobian
 :mod:`.refinement`     refinement by simulation error (output error, forward sensitivities)
+:mod:`.belt_fit`       the belt (15) from the disk velocity
 :mod:`.validation`     simulation against a log: fit, error, restart (figures 3-10)
+:mod:`.logfit`         ``iwp fit``: a rig's logs to a validated model
 :mod:`.fit`            the fit in percent (NRMSE)
 :mod:`.result`         :class:`IdentificationResult`
 =====================  ============================================================
@@ -18,35 +26,52 @@ module                 what
 
 from __future__ import annotations
 
+from .belt_fit import refine_belt
 from .differentiate import Differentiator
 from .fit import fit_percent
 from .identification import default_differentiator, identify, identify_dead_zone, load_pendulum
-from .lsq import LeastSquaresResult, ParameterEstimate, solve_least_squares
-from .refinement import RefineResult, refine, refine_identification
+from .lsq import LeastSquaresResult, solve_least_squares
+from .output_error import EXPERIMENT_KINDS, Experiment, OutputError
+from .parameters import Parameter, ParameterEstimate, Parameters
+from .problem import FitProblem, FitResult, Loss, SolverOptions
+from .refinement import RefineResult, as_experiments, fit_plant, refine, refine_identification
 from .result import IdentificationResult
 from .setups import PARAMETER_NAMES, PARAMETER_UNITS, SETUPS, Setup, get_setup
-from .validation import ValidationResult, auto_model, validate
+from .validation import ValidationResult, auto_model, validate, validation_plant
 
 __all__ = [
     "Differentiator",
+    "EXPERIMENT_KINDS",
+    "Experiment",
+    "FitProblem",
+    "FitResult",
     "IdentificationResult",
     "LeastSquaresResult",
+    "Loss",
+    "OutputError",
     "PARAMETER_NAMES",
     "PARAMETER_UNITS",
+    "Parameter",
     "ParameterEstimate",
+    "Parameters",
     "RefineResult",
     "SETUPS",
     "Setup",
+    "SolverOptions",
     "ValidationResult",
+    "as_experiments",
     "auto_model",
     "default_differentiator",
     "fit_percent",
+    "fit_plant",
     "get_setup",
     "identify",
     "identify_dead_zone",
     "load_pendulum",
     "refine",
+    "refine_belt",
     "refine_identification",
     "solve_least_squares",
     "validate",
+    "validation_plant",
 ]

@@ -124,12 +124,14 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from scipy import stats
 
+from ..data import check_distinct
 from ..errors import IdentificationError, InputError
 from ..files import read_json
 from ..models.parameters import load_params, table1
 from .differentiate import Differentiator
-from .lsq import LeastSquaresResult, ParameterEstimate, lstsq_projection, solve_least_squares
+from .lsq import LeastSquaresResult, lstsq_projection, solve_least_squares
 from .noise import noise_covariance, row_weights
+from .parameters import Parameter
 from .result import IdentificationResult
 from .setups import PARAMETER_NAMES, PARAMETER_UNITS, SETUPS, Setup, fit_static_curve, get_setup, pendulum_values
 from .signals import Signals, as_list, prepare_signals
@@ -293,9 +295,11 @@ def identify(
     spec.check_options(pendulum, p2)
     if spec.static:
         if t_start is not None or t_end is not None:
-            raise InputError("t_start/t_end do not apply to set-up 'dead-zone' (a static curve has no time)")
+            raise InputError("t_start/t_end do not apply to set-up 'dead-zone' (a static curve has no time)",
+                             argument=("t_start", "t_end"))
         return identify_dead_zone(data)
     datas = as_list(data)
+    check_distinct(datas, "data")
     d = _differentiator_for(differentiator, datas)
     ref = table1() if base is None else base
     pend_vals = pendulum_values(pendulum)[0] if spec.takes_pendulum else None
@@ -381,13 +385,13 @@ def identify(
 
     # the warnings of lsq
     warnings.extend(res.warnings)
-    params: dict[str, ParameterEstimate] = {}
+    params: dict[str, Parameter] = {}
     se_all = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se_all[~np.isfinite(np.diag(cov))] = np.nan
     for j, nm in enumerate(names):
         v = float(res.values[j])
         se = float(se_all[j])
-        params[nm] = ParameterEstimate(nm, v, se, v - crit * se, v + crit * se)
+        params[nm] = Parameter.estimate(nm, v, se, crit)
 
     rho_info = None
     out_names = list(names)
@@ -455,7 +459,7 @@ def _sources(datas: Sequence[Any]) -> list[str]:
     return [str(getattr(x, "source", "<memory>")) for x in datas]
 
 
-def _explain(spec: Setup, params: Mapping[str, ParameterEstimate], corr: np.ndarray, names: Sequence[str],
+def _explain(spec: Setup, params: Mapping[str, Parameter], corr: np.ndarray, names: Sequence[str],
              sig: Signals, res: LeastSquaresResult) -> list[str]:
     """Warnings that interpret the numbers: unphysical signs, undetermined values, inseparable pairs."""
     out: list[str] = []

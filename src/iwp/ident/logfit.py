@@ -47,7 +47,6 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-from scipy import signal
 
 from ..data import ExperimentData, read_experiment
 from ..data.rig_description import RigDescription, load_rig
@@ -55,17 +54,23 @@ from ..data.rig_log import read_rig_log
 from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import TYPICAL, LumpedParameters
+from ..models.plant import Plant
+from .differentiate import Differentiator
 from .fit import fit_percent
-from .refinement import RefineResult, refine
+from .output_error import Experiment, OutputError
+from .problem import Loss
+from .refinement import RefineResult, as_experiments, refine
+from .regressors import columns, q3_row, row_sum
 
-__all__ = ["fit_logs", "LogFitResult", "LogFit", "least_squares_start", "load_logs", "measured_initial_state",
-           "MIN_SAMPLES_PER_PERIOD"]
+__all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresStart", "least_squares_start",
+           "load_logs", "measured_initial_state", "MIN_SAMPLES_PER_PERIOD"]
 
 #: Least squares on differentiated data needs at least this many samples per pendulum period.
 MIN_SAMPLES_PER_PERIOD = 8
 #: length of the Savitzky-Golay filters of the least-squares start [s] (at least 7 samples)
-_SG_SECONDS = 0.15
-_BASE_FREE = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1")
+SG_SECONDS = 0.15
+#: the parameters of model (9) that every fit frees
+BASE_FREE = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1")
 
 
 @dataclass
@@ -206,15 +211,6 @@ class LogFitResult:
     def __str__(self) -> str:
         return self.summary()
 
-    def write(self, out: str | os.PathLike, *, force: bool = False) -> dict:
-        """Write ``fit.json``, ``parameters.json``, ``report.html`` and the figures into the folder ``out``.
-
-        See :func:`iwp.report.fit_page.write_fit_report`.
-        """
-        from ..report.fit_page import write_fit_report
-
-        return write_fit_report(self, out, force=force)
-
 
 def _mean_fit(fits: list[LogFit], outputs) -> dict[str, float]:
     out = {}
@@ -251,68 +247,111 @@ def load_logs(items, rig: RigDescription | None, *, argument: str = "logs") -> l
 # --------------------------------------------------------------------------
 # least squares start
 # --------------------------------------------------------------------------
-def _sg(Ts: float, n: int) -> tuple[int, int]:
-    half = max(3, int(round(0.5 * _SG_SECONDS / Ts)))
-    window = min(2 * half + 1, n - (1 - n % 2))
-    return max(window, 5), 3
+def _differentiator(Ts: float, n: int) -> Differentiator:
+    """Savitzky-Golay (value, slope, curvature from one cubic) over about :data:`SG_SECONDS`, at least 5 samples."""
+    half = max(3, int(round(0.5 * SG_SECONDS / Ts)))
+    window = max(min(2 * half + 1, n - (1 - n % 2)), 5)
+    return Differentiator("savgol_direct", window=window, polyorder=min(3, window - 2))
 
 
-def _signals(d: ExperimentData) -> dict[str, np.ndarray]:
-    """Smoothed q1, q3, q3', q4, q4', u (held input moved to the instants) of one log."""
-    Ts = d.Ts
-    win, po = _sg(Ts, d.n_samples)
+@dataclass
+class _Terms:
+    """The terms of the rows of (9) at the smoothed states of the logs (:mod:`iwp.ident.regressors`)."""
+
+    q1: np.ndarray
+    q3: np.ndarray
+    dq3: np.ndarray
+    q4: np.ndarray
+    dq4: np.ndarray
+    u: np.ndarray
+
+    @property
+    def S(self) -> np.ndarray:
+        return np.sin(self.q1)
+
+    @property
+    def C(self) -> np.ndarray:
+        return np.abs(np.cos(self.q1)) * self.q3
+
+    @property
+    def B(self) -> np.ndarray:
+        return self.q3 ** 3
+
+
+def _terms(d: ExperimentData) -> _Terms:
+    """Smoothed q1, q3, q3', q4, q4', u (held input moved to the instants) of one log, glitches and edges left out."""
+    if d.n_samples < 7:
+        raise InputError(f"{d.source}: {d.n_samples} samples are too few for the least-squares start")
+    diff = _differentiator(d.Ts, d.n_samples)
+    win = diff.window
     if d.n_samples < win + 2:
         raise InputError(f"{d.source}: {d.n_samples} samples are too few for the least-squares start")
-    sg = dict(window_length=win, polyorder=min(po, win - 2), delta=Ts)
-    q1 = d.q1
-    out = {"q1": signal.savgol_filter(q1, deriv=0, **sg), "q3": signal.savgol_filter(q1, deriv=1, **sg),
-           "dq3": signal.savgol_filter(q1, deriv=2, **sg)}
+    q1, q3, dq3 = diff.derivatives(d.Ts, d.q1)
     if d.q2 is not None and d.q4 is None:
-        out["q4"] = signal.savgol_filter(d.q2, deriv=1, **sg)
-        out["dq4"] = signal.savgol_filter(d.q2, deriv=2, **sg)
+        _q2, q4, dq4 = diff.derivatives(d.Ts, d.q2)
     else:
         q4 = np.asarray(d.q4, dtype=float)
         if d.q4_sampling == "mean":  # means over [t_k - Ts, t_k]: move to the instants
             q4 = np.concatenate([0.5 * (q4[1:] + q4[:-1]), q4[-1:]])
-        out["q4"] = signal.savgol_filter(q4, deriv=0, **sg)
-        out["dq4"] = signal.savgol_filter(q4, deriv=1, **sg)
+        q4, dq4, _ = diff.derivatives(d.Ts, q4)
     u = np.asarray(d.input, dtype=float)
     held = np.concatenate([u[:1], 0.5 * (u[1:] + u[:-1])])  # the mean input over [t_k - Ts/2, t_k + Ts/2]
-    out["u"] = signal.savgol_filter(held, deriv=0, **sg)
+    u = diff.smooth(d.Ts, held)
     edge = win // 2 + 1
     mask = np.ones(d.n_samples, dtype=bool)
     mask[:edge] = False
     mask[-edge:] = False
     for col in ("q1", "q4"):
         src = "q4" if col == "q4" and d.q4 is not None else ("q2" if col == "q4" else "q1")
-        bad = np.flatnonzero(d.glitch_mask(src))
-        for k in bad:
+        for k in np.flatnonzero(d.glitch_mask(src)):
             mask[max(0, k - win // 2): k + win // 2 + 1] = False
-    return {k: v[mask] for k, v in out.items()}
+    return _Terms(*(np.asarray(x)[mask] for x in (q1, q3, dq3, q4, dq4, u)))
+
+
+@dataclass(frozen=True)
+class LeastSquaresStart:
+    """The start of ``iwp fit``'s refinement (:func:`least_squares_start`).
+
+    Attributes
+    ----------
+    params : LumpedParameters
+    method : str
+        ``"least squares"`` or ``"spectrum and wheel row"`` (the fallback).
+    details : dict
+        The least-squares values.
+    notes : list of str
+        Why a fallback was taken, what was replaced.
+    """
+
+    params: LumpedParameters
+    method: str
+    details: dict
+    notes: list[str]
 
 
 def least_squares_start(logs: Sequence[ExperimentData], *, base: LumpedParameters | None = None
-                        ) -> tuple[LumpedParameters, str, dict, list[str]]:
+                        ) -> LeastSquaresStart:
     """A start for the refinement by least squares of model (9) on differentiated logs.
 
-    Returns ``(params, method, details, notes)``: ``method`` is ``"least squares"`` or
-    ``"spectrum and wheel row"`` (the fallback); ``details`` holds the least-squares values.
+    The row sum ``q3' + q4' = -rho p2 q4 + rho p3 u`` gives ``rho p2`` and
+    ``rho p3`` free of the pendulum terms; the ``q3'`` row of (11)
+    (:mod:`iwp.ident.regressors`) with a column ``cos q1`` for the zero offset
+    ``d`` of the angle (``-p1 sin(q1 - d) = -p1 sin q1 + p1 d cos q1``) gives
+    ``p1``, the friction, ``p2``, ``p3``. Where the sampling does not allow it
+    (fewer than :data:`MIN_SAMPLES_PER_PERIOD` samples per pendulum period) or
+    the values are not physical, ``p1`` comes from the spectrum of ``q1``.
     """
     notes: list[str] = []
-    sigs = [_signals(d) for d in logs]
-    cat = {k: np.concatenate([s[k] for s in sigs]) for k in sigs[0]}
-    q1, q3, dq3, q4, dq4, u = (cat[k] for k in ("q1", "q3", "dq3", "q4", "dq4", "u"))
-    # row sum: q3' + q4' = -rho p2 q4 + rho p3 u (no pendulum terms)
-    A = np.column_stack([-q4, u])
-    (rp2, rp3), *_ = np.linalg.lstsq(A, dq3 + dq4, rcond=None)
-    # first row: q3' = -p1 sin q1 - sa |cos q1| q3 - sv q3 - sb q3^3 + p2 q4 - p3 u
-    # with the zero offset d of the angle, -p1 sin(q1 - d) = -p1 sin q1 + p1 d cos q1: a column cos q1
-    B = np.column_stack([-np.sin(q1), -np.abs(np.cos(q1)) * q3, -q3, -q3 ** 3, q4, -u, np.cos(q1)])
+    parts = [_terms(d) for d in logs]
+    sig = _Terms(*(np.concatenate([getattr(t, k) for t in parts]) for k in ("q1", "q3", "dq3", "q4", "dq4", "u")))
+    n = sig.q1.size
+    (rp2, rp3), *_ = np.linalg.lstsq(columns(row_sum(sig), ("rho_p2", "rho_p3"), n), sig.dq3 + sig.dq4, rcond=None)
+    names = ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "p2", "p3")
+    B = np.column_stack([columns(q3_row(sig), names, n), np.cos(sig.q1)])
     scale = np.linalg.norm(B, axis=0)
     scale[scale == 0] = 1.0
-    th, *_ = np.linalg.lstsq(B / scale, dq3, rcond=None)
-    th = th / scale
-    p1, sa, sv, sb, p2b, p3b, c1 = (float(v) for v in th)
+    th, *_ = np.linalg.lstsq(B / scale, sig.dq3, rcond=None)
+    p1, sa, sv, sb, p2b, p3b, c1 = (float(v) for v in th / scale)
     details = {"rho_p2": float(rp2), "rho_p3": float(rp3), "p1": p1, "sigma_a1": sa, "sigma_v1": sv, "sigma_b1": sb,
                "p2": p2b, "p3": p3b, "q1_offset": c1 / p1 if p1 else float("nan")}
     Ts = max(d.Ts for d in logs)
@@ -344,7 +383,7 @@ def least_squares_start(logs: Sequence[ExperimentData], *, base: LumpedParameter
     start = (base or LumpedParameters(p1=p1, p2=1.0, p3=1.0, rho=rho, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0))
     start = start.replace(p1=p1, p2=max(rp2 / rho, 1e-9), p3=rp3 / rho, rho=rho, sigma_a1=sa, sigma_v1=sv,
                           sigma_b1=max(sb, 0.0))
-    return start, method, details, notes
+    return LeastSquaresStart(start, method, details, notes)
 
 
 def _spectral_p1(logs) -> float:
@@ -365,19 +404,72 @@ def _spectral_p1(logs) -> float:
 # --------------------------------------------------------------------------
 # the fit
 # --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class LogFitOptions:
+    """How :func:`fit_logs` fits (``iwp fit``'s options).
+
+    Parameters
+    ----------
+    dead_zone : bool
+        Model (6) with the dead zone (5) (thresholds ``v_dz_pos``, ``v_dz_neg``
+        fitted); the logs must hold the raw command ``v``. Default: model (9).
+    coulomb, pendulum_coulomb, input_offset : bool
+        Also fit Coulomb friction of the wheel (``sigma_c2``), of the pendulum
+        (``sigma_c1``), and an offset of the input (``u_offset``).
+    loss : str
+        ``"linear"`` or a robust loss (:class:`~iwp.ident.problem.Loss`).
+    start : LumpedParameters, optional
+        Start of the refinement instead of the least squares.
+    window : (float or None, float or None)
+        Window of every training log [s].
+    """
+
+    dead_zone: bool = False
+    coulomb: bool = False
+    pendulum_coulomb: bool = False
+    input_offset: bool = False
+    loss: str = "linear"
+    start: LumpedParameters | None = None
+    window: tuple[float | None, float | None] = (None, None)
+
+    def __post_init__(self) -> None:
+        Loss(self.loss)
+        if self.start is not None and not isinstance(self.start, LumpedParameters):
+            raise InputError(f"start must be LumpedParameters, got {type(self.start).__name__}", argument="start")
+
+    @property
+    def model(self) -> str:
+        """``"raw"`` (6) with the dead zone, or ``"compensated"`` (9)."""
+        return "raw" if self.dead_zone else "compensated"
+
+    def free(self) -> tuple[str, ...]:
+        """The parameters fitted: model (9)'s and the options' terms."""
+        extra = [(self.dead_zone, ("v_dz_pos", "v_dz_neg")), (self.coulomb, ("sigma_c2",)),
+                 (self.pendulum_coulomb, ("sigma_c1",)), (self.input_offset, ("u_offset",))]
+        return BASE_FREE + tuple(n for on, names in extra if on for n in names)
+
+    def starting_values(self, start: LumpedParameters, umax: float) -> LumpedParameters:
+        """The options' terms started at a fraction of what the logs' input and ``start`` allow."""
+        if self.dead_zone:
+            start = start.replace(v_dz_pos=0.05 * umax, v_dz_neg=0.05 * umax)
+        if self.coulomb:
+            start = start.replace(sigma_c2=0.02 * start.p3 * umax)
+        if self.pendulum_coulomb:
+            start = start.replace(sigma_c1=0.01 * start.p1)
+        return start
+
+    def to_dict(self, offset_given: bool) -> dict[str, Any]:
+        return {"dead_zone": bool(self.dead_zone), "coulomb": bool(self.coulomb),
+                "pendulum_coulomb": bool(self.pendulum_coulomb), "input_offset": bool(self.input_offset),
+                "loss": self.loss, "q1_offset": "given by the rig" if offset_given else "estimated per log"}
+
+
 def fit_logs(
     train,
     *,
     rig: RigDescription | str | os.PathLike | None = None,
     validate=(),
-    dead_zone: bool = False,
-    coulomb: bool = False,
-    pendulum_coulomb: bool = False,
-    input_offset: bool = False,
-    loss: str = "linear",
-    start: LumpedParameters | None = None,
-    t_start: float | None = None,
-    t_end: float | None = None,
+    options: LogFitOptions | None = None,
     warn: bool = True,
 ) -> LogFitResult:
     """Identify model (9) (or (6)) from a rig's training logs and validate it on held-out logs.
@@ -390,18 +482,8 @@ def fit_logs(
         How the logs map onto iwp's signals (``--rig``); without it they must be iwp logs.
     validate : path, ExperimentData or sequence of them
         Held-out logs (e.g. pseudo-random inputs), simulated from their measured state, not fitted.
-    dead_zone : bool
-        Model (6) with the dead zone (5) (thresholds ``v_dz_pos``, ``v_dz_neg`` fitted); the logs
-        must hold the raw command ``v``. Default: model (9).
-    coulomb, pendulum_coulomb, input_offset : bool
-        Also fit Coulomb friction of the wheel (``sigma_c2``), of the pendulum (``sigma_c1``), and an
-        offset of the input (``u_offset``).
-    loss : str
-        ``"linear"`` or a robust loss of :func:`~iwp.ident.refinement.refine`.
-    start : LumpedParameters, optional
-        Start of the refinement instead of the least squares.
-    t_start, t_end : float, optional
-        Window of every training log [s].
+    options : LogFitOptions, optional
+        The model and its options, the loss, the start, the window.
     warn : bool
         Also issue the warnings with :func:`warnings.warn`.
 
@@ -410,6 +492,7 @@ def fit_logs(
     LogFitResult
     """
     t0 = time.perf_counter()
+    options = options or LogFitOptions()
     rig_d = load_rig(rig) if rig is not None else None
     with _warnings.catch_warnings(record=True) as caught:
         _warnings.simplefilter("always")
@@ -418,77 +501,59 @@ def fit_logs(
     msgs = [str(w.message) for w in caught]
     if not train_logs:
         raise InputError("train: no training logs given", argument="train")
-    model = "raw" if dead_zone else "compensated"
+    model = options.model
     train_logs = [_as_model_input(d, model, "train") for d in train_logs]
     val_logs = [_as_model_input(d, model, "validate") for d in val_logs]
-    has_q2 = all(d.q2 is not None for d in train_logs + val_logs)
-    outputs = ("q1", "q2") if has_q2 else ("q1", "q4")
     for d in train_logs + val_logs:
         if d.q2 is None and d.q4 is None:
             raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
+    outputs = ("q1", "q2") if all(d.q2 is not None for d in train_logs + val_logs) else ("q1", "q4")
     offset_given = rig_d is not None and rig_d.pendulum.offset is not None
-    # ---- start
-    wtrain = [d.window(t_start, t_end) for d in train_logs]
-    ls_details: dict = {}
-    if start is None:
-        start_p, method, ls_details, notes = least_squares_start(wtrain)
-        msgs.extend(notes)
+    # ---- prepare: the start
+    wtrain = [d.window(*options.window) for d in train_logs]
+    if options.start is None:
+        ls = least_squares_start(wtrain)
+        msgs.extend(ls.notes)
+        umax = max(float(np.max(np.abs(d.input))) for d in wtrain)
+        start_p, method, ls_details = options.starting_values(ls.params, umax), ls.method, ls.details
     else:
-        if not isinstance(start, LumpedParameters):
-            raise InputError(f"start must be LumpedParameters, got {type(start).__name__}", argument="start")
-        start_p, method = start, "given"
-    free = list(_BASE_FREE)
-    options = {"dead_zone": bool(dead_zone), "coulomb": bool(coulomb), "pendulum_coulomb": bool(pendulum_coulomb),
-               "input_offset": bool(input_offset), "loss": loss,
-               "q1_offset": "given by the rig" if offset_given else "estimated per log"}
-    umax = max(float(np.max(np.abs(d.input))) for d in wtrain)
-    if dead_zone:
-        free += ["v_dz_pos", "v_dz_neg"]
-        if start is None:
-            start_p = start_p.replace(v_dz_pos=0.05 * umax, v_dz_neg=0.05 * umax)
-    if coulomb:
-        free.append("sigma_c2")
-        if start is None:
-            start_p = start_p.replace(sigma_c2=0.02 * start_p.p3 * umax)
-    if pendulum_coulomb:
-        free.append("sigma_c1")
-        if start is None:
-            start_p = start_p.replace(sigma_c1=0.01 * start_p.p1)
-    if input_offset:
-        free.append("u_offset")
-    r = refine(train_logs, start_p, model=model, free=tuple(free), outputs=outputs, estimate_x0=True,
-               windows=(t_start, t_end), loss=loss, output_offsets=() if offset_given else ("q1",), warn=False)
+        start_p, method, ls_details = options.start, "given", {}
+    # ---- solve: the joint simulation-error fit
+    exps = as_experiments(train_logs, windows=tuple(options.window), offsets=() if offset_given else ("q1",))
+    r = refine(exps, Plant(start_p, model=model), free=options.free(), outputs=outputs, loss=options.loss,
+               warn=False)
     msgs.extend(r.warnings)
-    params = r.params
-    # ---- training fits
-    train_fits = []
-    offs = []
-    for i, d in enumerate(train_logs):
-        off = r.offsets[i].get("q1", (0.0, 0.0))[0] if r.offsets else 0.0
-        offs.append(off)
-        train_fits.append(_log_fit(d, "train", r.times[i], r.measured[i], r.simulated[i], r.weights[i], r.x0[i], off))
-    # ---- validation: measured initial state, no re-fitting
+    # ---- report: training fits, held-out logs simulated from their measured state
+    offs = [r.offsets[i].get("q1", (0.0, 0.0))[0] for i in range(len(train_logs))]
+    train_fits = [_log_fit(d, "train", r.times[i], r.measured[i], r.simulated[i], r.weights[i], r.x0[i], offs[i])
+                  for i, d in enumerate(train_logs)]
     val_off = 0.0 if offset_given else float(np.mean(offs))
     if val_logs and not offset_given:
         msgs.append(f"held-out logs: the pendulum zero offset is taken as the training logs' mean, "
                     f"{val_off:+.4g} rad (offsets of the training logs: "
                     + ", ".join(f"{o:+.4g}" for o in offs) + ")")
-    val_fits = []
-    for d in val_logs:
-        dc = replace(d, q1=d.q1 - val_off) if val_off else d
-        x0 = measured_initial_state(dc)
-        v = refine(dc, params, model=model, free=(), outputs=outputs, estimate_x0=False, x0=[x0], warn=False)
-        val_fits.append(_log_fit(d, "validate", v.times[0], v.measured[0], v.simulated[0], v.weights[0], v.x0[0],
-                                 val_off))
-        if not v.success or not all(math.isfinite(x) for x in v.fit[0].values()):
-            msgs.append(f"{d.source}: the validation simulation failed or diverged")
-    res = LogFitResult(params=params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
-                       model=model, outputs=outputs, options=options, train=train_fits, validation=val_fits,
-                       warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0)
+    val_fits = [_held_out(d, Plant(r.params, model=model), outputs, val_off, msgs) for d in val_logs]
+    res = LogFitResult(params=r.params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
+                       model=model, outputs=outputs, options=options.to_dict(offset_given), train=train_fits,
+                       validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0)
     if warn:
         for m in res.warnings:
             _warnings.warn(m, stacklevel=2)
     return res
+
+
+def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset: float, msgs: list[str]) -> LogFit:
+    """A held-out log simulated from its measured initial state (its angle less ``offset``), not fitted."""
+    dc = replace(d, q1=d.q1 - offset) if offset else d
+    model = OutputError(plant, [Experiment(dc, x0=measured_initial_state(dc), estimate_x0=False)], outputs,
+                        fitting=False)
+    ev = model.evaluate(model.parameters().values())
+    p = model.prepared[0]
+    fit = _log_fit(d, "validate", p.t, dict(p.y), model.predictions(ev)[0], dict(p.w), model.states(ev.values)[0],
+                   offset)
+    if ev.status[0] != 0 or not all(math.isfinite(x) for x in fit.fit.values()):
+        msgs.append(f"{d.source}: the validation simulation failed or diverged")
+    return fit
 
 
 #: the measured initial state: a quadratic fitted to the first samples over about this long [s]

@@ -43,9 +43,10 @@ from scipy.linalg.lapack import dgeqrf as _dgeqrf
 from ..checks import check_finite
 from ..errors import IdentificationError, InputError
 from ..files import json_float
+from .covariance import null_space_message
+from .parameters import Parameter
 
 __all__ = [
-    "ParameterEstimate",
     "LeastSquaresResult",
     "LinearSystem",
     "solve_least_squares",
@@ -75,43 +76,6 @@ _WEIGHT_FLOOR = 1e-8  # smallest block sigma relative to the largest one
 # ---------------------------------------------------------------------------
 # result types
 # ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class ParameterEstimate:
-    """One estimated (or fixed) parameter.
-
-    Attributes
-    ----------
-    name : str
-        Parameter name, e.g. ``"p1"``.
-    value : float
-        Estimate, in the unit that makes ``Phi theta`` match the target.
-    stderr : float
-        Standard error (same unit); NaN if the parameter is not
-        identifiable, 0 if it is fixed.
-    ci95_low, ci95_high : float
-        Bounds of the 95 % confidence interval (same unit).
-    fixed : bool
-        True if the value was given (``fixed=`` of
-        :func:`solve_least_squares`) rather than estimated.
-    """
-
-    name: str
-    value: float
-    stderr: float
-    ci95_low: float
-    ci95_high: float
-    fixed: bool = False
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able dict ``{"value", "stderr", "ci95": [lo, hi], "fixed"}`` (NaN -> None)."""
-        return {
-            "value": json_float(self.value),
-            "stderr": json_float(self.stderr),
-            "ci95": [json_float(self.ci95_low), json_float(self.ci95_high)],
-            "fixed": self.fixed,
-        }
-
-
 @dataclass(frozen=True, eq=False)
 class LeastSquaresResult:
     """Result of :func:`solve_least_squares`.
@@ -120,7 +84,7 @@ class LeastSquaresResult:
     ----------
     names : tuple of str
         Parameter names, in column order of the regressor.
-    parameters : dict of str to ParameterEstimate
+    parameters : dict of str to Parameter
         The estimates by name; also reachable as ``result["p1"]``.
     values, stderr : ndarray, shape (n_params,)
         Estimates and standard errors in the order of ``names``.
@@ -167,7 +131,7 @@ class LeastSquaresResult:
     """
 
     names: tuple[str, ...]
-    parameters: dict[str, ParameterEstimate]
+    parameters: dict[str, Parameter]
     values: np.ndarray
     stderr: np.ndarray
     covariance: np.ndarray
@@ -189,7 +153,7 @@ class LeastSquaresResult:
     message: str = ""
 
     # dict-like access --------------------------------------------------
-    def __getitem__(self, name: str) -> ParameterEstimate:
+    def __getitem__(self, name: str) -> Parameter:
         try:
             return self.parameters[name]
         except KeyError:
@@ -452,27 +416,6 @@ def _fixed_b_critical_value(b: float) -> float:
     """
     b = min(max(b, 0.0), 1.0)
     return 1.96 + 2.9694 * b + 0.4160 * b**2 - 0.5324 * b**3
-
-
-def null_space_message(Vt_null: np.ndarray, names: Sequence[str]) -> str:
-    parts = []
-    for v in Vt_null:
-        v = v / np.abs(v).max()
-        v = v * np.sign(v[np.argmax(np.abs(v))])
-        idx = [j for j in np.argsort(-np.abs(v)) if abs(v[j]) >= 0.05]
-        terms = " ".join(
-            f"{'+' if v[j] >= 0 else '-'} "
-            + (names[j] if abs(abs(v[j]) - 1.0) < 5e-4 else f"{abs(v[j]):.3g}*{names[j]}")
-            for j in idx
-        )
-        cols = ", ".join(names[j] for j in idx)
-        if len(idx) == 1:
-            parts.append(f"column {cols} is (numerically) zero: {cols} is not excited")
-        else:
-            parts.append(
-                f"columns {cols} are (nearly) collinear: {terms.lstrip('+ ')} = 0 (columns scaled to unit norm)"
-            )
-    return "; ".join(parts)
 
 
 # ---------------------------------------------------------------------------
@@ -831,14 +774,14 @@ def solve_least_squares(
         corr[j, j] = 1.0 if math.isfinite(stderr[j]) else math.nan
     corr = np.clip(corr, -1.0, 1.0)
 
-    params: dict[str, ParameterEstimate] = {}
+    params: dict[str, Parameter] = {}
     for j, nm in enumerate(names):
         if nm in fixed:
             v = float(values[j])
-            params[nm] = ParameterEstimate(nm, v, 0.0, v, v, fixed=True)
+            params[nm] = Parameter.given(nm, v)
         else:
             se = float(stderr[j])
-            params[nm] = ParameterEstimate(nm, float(values[j]), se, values[j] - crit * se, values[j] + crit * se)
+            params[nm] = Parameter.estimate(nm, float(values[j]), se, crit)
 
     # ---- diagnostics ---------------------------------------------------------
     if rank == p and cond > cond_warn:

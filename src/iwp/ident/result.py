@@ -12,7 +12,8 @@ import numpy as np
 from ..errors import IdentificationError, InputError
 from ..files import json_float, jsonable
 from ..models.parameters import LumpedParameters, table1
-from .lsq import LeastSquaresResult, ParameterEstimate
+from .lsq import LeastSquaresResult
+from .parameters import Parameter
 from .setups import PARAMETER_UNITS, SETUPS
 
 __all__ = ["IdentificationResult"]
@@ -30,7 +31,7 @@ class IdentificationResult:
         Number of samples used (after windowing and dropping the
         differentiator's edge samples, all files together); points of the
         static curve for ``"dead-zone"``.
-    parameters : dict of str to ParameterEstimate
+    parameters : dict of str to Parameter
         The identified (and derived, e.g. ``rho``) parameters by name, with
         ``value``, ``stderr`` and the 95 % interval ``ci95_low``,
         ``ci95_high``, in the units of :data:`PARAMETER_UNITS`.
@@ -75,7 +76,7 @@ class IdentificationResult:
 
     setup: str
     samples: int
-    parameters: dict[str, ParameterEstimate]
+    parameters: dict[str, Parameter]
     names: tuple[str, ...]
     covariance: np.ndarray
     correlation: np.ndarray
@@ -93,7 +94,7 @@ class IdentificationResult:
     details: dict[str, Any] = field(default_factory=dict)
 
     # access ------------------------------------------------------------
-    def __getitem__(self, name: str) -> ParameterEstimate:
+    def __getitem__(self, name: str) -> Parameter:
         try:
             return self.parameters[name]
         except KeyError:
@@ -186,7 +187,7 @@ class IdentificationResult:
         pars = doc["parameters"]
         if setup not in SETUPS or not isinstance(pars, Mapping):
             raise InputError(f"{where}: 'setup' must be one of {', '.join(SETUPS)} and 'parameters' an object")
-        params: dict[str, ParameterEstimate] = {}
+        params: dict[str, Parameter] = {}
         for n, e in pars.items():
             if not isinstance(e, Mapping) or "value" not in e:
                 raise InputError(f"{where}: parameter {n!r} must be an object with 'value' and 'stderr'")
@@ -196,7 +197,7 @@ class IdentificationResult:
             ci = e.get("ci95") or [None, None]
             lo = math.nan if ci[0] is None else float(ci[0])
             hi = math.nan if ci[1] is None else float(ci[1])
-            params[n] = ParameterEstimate(n, v, se, lo, hi)
+            params[n] = Parameter(n, v, stderr=se, ci95=(lo, hi))
         names = tuple(params)
         corr_doc = doc.get("correlation") or {}
         k = len(names)

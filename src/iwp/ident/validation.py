@@ -27,7 +27,8 @@ at ``rtol = atol = 1e-10``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import dataclass, field, replace
 from typing import Any, Sequence
 
 import numpy as np
@@ -37,12 +38,15 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import LumpedParameters, PhysicalParameters
 from ..models.plant import MODELS, Plant
+from ..plotting.validation import plot_validation
 from ..sim.inputs import Input
-from ..sim.simulate import simulate
 from .fit import fit_percent
-from .refinement import REFINE_MODELS, initial_state, measured_signals, model_input, refine, replay
+from .output_error import Experiment, OutputError, measured_signals
+from .problem import FitProblem, SolverOptions
+from .refinement import REFINE_MODELS
 
-__all__ = ["validate", "fit_percent", "ValidationResult", "auto_model"]
+__all__ = ["validate", "fit_percent", "ValidationResult", "auto_model", "choose_model", "validation_plant",
+           "VALIDATION_OPTIONS"]
 
 _SIGNALS = ("q1", "q2", "q3", "q4")
 
@@ -131,8 +135,6 @@ class ValidationResult:
     def plot(self, signals: Sequence[str] | None = None, axes=None, **kw):
         """Measured against simulated signals with the error below each (the paper's figures);
         see :func:`iwp.plotting.validation.plot_validation`."""
-        from ..plotting.validation import plot_validation
-
         sig = tuple(signals) if signals is not None else tuple(self.measured)
         return plot_validation(self.t, self.measured, self.simulated, signals=sig, fit=self.fit,
                                restart_times=self.restart_times, axes=axes, **kw)
@@ -154,109 +156,60 @@ def auto_model(data: ExperimentData) -> str:
     return "raw" if data.input_name == "v" else "compensated"
 
 
-def validate(
-    experiment: ExperimentData,
-    params,
-    *,
-    model: str = "compensated",
-    estimate_x0: bool = False,
-    t_start: float | None = None,
-    t_end: float | None = None,
-    restart_times: Sequence[float] = (),
-    controller: Input | None = None,
-    signals: Sequence[str] = ("q1", "q2"),
-    locked: bool | None = None,
-    rtol: float = 1e-10,
-    atol: float = 1e-10,
-) -> ValidationResult:
-    """Simulate ``model`` against a log and measure how well it predicts it.
+#: Tolerances of the validation's simulations (far below any encoder step).
+VALIDATION_OPTIONS = SolverOptions(rtol=1e-10, atol=1e-10)
 
-    Parameters
-    ----------
-    experiment : ExperimentData
-        The log.
-    params : LumpedParameters (or PhysicalParameters)
-    model : str
-        ``"compensated"`` (9, input ``u``), ``"raw"`` (6, input ``v``),
-        ``"motor-disk"``, ``"motor-disk-raw"`` (14), ``"free"`` (free
-        pendulum, wheel held) or ``"free-nowheel"``, see :mod:`iwp.ident.refinement`;
-        ``"auto"``: :func:`auto_model`.
-    estimate_x0 : bool
-        Estimate the initial state by a simulation-error fit (parameters
-        fixed) instead of taking the measured one.
-    t_start, t_end : float, optional
-        Time window [s].
-    restart_times : sequence of float
-        Restart the simulation from the measured state at these times [s]
-        (figure 9(b)); each is snapped to the nearest sample inside the window.
-    controller : iwp.sim.inputs controller, optional
-        Simulate in closed loop with it (e.g. ``HopfController(-10, 0.1)``,
-        figure 10) instead of replaying the logged input.
-    signals : sequence of str
-        Signals compared, among ``q1, q2, q3, q4``; velocities missing from
-        the log are differentiated from the positions.
-    locked : bool, optional
-        Pendulum clamped (models ``"compensated"``/``"raw"``); default from
-        the log's metadata (``pendulum: locked``).
-    rtol, atol : float
-        Tolerances of the simulator.
 
-    Returns
-    -------
-    ValidationResult
+def choose_model(data: ExperimentData, model: str = "auto", *, stored: str | None = None, closed_loop: bool = False,
+                 source: str = "the parameter file", log: str = "the log") -> str:
+    """The model that validates a parameter file on a log (``iwp validate --model``).
+
+    ``"auto"``: the model the parameters were fitted with (``stored``) when it
+    takes the log's input, else :func:`auto_model` with a warning naming
+    ``source``. A model given explicitly must take the log's input (none,
+    ``u`` or ``v``), unless the loop is closed by a simulated controller.
     """
-    if not isinstance(experiment, ExperimentData):
-        raise InputError(f"experiment must be an ExperimentData, got {type(experiment).__name__}")
+    if model == "auto":
+        chosen = auto_model(data)
+        if stored is not None and MODELS.get(stored) is not None and MODELS[stored].input == data.input_name:
+            return stored
+        if stored is not None:
+            has = f"input {data.input_name}" if data.input_name else "no input"
+            warnings.warn(f"{source} was fitted with model {stored!r}, which does not take a log with {has}; "
+                          f"simulating model {chosen!r} (give --model to choose)", UserWarning, stacklevel=2)
+        return chosen
+    if (model in MODELS and data.input_name is not None and MODELS[model].input != data.input_name
+            and not closed_loop):
+        raise InputError(f"--model {model} does not take the input {data.input_name} of {log}; "
+                         f"use --model {auto_model(data)}")
+    return model
+
+
+def validation_plant(params, data: ExperimentData, model: str = "compensated") -> Plant:
+    """The plant that validates ``params`` on the log ``data``.
+
+    ``model`` is one of :data:`~iwp.ident.refinement.REFINE_MODELS`, or
+    ``"auto"`` (:func:`auto_model`); the pendulum of ``"compensated"`` and
+    ``"raw"`` is clamped when the log says so (metadata ``pendulum: locked``).
+    A :class:`~iwp.models.plant.Plant` is taken as it is.
+    """
+    if isinstance(params, Plant):
+        return params
     if isinstance(params, PhysicalParameters):
         params = params.to_lumped()
     if not isinstance(params, LumpedParameters):
         raise InputError(f"params must be LumpedParameters, got {type(params).__name__}")
     if model == "auto":
-        model = auto_model(experiment)
+        model = auto_model(data)
     if model not in REFINE_MODELS:
         raise InputError(f"model must be one of auto, {', '.join(REFINE_MODELS)}, got {model!r}")
-    info = MODELS[model]
-    wheel_held = info.input is None  # free pendulum: the wheel is held (or absent)
-    if isinstance(signals, str):
-        signals = (signals,)
-    signals = tuple(signals)
-    if not signals:
-        raise InputError("signals is empty")
-    for s in signals:
-        if s not in _SIGNALS:
-            raise InputError(f"unknown signal {s!r}; choose among {', '.join(_SIGNALS)}")
-    if locked is None:
-        locked = experiment.metadata.get("pendulum") == "locked" and model in ("compensated", "raw")
-    if locked and model not in ("compensated", "raw"):
-        raise InputError(f"locked=True applies to models 'compensated' and 'raw', not {model!r}")
-    if controller is not None and not isinstance(controller, Input):
-        raise InputError(f"controller must be an iwp.inputs controller (e.g. HopfController), got "
-                         f"{type(controller).__name__}")
-    if controller is not None and info.input != "u":
-        raise InputError(f"a controller drives the input u; model {model!r} takes "
-                         f"{info.input or 'no input'}")
-    data = experiment
-    wdata = data.window(t_start, t_end)
-    if wdata.n_samples < 10:
-        raise InputError(f"the window keeps {wdata.n_samples} samples of {data.source}; at least 10 are needed")
-    i0 = int(np.searchsorted(data.t, wdata.t[0]))
-    n = wdata.n_samples
-    t = np.asarray(wdata.t, dtype=float)
-    meas_full = measured_signals(data, signals)
-    measured = {s: np.asarray(meas_full[s][i0:i0 + n], dtype=float) for s in signals}
-    # the replayed input
-    inp = None
-    need = model_input(model)
-    if controller is not None:
-        inp = controller
-    elif need is not None and data.input_name is not None:
-        if data.input_name != need:
-            raise InputError(f"{data.source} logs the input {data.input_name!r} but model {model!r} takes {need!r}")
-        inp = replay(wdata, need)
-    plant = Plant(params, model=model, locked=locked)
-    # restart indices
+    locked = data.metadata.get("pendulum") == "locked" and model in ("compensated", "raw")
+    return Plant(params, model=model, locked=locked)
+
+
+def _segments(t: np.ndarray, restart_times: Sequence[float]) -> list[int]:
+    """Sample indices where the simulation starts: 0 and each restart time snapped to the nearest inner sample."""
     starts = [0]
-    snapped = []
     for rt in restart_times:
         try:
             rt = float(rt)
@@ -265,47 +218,101 @@ def validate(
         if not (t[0] < rt < t[-1]) or not math.isfinite(rt):
             raise InputError(f"restart time {rt:g} s is outside the window ({t[0]:g}, {t[-1]:g}) s")
         k = int(np.argmin(np.abs(t - rt)))
-        if k > 0 and k < n - 1 and k not in starts:
+        if 0 < k < t.size - 1 and k not in starts:
             starts.append(k)
-    starts.sort()
-    snapped = tuple(float(t[k]) for k in starts[1:])
-    # initial state
-    x0 = initial_state(data, i0, model, locked=locked)
-    if estimate_x0:
-        fit_out = []
-        for s in signals:
-            usable = s in ("q1", "q3") if wheel_held else (
-                s in ("q2", "q4") if (model.startswith("motor-disk") or locked) else True)
-            if usable and np.ptp(measured[s]) > 0:
-                fit_out.append(s)
-        if not fit_out:
-            raise InputError(f"estimate_x0: none of the signals {', '.join(signals)} varies in the window")
-        r = refine(wdata, params, model=model, free=(), outputs=tuple(fit_out), estimate_x0=True, locked=locked,
-                   warn=False)
-        x0 = np.asarray(r.x0[0], dtype=float)
-    simulated = {s: np.empty(n) for s in signals}
-    restart_states = []
-    bounds = starts + [n - 1]
+    return sorted(starts)
 
-    for si, k0 in enumerate(starts):
-        k1 = bounds[si + 1]
-        last = si == len(starts) - 1
-        idx = np.arange(k0, k1 + 1 if last else k1)
-        if si == 0:
-            xs = x0.copy()
-        else:
-            xs = initial_state(data, i0 + k0, model, locked=locked)
-            restart_states.append(xs.copy())
-        t_seg_end = float(t[k1])
-        res = simulate(plant, x0=xs, t0=float(t[k0]), t_end=t_seg_end, input=inp, t_eval=t[idx], rtol=rtol,
-                       atol=atol, Ts=wdata.Ts)
-        X = np.array(res.x, dtype=float)
-        for s in signals:
-            simulated[s][idx] = X[:, _SIGNALS.index(s)]
-    error = {s: measured[s] - simulated[s] for s in signals}
-    fit = {s: fit_percent(measured[s], simulated[s]) for s in signals}
+
+def _estimated_x0(experiment: Experiment, plant: Plant, signals: tuple[str, ...]) -> np.ndarray:
+    """The initial state fitted to the signals that move (the parameters fixed): a fit of the initial state only."""
+    fit_out = tuple(s for s in signals if s in plant.outputs)
+    measured = measured_signals(experiment.data.window(*experiment.window), fit_out)
+    fit_out = tuple(s for s in fit_out if np.ptp(measured[s]) > 0)
+    if not fit_out:
+        raise InputError(f"estimate_x0: none of the signals {', '.join(signals)} varies in the window")
+    model = OutputError(plant, [experiment], fit_out)
+    res = FitProblem(model.parameters(), model).solve()
+    return model.states(res.parameters.values())[0]
+
+
+def validate(
+    experiment: ExperimentData,
+    params,
+    *,
+    model: str = "compensated",
+    signals: Sequence[str] = ("q1", "q2"),
+    window: tuple[float | None, float | None] = (None, None),
+    restart_times: Sequence[float] = (),
+    controller: Input | None = None,
+    estimate_x0: bool = False,
+) -> ValidationResult:
+    """Simulate a model against a log and measure how well it predicts it.
+
+    Parameters
+    ----------
+    experiment : ExperimentData
+        The log.
+    params : LumpedParameters, PhysicalParameters or Plant
+        The parameters (with ``model``), or a plant.
+    model : str
+        ``"compensated"`` (9, input ``u``), ``"raw"`` (6, input ``v``),
+        ``"motor-disk"``, ``"motor-disk-raw"`` (14), ``"free"`` (free
+        pendulum, wheel held) or ``"free-nowheel"``; ``"auto"``:
+        :func:`auto_model` (see :func:`validation_plant`).
+    signals : sequence of str
+        Signals compared, among ``q1, q2, q3, q4``; velocities missing from
+        the log are differentiated from the positions.
+    window : (float or None, float or None)
+        Time window [s].
+    restart_times : sequence of float
+        Restart the simulation from the measured state at these times [s]
+        (figure 9(b)); each is snapped to the nearest sample inside the window.
+    controller : iwp.sim.inputs controller, optional
+        Simulate in closed loop with it (e.g. ``HopfController(-10, 0.1)``,
+        figure 10) instead of replaying the logged input.
+    estimate_x0 : bool
+        Estimate the initial state by a simulation-error fit (parameters
+        fixed) instead of taking the measured one.
+
+    Returns
+    -------
+    ValidationResult
+    """
+    if not isinstance(experiment, ExperimentData):
+        raise InputError(f"experiment must be an ExperimentData, got {type(experiment).__name__}")
+    plant = validation_plant(params, experiment, model)
+    signals = (signals,) if isinstance(signals, str) else tuple(signals)
+    if not signals:
+        raise InputError("signals is empty")
+    for s in signals:
+        if s not in _SIGNALS:
+            raise InputError(f"unknown signal {s!r}; choose among {', '.join(_SIGNALS)}")
+    if controller is not None and plant.input_name != "u":
+        raise InputError(f"a controller drives the input u; model {plant.model!r} takes "
+                         f"{plant.input_name or 'no input'}")
+    wdata = experiment.window(*window)
+    if wdata.n_samples < 10:
+        raise InputError(f"the window keeps {wdata.n_samples} samples of {experiment.source}; at least 10 are needed")
+    t = np.asarray(wdata.t, dtype=float)
+    starts = _segments(t, restart_times)
+    kind = "free" if controller is None else "closed-loop"
+    ends = [k - 1 for k in starts[1:]] + [t.size - 1]
+    exps = [Experiment(experiment, kind=kind, window=(float(t[a]), float(t[b])), estimate_x0=False,
+                       controller=controller) for a, b in zip(starts, ends)]
+    if estimate_x0:
+        exps[0] = replace(exps[0], x0=_estimated_x0(replace(exps[0], estimate_x0=True), plant, signals)[:4])
+    model_ = OutputError(plant, exps, signals, rtol=VALIDATION_OPTIONS.rtol, atol=VALIDATION_OPTIONS.atol,
+                         fitting=False)
+    ev = model_.evaluate(model_.parameters().values())
+    pred = model_.predictions(ev)
+    measured = {s: np.concatenate([p.y[s] for p in model_.prepared]) for s in signals}
+    simulated = {s: np.concatenate([q[s] for q in pred]) for s in signals}
+    x0s = model_.states(ev.values)
     return ValidationResult(
-        t=t, measured=measured, simulated=simulated, error=error, fit=fit, x0=np.asarray(x0, dtype=float),
-        restart_times=snapped, model=model, params=params, source=data.source, estimate_x0=bool(estimate_x0),
-        closed_loop=controller is not None, locked=bool(locked), restart_states=restart_states,
+        t=t, measured=measured, simulated=simulated, error={s: measured[s] - simulated[s] for s in signals},
+        fit={s: fit_percent(measured[s], simulated[s]) for s in signals}, x0=np.asarray(x0s[0], dtype=float),
+        restart_times=tuple(float(t[k]) for k in starts[1:]), model=plant.model, params=plant.lumped,
+        source=experiment.source, estimate_x0=bool(estimate_x0), closed_loop=controller is not None,
+        locked=bool(plant.locked), restart_states=[np.asarray(x, dtype=float) for x in x0s[1:]],
     )
+

@@ -56,11 +56,18 @@ PHYSICAL_FIELDS = ("m1", "m2", "I1", "I2", "l", "c", "g", "kT", "kF", "R", "N", 
 #: length of every packed parameter vector (one size for all models)
 N_PACK = max(N_LUMPED, N_PHYS)
 
-#: lumped parameter name -> index (the parameters a fit can vary)
+#: lumped parameter name -> index (the fields of :class:`~iwp.models.parameters.LumpedParameters`)
 LUMPED_INDEX = {
     "p1": P1, "p2": P2, "p3": P3, "rho": RHO, "sigma_a1": SA, "sigma_v1": SV, "sigma_b1": SB,
     "v_dz_pos": VPOS, "v_dz_neg": VNEG, "sigma_c2": SC2, "sigma_c1": SC1, "u_offset": UOFF,
 }
+#: belt parameter name -> index (the fields of :class:`~iwp.models.parameters.BeltParameters`)
+BELT_INDEX = {
+    "k_over_I2": KI2, "d": DPLAY, "N": NB, "b2_over_I2": B2I2, "k_over_gamma": KG, "kTbeta_over_Rgamma": KBRG,
+    "gain_neg": KNEG,
+}
+#: every model parameter name -> index (the parameters a fit can vary, and their sensitivities)
+PARAMETER_INDEX = {**LUMPED_INDEX, **BELT_INDEX}
 
 # --------------------------------------------------------------------------
 # command chain (feedforward (7)-(8), then saturation)

@@ -34,6 +34,12 @@ from ..errors import InputError
 from ..files import prepare_output_file, read_json
 
 __all__ = [
+    "BELT_INFO",
+    "DERIVED",
+    "LUMPED_INFO",
+    "PARAMETER_INFO",
+    "ParameterInfo",
+    "parameter_info",
     "PhysicalParameters",
     "LumpedParameters",
     "BeltParameters",
@@ -42,11 +48,116 @@ __all__ = [
     "load_params",
     "save_params",
     "named_params",
+    "stored_model",
 ]
 
 
 #: Largest magnitude of any parameter: a guard against overflow in the models, far beyond any rig's value.
 MAX_MAGNITUDE = 1e9
+
+
+@dataclass(frozen=True)
+class ParameterInfo:
+    """What iwp knows about one model parameter: the one place a fit, a report or a check looks it up.
+
+    Attributes
+    ----------
+    name : str
+        Field name in :class:`LumpedParameters` or :class:`BeltParameters`.
+    owner : {"lumped", "belt"}
+        The parameter set that holds it.
+    unit : str
+        Its unit ("in" is one unit of the input ``u`` or ``v``).
+    typical : float
+        A typical magnitude (Table 1, section 5.1): the scale of fits and of
+        difference steps when a value is 0.
+    sign : {"positive", "nonnegative", "signed"}
+        The physical sign (:meth:`LumpedParameters.check_physical`), and so
+        the default bounds of a fit.
+    description : str
+    fit_range : (float, float) or None
+        Bounds of a fit on a log scale (the belt's parameters and the disk's
+        Coulomb friction, fitted by simulation error from the disk velocity);
+        None: the parameter is not fitted on a log scale.
+    """
+
+    name: str
+    owner: str
+    unit: str
+    typical: float
+    sign: str
+    description: str
+    fit_range: tuple[float, float] | None = None
+
+    def default_bounds(self, log: bool = False) -> tuple[float, float]:
+        """Default ``(low, high)`` of a fit: ``fit_range`` on a log scale, else from the physical sign."""
+        if log:
+            if self.fit_range is None:
+                raise InputError(f"parameter {self.name!r} is not fitted on a log scale")
+            return self.fit_range
+        if self.sign == "positive":
+            return (1e-12 * self.typical, math.inf)
+        if self.sign == "nonnegative":
+            return (0.0, math.inf)
+        return (-math.inf, math.inf)
+
+
+def _info(owner: str, rows) -> dict[str, ParameterInfo]:
+    return {r[0]: ParameterInfo(r[0], owner, *r[1:]) for r in rows}
+
+
+#: The lumped parameters of section 4 and the options of other rigs, by name.
+LUMPED_INFO: dict[str, ParameterInfo] = _info("lumped", (
+    ("p1", "1/s^2", 26.0, "positive", "gravity term (m1 c + m2 l) g / I1_hat"),
+    ("p2", "1/s", 0.01, "nonnegative", "back-emf and viscous friction of the disk over I1_hat"),
+    ("p3", "rad/(s^2 in)", 0.03, "positive", "input gain beta N kT / (I1_hat R)"),
+    ("rho", "-", 250.0, "positive", "inertia ratio I1_hat / I2"),
+    ("sigma_a1", "1/s", 0.003, "nonnegative", "rolling friction |cos q1| q3 of the pendulum (section 3.1)"),
+    ("sigma_v1", "1/s", 0.01, "nonnegative", "viscous friction of the pendulum (section 3.1)"),
+    ("sigma_b1", "s/rad^2", 5e-4, "nonnegative", "centrifugal rolling friction q3^3 of the pendulum (section 3.1)"),
+    ("v_dz_pos", "in", 31.0, "nonnegative", "dead-zone threshold v+ (5)"),
+    ("v_dz_neg", "in", 31.0, "nonnegative", "dead-zone threshold v- (5)"),
+    ("sigma_c2", "rad/s^2", 0.1, "nonnegative", "Coulomb friction of the disk over I1_hat (section 5.1)",
+     (1e-5, 10.0)),
+    ("sigma_c1", "rad/s^2", 0.05, "nonnegative", "Coulomb friction of the pendulum joint over I1_hat"),
+    ("u_offset", "in", 1.0, "signed", "offset of the input"),
+))
+
+#: The belt (15) and figure 5, by name.
+BELT_INFO: dict[str, ParameterInfo] = _info("belt", (
+    ("k_over_I2", "1/s^2", 60.0, "positive", "belt stiffness over the disk inertia", (1.0, 1e6)),
+    ("d", "rad", 2.0, "nonnegative", "half-width of the belt's play (figure 5)", (1e-4, 20.0)),
+    ("N", "-", 13.5, "positive", "reduction ratio (measured)"),
+    ("b2_over_I2", "1/s", 10.0, "nonnegative", "viscous friction of the disk over its inertia", (1e-4, 100.0)),
+    ("k_over_gamma", "1/s", 780.0, "positive", "belt stiffness over the motor's damping gamma", (1e-2, 1e9)),
+    ("kTbeta_over_Rgamma", "rad/(s in)", 26.0, "positive", "motor's no-load speed per input unit", (1e-2, 1e4)),
+    ("gain_neg", "-", 1.0, "positive", "motor gain for a negative over a positive input (section 3.2)", (0.3, 3.0)),
+))
+
+#: Every model parameter by name (lumped and belt).
+PARAMETER_INFO: dict[str, ParameterInfo] = {**LUMPED_INFO, **BELT_INFO}
+
+#: Parameters derived from others, as expressions over their names (section 5.1 identifies these products).
+DERIVED: dict[str, tuple[str, str]] = {
+    "p2_1rho": ("p2 * (1 + rho)", "1/s"),
+    "p3_1rho": ("p3 * (1 + rho)", "rad/(s^2 in)"),
+    "sigma_c2_1rho": ("sigma_c2 * (1 + rho)", "rad/s^2"),
+}
+
+#: Typical magnitudes by name (:attr:`ParameterInfo.typical`).
+TYPICAL: dict[str, float] = {n: i.typical for n, i in PARAMETER_INFO.items()}
+
+
+def _names_with_sign(owner: str, sign: str) -> tuple[str, ...]:
+    return tuple(n for n, i in PARAMETER_INFO.items() if i.owner == owner and i.sign == sign)
+
+
+def parameter_info(name: str) -> ParameterInfo:
+    """The :class:`ParameterInfo` of a parameter name; a clear error for an unknown one."""
+    try:
+        return PARAMETER_INFO[name]
+    except KeyError:
+        raise InputError(f"unknown parameter {name!r}; known: {', '.join(PARAMETER_INFO)}") from None
 
 
 def _check_fields(obj, where: str, positive: tuple[str, ...], nonneg: tuple[str, ...]) -> None:
@@ -144,12 +255,8 @@ class LumpedParameters:
         thresholds ``>= 0``. Raises :class:`~iwp.errors.InputError` naming the
         first offending field.
         """
-        _check_fields(
-            self,
-            where,
-            positive=("p1", "p3", "rho"),
-            nonneg=("p2", "sigma_a1", "sigma_v1", "sigma_b1", "v_dz_pos", "v_dz_neg", "sigma_c2", "sigma_c1"),
-        )
+        _check_fields(self, where, positive=_names_with_sign("lumped", "positive"),
+                      nonneg=_names_with_sign("lumped", "nonnegative"))
         return self
 
     # Derived quantities ---------------------------------------------------
@@ -331,12 +438,8 @@ class BeltParameters:
     gain_neg: float = 1.0  # [-]
 
     def __post_init__(self) -> None:
-        _check_fields(
-            self,
-            "BeltParameters",
-            positive=("k_over_I2", "N", "k_over_gamma", "kTbeta_over_Rgamma", "gain_neg"),
-            nonneg=("d", "b2_over_I2"),
-        )
+        _check_fields(self, "BeltParameters", positive=_names_with_sign("belt", "positive"),
+                      nonneg=_names_with_sign("belt", "nonnegative"))
 
     @property
     def rigid_p2rho(self) -> float:
@@ -396,14 +499,6 @@ class BeltParameters:
     def to_dict(self) -> dict[str, float]:
         """Field name -> value."""
         return {f.name: float(getattr(self, f.name)) for f in fields(self)}
-
-
-#: Typical magnitudes of the lumped parameters (Table 1, section 5.1), to
-#: scale fits and difference steps when a value is 0.
-TYPICAL = {
-    "p1": 26.0, "p2": 0.01, "p3": 0.03, "rho": 250.0, "sigma_a1": 0.003, "sigma_v1": 0.01, "sigma_b1": 5e-4,
-    "v_dz_pos": 31.0, "v_dz_neg": 31.0, "sigma_c2": 0.1, "sigma_c1": 0.05, "u_offset": 1.0,
-}
 
 
 def table1() -> LumpedParameters:
@@ -468,6 +563,25 @@ def save_params(params, path: str | Path, *, force: bool = False, extra: dict[st
         doc.update(extra)
     p.write_text(json.dumps(doc, indent=2, sort_keys=False) + "\n")
     return p
+
+
+def stored_model(path_or_name: str | Path) -> str | None:
+    """The model a parameter file says its parameters were fitted with (its ``"model"`` entry, or that of its
+    ``"refinement"``), or None (a built-in set, no such entry, a file that does not read)."""
+    path = Path(str(path_or_name))
+    if str(path_or_name) in _NAMED or not path.is_file():
+        return None
+    try:
+        doc = read_json(path)
+    except InputError:
+        return None  # load_params reports it
+    if not isinstance(doc, dict):
+        return None
+    m = doc.get("model")
+    ref = doc.get("refinement")
+    if m is None and isinstance(ref, dict):  # written by iwp identify --refine --out
+        m = ref.get("model")
+    return m if isinstance(m, str) else None
 
 
 def load_params(path_or_name: str | Path, *, physical_check: bool = True):

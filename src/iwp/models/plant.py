@@ -26,18 +26,14 @@ from .actuator import StartupFriction
 from .equations import rhs
 from .friction import COULOMB_EPS
 from .layout import (
-    B2I2,
     BELT_CODES,
+    BELT_INDEX,
     BRK,
-    DPLAY,
     DZ,
     E_EPSC,
     EPSC,
-    KBRG,
-    KG,
-    KI2,
-    KNEG,
     LOCK,
+    LUMPED_INDEX,
     M_BELT,
     M_BELT_FULL,
     M_COMP,
@@ -48,23 +44,10 @@ from .layout import (
     M_MD_RAW,
     M_RAW,
     N_PACK,
-    NB,
-    P1,
-    P2,
-    P3,
     PHYSICAL_FIELDS,
-    RHO,
-    SA,
-    SB,
-    SC1,
-    SC2,
-    SV,
-    UOFF,
-    VNEG,
-    VPOS,
     WS,
 )
-from .parameters import BeltParameters, LumpedParameters, PhysicalParameters
+from .parameters import BELT_INFO, LUMPED_INFO, BeltParameters, LumpedParameters, PhysicalParameters
 
 __all__ = ["ModelInfo", "MODELS", "Plant", "model_info"]
 
@@ -93,6 +76,13 @@ class ModelInfo:
     physical : bool
         Takes :class:`~iwp.models.parameters.PhysicalParameters`.
     description : str
+    parameters : tuple of str
+        The parameters its outputs determine, so that a fit may free them
+        (:data:`~iwp.models.parameters.PARAMETER_INFO`); empty for the
+        physical model. ``rho`` is not among the free pendulum's: only
+        ``p1 rho/(1 + rho)`` enters its motion.
+    pendulum_locked : bool
+        The pendulum cannot swing (the motor-disk models (14), the locked belt (15)).
     """
 
     name: str
@@ -104,29 +94,38 @@ class ModelInfo:
     depends_on: tuple[int, ...]
     physical: bool
     description: str
+    parameters: tuple[str, ...] = ()
+    pendulum_locked: bool = False
 
 
 _ALL4 = (0, 1, 2, 3)
+_PENDULUM = ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c1")
+_LUMPED = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2", "sigma_c1", "u_offset")
+_DEAD_ZONE = ("v_dz_pos", "v_dz_neg")
+_MOTOR_DISK = ("p2", "p3", "rho", "sigma_c2", "u_offset")
+_BELT = ("k_over_I2", "d", "b2_over_I2", "k_over_gamma", "kTbeta_over_Rgamma", "gain_neg", "sigma_c2")
 #: The models, by name.
 MODELS: dict[str, ModelInfo] = {m.name: m for m in (
     ModelInfo("el", M_EL, "(4) with (3), (5)", "v", 4, _ALL4, (0, 2, 3), True,
               "Euler-Lagrange equations with the dc motor, dead zone and friction, in SI parameters"),
     ModelInfo("raw", M_RAW, "(6) with (5)", "v", 4, _ALL4, (0, 2, 3), False,
-              "state-space model driven by the raw command v through the dead zone"),
+              "state-space model driven by the raw command v through the dead zone", _LUMPED + _DEAD_ZONE),
     ModelInfo("compensated", M_COMP, "(9)", "u", 4, _ALL4, (0, 2, 3), False,
-              "the feedforward-compensated model, driven by the ideal input u"),
+              "the feedforward-compensated model, driven by the ideal input u", _LUMPED),
     ModelInfo("motor-disk", M_MD, "(14), exact compensation", "u", 4, (1, 3), (3,), False,
-              "motor-disk subsystem with the pendulum locked, input u (Coulomb term when sigma_c2 > 0)"),
+              "motor-disk subsystem with the pendulum locked, input u (Coulomb term when sigma_c2 > 0)",
+              _MOTOR_DISK, True),
     ModelInfo("motor-disk-raw", M_MD_RAW, "(14)", "v", 4, (1, 3), (3,), False,
-              "motor-disk subsystem with the pendulum locked, raw command v through the dead zone"),
+              "motor-disk subsystem with the pendulum locked, raw command v through the dead zone",
+              _MOTOR_DISK + _DEAD_ZONE, True),
     ModelInfo("belt", M_BELT, "(15), pendulum locked", "u", 6, (1, 3, 4, 5), (3, 4, 5), False,
-              "flexible belt with the play hysteresis of figure 5, motor inertia neglected"),
+              "flexible belt with the play hysteresis of figure 5, motor inertia neglected", _BELT, True),
     ModelInfo("belt-full", M_BELT_FULL, "(4a) with (15)", "u", 6, (0, 1, 2, 3, 4, 5), (0, 2, 3, 4, 5), False,
-              "the belt with the pendulum free (the virtual rig's truth plant)"),
+              "the belt with the pendulum free (the virtual rig's truth plant)", _PENDULUM + _BELT),
     ModelInfo("free", M_FREE_HELD, "section 5.2, wheel held", None, 4, (0, 2), (0, 2), False,
-              "free pendulum, motor off, the wheel held to the arm: q3' = -xi rho/(1 + rho)"),
+              "free pendulum, motor off, the wheel held to the arm: q3' = -xi rho/(1 + rho)", _PENDULUM),
     ModelInfo("free-nowheel", M_FREE_NOWHEEL, "section 5.2", None, 4, (0, 2), (0, 2), False,
-              "free pendulum without a wheel: q3' = -xi"),
+              "free pendulum without a wheel: q3' = -xi", _PENDULUM),
 )}
 
 #: models that can have their pendulum clamped (``locked=True``)
@@ -230,6 +229,49 @@ class Plant:
         return p.to_lumped() if isinstance(p, PhysicalParameters) else p
 
     @property
+    def pendulum_locked(self) -> bool:
+        """True if the pendulum cannot swing: clamped (``locked``), or a model that locks it (14), (15)."""
+        return self.locked or MODELS[self.model].pendulum_locked
+
+    @property
+    def wheel_held(self) -> bool:
+        """True if the wheel does not move relative to the arm (the free-pendulum models: no input)."""
+        return MODELS[self.model].input is None
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        """The measurable signals that move in this plant, among ``q1, q2, q3, q4``."""
+        pendulum = () if self.pendulum_locked else ("q1", "q3")
+        wheel = () if self.wheel_held else ("q2", "q4")
+        return tuple(s for s in ("q1", "q2", "q3", "q4") if s in pendulum + wheel)
+
+    def value(self, name: str) -> float:
+        """The value of one parameter of the plant (lumped or belt) by name."""
+        if name in BELT_INFO:
+            if self.belt is None:
+                raise InputError(f"parameter {name!r} belongs to the belt (15); model {self.model!r} has none")
+            return float(getattr(self.belt, name))
+        if name in LUMPED_INFO:
+            return float(getattr(self.lumped, name))
+        raise InputError(f"unknown parameter {name!r}; known: {', '.join([*LUMPED_INFO, *BELT_INFO])}")
+
+    def with_values(self, values) -> "Plant":
+        """The same plant with the parameters in ``values`` (``{name: value}``, lumped or belt) changed."""
+        lumped = {k: float(v) for k, v in values.items() if k in LUMPED_INFO}
+        belt = {k: float(v) for k, v in values.items() if k in BELT_INFO}
+        unknown = [k for k in values if k not in LUMPED_INFO and k not in BELT_INFO]
+        if unknown:
+            raise InputError(f"unknown parameter {unknown[0]!r}; known: {', '.join([*LUMPED_INFO, *BELT_INFO])}")
+        if belt and self.belt is None:
+            raise InputError(f"parameter {next(iter(belt))!r} belongs to the belt (15); model {self.model!r} has none")
+        changes = {}
+        if lumped:
+            changes["params"] = self.lumped.replace(**lumped)
+        if belt:
+            changes["belt"] = dataclasses.replace(self.belt, **belt)
+        return dataclasses.replace(self, **changes) if changes else self
+
+    @property
     def dead_zone_active(self) -> bool:
         """True if the dead zone (5) acts on the input."""
         if self.dead_zone is not None:
@@ -276,27 +318,19 @@ def _pack(plant: Plant, info: ModelInfo) -> np.ndarray:
             P[i] = d[name]
         P[E_EPSC] = plant.coulomb_eps
         return P
-    P[P1], P[P2], P[P3], P[RHO] = params.p1, params.p2, params.p3, params.rho
-    P[SA], P[SV], P[SB] = params.sigma_a1, params.sigma_v1, params.sigma_b1
-    P[VPOS], P[VNEG], P[SC2] = params.v_dz_pos, params.v_dz_neg, params.sigma_c2
-    P[SC1], P[UOFF] = params.sigma_c1, params.u_offset
+    for name, index in LUMPED_INDEX.items():
+        P[index] = getattr(params, name)
     P[EPSC] = plant.coulomb_eps
     if plant.startup is not None:
         P[BRK], P[WS] = plant.startup.break_ratio, plant.startup.omega_s
     else:
         P[WS] = 1.0
-    if plant.locked and plant.model not in _CLAMPABLE and info.code not in (M_MD, M_MD_RAW):
+    if plant.locked and plant.model not in _CLAMPABLE and not info.pendulum_locked:
         raise InputError(f"locked=True applies to the models {', '.join(_CLAMPABLE)}, not {plant.model!r}")
     P[LOCK] = 1.0 if plant.locked else 0.0
     P[DZ] = 1.0 if plant.dead_zone_active else 0.0
-    if info.code in (M_BELT, M_BELT_FULL):
-        b = plant.belt
-        P[KI2], P[DPLAY], P[NB] = b.k_over_I2, b.d, b.N
-        P[B2I2], P[KG], P[KBRG] = b.b2_over_I2, b.k_over_gamma, b.kTbeta_over_Rgamma
-        P[KNEG] = b.gain_neg
+    if info.code in BELT_CODES:
+        for name, index in BELT_INDEX.items():
+            P[index] = getattr(plant.belt, name)
     return P
 
-
-def is_pendulum_locked(plant: Plant) -> bool:
-    """True if the plant's pendulum cannot swing (clamped, a motor-disk model or the locked belt)."""
-    return plant.locked or plant.code in (M_MD, M_MD_RAW, M_BELT)

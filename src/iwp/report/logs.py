@@ -21,6 +21,7 @@ from ..files import check_output_dir, jsonable, staged_dir
 from ..ident.fit import fit_percent
 from ..ident.validation import auto_model, validate
 from ..models.parameters import LumpedParameters
+from ..models.plant import Plant
 from ..plotting.report import plot_comparisons, plot_static_curve
 from ..sim.inputs import HopfController
 from .folder import decimate, save_figure
@@ -243,8 +244,8 @@ def _compare_series(p: Path, log, params, plot_comparisons):
 def _simulate_log(log, params, *, locked, controller, signals):
     """Simulate ``log`` with :func:`iwp.ident.validation.validate`, the model chosen by ``auto_model``."""
     model = auto_model(log)
-    r = validate(log, params, model=model, controller=controller, signals=tuple(signals),
-                 locked=locked if model in ("compensated", "raw") else None)
+    plant = Plant(params, model=model, locked=locked and model in ("compensated", "raw"))
+    r = validate(log, plant, controller=controller, signals=tuple(signals))
     return model, {"t": np.asarray(r.t), "measured": {s: np.asarray(r.measured[s]) for s in signals},
                    "simulated": {s: np.asarray(r.simulated[s]) for s in signals},
                    "fit": {s: float(r.fit[s]) for s in signals}}

@@ -13,6 +13,7 @@ from ..files import jsonable
 from ..ident.fit import fit_percent
 from ..ident.validation import validate
 from ..report import decimate, save_figure
+from ..rig import write_result
 from .paper import PAPER
 
 _ALL_EXPERIMENTS = ("static-curve", "static-curve-compensated", "motor-disk-chirp", "sine-60", "sine-40",
@@ -189,7 +190,7 @@ class ReproduceResult:
             log = self._rig.run(name, **overrides)
             path = self.out / "data" / f"{name}.csv"
             path.parent.mkdir(parents=True, exist_ok=True)
-            log.to_csv(path, force=True)
+            write_result(log, path, force=True)
             self.files.append(path)
             self.data[name] = log
         return self.data[name]
@@ -260,12 +261,8 @@ def series(t, y, label: str | None = None):
 
 def compare(data, params, *, model: str, signals, restart_times=(), controller=None):
     """Run :func:`iwp.ident.validation.validate` and return ``(t, measured, simulated, fit)`` as plain arrays."""
-    kw: dict[str, Any] = {"model": model, "signals": tuple(signals)}
-    if restart_times:
-        kw["restart_times"] = tuple(restart_times)
-    if controller is not None:
-        kw["controller"] = controller
-    r = validate(data, params, **kw)
+    r = validate(data, params, model=model, signals=tuple(signals), restart_times=tuple(restart_times),
+                 controller=controller)
     t = np.asarray(r.t, dtype=float)
     meas = {s: np.asarray(r.measured[s], dtype=float) for s in signals}
     sim = {s: np.asarray(r.simulated[s], dtype=float) for s in signals}

@@ -12,6 +12,7 @@ from typing import Any
 from .. import __version__
 from ..files import jsonable
 from ..report import FigureEntry, Report, Section, Table, fmt, write_html
+from ..rig import default_truth, truth_record
 from .context import ReproduceResult
 from .paper import PAPER
 from .statements import check_statements
@@ -306,8 +307,6 @@ def _step_text(ctx: ReproduceResult, name: str) -> list[str]:
 # the paper's numbers, published against reproduced
 # --------------------------------------------------------------------------
 def _is_default_truth(ctx: ReproduceResult) -> bool:
-    from ..rig import default_truth
-
     return ctx.truth is not None and ctx.truth == default_truth()
 
 
@@ -331,14 +330,12 @@ def _paper_numbers_section(ctx: ReproduceResult) -> Section:
         + (" (quick mode: shortened experiments, so the numbers are not comparable)" if ctx.quick else "")
         + ". Each number is reproduced the way a reader would check it: the experiment run on this rig "
           "('iwp rig run NAME') and the paper's procedure applied with the command line's defaults ('iwp identify "
-          "FILE --setup SETUP'); the statistics are those of iwp.rig.statistics, which the calibration of the twin "
-          "(iwp rig calibrate) uses too. Rows marked * are not graded: the same logs through the paper's (13) as "
-          "printed, numbers the paper prints twice, and the paper's words read as numbers."]
+          "FILE --setup SETUP'); the statistics are those of iwp.calibration.statistics, which the calibration of "
+          "the twin (iwp rig calibrate) uses too. Rows marked * are not graded: the same logs through the paper's "
+          "(13) as printed, numbers the paper prints twice, and the paper's words read as numbers."]
     extra = ctx.numbers.get("paper-numbers", {})
     record = None
     if _is_default_truth(ctx):
-        from ..rig import truth_record
-
         record = truth_record().get("calibration")
     for r in rows:
         if r.within or not r.target.graded:
@@ -368,8 +365,6 @@ def _paper_numbers_section(ctx: ReproduceResult) -> Section:
                                 "their precision and tolerances are iwp.rig.TARGETS_FILE.")]
     tables.append(_truth_table(ctx))
     if record is not None:
-        from ..rig import truth_record
-
         prov = truth_record().get("provenance", {})
         truth_doc = ctx.truth.to_dict()
         prow = []

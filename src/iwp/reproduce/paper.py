@@ -29,7 +29,7 @@ PAPER: dict[str, Any] = {
 }
 
 # statement thresholds (shown in the report next to each verdict); the published numbers and their tolerances are
-# in iwp.rig.targets (paper_targets.json)
+# in iwp.calibration.targets (paper_targets.json)
 LINEAR_RESIDUAL = 0.05  # max |residual| / max |q4| over |u| > 20: "reasonable accuracy"
 P3_SAME = 0.03  # |p3c - p3| / p3, "very close" (the paper's pair: 7.794 and 7.759, 0.5 % apart)
 COULOMB_SIMILAR = 0.10  # relative difference of the RMS errors, "very similar"

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
+from ..calibration.targets import PaperTarget, load_targets
 from ..report import Statement
-from ..rig.targets import PaperTarget, load_targets
 from .context import ReproduceResult, rel_diff
 from .paper import (
     COULOMB_SIMILAR,
@@ -21,7 +21,7 @@ _TARGETS: dict[str, PaperTarget] = {}
 
 
 def target(key: str) -> PaperTarget:
-    """One of the paper's published numbers (:func:`iwp.rig.targets.load_targets`), by key."""
+    """One of the paper's published numbers (:func:`iwp.calibration.targets.load_targets`), by key."""
     if not _TARGETS:
         _TARGETS.update({t.key: t for t in load_targets()})
     return _TARGETS[key]

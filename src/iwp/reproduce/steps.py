@@ -6,14 +6,23 @@ from typing import Any
 
 import numpy as np
 
+from ..calibration.statistics import (
+    PaperNumbers,
+    closed_loop_model,
+    compensated_line,
+    friction_ratio,
+    least_squares_parameters,
+)
+from ..calibration.targets import TargetRow, load_targets
 from ..errors import IwpError
+from ..ident.belt_fit import refine_belt
 from ..ident.identification import identify
-from ..ident.refinement import refine, refine_identification, replay
+from ..ident.output_error import replay
+from ..ident.problem import SolverOptions
+from ..ident.refinement import refine_identification
 from ..models.parameters import BeltParameters
 from ..models.plant import Plant
 from ..plotting.report import plot_comparisons, plot_dead_zone, plot_errors
-from ..rig.statistics import PaperNumbers, closed_loop_model, compensated_line, friction_ratio, least_squares_parameters
-from ..rig.targets import TargetRow, load_targets
 from ..sim.simulate import simulate
 from .context import ReproduceResult, compare, fit_of, rms_of, series, val
 from .paper import PAPER
@@ -43,7 +52,7 @@ def step_dead_zone(ctx: ReproduceResult) -> str:
             xs = np.array([x0, side * np.max(np.abs(v))])
             raw_lines.append((xs, k * (xs - x0), ("linear extrapolation: " + (f"$v^+$ = {thr:.1f}" if side > 0
                                                                                else f"$v^-$ = {thr:.1f}"))))
-    # figure 2(b): one straight line fitted for |u| > 20; its error at u = 15 (iwp.rig.statistics)
+    # figure 2(b): one straight line fitted for |u| > 20; its error at u = 15 (iwp.calibration.statistics)
     u, w = np.asarray(comp.input), np.asarray(comp.q4)
     cl = compensated_line(comp)
     (a, b), lin, err15 = cl["line"], cl["linearity"], cl["error_at_u15"]
@@ -128,7 +137,8 @@ def step_sines(ctx: ReproduceResult) -> str:
     lumped = params.replace(sigma_c2=0.0)
     sines = [ctx.data[f"sine-{A}"] for A in (60, 40, 20)]
     # 20 iterations bound the run time (a few seconds); the fits no longer change after about 15
-    fitted = refine(sines, lumped, model="belt", belt=paper_belt, warn=False, max_nfev=20, rtol=1e-6, atol=1e-6)
+    fitted = refine_belt(sines, Plant(lumped, model="belt", belt=paper_belt), warn=False,
+                         options=SolverOptions(max_nfev=20, rtol=1e-6, atol=1e-6))
     ctx.extra["refine-belt"] = fitted
     variants = {"identified": ("belt (15) identified from q4 of the sines", fitted.belt),
                 "paper": ("belt (15), the paper's k/I2 = 60, d = 2", paper_belt)}
@@ -389,15 +399,16 @@ def step_refine(ctx: ReproduceResult) -> str:
     First the pendulum parameters on the free pendulum (set-up ``free``: p1
     and the sigmas, output q1), then p2, p3 and rho on the full chirp with
     those (set-up ``two-step``: outputs q1 and q4), with
-    :func:`iwp.refine.refine_identification`.
+    :func:`iwp.ident.refinement.refine_identification`.
     """
 
     start = ctx.params["least-squares"]
     full = ctx.experiment("full-chirp")
     free = ctx.experiment("free-pendulum")
     nfev = 15 if ctx.quick else 40  # bounds the run time; both converge in under 10 on the virtual rig
-    r_free = refine_identification("free", free, start, warn=False, max_nfev=nfev)
-    r_two = refine_identification("two-step", full, r_free.params, warn=False, max_nfev=nfev)
+    options = SolverOptions(max_nfev=nfev)
+    r_free = refine_identification("free", free, start, warn=False, options=options)
+    r_two = refine_identification("two-step", full, r_free.params, warn=False, options=options)
     ctx.extra["refine"] = {"free": r_free, "two-step": r_two}
     params = r_two.params.replace(v_dz_pos=start.v_dz_pos, v_dz_neg=start.v_dz_neg, sigma_c2=0.0)
     ctx.params["refined"] = params
@@ -453,10 +464,10 @@ def step_refine(ctx: ReproduceResult) -> str:
 
 
 def step_paper_numbers(ctx: ReproduceResult) -> str:
-    """The paper's published numbers against this run's: the statistics of iwp.rig.statistics on this run's results.
+    """The paper's published numbers against this run's: the statistics of :mod:`iwp.calibration.statistics`.
 
     The same set-ups, logs and defaults as ``iwp rig run`` + ``iwp identify`` and as the calibration of the twin
-    (:mod:`iwp.rig.calibrate`). A number whose step did not complete is reported as not reproduced (NaN).
+    (:mod:`iwp.calibration.calibrate`). A number whose step did not complete is reported as not reproduced (NaN).
     """
     targets = load_targets()
     dz = ctx.numbers.get("dead-zone", {})

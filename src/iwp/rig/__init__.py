@@ -22,27 +22,21 @@ module                  what
 :mod:`.output`          :func:`check_output_path`, :func:`write_result`: writing the results
 :mod:`.rigid_fit`       :func:`rigid_fit_error`: how well the rigid model (9) predicts the rig
                         (figures 3 and 4)
-:mod:`.targets`         :func:`load_targets`, :class:`PaperTarget`: the paper's published numbers
-                        (``paper_targets.json``) with their precision and tolerance
-:mod:`.statistics`      :func:`paper_numbers`: the paper's procedures applied to the rig's logs as
-                        the CLI applies them; the statistics that reproduce each number
-:mod:`.calibrate`       :func:`calibrate`: the truth by indirect inference, so that the paper's
-                        procedures return the paper's numbers (``iwp rig calibrate``)
 ======================  ===========================================================
 
 The encoder quantiser :func:`quantize` is :func:`iwp.models.encoder.quantize`.
+The calibration of the twin (the paper's procedures applied to its logs, so
+that they return the paper's numbers) is :mod:`iwp.calibration`, above both
+the rig and the identification.
 """
 
 from __future__ import annotations
 
 from ..models.encoder import quantize
-from .calibrate import COORDINATES, DEFAULT_FREE, CalibrationResult, calibrate, truth_with
 from .controller import EncoderHopfController
 from .experiments import EXPERIMENTS, PAPER_V_DZ, VELOCITY_FILTER_TAU, ExperimentSpec, list_experiments
 from .output import check_output_path, write_result
 from .rigid_fit import rigid_fit_error
-from .statistics import PaperNumbers, paper_numbers
-from .targets import TARGETS_FILE, PaperTarget, TargetRow, compare_targets, load_targets
 from .truth import DEFAULT_TRUTH_FILE, RigTruth, default_truth, truth_record, uncalibrated_truth
 from .virtual import RIG_ATOL, RIG_RTOL, STATIC_WINDOW, VirtualRig, run_experiment
 
@@ -64,18 +58,6 @@ __all__ = [
     "RIG_ATOL",
     "VELOCITY_FILTER_TAU",
     "STATIC_WINDOW",
-    "PaperTarget",
-    "TargetRow",
-    "TARGETS_FILE",
-    "load_targets",
-    "compare_targets",
-    "PaperNumbers",
-    "paper_numbers",
-    "CalibrationResult",
-    "calibrate",
-    "truth_with",
-    "COORDINATES",
-    "DEFAULT_FREE",
     "truth_record",
     "uncalibrated_truth",
     "DEFAULT_TRUTH_FILE",

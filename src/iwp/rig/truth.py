@@ -26,7 +26,7 @@ belt, the dead zone, Coulomb friction and the differentiation; it is not the
 rig's truth. The default truth is the one on which the same procedures,
 applied as ``iwp rig run NAME`` + ``iwp identify FILE --setup SETUP`` apply
 them, return the paper's published numbers: it is found by indirect
-inference (:mod:`iwp.rig.calibrate`, ``iwp rig calibrate``) and shipped as
+inference (:mod:`iwp.calibration.calibrate`, ``iwp rig calibrate``) and shipped as
 ``default_truth.json`` (:data:`DEFAULT_TRUTH_FILE`), with where each value
 came from (the calibration, the paper, an assumption) and the calibration's
 residual table (:func:`truth_record`; ``docs/calibration.md`` discusses
@@ -451,7 +451,7 @@ def default_truth() -> RigTruth:
     """The default truth plant: the calibrated twin of the paper's rig (``default_truth.json``).
 
     Its values are those of the shipped file :data:`DEFAULT_TRUTH_FILE`,
-    written by the calibration (:func:`iwp.rig.calibrate.calibrate`) with the
+    written by the calibration (:func:`iwp.calibration.calibrate.calibrate`) with the
     paper's published numbers as targets; where each came from and the
     calibration's residual table are in :func:`truth_record`.
     """

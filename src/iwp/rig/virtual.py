@@ -91,7 +91,7 @@ class VirtualRig:
     >>> rig = VirtualRig(seed=1)
     >>> log = rig.run("sine-60", duration=5.0)       # ExperimentData
     >>> curve = rig.run("static-curve")               # StaticCurve
-    >>> log.to_csv("sine60.csv")
+    >>> write_experiment(log, "sine60.csv")
     """
 
     def __init__(self, truth: RigTruth | None = None, seed: int = 0):

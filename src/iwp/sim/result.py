@@ -7,6 +7,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..data import ExperimentData, write_experiment
+from ..models.plant import MODELS
+from ..plotting import plot_simulation
 from .engine import ST_OK
 
 __all__ = ["SimulationResult", "BatchResult"]
@@ -105,12 +108,9 @@ class SimulationResult:
         the optional feedforward and saturation), so that replaying the log
         reproduces the run. Motor-disk runs carry ``pendulum: locked``.
         """
-        from ..data import ExperimentData
-        from ..models.plant import MODELS
-
         info = MODELS[self.model]
         meta = {"source": "iwp simulate", "model": self.model}
-        if info.input is not None and self.model.startswith("motor-disk"):
+        if info.input is not None and info.pendulum_locked:
             meta["pendulum"] = "locked"
         meta.update({str(k): str(v) for k, v in self.metadata.items()})
         x = self.x
@@ -121,14 +121,10 @@ class SimulationResult:
 
     def to_csv(self, path, *, force: bool = False):
         """Write the run as an iwp CSV (:meth:`to_experiment`, exact round trip); no overwrite without ``force``."""
-        from ..data import write_experiment
-
         return write_experiment(self.to_experiment(), path, format="csv", force=force)
 
     def plot(self, **kw):
         """Plot the states and the input; see :func:`iwp.plotting.plot_simulation`."""
-        from ..plotting import plot_simulation
-
         return plot_simulation(self, **kw)
 
 

@@ -11,9 +11,11 @@ from pathlib import Path
 import numpy as np
 
 from ..checks import check_finite
+from ..data import write_experiment
 from ..errors import InputError, SimulationError
 from ..files import FIGURE_SUFFIXES, LOG_SUFFIXES, check_output_file, write_all
 from ..models.plant import Plant
+from ..plotting import plot_simulation, savefig
 from .inputs import make_input
 from .simulate import simulate
 
@@ -78,14 +80,10 @@ def simulate_command(*, params, model, controller, input_name, k1, k2, sampled, 
     note = physical_range_message(plant, res.q3)
     if note is not None:
         warnings.warn(note, UserWarning, stacklevel=2)
-    from ..data import write_experiment
-
     writes = [(out, lambda tmp: write_experiment(log, tmp, format=LOG_SUFFIXES[out.suffix.lower()], force=True))]
     msg = (f"wrote {out} ({res.t.size} samples, t = {res.t[0]:g}..{res.t[-1]:g} s, "
            f"max |q1| = {abs(res.q1).max():.4g} rad)")
     if plot is not None:
-        from ..plotting import plot_simulation, savefig
-
         fig = plot_simulation(res)["figure"]
         writes.append((plot, lambda tmp: savefig(fig, tmp)))
         msg += f"; figure {plot}"

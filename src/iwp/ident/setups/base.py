@@ -20,7 +20,8 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import InputError
-from ..lsq import ParameterEstimate
+from ..parameters import Parameter
+from ..regressors import columns, q3_row, q4_row
 
 __all__ = ["Setup", "Regression", "RefineSpec", "Derived", "PARAMETER_UNITS", "PENDULUM", "LOCK_TOL"]
 
@@ -103,7 +104,7 @@ class Regression:
 class Derived:
     """Parameters a set-up derives from its estimates (``rho``), with the extended covariance."""
 
-    parameters: dict[str, ParameterEstimate]
+    parameters: dict[str, Parameter]
     names: list[str]
     covariance: np.ndarray
     rho: dict[str, float] | None = None
@@ -140,16 +141,21 @@ class Setup(ABC):
     takes_p2: bool = False
     #: what its refinement fits
     refine: RefineSpec | None = None
+    #: where a parameter set written from its result takes what it does not identify
+    note: str = ""
 
     def __repr__(self) -> str:
         return f"<set-up {self.name!r}: {self.paper}>"
 
     def check_options(self, pendulum: Any, p2: Any) -> None:
-        """Refuse options this set-up does not use."""
+        """Refuse options this set-up does not use, and ask for the ones it needs."""
         if pendulum is not None and not self.takes_pendulum:
-            raise InputError(f"pendulum= is used by set-up 'two-step' only, not {self.name!r}")
+            raise InputError(f"pendulum is used by set-up 'two-step' only, not {self.name!r}", argument="pendulum")
+        if pendulum is None and self.takes_pendulum:
+            raise InputError(f"pendulum is required by set-up {self.name!r}: the free-pendulum result (set-up "
+                             "'free'), an IdentificationResult or LumpedParameters", argument="pendulum")
         if p2 is not None and not self.takes_p2:
-            raise InputError(f"p2= is used by set-up 'free' only, not {self.name!r}")
+            raise InputError(f"p2 is used by set-up 'free' only, not {self.name!r}", argument="p2")
 
     def regression(self, sig, *, pendulum: Any = None, p2: Any = None) -> Regression:
         """The regressor and target of (13) on the prepared signals ``sig`` (:class:`~iwp.ident.signals.Signals`)."""
@@ -190,7 +196,7 @@ class Setup(ABC):
         """Parameters derived from the estimates (``rho``); None when there are none."""
         return None
 
-    def extra_warnings(self, reg: Regression, sig, res, params: Mapping[str, ParameterEstimate], ref,
+    def extra_warnings(self, reg: Regression, sig, res, params: Mapping[str, Parameter], ref,
                        p2: Any) -> tuple[list[str], dict[str, Any]]:
         """Warnings and details that interpret this set-up's numbers (after the fit)."""
         return [], {}
@@ -223,8 +229,7 @@ def rho_from_ratios(columns: Sequence[str], values: np.ndarray, cov: np.ndarray,
     cov_r = G @ cov @ G.T
     rho_mean = 0.5 * (r1 + r2)
     se_r = np.sqrt(np.clip(np.diag(cov_r), 0.0, None))
-    params = {"rho": ParameterEstimate("rho", float(rho_mean), float(se_r[2]),
-                                       float(rho_mean - critical * se_r[2]), float(rho_mean + critical * se_r[2]))}
+    params = {"rho": Parameter.estimate("rho", float(rho_mean), float(se_r[2]), critical)}
     cov_ext = np.block([[cov, (cov @ gm)[:, None]], [(gm @ cov)[None, :], np.array([[gm @ cov @ gm]])]])
     warnings = []
     diff_var = (g1 - g2) @ cov @ (g1 - g2)
@@ -239,17 +244,11 @@ def rho_from_ratios(columns: Sequence[str], values: np.ndarray, cov: np.ndarray,
                    warnings=warnings)
 
 
-def two_row_regression(sig, cols_q3: Sequence[np.ndarray | None], cols_q4: Sequence[np.ndarray | None],
-                       phi_q3: np.ndarray, phi_q4: np.ndarray) -> Regression:
-    """A regression on both rows of (10): rows of ``dq3/dt`` first, then of ``dq4/dt`` (None: a zero column)."""
+def two_row_regression(sig, names: Sequence[str], phi_q3: np.ndarray, phi_q4: np.ndarray) -> Regression:
+    """A regression on both rows of (10) for the parameters ``names``: rows of ``dq3/dt`` first, then of
+    ``dq4/dt``, with the columns of (11) (:mod:`iwp.ident.regressors`)."""
     n = sig.n
-    p = len(cols_q3)
-    Phi = np.zeros((2 * n, p))
-    for j, (a, b) in enumerate(zip(cols_q3, cols_q4)):
-        if a is not None:
-            Phi[:n, j] = a
-        if b is not None:
-            Phi[n:, j] = b
+    Phi = np.vstack([columns(q3_row(sig), names, n), columns(q4_row(sig), names, n)])
     return Regression(Phi=Phi, phi=np.concatenate([phi_q3, phi_q4]), labels=["q3", "q4"],
                       blocks=np.repeat(np.array([0, 1], dtype=np.int8), n),
                       sample_index=np.concatenate([sig.sidx, sig.sidx]))

@@ -14,7 +14,8 @@ import numpy as np
 
 from ...data import ExperimentData, StaticCurve
 from ...errors import IdentificationError, InputError
-from ..lsq import ParameterEstimate, solve_least_squares
+from ..lsq import solve_least_squares
+from ..parameters import Parameter
 from .base import RefineSpec, Setup
 
 __all__ = ["DeadZone", "StaticFit", "fit_static_curve"]
@@ -24,7 +25,7 @@ __all__ = ["DeadZone", "StaticFit", "fit_static_curve"]
 class StaticFit:
     """The dead-zone thresholds fitted on a static curve, with their uncertainty and diagnostics."""
 
-    parameters: dict[str, ParameterEstimate]
+    parameters: dict[str, Parameter]
     covariance: np.ndarray
     correlation: np.ndarray
     condition_number: float
@@ -94,7 +95,7 @@ def fit_static_curve(curve: Any, *, min_fraction: float = 0.2) -> "StaticFit":
     y = np.concatenate([c.q4 for c in curves])
     src = ", ".join(c.source for c in curves)
     warnings: list[str] = []
-    params: dict[str, ParameterEstimate] = {}
+    params: dict[str, Parameter] = {}
     details: dict[str, Any] = {}
     rms: dict[str, float] = {}
     conds = []
@@ -122,7 +123,7 @@ def fit_static_curve(curve: Any, *, min_fraction: float = 0.2) -> "StaticFit":
         se = math.sqrt(max(var, 0.0))
         val = sgn * v0
         crit = r.critical_value
-        params[name] = ParameterEstimate(name, float(val), se, float(val - crit * se), float(val + crit * se))
+        params[name] = Parameter.estimate(name, float(val), se, crit)
         rms[side] = float(r.residual_rms[0]) if r.residual_rms else math.nan
         conds.append(r.condition_number)
         used_total += m
@@ -181,6 +182,7 @@ class DeadZone(Setup):
     columns = ("v_dz_pos", "v_dz_neg")
     parameters = columns
     static = True
+    note = "all but v_dz_pos, v_dz_neg from the base set"
     refine = RefineSpec("motor-disk-raw", ("p2", "p3", "v_dz_pos", "v_dz_neg"), ("q4",))
 
     def row_betas(self, vals, pend, p2_known):

@@ -20,6 +20,7 @@ import numpy as np
 from ...errors import InputError
 from ...models.parameters import LumpedParameters
 from ..lsq import lstsq_projection
+from ..regressors import columns, q3_row
 from .base import LOCK_TOL, PENDULUM, RefineSpec, Regression, Setup
 
 
@@ -50,10 +51,11 @@ class FreePendulum(Setup):
     parameters = PENDULUM
     motor_off = True
     takes_p2 = True
+    note = "p2, p3, rho, dead zone from the base set"
     refine = RefineSpec("free", PENDULUM, ("q1",))
 
     def regression(self, sig, *, pendulum=None, p2=None) -> Regression:
-        reg = Regression(Phi=np.column_stack([-sig.S, -sig.C, -sig.q3, -sig.B]), phi=sig.dq3.copy(),
+        reg = Regression(Phi=columns(q3_row(sig), self.columns, sig.n), phi=sig.dq3.copy(),
                          labels=["q3"], blocks=None, sample_index=sig.sidx)
         if p2 is not None:
             p2v, p2var = known_p2(p2)

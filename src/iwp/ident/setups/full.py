@@ -6,8 +6,6 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from .base import PENDULUM, RefineSpec, Regression, Setup, rho_from_ratios, two_row_regression
 
 _COLUMNS = PENDULUM + ("p2", "p3", "p2_1rho", "p3_1rho")
@@ -22,16 +20,12 @@ class Full(Setup):
     parameters = _COLUMNS + ("rho",)
     needs_input = True
     swinging = True
+    note = "dead zone from the base set"
     refine = RefineSpec("compensated", ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1"), ("q1", "q4"))
 
     def regression(self, sig, *, pendulum=None, p2=None) -> Regression:
         # (11): rows of dq3/dt first, then rows of dq4/dt
-        neg = np.negative
-        return two_row_regression(
-            sig,
-            [neg(sig.S), neg(sig.C), neg(sig.q3), neg(sig.B), sig.q4, neg(sig.u), None, None],
-            [sig.S, sig.C, sig.q3, sig.B, None, None, neg(sig.q4), sig.u],
-            sig.dq3, sig.dq4)
+        return two_row_regression(sig, self.columns, sig.dq3, sig.dq4)
 
     def row_betas(self, vals, pend, p2_known):
         pen = {"T1": vals["p1"], "T2": vals["sigma_a1"], "T3": vals["sigma_b1"], "T4": vals["sigma_v1"]}

@@ -17,8 +17,7 @@ estimate ``p2 rho``, ``p3 rho``, ``sigma~_c2 rho`` (0.4 % apart with Table
 
 from __future__ import annotations
 
-import numpy as np
-
+from ..regressors import columns, q4_row
 from .base import RefineSpec, Regression, Setup
 
 _NOTE = ("on a clamped rig p2_1rho, p3_1rho (, sigma_c2_1rho) estimate p2*rho, p3*rho (, sigma_c2*rho); "
@@ -34,13 +33,11 @@ class MotorDisk(Setup):
     parameters = columns
     needs_input = True
     locked = True
+    note = "p2, p3 (, sigma_c2) split from p2_1rho, p3_1rho with the base rho (clamped rig: / rho)"
     refine = RefineSpec("motor-disk", ("p2", "p3"), ("q4",))
 
     def regression(self, sig, *, pendulum=None, p2=None) -> Regression:
-        cols = [-sig.q4, sig.u]
-        if self.coulomb:
-            cols.append(-sig.G)
-        return Regression(Phi=np.column_stack(cols), phi=sig.dq4, labels=["q4"], blocks=None,
+        return Regression(Phi=columns(q4_row(sig), self.columns, sig.n), phi=sig.dq4, labels=["q4"], blocks=None,
                           sample_index=sig.sidx, details={"note": _NOTE})
 
     def row_betas(self, vals, pend, p2_known):
@@ -62,4 +59,5 @@ class MotorDiskCoulomb(MotorDisk):
     columns = ("p2_1rho", "p3_1rho", "sigma_c2_1rho")
     parameters = columns
     coulomb = True
+    note = "p2, p3, sigma_c2 split from the (1+rho) products with the base rho (/ rho)"
     refine = RefineSpec("motor-disk", ("p2", "p3", "sigma_c2"), ("q4",))

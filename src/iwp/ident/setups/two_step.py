@@ -16,6 +16,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...models.parameters import LumpedParameters
+from ..regressors import columns, xi_columns
 from .base import PENDULUM, RefineSpec, Regression, Setup, rho_from_ratios, two_row_regression
 
 
@@ -62,15 +63,14 @@ class TwoStep(Setup):
     needs_input = True
     swinging = True
     takes_pendulum = True
+    note = "p1, sigma_* from --pendulum; dead zone from the base set"
     refine = RefineSpec("compensated", ("p2", "p3", "rho"), ("q1", "q4"))
 
     def regression(self, sig, *, pendulum=None, p2=None) -> Regression:
         pv, pcov, desc = pendulum_values(pendulum)
-        Psi = np.column_stack([sig.S, sig.C, sig.q3, sig.B])  # xi = Psi @ theta_c
+        Psi = columns(xi_columns(sig), PENDULUM, sig.n)  # xi = Psi @ theta_c
         xi = np.einsum("ij,j->i", Psi, np.array([pv[k] for k in PENDULUM]))
-        neg = np.negative
-        reg = two_row_regression(sig, [sig.q4, neg(sig.u), None, None], [None, None, neg(sig.q4), sig.u],
-                                 sig.dq3 + xi, sig.dq4 - xi)
+        reg = two_row_regression(sig, self.columns, sig.dq3 + xi, sig.dq4 - xi)
         reg.details.update(
             pendulum=dict(pv), pendulum_source=desc,
             xi="p1 sin q1 + sigma_a1 |cos q1| q3 + sigma_v1 q3 + sigma_b1 q3^3 (ERRATA item 1)")

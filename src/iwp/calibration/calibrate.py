@@ -11,10 +11,10 @@ the rig's truth. The twin's truth is found the other way round:
    encoder noise) give a twin;
 2. the twin runs the paper's experiments and the paper's procedures are
    applied to its logs exactly as the command line applies them with its
-   defaults (:func:`iwp.rig.statistics.paper_numbers`): these *auxiliary
+   defaults (:func:`iwp.calibration.statistics.paper_numbers`): these *auxiliary
    statistics* are the twin's version of every published number;
 3. the distance between them and the published numbers, each deviation in
-   units of its tolerance (:meth:`iwp.rig.targets.PaperTarget.residual`), is
+   units of its tolerance (:meth:`iwp.calibration.targets.PaperTarget.residual`), is
    minimised over the structural parameters with
    :func:`scipy.optimize.least_squares` (trust-region reflective, bounds, the
    parameters on a log scale, forward differences of 2 % per parameter).
@@ -48,9 +48,9 @@ from scipy import optimize
 from ..errors import InputError, IwpError
 from ..files import atomic_write, jsonable, prepare_output_file
 from ..models.parameters import BeltParameters
+from ..rig.truth import RigTruth, default_truth
 from .statistics import paper_numbers
 from .targets import PaperTarget, TargetRow, compare_targets, load_targets
-from .truth import RigTruth
 
 __all__ = [
     "TruthCoordinate",
@@ -184,7 +184,7 @@ def truth_with(base: RigTruth, values: Mapping[str, float]) -> RigTruth:
 
 def twin_statistics(truth: RigTruth, targets: Sequence[PaperTarget], *, seed: int = 0,
                     overrides: Mapping[str, Mapping[str, Any]] | None = None) -> dict[str, float]:
-    """The twin's value of every target's statistic (:func:`iwp.rig.statistics.paper_numbers`)."""
+    """The twin's value of every target's statistic (:func:`iwp.calibration.statistics.paper_numbers`)."""
     numbers = paper_numbers(truth, seed=seed, overrides=overrides)
     return numbers.values(sorted({t.statistic for t in targets}))
 
@@ -377,7 +377,7 @@ def calibrate(
     ----------
     targets : list of PaperTarget, or path, optional
         The numbers to reproduce (default: the paper's,
-        :func:`iwp.rig.targets.load_targets`); those with ``calibrate``
+        :func:`iwp.calibration.targets.load_targets`); those with ``calibrate``
         false are reported, not fitted.
     start : RigTruth, optional
         Starting point (default :func:`iwp.rig.default_truth`); its
@@ -421,8 +421,6 @@ def calibrate(
         target_file = "given"
         targets = list(targets)
     if start is None:
-        from .truth import default_truth
-
         start = default_truth()
     if not isinstance(start, RigTruth):
         raise InputError(f"start must be a RigTruth, got {type(start).__name__}")

@@ -1,13 +1,13 @@
 """The paper's numbers from the logs of its experiments: its procedures, applied as ``iwp identify`` applies them.
 
-Every number the paper publishes (:mod:`iwp.rig.targets`) is a *statistic*
+Every number the paper publishes (:mod:`iwp.calibration.targets`) is a *statistic*
 of the logs of its experiments: a least-squares set-up of section 5 applied
 to one or two logs, a line through a static curve, the amplitude of an
 oscillation. :func:`paper_numbers` runs the experiments on a virtual rig and
 applies those procedures exactly as the command line does with its default
 settings (``iwp rig run NAME``, then ``iwp identify FILE --setup SETUP``:
 :func:`iwp.ident.identification.identify` with its defaults), so that a
-calibration (:mod:`iwp.rig.calibrate`) and a reader checking the twin by
+calibration (:mod:`iwp.calibration.calibrate`) and a reader checking the twin by
 hand get the same numbers. :data:`STATISTICS` names them; the reproduction
 (:mod:`iwp.reproduce`) computes the same numbers with the same functions
 (:func:`compensated_line`, :func:`oscillation_amplitude`,
@@ -57,9 +57,9 @@ from ..ident.identification import identify
 from ..ident.result import IdentificationResult
 from ..ident.validation import validate
 from ..models.parameters import LumpedParameters, table1
+from ..rig.truth import RigTruth
+from ..rig.virtual import VirtualRig
 from ..sim.inputs import HopfController
-from .truth import RigTruth
-from .virtual import VirtualRig
 
 __all__ = [
     "PaperNumbers",

@@ -11,7 +11,7 @@ number:
 ``quantity``, ``reference``
     What it is and where the paper prints it (section, equation, figure).
 ``statistic``
-    How a twin reproduces it: a name of :mod:`iwp.rig.statistics`.
+    How a twin reproduces it: a name of :mod:`iwp.calibration.statistics`.
 ``published`` or ``published_range``
     The number, or ``[low, high]`` where the paper prints two values for
     one quantity (inside the range the deviation is 0).
@@ -25,7 +25,7 @@ number:
 ``graded``
     One of the 21 numbers that issue 12 grades.
 ``calibrate``
-    Used in the calibration's objective (:func:`iwp.rig.calibrate.calibrate`);
+    Used in the calibration's objective (:func:`iwp.calibration.calibrate.calibrate`);
     ``false`` for a number no twin of the family reaches, with the reason
     in ``note``.
 

@@ -1,0 +1,530 @@
+"""The simulation error of measured outputs: the residuals of every simulation-error fit.
+
+A simulation-error (output-error) fit compares what the logs measure with what
+the model simulates from each log's initial state with the log's input
+replayed (MATLAB's ``nlgreyest`` criterion):
+
+    r_o,e(t_k) = w_o,e(t_k) (y^_o,e(t_k; theta, x0_e) + c_o,e - y_o,e(t_k)) / s_o
+
+over the experiments ``e`` and the outputs ``o`` (``q1``, ``q2`` and the
+velocities ``q3``, ``q4``), with ``s_o`` the spread of output ``o`` over the
+data, ``c_o,e`` an optional sensor offset and ``w`` 0 at samples left out
+(replaced glitches; the first sample of a speed logged as the mean over the
+preceding period). :class:`OutputError` is this residual model for
+:class:`~iwp.ident.problem.FitProblem`: it prepares the experiments once
+(windows, measured signals, initial states, the input replayed with a
+zero-order hold on the log's sample grid, exactly as a digital rig applies
+it) and evaluates the residuals and their Jacobian for any parameter values
+with the one compiled engine (:func:`iwp.sim.sensitivity.simulate_sensitivities`:
+forward sensitivities ``dx/dtheta`` and ``dx/dx0`` ride along), or by forward
+differences of whole simulations for non-smooth models (the belt's play).
+
+Each experiment has a kind (:data:`EXPERIMENT_KINDS`), so that one fit joins
+every set-up of a rig, as section 5 combines its experiments: the pendulum
+clamped (section 5.1), the wheel locked to the arm, the arm free, a closed
+loop with a known law.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ..data import ExperimentData
+from ..errors import InputError
+from ..models.parameters import PARAMETER_INFO
+from ..models.plant import Plant
+from ..sim.inputs import Input, Sampled
+from ..sim.sensitivity import simulate_sensitivities
+from .differentiate import Differentiator
+from .parameters import Parameter, Parameters
+
+__all__ = [
+    "EXPERIMENT_KINDS",
+    "Experiment",
+    "Evaluation",
+    "OutputError",
+    "PreparedExperiment",
+    "initial_state",
+    "measured_signals",
+    "measured_state",
+    "plant_for_kind",
+    "replay",
+    "x0_name",
+    "offset_name",
+]
+
+#: The kinds of experiment a fit joins, and how each changes the plant it simulates.
+EXPERIMENT_KINDS: dict[str, str] = {
+    "free": "the arm swings freely: the model as given",
+    "clamped": "the pendulum clamped at q1 = q3 = 0 (section 5.1)",
+    "wheel-locked": "the wheel locked to the arm: a free pendulum carrying the wheel's inertia (motor torque internal)",
+    "closed-loop": "the input was computed by a known feedback law, simulated with the plant",
+}
+STATE_NAMES = ("q1", "q2", "q3", "q4")
+OUTPUT_INDEX = {"q1": 0, "q2": 1, "q3": 2, "q4": 3}
+#: residual of a sample a failed simulation did not reach (the trust region then shrinks)
+BAD_RESIDUAL = 1e6
+#: the velocities of the logs that do not measure them: Savitzky-Golay, 21 samples, cubic
+DEFAULT_DIFFERENTIATOR = Differentiator("savgol", window=21, polyorder=3)
+#: fewest samples an experiment's window keeps
+MIN_SAMPLES = 10
+
+
+def x0_name(state: int, experiment: int) -> str:
+    """The name of an initial state of an experiment as a fit parameter."""
+    return f"{STATE_NAMES[state]}(0) of experiment {experiment}"
+
+
+def offset_name(output: str, experiment: int) -> str:
+    """The name of the sensor offset of an output of an experiment as a fit parameter."""
+    return f"offset of {output} in experiment {experiment}"
+
+
+# --------------------------------------------------------------------------
+# measured signals and states
+# --------------------------------------------------------------------------
+def replay(data: ExperimentData, input_name: str | None) -> Sampled | None:
+    """A log's input ``u`` or ``v`` replayed with a zero-order hold on its sample grid, or ``None``."""
+    if input_name is None or data.input_name is None:
+        return None
+    return Sampled(np.asarray(getattr(data, input_name), dtype=float), data.Ts, float(data.t[0]))
+
+
+def measured_signals(data: ExperimentData, names: Sequence[str], differentiator: Differentiator | None = None
+                     ) -> dict[str, np.ndarray]:
+    """Measured ``q1, q2`` and velocities ``q3, q4`` of a log.
+
+    Velocities come from the log's ``q3``/``q4`` columns when present, else
+    from differentiating the positions (Savitzky-Golay, 21 samples, cubic, by
+    default).
+    """
+    out: dict[str, np.ndarray] = {}
+    d = differentiator or DEFAULT_DIFFERENTIATOR
+    for n in names:
+        if n not in OUTPUT_INDEX:
+            raise InputError(f"unknown signal {n!r}; choose among q1, q2, q3, q4")
+        if n in ("q1", "q2"):
+            if getattr(data, n) is None:
+                raise InputError(f"{data.source} has no wheel angle q2 (only the wheel speed q4); use the output q4")
+            out[n] = np.asarray(getattr(data, n), dtype=float)
+        else:
+            col = getattr(data, n)
+            if col is not None:
+                out[n] = np.asarray(col, dtype=float)
+            else:
+                pos = getattr(data, "q1" if n == "q3" else "q2")
+                if pos is None:
+                    raise InputError(f"{data.source} logs neither q2 nor q4; the output q4 cannot be formed")
+                out[n] = d.derivatives(data.Ts, pos).velocity
+    return out
+
+
+def measured_state(data: ExperimentData, index: int, differentiator: Differentiator | None = None) -> np.ndarray:
+    """The state ``[q1, q2, q3, q4]`` of a log at sample ``index``: smoothed positions, differentiated velocities."""
+    d = differentiator or DEFAULT_DIFFERENTIATOR
+    q = np.column_stack([data.q1, data.q2 if data.q2 is not None else np.zeros_like(data.q1)])
+    if data.n_samples >= d.min_samples(data.Ts):
+        pos, vel, _ = d.derivatives(data.Ts, q)
+    else:  # too short to filter: plain central differences
+        pos = q
+        vel = np.gradient(q, data.t, axis=0)
+    x = np.array([pos[index, 0], pos[index, 1], vel[index, 0], vel[index, 1]])
+    if data.q3 is not None:
+        x[2] = data.q3[index]
+    if data.q4 is not None:
+        x[3] = data.q4[index]
+        if data.q4_sampling == "mean" and index + 2 < data.n_samples:
+            # samples are means over the preceding periods (at t_k - Ts/2): the speed at t_k lies between two
+            # of them; the first sample has no preceding period, extrapolate the next two
+            y = data.q4
+            x[3] = 0.5 * (y[index] + y[index + 1]) if index > 0 else 1.5 * y[1] - 0.5 * y[2]
+    return x
+
+
+def initial_state(data: ExperimentData, index: int, plant: Plant,
+                  differentiator: Differentiator | None = None) -> np.ndarray:
+    """The measured state of a log at sample ``index`` as the state of ``plant``.
+
+    Positions smoothed and velocities differentiated (:func:`measured_state`);
+    a held wheel (the free-pendulum models) has ``q4 = 0``; a locked pendulum
+    has ``q1 = q3 = 0``.
+    """
+    x = measured_state(data, index, differentiator)
+    if plant.wheel_held:
+        x[3] = 0.0
+    if plant.pendulum_locked:
+        x[0] = 0.0
+        x[2] = 0.0
+    return x
+
+
+def plant_for_kind(plant: Plant, kind: str) -> Plant:
+    """The plant an experiment of ``kind`` (:data:`EXPERIMENT_KINDS`) simulates, with ``plant``'s parameters."""
+    if kind not in EXPERIMENT_KINDS:
+        raise InputError(f"unknown experiment kind {kind!r}; choose among {', '.join(EXPERIMENT_KINDS)}",
+                         argument="kind")
+    if kind == "clamped" and not plant.pendulum_locked:
+        return plant.replace(locked=True)
+    if kind == "wheel-locked" and not plant.wheel_held:
+        return Plant(plant.lumped, model="free", coulomb_eps=plant.coulomb_eps)
+    return plant
+
+
+# --------------------------------------------------------------------------
+# experiments
+# --------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class Experiment:
+    """One log of a fit, with what the fit assumes and estimates about it.
+
+    Parameters
+    ----------
+    data : ExperimentData
+        The log.
+    kind : str
+        One of :data:`EXPERIMENT_KINDS` (default ``"free"``: the model as given).
+    window : (float or None, float or None)
+        Time window [s] (None: open).
+    x0 : array_like, optional
+        Initial-state guess ``[q1, q2, q3, q4]`` at the window start (default: measured).
+    estimate_x0 : bool
+        Estimate the initial state with the parameters (else the guess is used as it is).
+    offsets : tuple of str
+        Outputs whose sensor has an unknown constant offset, estimated (``("q1",)``).
+    controller : Input, optional
+        ``kind="closed-loop"``: the feedback law simulated instead of replaying the logged input.
+    """
+
+    data: ExperimentData
+    kind: str = "free"
+    window: tuple[float | None, float | None] = (None, None)
+    x0: Any = None
+    estimate_x0: bool = True
+    offsets: tuple[str, ...] = ()
+    controller: Input | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.data, ExperimentData):
+            raise InputError(f"an experiment needs an ExperimentData (time series log), got {type(self.data).__name__}")
+        if self.kind not in EXPERIMENT_KINDS:
+            raise InputError(f"unknown experiment kind {self.kind!r}; choose among {', '.join(EXPERIMENT_KINDS)}",
+                             argument="kind")
+        if (self.kind == "closed-loop") != (self.controller is not None):
+            raise InputError("a closed-loop experiment needs its controller, and only a closed-loop one takes one")
+        if self.controller is not None and not isinstance(self.controller, Input):
+            raise InputError(f"controller must be an iwp.sim.inputs controller (e.g. HopfController), got "
+                             f"{type(self.controller).__name__}")
+        object.__setattr__(self, "offsets", (self.offsets,) if isinstance(self.offsets, str) else tuple(self.offsets))
+        if self.x0 is not None:
+            g = np.asarray(self.x0, dtype=float).ravel()
+            if g.size != 4 or not np.all(np.isfinite(g)):
+                raise InputError(f"each x0 guess must be 4 finite numbers, got {g.tolist()}")
+            object.__setattr__(self, "x0", g)
+
+
+@dataclass(eq=False)
+class PreparedExperiment:
+    """An experiment made ready for evaluations: windowed, its outputs measured, its input replayed."""
+
+    spec: Experiment
+    index: int
+    data: ExperimentData  # the windowed log
+    plant: Plant  # the variant its kind simulates (values set at each evaluation)
+    t: np.ndarray
+    input: Input | None
+    y: dict[str, np.ndarray]
+    #: per output: weight of each sample (0 at replaced glitches and where a mean has no preceding period)
+    w: dict[str, np.ndarray]
+    x0: np.ndarray  # the initial-state guess
+    est: tuple[int, ...]  # the states estimated
+    mean: tuple[str, ...]  # outputs logged as the mean over the preceding sample period
+    Ts: float
+
+    @property
+    def window(self) -> tuple[float, float]:
+        return float(self.t[0]), float(self.t[-1])
+
+    def predict(self, o: str, X: np.ndarray) -> np.ndarray:
+        """The model's output ``o`` from states ``X`` (N, n) or sensitivities (N, n, k): the state, or for a
+        mean-sampled speed the difference of its angle over the preceding period over ``Ts``."""
+        si = OUTPUT_INDEX[o]
+        if o in self.mean:
+            pos = X[:, si - 2]
+            out = np.empty_like(X[:, si])
+            out[1:] = (pos[1:] - pos[:-1]) / self.Ts
+            out[0] = X[0, si]  # weight 0
+            return out
+        return X[:, si]
+
+
+def prepare(spec: Experiment, index: int, plant: Plant, outputs: Sequence[str],
+            min_samples: int = MIN_SAMPLES) -> PreparedExperiment:
+    """Window the log, measure its outputs and initial state, replay its input (see :class:`PreparedExperiment`)."""
+    data = spec.data
+    wdata = data.window(*spec.window)
+    i0 = int(np.searchsorted(data.t, wdata.t[0]))
+    if wdata.n_samples < min_samples:
+        raise InputError(f"experiment {index} ({data.source}): the window keeps {wdata.n_samples} samples, "
+                         f"at least {min_samples} are needed")
+    variant = plant_for_kind(plant, spec.kind)
+    need = variant.input_name
+    name = data.input_name
+    if need is not None and name is not None and name != need and spec.controller is None:
+        hint = ("a compensated model ('compensated', 'motor-disk')" if name == "u"
+                else "a raw model ('raw', 'motor-disk-raw')")
+        raise InputError(f"experiment {index} ({data.source}) logs the input {name!r} but model {variant.model!r} "
+                         f"takes {need!r}; use {hint}")
+    inp = spec.controller if spec.controller is not None else replay(wdata, need)
+    full = measured_signals(data, outputs)
+    n = wdata.n_samples
+    y = {o: np.ascontiguousarray(full[o][i0:i0 + n]) for o in outputs}
+    x0 = np.zeros(variant.n_states)  # the belt's states (delta, w) start relaxed
+    x0[:4] = initial_state(data, i0, variant) if spec.x0 is None else spec.x0
+    moving = variant.info.moving if not variant.pendulum_locked else (1, 3)
+    est: tuple[int, ...] = ()
+    if spec.estimate_x0:
+        # q2 enters no right-hand side: estimate it only when it is an output
+        est = tuple(s for s in moving if s != 1 or "q2" in outputs)
+    mean = tuple(o for o in outputs if o == "q4" and data.q4 is not None and data.q4_sampling == "mean")
+    weights = {}
+    for o in outputs:
+        wt = np.ones(n)
+        col = "q2" if o == "q4" and data.q4 is None else ("q1" if o == "q3" and data.q3 is None else o)
+        wt[data.glitch_mask(col)[i0:i0 + n]] = 0.0
+        if o in mean:
+            wt[0] = 0.0
+        weights[o] = wt
+    return PreparedExperiment(spec, index, wdata, variant, np.ascontiguousarray(wdata.t, dtype=float), inp, y,
+                              weights, x0, est, mean, float(wdata.Ts))
+
+
+# --------------------------------------------------------------------------
+# the residual model
+# --------------------------------------------------------------------------
+@dataclass(eq=False)
+class Evaluation:
+    """One evaluation of :class:`OutputError` at given values."""
+
+    values: dict[str, float]
+    r: np.ndarray  # the residuals
+    J: np.ndarray | None  # d r / d value of the names asked for, or None
+    X: list[np.ndarray]  # per experiment, the simulated states at its samples
+    status: list[int]  # per experiment, the engine's status (0: reached the end)
+
+
+@dataclass(eq=False)
+class OutputError:
+    """The simulation error of measured outputs over experiments (the residual model of a fit).
+
+    Parameters
+    ----------
+    plant : Plant
+        The model and its start parameters (lumped, and the belt's for ``"belt"``).
+    experiments : sequence of Experiment
+    outputs : tuple of str
+        Compared signals, among the plant's (:attr:`Plant.outputs`).
+    rtol, atol : float
+        Tolerances of the simulations.
+    differences : float, optional
+        Take the Jacobian by forward differences of whole simulations with this
+        step of the optimiser's coordinates (for non-smooth models), not from
+        forward sensitivities.
+    fitting : bool
+        The outputs are fitted (default): each must move in the plant and vary
+        in the data. False: they are only compared (a validation compares any
+        signal, even one the model holds constant), windows of 2 samples do.
+    """
+
+    plant: Plant
+    experiments: Sequence[Experiment]
+    outputs: tuple[str, ...]
+    rtol: float = 1e-8
+    atol: float = 1e-8
+    differences: float | None = None
+    fitting: bool = True
+    prepared: list[PreparedExperiment] = field(init=False)
+    scale: dict[str, float] = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.outputs = (self.outputs,) if isinstance(self.outputs, str) else tuple(self.outputs)
+        if not self.outputs:
+            raise InputError("outputs is empty")
+        for o in self.outputs:
+            if o not in OUTPUT_INDEX:
+                raise InputError(f"unknown output {o!r}; choose among q1, q2, q3, q4")
+        exps = list(self.experiments)
+        if not exps:
+            raise InputError("no experiments given")
+        for i, e in enumerate(exps):
+            if not isinstance(e, Experiment):
+                raise InputError(f"experiments[{i}] must be an Experiment, got {type(e).__name__}")
+            for o in e.offsets:
+                if o not in self.outputs:
+                    raise InputError(f"output_offsets names {o!r}, which is not an output ({', '.join(self.outputs)})")
+        if self.fitting:
+            self._check_outputs(exps)
+        n_min = MIN_SAMPLES if self.fitting else 2
+        self.prepared = [prepare(e, i, self.plant, self.outputs, n_min) for i, e in enumerate(exps)]
+        self.scale = {}
+        for o in self.outputs:
+            v = np.mean([np.var(p.y[o][p.w[o] > 0]) for p in self.prepared])
+            if not v > 0 and self.fitting:
+                raise InputError(f"output {o} is constant in every experiment (nothing to fit); choose other outputs")
+            self.scale[o] = math.sqrt(v) if v > 0 else 1.0
+
+    def _check_outputs(self, exps: list[Experiment]) -> None:
+        for e in exps:
+            variant = plant_for_kind(self.plant, e.kind)
+            if variant.wheel_held and any(o in ("q2", "q4") for o in self.outputs):
+                raise InputError(f"model {variant.model!r} has no wheel motion; its outputs are q1 and q3")
+            if variant.pendulum_locked and any(o in ("q1", "q3") for o in self.outputs):
+                raise InputError("the pendulum is locked in this model; its outputs are q2 and q4")
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_rows(self) -> int:
+        """Number of residuals."""
+        return sum(p.t.size * len(self.outputs) for p in self.prepared)
+
+    def row_blocks(self) -> np.ndarray:
+        """The output of each residual row (an index into :attr:`outputs`): rows are weighted per output."""
+        return np.concatenate([np.full(p.t.size, k) for p in self.prepared for k in range(len(self.outputs))])
+
+    def row_used(self) -> np.ndarray:
+        """True for the rows that enter the fit (weight > 0)."""
+        return np.concatenate([p.w[o] > 0 for p in self.prepared for o in self.outputs])
+
+    def row_experiments(self) -> np.ndarray:
+        """The experiment of each residual row (for covariances that treat experiments as independent)."""
+        return np.concatenate([np.full(p.t.size * len(self.outputs), p.index) for p in self.prepared])
+
+    # ------------------------------------------------------------- parameters
+    def parameters(self, free: Sequence[str] = (), bounds: Mapping[str, tuple] | None = None, *,
+                   log: bool = False) -> Parameters:
+        """The fit's parameters: the plant's (``free`` varied, within ``bounds`` or the physical defaults),
+        every experiment's estimated initial states and sensor offsets.
+
+        ``log``: the free model parameters are varied on a log scale within
+        their :attr:`~iwp.models.parameters.ParameterInfo.fit_range`.
+        """
+        free = (free,) if isinstance(free, str) else tuple(free)
+        names = self.model_parameter_names()
+        for n in free:
+            if n not in PARAMETER_INFO:
+                raise InputError(f"unknown parameter {n!r}; free parameters are among "
+                                 f"{', '.join(self.plant.info.parameters or names)}")
+            if n not in self.plant.info.parameters:
+                raise InputError(f"parameter {n!r} does not enter model {self.plant.model!r} (its parameters: "
+                                 f"{', '.join(self.plant.info.parameters)}); fix it or choose another model")
+        if len(set(free)) != len(free):
+            raise InputError(f"free lists a parameter twice: {free}")
+        bounds = {} if bounds is None else dict(bounds)
+        unknown = sorted(set(bounds) - set(free))
+        if unknown:
+            raise InputError(f"bounds given for {', '.join(unknown)}, which is not free (free: {', '.join(free)})")
+        out = []
+        for n in names:
+            info = PARAMETER_INFO[n]
+            v = self.plant.value(n)
+            if n not in free:
+                out.append(Parameter(n, v, vary=False, unit=info.unit))
+                continue
+            lo, hi = _bounds(n, bounds.get(n), info.default_bounds(log))
+            if log:
+                out.append(Parameter(n, v, min=lo, max=hi, unit=info.unit, log=True))
+            else:
+                scale = max(abs(v), info.typical * 1e-3) if v != 0 else info.typical
+                out.append(Parameter(n, v, min=lo, max=hi, unit=info.unit, scale=scale))
+        for p in self.prepared:
+            for s in p.est:
+                out.append(Parameter(x0_name(s, p.index), float(p.x0[s]), scale=1.0, kind="initial state",
+                                     unit="rad" if s < 2 else "rad/s"))
+            for o in p.spec.offsets:
+                out.append(Parameter(offset_name(o, p.index), 0.0, scale=1.0, kind="offset",
+                                     unit="rad" if o in ("q1", "q2") else "rad/s"))
+        return Parameters(out)
+
+    def model_parameter_names(self) -> tuple[str, ...]:
+        """The plant's parameter names (lumped, and the belt's when it has one)."""
+        names = [n for n, i in PARAMETER_INFO.items() if i.owner == "lumped"]
+        if self.plant.belt is not None:
+            names += [n for n, i in PARAMETER_INFO.items() if i.owner == "belt"]
+        return tuple(names)
+
+    # ------------------------------------------------------------- evaluation
+    def states(self, values: Mapping[str, float]) -> list[np.ndarray]:
+        """Per experiment, the initial state for ``values`` (estimated components from ``values``)."""
+        out = []
+        for p in self.prepared:
+            x = p.x0.copy()
+            for s in p.est:
+                x[s] = values[x0_name(s, p.index)]
+            out.append(x)
+        return out
+
+    def offsets(self, values: Mapping[str, float]) -> list[dict[str, float]]:
+        """Per experiment, ``{output: offset}`` for ``values``."""
+        return [{o: values[offset_name(o, p.index)] for o in p.spec.offsets} for p in self.prepared]
+
+    def evaluate(self, values: Mapping[str, float], wrt: Sequence[str] = ()) -> Evaluation:
+        """The residuals at ``values`` and, for the names ``wrt``, their derivatives (forward sensitivities).
+
+        ``wrt`` may name model parameters, initial states and offsets.
+        """
+        model_values = {n: values[n] for n in self.model_parameter_names()}
+        base = self.plant.with_values(model_values)
+        wrt = tuple(wrt)
+        wrt_model = tuple(n for n in wrt if n in PARAMETER_INFO)
+        nrow = self.n_rows
+        r = np.empty(nrow)
+        J = np.zeros((nrow, len(wrt))) if wrt else None
+        Xs, statuses = [], []
+        row = 0
+        for p, x0, offs in zip(self.prepared, self.states(values), self.offsets(values)):
+            plant = plant_for_kind(base, p.spec.kind)
+            est = tuple(s for s in p.est if x0_name(s, p.index) in wrt)
+            sim = simulate_sensitivities(plant, t_eval=p.t, t0=float(p.t[0]), x0=x0, input=p.input, wrt=wrt_model,
+                                         wrt_x0=est, rtol=self.rtol, atol=self.atol, check=False)
+            Xs.append(sim.x)
+            statuses.append(sim.status)
+            n = p.t.size
+            for o in self.outputs:
+                seg = p.w[o] * (p.predict(o, sim.x) + offs.get(o, 0.0) - p.y[o]) / self.scale[o]
+                if sim.status != 0:
+                    seg = np.where(np.isfinite(seg), seg, BAD_RESIDUAL)
+                r[row:row + n] = seg
+                if J is not None:
+                    Sp = p.predict(o, sim.S) * (p.w[o] / self.scale[o])[:, None]
+                    for k, name in enumerate(wrt_model):
+                        J[row:row + n, wrt.index(name)] = Sp[:, k]
+                    for k, s in enumerate(est):
+                        J[row:row + n, wrt.index(x0_name(s, p.index))] = Sp[:, len(wrt_model) + k]
+                    if o in offs and offset_name(o, p.index) in wrt:
+                        J[row:row + n, wrt.index(offset_name(o, p.index))] = p.w[o] / self.scale[o]
+                row += n
+        if J is not None and not np.all(np.isfinite(J)):
+            J = np.nan_to_num(J, nan=0.0, posinf=0.0, neginf=0.0)
+        return Evaluation(dict(values), r, J, Xs, statuses)
+
+    def predictions(self, ev: Evaluation) -> list[dict[str, np.ndarray]]:
+        """Per experiment, ``{output: the model's output}`` (offsets included) of an evaluation."""
+        return [{o: p.predict(o, X) + offs.get(o, 0.0) for o in self.outputs}
+                for p, X, offs in zip(self.prepared, ev.X, self.offsets(ev.values))]
+
+
+def _bounds(name: str, given, default: tuple[float, float]) -> tuple[float, float]:
+    if given is None:
+        return default
+    try:
+        a, b = given
+    except (TypeError, ValueError):
+        raise InputError(f"bounds[{name!r}] must be a pair (low, high), got {given!r}") from None
+    a = -math.inf if a is None else float(a)
+    b = math.inf if b is None else float(b)
+    if not a < b or math.isnan(a) or math.isnan(b):
+        raise InputError(f"bounds[{name!r}] = ({a}, {b}): low must be < high")
+    return a, b

@@ -1,0 +1,359 @@
+"""One fit problem: parameters, a residual model and a loss; solved, with its statistics.
+
+Every nonlinear fit of iwp -- the refinement by simulation error
+(:func:`iwp.ident.refinement.refine`), the belt (15) from the disk velocity,
+the initial state of a validation, ``iwp fit``'s joint fit of a rig's logs,
+and the calibration of the virtual twin -- is a :class:`FitProblem`:
+
+* **prepare**: :class:`~iwp.ident.parameters.Parameters` (values, bounds,
+  free or fixed, expressions, the optimiser's scale) and a residual model
+  that turns parameter values into weighted residuals, and, where it can,
+  their derivatives (:class:`~iwp.ident.output_error.OutputError` for logs);
+* **solve**: :meth:`FitProblem.solve`, bounded trust-region least squares
+  (:func:`scipy.optimize.least_squares`, ``trf``) with a linear or robust
+  :class:`Loss`; the Jacobian comes from the model (forward sensitivities)
+  or from forward differences of whole evaluations
+  (:func:`~iwp.ident.jacobian.forward_difference_jacobian`);
+* **report**: a :class:`FitResult` as lmfit has it -- the parameters with
+  standard errors, 95 % intervals and correlations, the covariance, the
+  statistics, success and a message, and warnings on what the data cannot
+  support (rank deficiency, parameters not told apart, bounds reached, an
+  optimiser that did not converge).
+
+The covariance of the unknowns is ``(J_w^T J_w)^-1`` with the residuals of
+each block (an output) divided by their standard deviation
+(:mod:`iwp.ident.covariance`); intervals use the Student t quantile.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Protocol, Sequence
+
+import numpy as np
+from scipy import optimize, stats
+
+from ..errors import InputError
+from .covariance import block_sigmas, correlation_messages, covariance_from_jacobian
+from .jacobian import forward_difference_jacobian
+from .parameters import Parameters
+
+__all__ = ["FitProblem", "FitResult", "Loss", "SolverOptions", "ResidualModel", "LOSSES"]
+
+#: The losses of :func:`scipy.optimize.least_squares`.
+LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
+
+
+@dataclass(frozen=True)
+class Loss:
+    """The loss of the residuals.
+
+    Parameters
+    ----------
+    name : {"linear", "soft_l1", "huber", "cauchy", "arctan"}
+        ``"linear"``: least squares; the others are robust (large residuals weigh less).
+    scale : float, optional
+        Residual scale beyond which residuals count as outliers (``f_scale``),
+        in the units of the weighted residuals. Default for a robust loss: a
+        first fit with the linear loss, then 2.5 robust standard deviations
+        (1.4826 x the median absolute deviation) of its residuals.
+    """
+
+    name: str = "linear"
+    scale: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.name not in LOSSES:
+            raise InputError(f"loss must be one of {', '.join(LOSSES)}, got {self.name!r}")
+        s = self.scale
+        if s is not None and not (isinstance(s, (int, float)) and not isinstance(s, bool) and s > 0
+                                  and math.isfinite(s)):
+            raise InputError(f"f_scale must be a positive number, got {s!r}")
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """Options of the optimiser.
+
+    Parameters
+    ----------
+    tol : float
+        ``ftol``, ``xtol`` and ``gtol`` of :func:`scipy.optimize.least_squares`
+        (1e-6: the parameters then stop moving by far less than their standard errors).
+    max_nfev : int, optional
+        Most evaluations (default 100 x (number of unknowns + 1)).
+    tr_solver : {"exact", "lsmr"}
+        Trust-region subproblem solver: ``"exact"`` (an SVD of the Jacobian
+        per iteration; robust) or ``"lsmr"`` (products with the Jacobian only;
+        cheaper per iteration on long logs, more iterations on ill-conditioned
+        problems such as Coulomb friction).
+    rtol, atol : float
+        Tolerances of the simulations that produce the residuals (residual
+        models that simulate, :class:`~iwp.ident.output_error.OutputError`);
+        1e-8: the simulated outputs are then far more accurate than an encoder
+        step (3.1e-3 rad).
+    """
+
+    tol: float = 1e-6
+    max_nfev: int | None = None
+    tr_solver: str = "exact"
+    rtol: float = 1e-8
+    atol: float = 1e-8
+
+    def __post_init__(self) -> None:
+        if self.tr_solver not in ("exact", "lsmr"):
+            raise InputError(f"tr_solver must be 'exact' or 'lsmr', got {self.tr_solver!r}")
+        m = self.max_nfev
+        if m is not None and (isinstance(m, bool) or not isinstance(m, int) or m < 1):
+            raise InputError(f"max_nfev must be a positive integer, got {m!r}")
+
+
+class ResidualModel(Protocol):
+    """What a :class:`FitProblem` needs of its residual model (:class:`~iwp.ident.output_error.OutputError`)."""
+
+    #: forward-difference step of the optimiser's coordinates, or None when :meth:`evaluate` differentiates
+    differences: float | None
+
+    @property
+    def n_rows(self) -> int: ...
+
+    def evaluate(self, values: dict[str, float], wrt: Sequence[str] = ()) -> Any:
+        """An object with the residuals ``r`` and, for the names ``wrt``, ``J = d r / d value``."""
+
+    def row_blocks(self) -> np.ndarray:
+        """Block (0, 1, ...) of each row: rows of a block share one standard deviation."""
+
+    def row_used(self) -> np.ndarray:
+        """True for the rows that enter the fit."""
+
+
+@dataclass(eq=False)
+class FitResult:
+    """The outcome of :meth:`FitProblem.solve`.
+
+    Attributes
+    ----------
+    parameters : Parameters
+        Every parameter at the optimum, with stderr, 95 % interval and correlations.
+    free : tuple of str
+        The free parameters, in the order of :attr:`covariance`.
+    covariance, correlation : ndarray, shape (n_free, n_free)
+        Of the free parameters' values (every unknown, nuisance ones included).
+    success, message : bool, str
+        From the optimiser.
+    warnings : list of str
+    cost_start, cost : float
+        ``0.5 sum r^2`` of the weighted residuals at the start and at the optimum.
+    nfev, njev : int
+        Evaluations without and with derivatives.
+    loss : str
+    f_scale : float
+        The residual scale of the loss.
+    dof : int
+        Residual degrees of freedom (rows used minus unknowns).
+    critical : float
+        Multiplier of the standard errors giving the 95 % intervals.
+    block_sigma : ndarray
+        Standard deviation of the weighted residuals per block.
+    start, optimum : object
+        The residual model's evaluations at the start and at the optimum.
+    jacobian : ndarray
+        ``d r / d z`` at the optimum (rows: residuals; columns: the free parameters).
+    elapsed : float
+        Wall time [s].
+    """
+
+    parameters: Parameters
+    free: tuple[str, ...]
+    covariance: np.ndarray
+    correlation: np.ndarray
+    success: bool
+    message: str
+    warnings: list[str]
+    cost_start: float
+    cost: float
+    nfev: int
+    njev: int
+    loss: str
+    f_scale: float
+    dof: int
+    critical: float
+    block_sigma: np.ndarray
+    start: Any
+    optimum: Any
+    jacobian: np.ndarray = field(repr=False)
+    elapsed: float = 0.0
+
+
+class _Objective:
+    """``z -> residuals`` and ``z -> Jacobian`` of a problem, caching the last evaluations."""
+
+    def __init__(self, params: Parameters, model: ResidualModel):
+        self.params = params
+        self.model = model
+        self.free = params.free
+        self.wrt = tuple(n for n in params if params.depends_on_free(n))
+        self.nfev = 0
+        self.njev = 0
+        self.evals: dict[bytes, Any] = {}
+        self.jacs: dict[bytes, np.ndarray] = {}
+        self.upper = params.internal_bounds()[1]
+
+    def evaluation(self, z: np.ndarray) -> Any:
+        key = np.asarray(z, dtype=float).tobytes()
+        if key not in self.evals:
+            self.nfev += 1
+            self.evals = {key: self.model.evaluate(self.params.from_internal(z))}
+        return self.evals[key]
+
+    def residuals(self, z: np.ndarray) -> np.ndarray:
+        return self.evaluation(z).r.copy()
+
+    def jacobian(self, z: np.ndarray) -> np.ndarray:
+        key = np.asarray(z, dtype=float).tobytes()
+        if key in self.jacs:
+            return self.jacs[key]
+        self.njev += 1
+        if self.model.differences is not None:
+            base = self.evaluation(z)
+            J = forward_difference_jacobian(self.residuals, z, self.model.differences, f0=base.r, upper=self.upper)
+            self.evals = {key: base}
+        else:
+            ev = self.model.evaluate(self.params.from_internal(z), wrt=self.wrt)
+            self.evals = {key: ev}
+            J = ev.J @ self.params.value_derivatives(z, self.wrt) if self.wrt else np.zeros((ev.r.size, 0))
+        self.jacs = {key: J}
+        return J
+
+
+@dataclass(eq=False)
+class FitProblem:
+    """Parameters, a residual model and a loss: one nonlinear least-squares fit.
+
+    Parameters
+    ----------
+    parameters : Parameters
+        Every parameter the model reads; the free ones are estimated.
+    model : ResidualModel
+        Turns values into weighted residuals (e.g. :class:`~iwp.ident.output_error.OutputError`).
+    loss : Loss
+    """
+
+    parameters: Parameters
+    model: ResidualModel
+    loss: Loss = field(default_factory=Loss)
+
+    def solve(self, options: SolverOptions | None = None) -> FitResult:
+        """Minimise the loss of the residuals over the free parameters; their statistics at the optimum."""
+        t0 = time.perf_counter()
+        options = options or SolverOptions()
+        params, msgs = _clipped_start(self.parameters)
+        nz = len(params.free)
+        if self.model.n_rows <= nz:
+            raise InputError(f"{self.model.n_rows} residuals for {nz} unknowns: give longer windows or fewer free "
+                             "parameters")
+        obj = _Objective(params, self.model)
+        z0 = params.to_internal()
+        start = obj.evaluation(z0)
+        if not np.all(np.abs(start.r) < 1e6):
+            msgs.append("the simulation from the start point diverged or failed; the fit may be poor")
+        z, success, message, f_scale = _minimise(obj, z0, self.loss, options)
+        J = obj.jacobian(z)
+        optimum = obj.evaluation(z)
+        result = _statistics(obj, z, J, optimum)
+        msgs.extend(result.pop("warnings"))
+        msgs.extend(_bound_messages(params, z))
+        if not success:
+            msgs.append(f"the optimiser did not converge: {message}")
+        r0, r = start.r, optimum.r
+        return FitResult(**result, success=success, message=message, warnings=msgs,
+                         cost_start=0.5 * float(r0 @ r0), cost=0.5 * float(r @ r), nfev=obj.nfev, njev=obj.njev,
+                         loss=self.loss.name, f_scale=f_scale, start=start, optimum=optimum, jacobian=J,
+                         elapsed=time.perf_counter() - t0)
+
+
+def _clipped_start(params: Parameters) -> tuple[Parameters, list[str]]:
+    """The start moved inside the bounds, with a message for each value that was outside."""
+    msgs = []
+    changes = {}
+    for n in params.free:
+        p = params[n]
+        v = min(max(p.value, p.min), p.max)
+        if v != p.value:
+            msgs.append(f"start value {n} = {p.value:.6g} is outside its bounds [{p.min:.6g}, {p.max:.6g}]; "
+                        f"started from {v:.6g}")
+            changes[n] = v
+    return (params.with_values(changes) if changes else params), msgs
+
+
+def _minimise(obj: _Objective, z0: np.ndarray, loss: Loss, options: SolverOptions):
+    """Trust-region least squares; a robust loss without a scale first fits with the linear loss.
+
+    Returns ``(z, success, message, f_scale)``.
+    """
+    nz = z0.size
+    if nz == 0:
+        return z0, True, "nothing to estimate", 1.0
+    lo, hi = obj.params.internal_bounds()
+    auto_scale = loss.name != "linear" and loss.scale is None
+    stages = [("linear", 1.0), (loss.name, None)] if auto_scale else [(loss.name, float(loss.scale or 1.0))]
+    budget = options.max_nfev or 100 * (nz + 1)
+    z = z0.copy()
+    scale = 1.0
+    success, message = True, ""
+    for stage_loss, scale in stages:
+        if scale is None:
+            rr = obj.residuals(z)
+            mad = 1.4826 * float(np.median(np.abs(rr - np.median(rr))))
+            scale = 2.5 * mad if mad > 0 else 1.0
+        sol = optimize.least_squares(obj.residuals, z, jac=obj.jacobian, bounds=(lo, hi), method="trf",
+                                     loss=stage_loss, f_scale=scale, x_scale=1.0, ftol=options.tol,
+                                     xtol=options.tol, gtol=options.tol, max_nfev=budget,
+                                     tr_solver=options.tr_solver)
+        z = sol.x
+        success, message = bool(sol.success) and sol.status != 0, str(sol.message)
+        budget = max(budget - sol.nfev, 1)
+    return z, success, message, float(scale)
+
+
+def _statistics(obj: _Objective, z: np.ndarray, J: np.ndarray, optimum: Any) -> dict[str, Any]:
+    """Covariance, correlations and intervals at the optimum (the residuals of each block weighted by their std)."""
+    params = obj.params
+    free = params.free
+    blocks = obj.model.row_blocks()
+    used = obj.model.row_used()
+    sig = block_sigmas(optimum.r, blocks, used, len(free))
+    dof = max(int(np.count_nonzero(used)) - len(free), 1)
+    Jw = J / np.where(sig[blocks] > 0, sig[blocks], 1.0)[:, None] if J.size else J
+    cov_z, msgs = covariance_from_jacobian(Jw, free)
+    critical = float(stats.t.ppf(0.975, dof))
+    estimates = params.with_estimates(z, cov_z, critical)
+    D = params.value_derivatives(z, free)
+    cov = D @ cov_z @ D.T if free else np.zeros((0, 0))
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov / np.outer(sd, sd)
+    model = [i for i, n in enumerate(free) if params[n].kind == "model"]
+    names = [free[i] for i in model]
+    msgs.extend(correlation_messages(names, np.array([estimates[n].value for n in names]),
+                                     cov[np.ix_(model, model)], [params[n].unit for n in names], J[:, model]))
+    return dict(parameters=estimates, free=free, covariance=cov, correlation=corr, dof=dof, critical=critical,
+                block_sigma=sig, warnings=msgs)
+
+
+def _bound_messages(params: Parameters, z: np.ndarray) -> list[str]:
+    """Parameters of the model that ended at a bound."""
+    lo, hi = params.internal_bounds()
+    vals = params.from_internal(z)
+    out = []
+    for i, n in enumerate(params.free):
+        p = params[n]
+        if p.kind != "model":
+            continue
+        if math.isfinite(lo[i]) and z[i] <= lo[i] + 1e-9 * max(1.0, abs(lo[i])):
+            out.append(f"{n} = {vals[n]:.6g} is at its lower bound {p.min:.6g}")
+        elif math.isfinite(hi[i]) and z[i] >= hi[i] - 1e-9 * max(1.0, abs(hi[i])):
+            out.append(f"{n} = {vals[n]:.6g} is at its upper bound {p.max:.6g}")
+    return out
