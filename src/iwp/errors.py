@@ -7,6 +7,8 @@ status 2, without a traceback.
 
 from __future__ import annotations
 
+__all__ = ["IwpError", "InputError", "DataFormatError", "SimulationError", "IdentificationError", "OutputExistsError"]
+
 
 class IwpError(Exception):
     """Base class of every error iwp raises on purpose."""

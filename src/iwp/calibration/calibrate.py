@@ -40,13 +40,16 @@ import time
 import warnings as _warnings
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any, Mapping, Sequence
 
 import numpy as np
-from scipy import optimize
 
 from ..errors import InputError, IwpError
 from ..files import atomic_write, jsonable, prepare_output_file
+from ..ident.jacobian import forward_difference_jacobian
+from ..ident.parameters import Parameter, Parameters
+from ..ident.problem import FitProblem, SolverOptions
 from ..models.parameters import BeltParameters
 from ..rig.truth import RigTruth, default_truth
 from .statistics import paper_numbers
@@ -128,9 +131,9 @@ PROVENANCE_PAPER = {
 }
 
 #: forward-difference step of the Jacobian on the log scale (2 %: beyond the encoder's quantisation)
-_STEP = 0.02
+STEP = 0.02
 #: residual of an evaluation that failed (the trust region then shrinks)
-_FAILED = 1e3
+FAILED = 1e3
 
 
 # --------------------------------------------------------------------------
@@ -356,6 +359,83 @@ class CalibrationResult:
 
 
 # --------------------------------------------------------------------------
+# the residual model
+# --------------------------------------------------------------------------
+class TwinResiduals:
+    """The calibration's residual model: the calibrated targets' deviations in units of their tolerances.
+
+    Every evaluation runs the twin's experiments and the paper's procedures
+    (:func:`twin_statistics`) for a truth with the coordinates' values; the
+    results are kept, so that the Jacobian (forward differences of
+    :data:`STEP` on the log scale, :func:`iwp.ident.jacobian.forward_difference_jacobian`)
+    and the sensitivity table reuse them.
+    """
+
+    #: the Jacobian is taken by forward differences of this step of the log coordinates
+    differences = STEP
+
+    def __init__(self, start: RigTruth, targets: Sequence[PaperTarget], free: tuple[str, ...], *, seed: int,
+                 overrides, progress):
+        self.start, self.targets, self.free = start, list(targets), free
+        self.fitted = [t for t in self.targets if t.calibrate]
+        self.seed, self.overrides, self.progress = seed, overrides, progress
+        self.nfev = 0
+        self._cache: dict[tuple, dict[str, float] | None] = {}
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.fitted)
+
+    def row_blocks(self) -> np.ndarray:
+        return np.zeros(self.n_rows, dtype=np.int64)
+
+    def row_used(self) -> np.ndarray:
+        return np.ones(self.n_rows, dtype=bool)
+
+    def statistics(self, values: Mapping[str, float]) -> dict[str, float] | None:
+        """The twin's statistics for the coordinates' ``values`` (None where the twin fails)."""
+        # to 12 digits: the same point reached through log and exp is one evaluation
+        key = tuple(sorted((k, float(f"{float(v):.12g}")) for k, v in values.items()))
+        if key not in self._cache:
+            self.nfev += 1
+            try:
+                truth = truth_with(self.start, dict(values))
+                self._cache[key] = twin_statistics(truth, self.targets, seed=self.seed, overrides=self.overrides)
+            except IwpError as exc:  # an unphysical corner of the box: a failed identification or simulation
+                self._cache[key] = None
+                if self.progress is not None:
+                    self.progress(f"evaluation {self.nfev} failed: {exc}")
+        return self._cache[key]
+
+    def evaluate(self, values: Mapping[str, float], wrt: Sequence[str] = ()) -> SimpleNamespace:
+        s = self.statistics({n: values[n] for n in self.free})
+        if s is None:
+            r = np.full(self.n_rows, FAILED)
+        else:
+            r = np.array([t.residual(s[t.statistic]) for t in self.fitted])
+            r = np.where(np.isfinite(r), r, FAILED)
+            if self.progress is not None:
+                self.progress(f"evaluation {self.nfev}: cost {0.5 * float(r @ r):.5g}")
+        return SimpleNamespace(r=r, J=None, values=dict(values))
+
+    def sensitivity(self, values: Mapping[str, float], extra: Sequence[str] = ()) -> dict[str, dict[str, float]]:
+        """``[target][coordinate]``: change of every target's residual per unit change of the coordinate's logarithm."""
+        names = tuple(self.free) + tuple(extra)
+        at = {**dict(values), **truth_values(self.start, extra)} if extra else dict(values)
+        z = np.log([at[n] for n in names])
+        hi = np.log([COORDINATES[n].high for n in names])
+
+        def residuals(zz: np.ndarray) -> np.ndarray:
+            s = self.statistics(dict(zip(names, np.exp(zz).tolist())))
+            if s is None:
+                return np.full(len(self.targets), math.nan)
+            return np.array([t.residual(s[t.statistic]) for t in self.targets])
+
+        J = forward_difference_jacobian(residuals, z, STEP, upper=hi)
+        return {t.key: {n: float(J[i, j]) for j, n in enumerate(names)} for i, t in enumerate(self.targets)}
+
+
+# --------------------------------------------------------------------------
 # calibrate
 # --------------------------------------------------------------------------
 def calibrate(
@@ -433,102 +513,36 @@ def calibrate(
         raise InputError("no target has calibrate = true")
     if isinstance(max_nfev, bool) or not isinstance(max_nfev, int) or max_nfev < 1:
         raise InputError(f"max_nfev must be a positive integer, got {max_nfev!r}")
-    warns: list[str] = []
-    lo = np.log([COORDINATES[n].low for n in free])
-    hi = np.log([COORDINATES[n].high for n in free])
-    v0 = truth_values(start, free)
-    z0 = np.log([v0[n] for n in free])
-    clipped = np.clip(z0, lo + 1e-9, hi - 1e-9)
-    for n, a, b in zip(free, z0, clipped):
-        if a != b:
-            warns.append(f"start value {n} = {math.exp(a):.6g} is outside its bounds "
-                         f"[{COORDINATES[n].low:g}, {COORDINATES[n].high:g}]; started from {math.exp(b):.6g}")
-    z0 = clipped
-    counters = {"nfev": 0}
-    cache: dict[bytes, dict[str, float] | None] = {}
-
-    def stats_at(z: np.ndarray, names: Sequence[str] = free) -> dict[str, float] | None:
-        key = np.asarray(z).tobytes() + "|".join(names).encode()
-        if key not in cache:
-            counters["nfev"] += 1
-            try:
-                truth = truth_with(start, dict(zip(names, np.exp(z).tolist())))
-                cache[key] = twin_statistics(truth, targets, seed=seed, overrides=overrides)
-            except IwpError as exc:  # an unphysical corner of the box: a failed identification or simulation
-                cache[key] = None
-                if progress is not None:
-                    progress(f"evaluation {counters['nfev']} failed: {exc}")
-        return cache[key]
-
-    def residuals(z: np.ndarray) -> np.ndarray:
-        s = stats_at(z)
-        if s is None:
-            return np.full(len(fitted), _FAILED)
-        r = np.array([t.residual(s[t.statistic]) for t in fitted])
-        r = np.where(np.isfinite(r), r, _FAILED)
-        if progress is not None:
-            progress(f"evaluation {counters['nfev']}: cost {0.5 * float(r @ r):.5g}")
-        return r
-
-    def jacobian(z: np.ndarray) -> np.ndarray:
-        f0 = residuals(z)
-        J = np.empty((len(fitted), len(free)))
-        for j in range(len(free)):
-            h = _STEP if z[j] + _STEP <= hi[j] else -_STEP
-            zj = z.copy()
-            zj[j] += h
-            J[:, j] = (residuals(zj) - f0) / h
-        return J
-
-    r_start = residuals(z0)
-    stats_start = stats_at(z0)
-    if stats_start is None:
+    twin = TwinResiduals(start, targets, free, seed=seed, overrides=overrides, progress=progress)
+    params = Parameters(Parameter(n, v, min=COORDINATES[n].low, max=COORDINATES[n].high, log=True,
+                                  unit=COORDINATES[n].unit) for n, v in truth_values(start, free).items())
+    if twin.statistics(params.values()) is None:
         raise InputError("the twin's experiments or the paper's procedures fail at the start point; give another "
                          "start truth")
-    sol = optimize.least_squares(residuals, z0, jac=jacobian, bounds=(lo, hi), method="trf", x_scale=1.0,
-                                 ftol=tol, xtol=tol, gtol=tol, max_nfev=max_nfev)
-    z = sol.x
-    values = dict(zip(free, np.exp(z).tolist()))
+    fit = FitProblem(params, twin, statistics=False).solve(SolverOptions(tol=tol, max_nfev=max_nfev))
+    values = {n: fit.parameters[n].value for n in free}
     truth = truth_with(start, values)
-    stats_opt = stats_at(z)
+    stats_opt = twin.statistics(values)
     if stats_opt is None:  # the optimiser returns the best point it evaluated, which did not fail
         raise IwpError("the calibration ended on a point where the twin fails")
-    r_opt = residuals(z)
-    # sensitivity of every target (calibrated or not) to every free coordinate, and to the extra ones
-    names = free + extra
-    z_all = np.concatenate([z, np.log([truth_values(start, extra)[n] for n in extra])]) if extra else z
-    sens: dict[str, dict[str, float]] = {t.key: {} for t in targets}
-    base_res = {t.key: t.residual(stats_opt[t.statistic]) for t in targets}
-    hi_all = np.log([COORDINATES[n].high for n in names])
-    for j, n in enumerate(names):
-        h = _STEP if z_all[j] + _STEP <= hi_all[j] else -_STEP
-        zj = z_all.copy()
-        zj[j] += h
-        s = stats_at(zj, names)
-        for t in targets:
-            sens[t.key][n] = (t.residual(s[t.statistic]) - base_res[t.key]) / h if s is not None else math.nan
-    Jfit = np.array([[sens[t.key][n] for n in free] for t in fitted])
+    sens = twin.sensitivity(values, extra)
+    Jfit = np.array([[sens[t.key][n] for n in free] for t in twin.fitted])
     sv = np.linalg.svd(np.nan_to_num(Jfit), compute_uv=False)
     rows = compare_targets(targets, stats_opt)
-    rows_start = compare_targets(targets, stats_start)
+    rows_start = compare_targets(targets, twin.statistics(params.values()))
+    warns = list(fit.warnings)
     for r in rows:
         if not r.within:
             warns.append(f"target {r.target.key} ({r.target.reference}): reproduced {r.reproduced:.5g} against "
                          f"{r.target.published_text}, {100 * r.deviation:+.1f} % (tolerance "
                          f"{100 * r.target.tolerance:.0f} %)" + ("" if r.target.calibrate else "; not calibrated"))
-    for n, zi, a, b in zip(free, z, lo, hi):
-        if zi <= a + 1e-6 or zi >= b - 1e-6:
-            warns.append(f"{n} = {math.exp(zi):.6g} is at its bound [{math.exp(a):.6g}, {math.exp(b):.6g}]")
-    if not sol.success:
-        warns.append(f"the optimiser did not converge: {sol.message}")
     if warn:
         for w in warns:
             _warnings.warn(w, stacklevel=2)
     return CalibrationResult(
-        truth=truth, start=start, free=free, values=values, start_values=dict(zip(free, np.exp(z0).tolist())),
-        rows=rows, rows_start=rows_start, sensitivity=sens, singular_values=sv,
-        cost=0.5 * float(r_opt @ r_opt), cost_start=0.5 * float(r_start @ r_start),
-        success=bool(sol.success), message=str(sol.message), nfev=counters["nfev"],
+        truth=truth, start=start, free=free, values=values, start_values=truth_values(start, free),
+        rows=rows, rows_start=rows_start, sensitivity=sens, singular_values=sv, cost=fit.cost,
+        cost_start=fit.cost_start, success=fit.success, message=fit.message, nfev=twin.nfev,
         elapsed=time.perf_counter() - t0, warnings=warns,
         settings={"seed": int(seed), "overrides": {k: dict(v) for k, v in (overrides or {}).items()},
                   "targets": target_file, "max_nfev": int(max_nfev), "tol": float(tol)},

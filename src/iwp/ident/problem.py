@@ -239,11 +239,17 @@ class FitProblem:
     model : ResidualModel
         Turns values into weighted residuals (e.g. :class:`~iwp.ident.output_error.OutputError`).
     loss : Loss
+    statistics : bool
+        Estimate the covariance of the parameters at the optimum (default).
+        False where the residuals are not measurements with noise (the
+        calibration of the twin matches published numbers): the parameters
+        then carry no standard error (NaN).
     """
 
     parameters: Parameters
     model: ResidualModel
     loss: Loss = field(default_factory=Loss)
+    statistics: bool = True
 
     def solve(self, options: SolverOptions | None = None) -> FitResult:
         """Minimise the loss of the residuals over the free parameters; their statistics at the optimum."""
@@ -260,9 +266,14 @@ class FitProblem:
         if not np.all(np.abs(start.r) < 1e6):
             msgs.append("the simulation from the start point diverged or failed; the fit may be poor")
         z, success, message, f_scale = _minimise(obj, z0, self.loss, options)
-        J = obj.jacobian(z)
-        optimum = obj.evaluation(z)
-        result = _statistics(obj, z, J, optimum)
+        if self.statistics:
+            J = obj.jacobian(z)
+            optimum = obj.evaluation(z)
+            result = _statistics(obj, z, J, optimum)
+        else:
+            J = np.zeros((self.model.n_rows, 0))
+            optimum = obj.evaluation(z)
+            result = _no_statistics(params, z)
         msgs.extend(result.pop("warnings"))
         msgs.extend(_bound_messages(params, z))
         if not success:
@@ -341,6 +352,15 @@ def _statistics(obj: _Objective, z: np.ndarray, J: np.ndarray, optimum: Any) -> 
                                      cov[np.ix_(model, model)], [params[n].unit for n in names], J[:, model]))
     return dict(parameters=estimates, free=free, covariance=cov, correlation=corr, dof=dof, critical=critical,
                 block_sigma=sig, warnings=msgs)
+
+
+def _no_statistics(params: Parameters, z: np.ndarray) -> dict[str, Any]:
+    """The parameters at the optimum without uncertainty (NaN standard errors)."""
+    n = len(params.free)
+    nan = np.full((n, n), np.nan)
+    estimates = params.with_estimates(z, nan, math.nan)
+    return dict(parameters=estimates, free=params.free, covariance=nan, correlation=nan.copy(), dof=0,
+                critical=math.nan, block_sigma=np.zeros(0), warnings=[])
 
 
 def _bound_messages(params: Parameters, z: np.ndarray) -> list[str]:
