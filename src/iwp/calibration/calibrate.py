@@ -132,6 +132,8 @@ PROVENANCE_PAPER = {
 
 #: forward-difference step of the Jacobian on the log scale (2 %: beyond the encoder's quantisation)
 STEP = 0.02
+#: the optimiser's options of a calibration: at most 40 iterations (each runs the twin), tolerance 1e-3
+CALIBRATION_OPTIONS = SolverOptions(tol=1e-3, max_nfev=40)
 #: residual of an evaluation that failed (the trust region then shrinks)
 FAILED = 1e3
 
@@ -445,9 +447,7 @@ def calibrate(
     free: Sequence[str] = DEFAULT_FREE,
     seed: int = 0,
     overrides: Mapping[str, Mapping[str, Any]] | None = None,
-    max_nfev: int = 40,
-    tol: float = 1e-3,
-    sensitivity_of: Sequence[str] = (),
+    options: SolverOptions = CALIBRATION_OPTIONS,
     progress=None,
     warn: bool = True,
 ) -> CalibrationResult:
@@ -470,14 +470,12 @@ def calibrate(
     overrides : dict, optional
         Options of the experiments per name (e.g. shorter runs for tests);
         default the paper's settings.
-    max_nfev : int
-        Most iterations of the optimiser (each costs one twin evaluation,
-        and a Jacobian ``len(free)`` more).
-    tol : float
-        ``ftol``, ``xtol``, ``gtol`` of the optimiser.
-    sensitivity_of : sequence of str
-        Coordinates that are not free whose sensitivity is computed too (e.g.
-        ``("noise_std",)``, to show that the targets hardly depend on it).
+    options : SolverOptions
+        The optimiser's ``max_nfev`` (most iterations, each one twin
+        evaluation and a Jacobian ``len(free)`` more; default 40) and ``tol``
+        (``ftol``, ``xtol``, ``gtol``; default 1e-3). The sensitivity to
+        coordinates that are not free (e.g. ``noise_std``, to show that the
+        targets hardly depend on it) is :meth:`TwinResiduals.sensitivity`.
     progress : callable, optional
         Called with a one-line message after every twin evaluation.
     warn : bool
@@ -507,25 +505,24 @@ def calibrate(
     free = _check_names(free, "free")
     if not free:
         raise InputError("free is empty: give at least one parameter to calibrate")
-    extra = tuple(n for n in _check_names(sensitivity_of, "sensitivity_of") if n not in free)
     fitted = [t for t in targets if t.calibrate]
     if not fitted:
         raise InputError("no target has calibrate = true")
-    if isinstance(max_nfev, bool) or not isinstance(max_nfev, int) or max_nfev < 1:
-        raise InputError(f"max_nfev must be a positive integer, got {max_nfev!r}")
+    if options.max_nfev is None:
+        raise InputError("options.max_nfev must be given: every iteration runs the twin's experiments")
     twin = TwinResiduals(start, targets, free, seed=seed, overrides=overrides, progress=progress)
     params = Parameters(Parameter(n, v, min=COORDINATES[n].low, max=COORDINATES[n].high, log=True,
                                   unit=COORDINATES[n].unit) for n, v in truth_values(start, free).items())
     if twin.statistics(params.values()) is None:
         raise InputError("the twin's experiments or the paper's procedures fail at the start point; give another "
                          "start truth")
-    fit = FitProblem(params, twin, statistics=False).solve(SolverOptions(tol=tol, max_nfev=max_nfev))
+    fit = FitProblem(params, twin, statistics=False).solve(options)
     values = {n: fit.parameters[n].value for n in free}
     truth = truth_with(start, values)
     stats_opt = twin.statistics(values)
     if stats_opt is None:  # the optimiser returns the best point it evaluated, which did not fail
         raise IwpError("the calibration ended on a point where the twin fails")
-    sens = twin.sensitivity(values, extra)
+    sens = twin.sensitivity(values)
     Jfit = np.array([[sens[t.key][n] for n in free] for t in twin.fitted])
     sv = np.linalg.svd(np.nan_to_num(Jfit), compute_uv=False)
     rows = compare_targets(targets, stats_opt)
@@ -545,5 +542,5 @@ def calibrate(
         cost_start=fit.cost_start, success=fit.success, message=fit.message, nfev=twin.nfev,
         elapsed=time.perf_counter() - t0, warnings=warns,
         settings={"seed": int(seed), "overrides": {k: dict(v) for k, v in (overrides or {}).items()},
-                  "targets": target_file, "max_nfev": int(max_nfev), "tol": float(tol)},
+                  "targets": target_file, "max_nfev": int(options.max_nfev), "tol": float(options.tol)},
     )

@@ -151,6 +151,7 @@ def run_truth(args) -> int:
 def run_calibrate(args) -> int:
     from ..calibration import calibrate, load_targets
     from ..files import check_output_file
+    from ..ident.problem import SolverOptions
 
     if args.max_nfev < 1:
         raise InputError(f"--max-nfev must be a positive integer, got {args.max_nfev}")
@@ -158,7 +159,8 @@ def run_calibrate(args) -> int:
     targets = load_targets(args.targets)
     start = _truth(args.truth)
     progress = None if args.quiet else (lambda msg: print(msg, flush=True))
-    res = calibrate(targets, start=start, max_nfev=args.max_nfev, progress=progress, warn=False)
+    res = calibrate(targets, start=start, options=SolverOptions(tol=1e-3, max_nfev=args.max_nfev), progress=progress,
+                    warn=False)
     p = res.write(args.out, force=args.force)
     print(res.summary())
     print(f"wrote {p}")

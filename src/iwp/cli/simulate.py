@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from ._common import add_force_arg, add_params_arg, float_list, load_lumped
 
 
@@ -42,32 +40,18 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..sim.tasks import simulate_command
+    from ..models.plant import Plant
+    from ..sim.inputs import make_input
+    from ..sim.tasks import SimulationTask, write_simulation
 
-    out = simulate_command(
-        params=load_lumped(args.params),
-        model=args.model,
-        controller=args.controller,
-        input_name=args.input,
-        k1=args.k1,
-        k2=args.k2,
-        sampled=args.sampled,
-        amplitude=args.amplitude,
-        omega=args.omega,
-        w0=args.w0,
-        tau=args.tau,
-        t_step=args.t_step,
-        x0=args.x0,
-        t0=args.t0,
-        t_end=args.t_end,
-        Ts=args.ts,
-        feedforward=args.feedforward,
-        saturation=args.saturation,
-        rtol=args.rtol,
-        atol=args.atol,
-        out=Path(args.out),
-        plot=None if args.plot is None else Path(args.plot),
-        force=args.force,
-    )
-    print(out)
+    if args.controller is not None:
+        inp = make_input(args.controller, k1=args.k1, k2=args.k2, Ts=args.ts if args.sampled else None,
+                         argument="controller")
+    else:
+        inp = make_input(args.input or "zero", amplitude=args.amplitude, omega=args.omega, w0=args.w0, tau=args.tau,
+                         t_step=args.t_step)
+    task = SimulationTask(Plant(load_lumped(args.params), model=args.model), inp, x0=args.x0, t0=args.t0,
+                          t_end=args.t_end, Ts=args.ts, feedforward=args.feedforward, saturation=args.saturation,
+                          rtol=args.rtol, atol=args.atol)
+    print(write_simulation(task, args.out, plot=args.plot, force=args.force))
     return 0

@@ -1,7 +1,7 @@
 """Parameter identification: every least-squares set-up of the paper, with uncertainty.
 
-From encoder logs (:class:`iwp.io.ExperimentData`) or a static curve
-(:class:`iwp.io.StaticCurve`) to the lumped parameters of model (9), as
+From encoder logs (:class:`iwp.data.ExperimentData`) or a static curve
+(:class:`iwp.data.StaticCurve`) to the lumped parameters of model (9), as
 section 5 of the paper does it, and with standard errors, 95 % intervals,
 the correlation of the estimates, the condition number of the regressor,
 the residual RMS, the number of samples used, and warnings when the data
@@ -56,7 +56,7 @@ two-step and full set-ups the pendulum swings and ``(1 + rho)`` is exact.
 How the signals are formed
 --------------------------
 Each file is windowed (``t_start``, ``t_end``), then differentiated on its
-own with one :class:`~iwp.differentiate.Differentiator` ``D`` whose
+own with one :class:`~iwp.ident.differentiate.Differentiator` ``D`` whose
 low-pass filter is ``K`` (default: consistent Savitzky-Golay over 0.5 s,
 cubic; chosen by the study in ``docs/identification.md``). The targets are
 ``dq3/dt = K D2 q1 / Ts^2`` and ``dq4/dt = K D2 q2 / Ts^2`` with ``D2`` the
@@ -79,7 +79,7 @@ comparison). Discretisation errors are ``O((omega Ts)^4)``.
 file; the files are then stacked, with sample numbers kept distinct per
 file.
 
-The least squares (13) are solved by :func:`iwp.lsq.solve_least_squares`
+The least squares (13) are solved by :func:`iwp.ident.lsq.solve_least_squares`
 (column scaling, tall-skinny Householder QR and SVD; no normal matrix is
 formed or inverted), with block weights for the two rows of (10).
 

@@ -44,7 +44,7 @@ from ..checks import check_finite
 from ..errors import IdentificationError, InputError
 from ..files import json_float
 from .covariance import null_space_message
-from .parameters import Parameter
+from .parameters import Parameter, closing_lines, parameter_table
 
 __all__ = [
     "LeastSquaresResult",
@@ -222,25 +222,11 @@ class LeastSquaresResult:
             f"{len(self.residual_rms)} block(s), dof {self.dof}; covariance {cov}; "
             f"weights {self.weights}",
         ]
-        w = max(9, max(len(n) for n in self.names))
-        lines.append(
-            f"{'parameter':<{w}}  {'value':>13}  {'stderr':>11}  {'95% interval':^29}  note"
-        )
-        for n in self.names:
-            p = self.parameters[n]
-            note = "fixed" if p.fixed else ("not identifiable" if not math.isfinite(p.stderr) else "")
-            lines.append(
-                f"{n:<{w}}  {p.value:>13.6g}  {p.stderr:>11.3g}  "
-                f"[{p.ci95_low:>12.6g}, {p.ci95_high:>12.6g}]  {note}".rstrip()
-            )
+        lines += parameter_table(self.parameters[n] for n in self.names)
         lines.append(f"condition number {self.condition_number:.3g}, rank {self.rank}")
         rms = ", ".join(f"{k}: {v:.4g}" for k, v in self.residual_rms.items())
         lines.append(f"residual rms per block: {rms}")
-        if self.warnings:
-            lines.append("warnings:")
-            lines.extend(f"  - {m}" for m in self.warnings)
-        lines.append(self.message)
-        return "\n".join(lines)
+        return "\n".join(lines + closing_lines(self.warnings, self.message))
 
     def __str__(self) -> str:
         return self.summary()

@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import InputError
 from ..files import json_float
 
-__all__ = ["Parameter", "Parameters", "ParameterEstimate", "evaluate_expression"]
+__all__ = ["Parameter", "Parameters", "ParameterEstimate", "evaluate_expression", "parameter_table", "closing_lines"]
 
 
 @dataclass(frozen=True)
@@ -386,3 +386,33 @@ class Parameters(Mapping[str, Parameter]):
     def to_dict(self, kinds: Sequence[str] = ("model",)) -> dict[str, dict[str, Any]]:
         """JSON-able ``{name: Parameter.to_dict()}`` of the parameters of ``kinds``."""
         return {n: p.to_dict() for n, p in self._items.items() if p.kind in kinds}
+
+
+# --------------------------------------------------------------------------
+# reports
+# --------------------------------------------------------------------------
+def parameter_table(params: Iterable[Parameter], units: Mapping[str, str] | None = None) -> list[str]:
+    """The lines of a table of estimates: name, value, stderr, 95 % interval, unit and a note.
+
+    The note says ``fixed`` (given, not estimated) or ``not identifiable``
+    (no finite standard error). ``units`` overrides the parameters' own.
+    """
+    params = list(params)
+    w = max([9] + [len(p.name) for p in params])
+    lines = [f"{'parameter':<{w}}  {'value':>13}  {'stderr':>11}  {'95% interval':^29}  unit"]
+    for p in params:
+        note = "fixed" if p.fixed else ("not identifiable" if not math.isfinite(p.stderr) else "")
+        unit = (units or {}).get(p.name, p.unit)
+        lines.append(f"{p.name:<{w}}  {p.value:>13.6g}  {p.stderr:>11.3g}  "
+                     f"[{p.ci95_low:>12.6g}, {p.ci95_high:>12.6g}]  {unit} {note}".rstrip())
+    return lines
+
+
+def closing_lines(warnings: Sequence[str], message: str) -> list[str]:
+    """The last lines of a summary: the warnings, then the verdict."""
+    lines = []
+    if warnings:
+        lines.append("warnings:")
+        lines.extend(f"  - {m}" for m in warnings)
+    lines.append(message)
+    return lines

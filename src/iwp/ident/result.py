@@ -13,7 +13,7 @@ from ..errors import IdentificationError, InputError
 from ..files import json_float, jsonable
 from ..models.parameters import LumpedParameters, table1
 from .lsq import LeastSquaresResult
-from .parameters import Parameter
+from .parameters import Parameter, closing_lines, parameter_table
 from .setups import PARAMETER_UNITS, SETUPS
 
 __all__ = ["IdentificationResult"]
@@ -232,7 +232,7 @@ class IdentificationResult:
         ----------
         base : LumpedParameters, optional
             The parameters not identified by this set-up are taken from it
-            (default: :func:`iwp.params.table1`).
+            (default: :func:`iwp.models.parameters.table1`).
 
         Returns
         -------
@@ -272,20 +272,12 @@ class IdentificationResult:
                  + (f", window [{self.t_start}, {self.t_end}] s" if window else "")]
         if self.differentiator:
             lines.append("differentiator: " + ", ".join(f"{k}={v}" for k, v in self.differentiator.items()))
-        w = max([9] + [len(n) for n in self.parameters])
-        lines.append(f"{'parameter':<{w}}  {'value':>12}  {'stderr':>10}  {'95% interval':^27}  unit")
-        for n, p in self.parameters.items():
-            lines.append(f"{n:<{w}}  {p.value:>12.6g}  {p.stderr:>10.3g}  [{p.ci95_low:>11.5g}, "
-                         f"{p.ci95_high:>11.5g}]  {PARAMETER_UNITS.get(n, '')}")
+        lines += parameter_table(self.parameters.values(), units=PARAMETER_UNITS)
         if self.rho is not None:
             lines.append("rho: " + ", ".join(f"{k} = {v:.6g}" for k, v in self.rho.items()))
         lines.append(f"condition number {self.condition_number:.3g}; residual rms "
                      + ", ".join(f"{k}: {v:.4g}" for k, v in self.residual_rms.items()))
-        if self.warnings:
-            lines.append("warnings:")
-            lines.extend(f"  - {m}" for m in self.warnings)
-        lines.append(self.message)
-        return "\n".join(lines)
+        return "\n".join(lines + closing_lines(self.warnings, self.message))
 
     def __str__(self) -> str:
         return self.summary()

@@ -124,7 +124,7 @@ def fast_derivatives(d: Differentiator, Ts: float, q: np.ndarray):
     """``d.derivatives(Ts, q)``, computed faster for method ``"savgol"``.
 
     For ``"savgol"`` the outputs are ``K q``, ``D1 K q`` and ``D2 K q / Ts^2``
-    (see :mod:`iwp.differentiate`); here ``K`` is applied by FFT
+    (see :mod:`iwp.ident.differentiate`); here ``K`` is applied by FFT
     convolution to the increments ``q[k+1] - q[k]`` (small numbers even when
     the disk has turned thousands of radians, so no digits are lost), which
     gives the same values as ``d.derivatives`` away from the ends (the

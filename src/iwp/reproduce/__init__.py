@@ -2,9 +2,9 @@
 
 :func:`reproduce` runs the paper's experiments (section 5) on the virtual
 rig (:mod:`iwp.rig`), identifies the model the way the paper does
-(:mod:`iwp.identify`), compares simulations with the logs
+(:func:`iwp.identify`), compares simulations with the logs
 (:mod:`iwp.validate`), refines the parameters by simulation error
-(:mod:`iwp.refine`) and writes a report a researcher could hand in:
+(:func:`iwp.refine`) and writes a report a researcher could hand in:
 
 * ``DIR/report.html`` -- one self-contained page: the figures (embedded),
   the parameters (virtual-rig truth, least squares, refined, the paper's
@@ -12,7 +12,7 @@ rig (:mod:`iwp.rig`), identifies the model the way the paper does
   the numbers found here;
 * ``DIR/figures/NAME.png`` and ``NAME.svg`` for every figure;
 * ``DIR/parameters.json`` -- the final parameter set in the format of
-  :func:`iwp.params.load_params` (so ``--params DIR/parameters.json`` works
+  :func:`iwp.models.parameters.load_params` (so ``--params DIR/parameters.json`` works
   in every command), with the other sets, the identification results and
   the refinement beside it;
 * ``DIR/results.json`` -- steps, fits and checked statements, for machines;

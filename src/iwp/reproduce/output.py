@@ -287,7 +287,7 @@ def _step_text(ctx: ReproduceResult, name: str) -> list[str]:
         r = n["refine"]
         st = r["stages"]
         out.append("The refinement starts from the least-squares parameters and minimises the simulation error "
-                   "(iwp.refine.refine_identification) in the paper's two steps: "
+                   "(iwp.refine_identification) in the paper's two steps: "
                    + ", ".join(st["free"]["free"]) + " on the free pendulum (output q1, wheel held), then "
                    + ", ".join(st["two-step"]["free"]) + " on the full chirp (outputs q1, q4), the initial states "
                    "estimated with them.")

@@ -88,7 +88,7 @@ def _belt(p2rho: float, p3rho: float, *, k_over_I2: float, d: float):
 
 #: The rigid motor-disk model of the sines: model (9) with the pendulum clamped (``q4' = rho (-p2 q4 + p3 u
 #: - sigma_c2 sgn q4)``), the physical form of the paper's (14) that :meth:`IdentificationResult.to_params`
-#: splits the motor-disk estimates for (see :mod:`iwp.identify`, "The locked pendulum").
+#: splits the motor-disk estimates for (see :mod:`iwp.ident.identification`, "The locked pendulum").
 _SINE_MODEL = "compensated"
 _SINE_MODEL_LABEL = "rigid (14), pendulum clamped"
 
@@ -172,7 +172,7 @@ def step_sines(ctx: ReproduceResult) -> str:
     ctx.notes.append(
         "Flexible belt (figure 4b): the paper sets the belt's parameters by hand, since the motor angle is not "
         "measured. Here they are identified by simulation error from the disk velocity q4 alone, on the three "
-        f"sinusoids together (iwp.refine, model 'belt'): k/I2 = {b.k_over_I2:.4g} s^-2, d = {b.d:.3g} rad, "
+        f"sinusoids together (iwp.refine_belt): k/I2 = {b.k_over_I2:.4g} s^-2, d = {b.d:.3g} rad, "
         f"b2/I2 = {b.b2_over_I2:.3g} s^-1, k/gamma = {b.k_over_gamma:.4g} s^-1, kT beta/(R gamma) = "
         f"{b.kTbeta_over_Rgamma:.4g} (N = 13.5 measured); rigid limit p2 rho = {b.rigid_p2rho:.3g}, p3 rho = "
         f"{b.rigid_p3rho:.3g}. The fitted belt also absorbs what model (15) leaves out (the residual dead zone, "

@@ -321,9 +321,20 @@ INPUT_NAMES = ("zero", "constant", "sine", "chirp", "step")
 CONTROLLER_NAMES = ("hopf",)
 
 
-def make_input(name: str, **kw) -> Input | None:
-    """Build an input by name (used by the CLI): ``zero``, ``constant``, ``sine``, ``chirp``, ``step``, ``hopf``."""
+def make_input(name: str, argument: str = "input", **kw) -> Input | None:
+    """Build an input by name (used by the CLI): ``zero``, ``constant``, ``sine``, ``chirp``, ``step``, ``hopf``.
+
+    ``kw`` holds the input's settings (``amplitude``, ``omega``, ``w0``, ``tau``,
+    ``t_step``; ``k1``, ``k2``, ``Ts`` for the Hopf law), each checked finite;
+    ``argument`` names the option in errors.
+    """
+    for k, v in kw.items():
+        if v is not None:
+            check_finite(k, v)
     name = name.lower()
+    choices = CONTROLLER_NAMES if argument == "controller" else INPUT_NAMES + CONTROLLER_NAMES
+    if name not in choices:
+        raise InputError(f"{argument} {name!r}: unknown; choose one of: {', '.join(choices)}", argument=argument)
     if name == "zero":
         return None
     if name == "constant":
@@ -334,8 +345,4 @@ def make_input(name: str, **kw) -> Input | None:
         return Chirp(kw["amplitude"], kw["w0"], kw["tau"])
     if name == "step":
         return Step(kw["amplitude"], kw.get("t_step", 0.0))
-    if name == "hopf":
-        return HopfController(kw["k1"], kw["k2"], kw.get("Ts"))
-    raise InputError(
-        f"input {name!r}: unknown; choose one of: {', '.join(INPUT_NAMES + CONTROLLER_NAMES)}", argument="input"
-    )
+    return HopfController(kw["k1"], kw["k2"], kw.get("Ts"))

@@ -1,25 +1,27 @@
 """The ``iwp simulate`` task: build the input, simulate, write the log (and a figure).
 
-The command line only parses its arguments and calls :func:`simulate_command`."""
+The command line parses its arguments into one :class:`SimulationTask` and calls
+:func:`write_simulation`."""
 
 from __future__ import annotations
 
 import math
 import warnings
-from pathlib import Path
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import check_finite
 from ..data import write_experiment
 from ..errors import InputError, SimulationError
 from ..files import FIGURE_SUFFIXES, LOG_SUFFIXES, check_output_file, write_all
 from ..models.plant import Plant
 from ..plotting import plot_simulation, savefig
-from .inputs import make_input
+from .inputs import Input
+from .result import SimulationResult
 from .simulate import simulate
 
-__all__ = ["simulate_command", "physical_range_message"]
+__all__ = ["SimulationTask", "write_simulation", "physical_range_message"]
 
 #: A pendulum faster than this many times the speed of a free swing from the upright has left
 #: the physically possible range (no input of the rig can pump that much energy into it).
@@ -46,40 +48,67 @@ def physical_range_message(plant: Plant, q3: np.ndarray) -> str | None:
     return None
 
 
-def simulate_command(*, params, model, controller, input_name, k1, k2, sampled, amplitude, omega, w0, tau, t_step,
-                     x0, t0, t_end, Ts, feedforward, saturation, rtol, atol, out: Path, plot: Path | None,
-                     force: bool) -> str:
-    """Run one simulation as ``iwp simulate`` does; write the log (and figure); return a summary line.
+@dataclass(frozen=True)
+class SimulationTask:
+    """One simulation as ``iwp simulate`` runs it: the plant, its input, the span and the tolerances.
+
+    Parameters
+    ----------
+    plant : Plant
+    input : Input or None
+        An open-loop input or a controller (:func:`~iwp.sim.inputs.make_input`); None: zero.
+    x0 : sequence of float, optional
+        Initial state ``q1, q2, q3, q4`` [rad, rad, rad/s, rad/s] (default rest).
+    t0, t_end, Ts : float
+        Initial and final time, output sample time [s].
+    feedforward : bool
+        Apply the dead-zone feedforward (7)-(8).
+    saturation : float, optional
+        Clip the command to ``+-saturation`` [input units].
+    rtol, atol : float
+        Tolerances of the integration.
+    """
+
+    plant: Plant
+    input: Input | None = None
+    x0: Sequence[float] | None = None
+    t0: float = 0.0
+    t_end: float = 10.0
+    Ts: float = 0.005
+    feedforward: bool = False
+    saturation: float | None = None
+    rtol: float = 1e-10
+    atol: float = 1e-10
+
+    def run(self) -> SimulationResult:
+        """Simulate; a run that stops short or gives NaN is an error (nothing to write), an unphysical one a warning."""
+        res = simulate(self.plant, x0=self.x0, t0=self.t0, t_end=self.t_end, Ts=self.Ts, input=self.input,
+                       feedforward=True if self.feedforward else None, saturation=self.saturation, rtol=self.rtol,
+                       atol=self.atol)
+        if not res.success:
+            raise SimulationError(f"the simulation stopped at t = {res.t[-1]:g} s: {res.message}; nothing written")
+        if not all(np.all(np.isfinite(c)) for c in res.to_experiment().as_columns().values()):
+            raise SimulationError("the simulation gave NaN or inf; nothing written")
+        note = physical_range_message(self.plant, res.q3)
+        if note is not None:
+            warnings.warn(note, UserWarning, stacklevel=2)
+        return res
+
+
+def write_simulation(task: SimulationTask, out, *, plot=None, force: bool = False) -> str:
+    """Run ``task`` and write its log (and figure); return a summary line.
 
     Both outputs are checked before the simulation and written together
     (nothing is written when anything fails). The log's format follows its
     extension (``.csv``/``.txt``, ``.parquet``/``.pq``, ``.mat``).
     """
-    for name, value in (("amplitude", amplitude), ("omega", omega), ("w0", w0), ("tau", tau), ("t_step", t_step),
-                        ("k1", k1), ("k2", k2)):
-        check_finite(name, value)
-    if controller is not None:
-        if controller.lower() != "hopf":
-            raise InputError(f"controller {controller!r}: unknown; choose one of: hopf", argument="controller")
-        inp = make_input("hopf", k1=k1, k2=k2, Ts=Ts if sampled else None)
-    else:
-        inp = make_input(input_name or "zero", amplitude=amplitude, omega=omega, w0=w0, tau=tau, t_step=t_step)
     out = check_output_file(out, force=force, argument="out", suffixes=LOG_SUFFIXES)
     if plot is not None:
         plot = check_output_file(plot, force=force, argument="plot", suffixes=FIGURE_SUFFIXES)
         if plot.resolve() == out.resolve():
             raise InputError(f"plot {plot}: is the same file as --out", argument="plot")
-    plant = Plant(params, model=model)
-    res = simulate(plant, x0=x0, t0=t0, t_end=t_end, Ts=Ts, input=inp,
-                   feedforward=True if feedforward else None, saturation=saturation, rtol=rtol, atol=atol)
-    if not res.success:
-        raise SimulationError(f"the simulation stopped at t = {res.t[-1]:g} s: {res.message}; nothing written")
+    res = task.run()
     log = res.to_experiment()
-    if not all(np.all(np.isfinite(c)) for c in log.as_columns().values()):
-        raise SimulationError("the simulation gave NaN or inf; nothing written")
-    note = physical_range_message(plant, res.q3)
-    if note is not None:
-        warnings.warn(note, UserWarning, stacklevel=2)
     writes = [(out, lambda tmp: write_experiment(log, tmp, format=LOG_SUFFIXES[out.suffix.lower()], force=True))]
     msg = (f"wrote {out} ({res.t.size} samples, t = {res.t[0]:g}..{res.t[-1]:g} s, "
            f"max |q1| = {abs(res.q1).max():.4g} rad)")
