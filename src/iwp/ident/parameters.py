@@ -195,7 +195,9 @@ def evaluate_expression(expr: str, values: Mapping[str, float]) -> float:
 
     try:
         return ev(_parse(expr))
-    except (ZeroDivisionError, ValueError, OverflowError):
+    except InputError:
+        raise
+    except (ZeroDivisionError, ValueError, OverflowError):  # outside the domain of an operation
         return math.nan
 
 

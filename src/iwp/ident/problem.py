@@ -42,6 +42,9 @@ from .parameters import Parameters
 
 __all__ = ["FitProblem", "FitResult", "Loss", "SolverOptions", "ResidualModel", "LOSSES"]
 
+#: A free parameter this close to a bound (in the optimiser's coordinates, which are of order 1) is at it: the
+#: trust-region reflective method keeps iterates strictly inside, about 1e-7 away.
+BOUND_TOL = 1e-6
 #: The losses of :func:`scipy.optimize.least_squares`.
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 
@@ -372,8 +375,8 @@ def _bound_messages(params: Parameters, z: np.ndarray) -> list[str]:
         p = params[n]
         if p.kind != "model":
             continue
-        if math.isfinite(lo[i]) and z[i] <= lo[i] + 1e-9 * max(1.0, abs(lo[i])):
+        if math.isfinite(lo[i]) and z[i] <= lo[i] + BOUND_TOL * max(1.0, abs(lo[i])):
             out.append(f"{n} = {vals[n]:.6g} is at its lower bound {p.min:.6g}")
-        elif math.isfinite(hi[i]) and z[i] >= hi[i] - 1e-9 * max(1.0, abs(hi[i])):
+        elif math.isfinite(hi[i]) and z[i] >= hi[i] - BOUND_TOL * max(1.0, abs(hi[i])):
             out.append(f"{n} = {vals[n]:.6g} is at its upper bound {p.max:.6g}")
     return out
