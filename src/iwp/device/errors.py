@@ -1,0 +1,19 @@
+"""Errors of the rig in the loop: a device that does not answer, speaks another protocol, or stopped."""
+
+from __future__ import annotations
+
+from ..errors import IwpError
+
+__all__ = ["DeviceError", "LinkLost", "DeviceStopped"]
+
+
+class DeviceError(IwpError):
+    """The device cannot be used: no such port, no answer, another protocol, a refused request."""
+
+
+class LinkLost(DeviceError):
+    """The device stopped answering during a run (no telemetry within the link timeout)."""
+
+
+class DeviceStopped(DeviceError):
+    """The device stopped the motor by itself during a run (a limit, its watchdog) or the host's check did."""
