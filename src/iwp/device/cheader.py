@@ -14,6 +14,7 @@ from .protocol import (
     CAPS,
     DICTIONARY_HASH,
     FAULTS,
+    FIXTURE_ACTIONS,
     FLAGS,
     MAX_PAYLOAD,
     MESSAGES,
@@ -51,7 +52,7 @@ def c_header() -> str:
             o.append(f"#define IWP_OFF_{m.name}_{f.name.upper()} {m.offsets()[f.name]} /* {_C_TYPES[f.code]}, "
                      f"{f.unit} */")
     for prefix, table in (("STATE", STATES), ("FAULT", FAULTS), ("FLAG", FLAGS), ("CAP", CAPS), ("MODE", MODES),
-                          ("ACK", ACK_CODES)):
+                          ("ACK", ACK_CODES), ("FIXTURE", FIXTURE_ACTIONS)):
         o.append("")
         o.extend(f"#define IWP_{prefix}_{k} {v}" for k, v in table.items())
     o.append("")

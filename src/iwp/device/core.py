@@ -31,8 +31,8 @@ CSRC = Path(__file__).with_name("csrc")
 #: Its C sources (the header ``iwp_protocol.h`` is generated from :mod:`iwp.device.protocol`).
 CORE_SOURCES = ("iwp_core.c", "iwp_frame.c")
 _HEADERS = ("iwp_core.h", "iwp_frame.h", "iwp_protocol.h")
-#: What the emulated board offers: host clock, current sense, the Hopf law, state feedback.
-EMULATOR_CAPS = CAPS["HOST_CLOCK"] | CAPS["CURRENT"] | CAPS["HOPF"] | CAPS["STATE_FEEDBACK"]
+#: What the emulated board offers: host clock, the Hopf law, state feedback, the operator's hands.
+EMULATOR_CAPS = CAPS["HOST_CLOCK"] | CAPS["HOPF"] | CAPS["STATE_FEEDBACK"] | CAPS["FIXTURE"]
 #: The emulated board's tick granularity [us].
 EMULATOR_BASE_US = 100
 _CFLAGS = ("-std=c99", "-O2", "-fPIC", "-shared", "-Wall")
@@ -98,6 +98,8 @@ def core_library() -> ctypes.CDLL:
     so.iwp_core_params_hash.restype = ctypes.c_uint32
     so.iwp_core_status.argtypes = [P, ctypes.POINTER(ctypes.c_uint32), ctypes.POINTER(ctypes.c_uint8),
                                    ctypes.POINTER(ctypes.c_uint8), ctypes.POINTER(ctypes.c_float)]
+    so.iwp_core_fixture.argtypes = [P, ctypes.POINTER(ctypes.c_uint8), ctypes.POINTER(ctypes.c_float)]
+    so.iwp_core_fixture.restype = ctypes.c_int
     so.iwp_core_size.restype = ctypes.c_uint32
     return so
 
@@ -161,6 +163,13 @@ class DeviceCore:
         self._so.iwp_core_status(self._ptr, ctypes.byref(tick), ctypes.byref(state), ctypes.byref(fault),
                                  ctypes.byref(v))
         return int(tick.value), int(state.value), int(fault.value), float(v.value)
+
+    def fixture(self) -> tuple[int, float] | None:
+        """A pending FIXTURE request ``(action, q1)`` (see :data:`~iwp.device.protocol.FIXTURE_ACTIONS`), or None."""
+        action, q1 = ctypes.c_uint8(), ctypes.c_float()
+        if self._so.iwp_core_fixture(self._ptr, ctypes.byref(action), ctypes.byref(q1)):
+            return int(action.value), float(q1.value)
+        return None
 
     @property
     def params_hash(self) -> int:

@@ -41,6 +41,7 @@ __all__ = [
     "CAPS",
     "MODES",
     "ACK_CODES",
+    "FIXTURE_ACTIONS",
     "MAX_PAYLOAD",
     "DICTIONARY_HASH",
     "ProtocolError",
@@ -145,6 +146,10 @@ MESSAGES: dict[str, Message] = {m.name: m for m in [
             "feeds the watchdog (on-device controllers, idle links)"),
     Message("MODE", 0x0B, (_f("mode", "B", "-", "see MODES"),),
             "the device's control law: the host's commands, Hopf or state feedback (refused while armed)"),
+    Message("FIXTURE", 0x0D, (_f("action", "B", "-", "see FIXTURE_ACTIONS"),
+                              _f("q1", "f", "rad", "HOLD: the angle the pendulum is held at")),
+            "the operator's hands on an emulated rig (CAPS FIXTURE): clamp, hold, release; a real board refuses it "
+            "and the host asks the operator instead"),
     Message("STREAM", 0x0C, (_f("every", "B", "ticks", "one telemetry frame every N ticks; 0: none"),),
             "telemetry rate"),
     # ---------------------------------------------------------------- device -> host
@@ -191,7 +196,10 @@ FAULTS = {"NONE": 0, "WATCHDOG": 1, "Q1_LIMIT": 2, "Q4_LIMIT": 3, "DUTY_LIMIT": 
 #: Bits of TELEMETRY ``flags``.
 FLAGS = {"SATURATED": 1 << 0, "LATE": 1 << 1, "QUEUE_FULL": 1 << 2, "CURRENT_VALID": 1 << 3, "HOST_CLOCK": 1 << 4}
 #: Bits of IDENT ``caps``.
-CAPS = {"HOST_CLOCK": 1 << 0, "CURRENT": 1 << 1, "HOPF": 1 << 2, "STATE_FEEDBACK": 1 << 3}
+CAPS = {"HOST_CLOCK": 1 << 0, "CURRENT": 1 << 1, "HOPF": 1 << 2, "STATE_FEEDBACK": 1 << 3, "FIXTURE": 1 << 4}
+#: FIXTURE ``action``: let the pendulum go; clamp it at rest (section 5.1); hold it at ``q1`` with the wheel
+#: at rest (a release from there, as figure 8).
+FIXTURE_ACTIONS = {"RELEASE": 0, "CLAMP": 1, "HOLD": 2}
 #: Control laws of the device (MODE ``mode``).
 MODES = {"HOST": 0, "HOPF": 1, "STATE_FEEDBACK": 2}
 #: ACK ``code``.
@@ -296,7 +304,7 @@ def dictionary_text() -> str:
     for m in MESSAGES.values():
         lines.append(f"msg {m.id} {m.name} " + " ".join(f"{f.name}:{f.code}" for f in m.fields))
     for title, table in (("state", STATES), ("fault", FAULTS), ("flag", FLAGS), ("cap", CAPS), ("mode", MODES),
-                         ("ack", ACK_CODES)):
+                         ("ack", ACK_CODES), ("fixture", FIXTURE_ACTIONS)):
         lines.extend(f"{title} {k} {v}" for k, v in table.items())
     for p in PARAMS.values():
         lines.append(f"param {p.id} {p.name} {p.default!r} {p.lo!r} {p.hi!r}")

@@ -166,6 +166,15 @@ void iwp_core_init(iwp_core_t *c, uint8_t board, uint16_t caps, uint32_t base_us
 
 uint32_t iwp_core_period_us(const iwp_core_t *c) { return (uint32_t)c->p[IWP_P_PERIOD_US]; }
 
+int iwp_core_fixture(iwp_core_t *c, uint8_t *action, float *q1)
+{
+    if (!c->fixture_pending) return 0;
+    c->fixture_pending = 0;
+    *action = c->fixture_action;
+    *q1 = c->fixture_q1;
+    return 1;
+}
+
 void iwp_core_status(const iwp_core_t *c, uint32_t *tick, uint8_t *state, uint8_t *fault, float *v)
 {
     *tick = c->tick;
@@ -317,6 +326,21 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
         ack(c, type, code, 0, (float)c->mode);
         return;
     }
+    case IWP_MSG_FIXTURE: {
+        if (n != IWP_MSG_FIXTURE_SIZE) break;
+        uint8_t action = m[IWP_OFF_FIXTURE_ACTION], code = IWP_ACK_OK;
+        float q1 = get_f32(m + IWP_OFF_FIXTURE_Q1);
+        if (!(c->caps & IWP_CAP_FIXTURE) || action > IWP_FIXTURE_HOLD) code = IWP_ACK_BAD_MODE;
+        else if (c->state == IWP_STATE_ARMED && action != IWP_FIXTURE_RELEASE) code = IWP_ACK_ARMED;
+        else if (!(q1 == q1) || fabsf(q1) > 100.0f) code = IWP_ACK_OUT_OF_RANGE;
+        else {
+            c->fixture_pending = 1;
+            c->fixture_action = action;
+            c->fixture_q1 = q1;
+        }
+        ack(c, type, code, 0, (float)action);
+        return;
+    }
     case IWP_MSG_STREAM:
         if (n != IWP_MSG_STREAM_SIZE) break;
         c->stream_every = m[IWP_OFF_STREAM_EVERY];
@@ -368,7 +392,7 @@ void iwp_core_overrun(iwp_core_t *c) { c->overruns++; }
 
 int iwp_core_ready(const iwp_core_t *c)
 {
-    return c->p[IWP_P_HOST_CLOCK] != 0.0f && c->state == IWP_STATE_ARMED && c->go_tick > c->tick;
+    return c->p[IWP_P_HOST_CLOCK] != 0.0f && c->go_tick > c->tick;
 }
 
 /* ------------------------------------------------------------------ the loop */

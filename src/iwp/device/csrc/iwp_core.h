@@ -55,6 +55,8 @@ typedef struct {
     uint8_t have_prev;
     float q1, q3, q4, u, v, current;
     uint32_t sat_us;
+    uint8_t fixture_pending, fixture_action;
+    float fixture_q1;
     uint16_t flags, overruns, late, rx_errors;
     /* link */
     uint8_t rx[IWP_RX_LEN];
@@ -90,6 +92,9 @@ uint16_t iwp_core_tx_pending(const iwp_core_t *c);
 
 /* FNV-1a of the parameter values (IDENT params_hash). */
 uint32_t iwp_core_params_hash(const iwp_core_t *c);
+
+/* A FIXTURE request (emulated rigs only, caps FIXTURE): returns 1 once per request, with its action and angle. */
+int iwp_core_fixture(iwp_core_t *c, uint8_t *action, float *q1);
 
 /* The tick, state, fault and applied command, for a hardware layer that shows them. */
 void iwp_core_status(const iwp_core_t *c, uint32_t *tick, uint8_t *state, uint8_t *fault, float *v);

@@ -4,7 +4,7 @@
 #define IWP_PROTOCOL_H
 
 #define IWP_PROTOCOL_VERSION 1
-#define IWP_DICT_HASH 0xedb41e7dUL
+#define IWP_DICT_HASH 0x29166749UL
 #define IWP_MAX_PAYLOAD 64
 
 /* messages: type byte, payload size, byte offset of each field (little-endian, packed) */
@@ -41,6 +41,10 @@
 #define IWP_MSG_MODE 0x0b
 #define IWP_MSG_MODE_SIZE 2
 #define IWP_OFF_MODE_MODE 1 /* uint8_t, - */
+#define IWP_MSG_FIXTURE 0x0d
+#define IWP_MSG_FIXTURE_SIZE 6
+#define IWP_OFF_FIXTURE_ACTION 1 /* uint8_t, - */
+#define IWP_OFF_FIXTURE_Q1 2 /* float, rad */
 #define IWP_MSG_STREAM 0x0c
 #define IWP_MSG_STREAM_SIZE 2
 #define IWP_OFF_STREAM_EVERY 1 /* uint8_t, ticks */
@@ -102,6 +106,7 @@
 #define IWP_CAP_CURRENT 2
 #define IWP_CAP_HOPF 4
 #define IWP_CAP_STATE_FEEDBACK 8
+#define IWP_CAP_FIXTURE 16
 
 #define IWP_MODE_HOST 0
 #define IWP_MODE_HOPF 1
@@ -114,6 +119,10 @@
 #define IWP_ACK_FAULT 4
 #define IWP_ACK_LIMIT 5
 #define IWP_ACK_BAD_MODE 6
+
+#define IWP_FIXTURE_RELEASE 0
+#define IWP_FIXTURE_CLAMP 1
+#define IWP_FIXTURE_HOLD 2
 
 /* parameters: id, then IWP_PARAM_TABLE rows {default, lo, hi} in id order */
 #define IWP_P_PERIOD_US 0 /* us: loop period (a multiple of IDENT base_us) */
