@@ -26,6 +26,7 @@ import errno
 import math
 import os
 import select
+import signal
 import threading
 import time
 import tty
@@ -34,9 +35,10 @@ import numpy as np
 
 from ..rig.stepper import TwinStepper
 from .core import DeviceCore
-from .protocol import FIXTURE_ACTIONS
+from .framing import encode_frame
+from .protocol import FAULTS, FIXTURE_ACTIONS, PARAMS, STATES, encode, name_of
 
-__all__ = ["TwinDevice", "Emulator", "open_pty"]
+__all__ = ["TwinDevice", "Emulator", "open_pty", "run_emulator"]
 
 _NAN = float("nan")
 #: Bytes kept for a host that does not read (beyond them telemetry is dropped; the host sees the gap).
@@ -200,3 +202,51 @@ class Emulator:
             return {"ticks": self.ticks, "p50": math.nan, "p99": math.nan, "max": math.nan}
         return {"ticks": self.ticks, "p50": float(np.percentile(lat, 50)), "p99": float(np.percentile(lat, 99)),
                 "max": float(lat.max())}
+
+
+def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup: dict | None = None) -> dict:
+    """Serve ``device`` on a new pseudo-terminal until SIGINT or SIGTERM; returns the timing.
+
+    Parameters
+    ----------
+    device : TwinDevice
+    on_port : callable
+        Called with the port's path once it is ready (the CLI prints it).
+    link : str, optional
+        Also reachable as this path (a symbolic link to the port, removed at the end).
+    setup : dict, optional
+        Device parameters to set before serving (``period_us``, ``counts1``, ...), as a host would.
+    """
+    for name, value in (setup or {}).items():
+        device.rx(encode_frame(encode("SET_PARAM", param=PARAMS[name].id, value=float(value))))
+    device.tx()  # the answers to ourselves
+    master, slave, path = open_pty()
+    emu = Emulator(device, master)
+    made_link = False
+    old = {}
+
+    def handler(signum, frame):
+        emu.stop()
+
+    try:
+        for s in (signal.SIGINT, signal.SIGTERM):
+            old[s] = signal.signal(s, handler)
+        if link is not None:
+            os.symlink(path, link)
+            made_link = True
+        on_port(path)
+        emu.serve()
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        if made_link:
+            try:
+                os.unlink(link)
+            except OSError:
+                pass
+        os.close(master)
+        os.close(slave)
+    out = emu.timing()
+    tick, state, fault, v = device.core.status()
+    out.update(state=name_of(STATES, state), fault=name_of(FAULTS, fault))
+    return out

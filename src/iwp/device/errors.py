@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from ..errors import IwpError
+from ..errors import InputError
 
 __all__ = ["DeviceError", "LinkLost", "DeviceStopped"]
 
 
-class DeviceError(IwpError):
-    """The device cannot be used: no such port, no answer, another protocol, a refused request."""
+class DeviceError(InputError):
+    """The device cannot be used: no such port, no answer, another protocol, a refused request (exit status 2
+    on the command line)."""
 
 
 class LinkLost(DeviceError):

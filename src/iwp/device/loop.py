@@ -211,7 +211,11 @@ def run_loop(
             if not batch:
                 raise DeviceError(f"link lost: no telemetry from {rig.port} for {link_timeout:g} s")
             for s in batch:
-                if s.seq < start:
+                if s.seq < start:  # before time 0: keep the queue ahead
+                    if controller is not None:
+                        rig.command(0.0, s.seq + 1)
+                    else:
+                        _answer(rig, s, s.seq + lead, start, Ts, input, None)
                     continue
                 if not res.samples:  # the device's counters at time 0
                     res.counters0 = (s.overruns, (s.late - ("LATE" in s.flags)) & 0xFFFF, s.rx_errors)

@@ -17,7 +17,7 @@ from ..rig.truth import RigTruth
 from .emulator import Emulator, TwinDevice, open_pty
 from .rig import Rig
 
-__all__ = ["TwinRig"]
+__all__ = ["TwinRig", "open_rig", "TWIN_PORT"]
 
 
 class TwinRig(Rig):
@@ -66,3 +66,15 @@ class TwinRig(Rig):
                 os.close(fd)
             except OSError:
                 pass
+
+
+#: The ``--port`` value that names the in-process twin.
+TWIN_PORT = "twin"
+
+
+def open_rig(port: str, *, baudrate: int | None = None, truth: RigTruth | None = None, fast: bool = False) -> Rig:
+    """The rig on ``port``: :data:`TWIN_PORT` for the in-process twin (:class:`TwinRig`), else a device
+    (:class:`~iwp.device.rig.Rig`)."""
+    if port == TWIN_PORT:
+        return TwinRig(truth, fast=fast)
+    return Rig(port) if baudrate is None else Rig(port, baudrate=baudrate)
