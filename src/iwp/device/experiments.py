@@ -45,7 +45,8 @@ from .loop import HostLimits, LoopResult, run_loop
 from .record import loop_log
 from .rig import Rig
 
-__all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "RUN_NAMES", "PAPER_SERIES"]
+__all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "RUN_NAMES", "PAPER_SERIES", "arrange", "hold_at", "releaser",
+           "settle", "default_operator"]
 
 #: User inputs and the options each takes (with their defaults).
 USER_INPUTS: dict[str, dict[str, Any]] = {
@@ -62,6 +63,8 @@ RUN_NAMES = tuple(EXPERIMENTS) + tuple(USER_INPUTS)
 PAPER_SERIES = tuple(n for n in EXPERIMENTS if not n.startswith("static-curve"))
 #: Options that only the virtual rig's simulation has.
 _SIMULATION_ONLY = ("seed", "noise_std")
+#: Time for the device's velocity estimates to settle after the pendulum is put somewhere [s].
+_SETTLE = 0.2
 #: Wheel at rest: no count for this long [s] (static curves) ...
 _STILL = 0.5
 #: ... within this long [s].
@@ -79,7 +82,8 @@ class RigRun:
     loops: list[LoopResult] = field(default_factory=list)
 
 
-def _operator_default(message: str) -> None:
+def default_operator(message: str) -> None:
+    """No operator: a rig without emulated hands cannot be arranged."""
     raise DeviceError(f"this rig has no emulated hands: {message}, then run again with an operator "
                       "(the command line asks you)")
 
@@ -110,7 +114,7 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
     if name not in RUN_NAMES:
         raise InputError(f"unknown experiment or input {name!r}; valid: {', '.join(RUN_NAMES)}", argument="name")
     s = _settings(name, options)
-    operator = operator or _operator_default
+    operator = operator or default_operator
     if fast:
         if not rig.has("HOST_CLOCK"):
             raise DeviceError(f"{rig.port}: this device runs in real time only (no HOST_CLOCK); drop --fast")
@@ -130,12 +134,12 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
     locked = bool(s.get("locked", False))
     meta["pendulum"] = "locked" if locked else "free"
     x0 = initial_state(s["x0"]) if "x0" in s else None
-    _arrange(rig, locked, operator)
+    arrange(rig, locked, operator)
     on_start = None
     if x0 is not None and x0[0] != 0.0:
         meta["x0"] = json_list(x0)
-        _hold(rig, float(x0[0]), operator)
-        on_start = _releaser(rig, operator)
+        hold_at(rig, float(x0[0]), operator)
+        on_start = releaser(rig)
     kw: dict[str, Any] = {}
     arm = True
     input_name = "u" if compensated else "v"
@@ -230,7 +234,7 @@ def _prepare(rig: Rig, fast: bool) -> None:
     rig.set_params(host_clock=1.0 if fast else 0.0)
 
 
-def _arrange(rig: Rig, locked: bool, operator) -> None:
+def arrange(rig: Rig, locked: bool, operator) -> None:
     """Clamp the pendulum at rest, or hold it still hanging down; then zero the encoders there."""
     if locked:
         if rig.fixture("CLAMP") is None:
@@ -242,13 +246,31 @@ def _arrange(rig: Rig, locked: bool, operator) -> None:
         rig.fixture("RELEASE")
 
 
-def _hold(rig: Rig, q1: float, operator) -> None:
-    if rig.fixture("HOLD", q1) is None:
+def hold_at(rig: Rig, q1: float, operator) -> None:
+    """Hold the pendulum at ``q1`` [rad], the wheel still (the emulated hands, or the operator's), and let the
+    device's velocity estimates settle there."""
+    if rig.fixture("HOLD", q1) is not None:
+        settle(rig, _SETTLE)
+    else:
         operator(f"hold the pendulum at q1 = {q1:g} rad (count {round(q1 / (2 * math.pi) * rig.info.params['counts1'])})"
                  ", the wheel still, and let it go when the run starts")
 
 
-def _releaser(rig: Rig, operator):
+def settle(rig: Rig, seconds: float) -> None:
+    """Let ``seconds`` of device time pass (heartbeats allow the ticks with the host clock)."""
+    Ts = rig.info.params["period_us"] * 1e-6
+    n = 0
+    while n * Ts < seconds:
+        got = rig.samples(1.0)
+        if not got:
+            raise DeviceError(f"link lost: no telemetry from {rig.port}")
+        for x in got:
+            rig.heartbeat(x.seq + 2)
+        n += len(got)
+
+
+def releaser(rig: Rig):
+    """``on_start`` of :func:`~iwp.device.loop.run_loop` that lets the held pendulum go."""
     def release() -> int | None:
         return rig.fixture("RELEASE")  # None on a real rig: the operator lets go; the log starts before
     return release
@@ -267,7 +289,7 @@ def _static_curve(rig: Rig, name: str, s: dict, compensated: bool, operator, pro
                          argument="duration")
     m = int(math.floor(amplitude / step_in + 1e-9))
     grid = step_in * np.arange(-m, m + 1)
-    _arrange(rig, True, operator)
+    arrange(rig, True, operator)
     rig.mode("HOST")
     Ts = rig.info.params["period_us"] * 1e-6
     q4, done, loops = [], [], []

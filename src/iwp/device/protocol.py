@@ -228,7 +228,7 @@ PARAMS: dict[str, Param] = {p.name: p for p in [
     Param("v_dz_neg", 4, 31.0, 0.0, 100.0, "input units", "feedforward (7)-(8) threshold for u < 0 (0: none)"),
     Param("q1_max", 5, 12.566370614359172, 0.1, 1000.0, "rad", "fault when |q1| exceeds it"),
     Param("q4_max", 6, 400.0, 1.0, 10000.0, "rad/s", "fault when |q4| exceeds it"),
-    Param("sat_ms_max", 7, 3000.0, 0.0, 60000.0, "ms", "fault when saturated this long without a break (0: off)"),
+    Param("sat_ms_max", 7, 3000.0, 0.0, 60000.0, "ms", "stall: fault when the command stays saturated with |q4| < q4_max/10 this long (0: off)"),
     Param("counts1", 8, 2000.0, 1.0, 1e6, "counts/rev", "pendulum encoder resolution"),
     Param("counts2", 9, 2000.0, 1.0, 1e6, "counts/rev", "wheel encoder resolution"),
     Param("k1", 10, -10.0, -1e4, 1e4, "input units s/rad", "Hopf law u = k1 q3 + k2 q3^3 (section 5.3)"),

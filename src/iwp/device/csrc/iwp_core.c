@@ -467,7 +467,9 @@ float iwp_core_tick(iwp_core_t *c, int32_t count1, int32_t count2, float current
         uint16_t before = c->flags;
         c->flags = (uint16_t)(c->flags & ~IWP_FLAG_SATURATED);
         v = clamp_abs(c, v, c->p[IWP_P_V_MAX]);
-        if (c->flags & IWP_FLAG_SATURATED) c->sat_us += (uint32_t)c->p[IWP_P_PERIOD_US];
+        /* a stall: the command saturated while the wheel hardly turns (below a tenth of q4_max) */
+        if ((c->flags & IWP_FLAG_SATURATED) && fabsf(c->q4) < 0.1f * c->p[IWP_P_Q4_MAX])
+            c->sat_us += (uint32_t)c->p[IWP_P_PERIOD_US];
         else c->sat_us = 0;
         c->flags |= (uint16_t)(before & IWP_FLAG_SATURATED);
         c->u = u;

@@ -132,7 +132,7 @@
 #define IWP_P_V_DZ_NEG 4 /* input units: feedforward (7)-(8) threshold for u < 0 (0: none) */
 #define IWP_P_Q1_MAX 5 /* rad: fault when |q1| exceeds it */
 #define IWP_P_Q4_MAX 6 /* rad/s: fault when |q4| exceeds it */
-#define IWP_P_SAT_MS_MAX 7 /* ms: fault when saturated this long without a break (0: off) */
+#define IWP_P_SAT_MS_MAX 7 /* ms: stall: fault when the command stays saturated with |q4| < q4_max/10 this long (0: off) */
 #define IWP_P_COUNTS1 8 /* counts/rev: pendulum encoder resolution */
 #define IWP_P_COUNTS2 9 /* counts/rev: wheel encoder resolution */
 #define IWP_P_K1 10 /* input units s/rad: Hopf law u = k1 q3 + k2 q3^3 (section 5.3) */
