@@ -253,7 +253,6 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
         else if (c->state != IWP_STATE_ARMED) {
             motor_off(c);
             c->state = IWP_STATE_ARMED;
-            c->fed = 1;
             c->fed_us = c->t_us;
         }
         ack(c, type, code, 0, 0.0f);
@@ -300,7 +299,7 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
         float u = get_f32(m + IWP_OFF_COMMAND_U);
         if (u != u) break; /* NaN is never applied */
         uint32_t tick = get_u32(m + IWP_OFF_COMMAND_TICK);
-        c->fed = 1;
+        c->fed_us = c->t_us; /* the last tick's time: at most one period before the frame arrived */
         if (tick > c->go_tick) c->go_tick = tick;
         if (c->state == IWP_STATE_ARMED && c->mode == IWP_MODE_HOST) enqueue(c, tick, u);
         return;
@@ -311,7 +310,7 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
         if (seq <= c->hb_seq) break;
         c->hb_seq = seq;
         uint32_t tick = get_u32(m + IWP_OFF_HEARTBEAT_TICK);
-        c->fed = 1;
+        c->fed_us = c->t_us;
         if (tick > c->go_tick) c->go_tick = tick;
         return;
     }
@@ -433,15 +432,13 @@ float iwp_core_tick(iwp_core_t *c, int32_t count1, int32_t count2, float current
     c->c1_prev = c->c1;
     c->c2_prev = c->c2;
     c->have_prev = 1;
-    if (c->fed) {
-        c->fed = 0;
-        c->fed_us = t_us;
-    }
     if (c->state == IWP_STATE_ARMED) {
         /* the device's own limits: the last line, whatever the host does */
         uint8_t f = outside_limits(c);
         if (f != IWP_FAULT_NONE) trip(c, f);
-        else if ((uint32_t)(t_us - c->fed_us) > (uint32_t)(c->p[IWP_P_WATCHDOG_MS] * 1000.0f)) trip(c, IWP_FAULT_WATCHDOG);
+        /* the watchdog: at most watchdog_ms + one period after the last valid COMMAND or HEARTBEAT */
+        else if ((uint32_t)(t_us - c->fed_us) >= (uint32_t)(c->p[IWP_P_WATCHDOG_MS] * 1000.0f))
+            trip(c, IWP_FAULT_WATCHDOG);
     }
     if (c->state == IWP_STATE_ARMED) {
         float u = c->u;

@@ -44,8 +44,7 @@ typedef struct {
     uint8_t state, fault, mode, stream_every;
     uint32_t tick;         /* ticks since boot; the first is 1 */
     uint32_t t_us;         /* device time of the last tick */
-    uint32_t fed_us;       /* device time of the last valid COMMAND/HEARTBEAT (while armed) */
-    uint8_t fed;           /* one arrived since the last tick */
+    uint32_t fed_us;       /* device time of the last tick before the last valid COMMAND/HEARTBEAT */
     uint32_t cmd_seq, hb_seq;
     uint32_t go_tick;      /* host clock: the device may run up to this tick */
     iwp_cmd_t queue[IWP_QUEUE_LEN];
