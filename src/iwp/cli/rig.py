@@ -281,7 +281,14 @@ def run_emulate(args) -> int:
         if args.link:
             print(f"link: {args.link}", flush=True)
 
-    timing = run_emulator(device, on_port=on_port, link=args.link, setup=setup)
+    def on_event(e: dict) -> None:
+        what = e["state"] + (f" ({e['fault']})" if e["fault"] != "NONE" else "")
+        after = "" if e["after_host"] != e["after_host"] else f", {e['after_host'] * 1e3:.1f} ms after the host's " \
+                                                                "last bytes"
+        print(f"iwp: device {what} at t = {e['t_device']:.3f} s (tick {e['tick']}){after}", file=sys.stderr,
+              flush=True)
+
+    timing = run_emulator(device, on_port=on_port, link=args.link, setup=setup, on_event=on_event)
     print(f"iwp: emulator stopped after {timing['ticks']} ticks; lateness of its ticks p50 "
           f"{timing['p50'] * 1e3:.3f} ms, p99 {timing['p99'] * 1e3:.3f} ms, max {timing['max'] * 1e3:.3f} ms; "
           f"device {timing['state']}" + (f" ({timing['fault']})" if timing['fault'] != "NONE" else ""),

@@ -41,8 +41,9 @@ from .protocol import FAULTS, FIXTURE_ACTIONS, PARAMS, STATES, encode, name_of
 __all__ = ["TwinDevice", "Emulator", "open_pty", "run_emulator"]
 
 _NAN = float("nan")
-#: Bytes kept for a host that does not read (beyond them telemetry is dropped; the host sees the gap).
-_TX_BACKLOG = 1 << 16
+#: Bytes kept for a host that does not read (beyond them the oldest are dropped, as a UART without flow control
+#: drops them; the host sees the gap).
+_TX_BACKLOG = 2048
 
 
 class TwinDevice:
@@ -117,6 +118,11 @@ class Emulator:
         self.ticks = 0
         self.dropped = 0
         self.error: BaseException | None = None
+        #: wall time (time.monotonic) of the last bytes from the host [s]
+        self.last_rx = math.nan
+        #: called with a dict when the device's state changes (see :meth:`serve`)
+        self.on_event = None
+        self._state = None
 
     def stop(self) -> None:
         """Ask :meth:`serve` to return (from another thread or a signal handler)."""
@@ -132,6 +138,7 @@ class Emulator:
                 raise
             return
         if data:
+            self.last_rx = time.monotonic()
             self.device.rx(data)
 
     def _flush(self) -> None:
@@ -177,11 +184,25 @@ class Emulator:
                     deadline = now  # the lost periods are not caught up
                 dev.tick()
                 self.ticks += 1
+                if self.on_event is not None:
+                    self._report()
                 self._flush()
                 deadline += dev.period
         except BaseException as exc:  # noqa: BLE001 (kept for the thread's owner)
             self.error = exc
             raise
+
+    def _report(self) -> None:
+        """Tell :attr:`on_event` when the state changed: device time, wall time, and how long after the host's
+        last bytes (the watchdog's measure)."""
+        tick, state, fault, v = self.device.core.status()
+        if state == self._state:
+            return
+        self._state = state
+        now = time.monotonic()
+        self.on_event({"state": name_of(STATES, state), "fault": name_of(FAULTS, fault), "tick": tick,
+                       "t_device": self.device.stepper.t, "wall": now, "v": v,
+                       "after_host": now - self.last_rx if math.isfinite(self.last_rx) else math.nan})
 
     def start(self) -> threading.Thread:
         """Serve in a daemon thread (the in-process twin, tests)."""
@@ -204,7 +225,8 @@ class Emulator:
                 "max": float(lat.max())}
 
 
-def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup: dict | None = None) -> dict:
+def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup: dict | None = None,
+                 on_event=None) -> dict:
     """Serve ``device`` on a new pseudo-terminal until SIGINT or SIGTERM; returns the timing.
 
     Parameters
@@ -216,12 +238,16 @@ def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup:
         Also reachable as this path (a symbolic link to the port, removed at the end).
     setup : dict, optional
         Device parameters to set before serving (``period_us``, ``counts1``, ...), as a host would.
+    on_event : callable, optional
+        Called with a dict at each change of the device's state (state, fault, tick, device and wall
+        time, ``after_host``: seconds since the host's last bytes).
     """
     for name, value in (setup or {}).items():
         device.rx(encode_frame(encode("SET_PARAM", param=PARAMS[name].id, value=float(value))))
     device.tx()  # the answers to ourselves
     master, slave, path = open_pty()
     emu = Emulator(device, master)
+    emu.on_event = on_event
     made_link = False
     old = {}
 

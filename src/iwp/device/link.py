@@ -42,6 +42,8 @@ class LinkStats:
         Good frames that are no message of the dictionary (unknown type, wrong length).
     out_of_order : int
         Telemetry not newer than the last (skipped).
+    stale : int
+        Telemetry older than the device's tick when the host connected (an earlier session's, skipped).
     lost : int
         Telemetry samples missing from the sequence.
     sent : int
@@ -54,6 +56,7 @@ class LinkStats:
     oversize: int = 0
     refused: int = 0
     out_of_order: int = 0
+    stale: int = 0
     lost: int = 0
     sent: int = 0
 
@@ -89,6 +92,8 @@ class DeviceLink:
         self._decoder = FrameDecoder()
         self.stats = LinkStats()
         self._last_seq: int | None = None
+        #: telemetry before this device tick is stale (set from IDENT)
+        self.min_seq = 0
         self.closed = False
 
     # ------------------------------------------------------------------
@@ -129,6 +134,9 @@ class DeviceLink:
                 continue
             if msg.name == "TELEMETRY":
                 seq = msg["seq"]
+                if seq < self.min_seq:
+                    self.stats.stale += 1
+                    continue
                 if self._last_seq is not None:
                     if seq <= self._last_seq:
                         self.stats.out_of_order += 1

@@ -188,6 +188,8 @@ def run_loop(
     next_progress = wall0
     link_timeout = max(link_timeout, 20 * Ts)
     try:
+        if input is not None:
+            input(0.0)  # load what it needs (compiled code) now, not while the watchdog counts
         got = _first_sample(rig, link_timeout)
         res.counters0 = (got.overruns, got.late, got.rx_errors)
         if arm:

@@ -125,7 +125,8 @@ def _f(name: str, code: str, unit: str, doc: str) -> Field:
 MESSAGES: dict[str, Message] = {m.name: m for m in [
     # ---------------------------------------------------------------- host -> device
     Message("HELLO", 0x01, (_f("nonce", "H", "-", "echoed in IDENT"),),
-            "ask the device who it is; it answers IDENT"),
+            "start a session (the sequence numbers of COMMAND and HEARTBEAT start again) and ask the device who it "
+            "is; it answers IDENT"),
     Message("GET_PARAM", 0x02, (_f("param", "B", "-", "parameter id"),),
             "read a parameter; ACK carries its value"),
     Message("SET_PARAM", 0x03, (_f("param", "B", "-", "parameter id"), _f("value", "f", "param", "new value")),
@@ -162,7 +163,8 @@ MESSAGES: dict[str, Message] = {m.name: m for m in [
                             _f("caps", "H", "-", "see CAPS"),
                             _f("dict_hash", "I", "-", "CRC-32 of the protocol dictionary"),
                             _f("params_hash", "I", "-", "FNV-1a of the parameter values"),
-                            _f("base_us", "I", "us", "the device's tick granularity (period is a multiple)")),
+                            _f("base_us", "I", "us", "the device's tick granularity (period is a multiple)"),
+                            _f("tick", "I", "ticks", "the device's tick now (older telemetry is stale)")),
             "who the device is"),
     Message("ACK", 0x82, (_f("msg", "B", "-", "type of the message answered"),
                           _f("code", "B", "-", "see ACK_CODES"),

@@ -223,6 +223,9 @@ class Rig:
                 f"{self.port}: the device speaks protocol {ident['protocol']} (dictionary 0x{ident['dict_hash']:08x}), "
                 f"this iwp protocol {PROTOCOL_VERSION} (0x{DICTIONARY_HASH:08x}); flash the firmware of this iwp "
                 "(firmware/README.md)")
+        self.link.min_seq = ident["tick"]  # what came before is an earlier session's
+        self.link.expect_gap()
+        self._telemetry = collections.deque(m for m in self._telemetry if m["seq"] >= ident["tick"])
         values = {p.name: self.get_param(p.name) for p in PARAMS.values()}
         caps = tuple(k for k, v in CAPS.items() if ident["caps"] & v)
         info = DeviceInfo(port=self.port, protocol=ident["protocol"],

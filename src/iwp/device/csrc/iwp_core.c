@@ -101,6 +101,7 @@ static void ident(iwp_core_t *c, uint16_t nonce)
     put_u32(b + IWP_OFF_IDENT_DICT_HASH, IWP_DICT_HASH);
     put_u32(b + IWP_OFF_IDENT_PARAMS_HASH, iwp_core_params_hash(c));
     put_u32(b + IWP_OFF_IDENT_BASE_US, c->base_us);
+    put_u32(b + IWP_OFF_IDENT_TICK, c->tick);
     send(c, b, sizeof b);
 }
 
@@ -228,6 +229,8 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
     switch (type) {
     case IWP_MSG_HELLO:
         if (n != IWP_MSG_HELLO_SIZE) break;
+        c->cmd_seq = 0; /* a new session: the host's sequence numbers start again */
+        c->hb_seq = 0;
         ident(c, (uint16_t)(m[IWP_OFF_HELLO_NONCE] | (m[IWP_OFF_HELLO_NONCE + 1] << 8)));
         return;
     case IWP_MSG_GET_PARAM: {

@@ -4,7 +4,7 @@
 #define IWP_PROTOCOL_H
 
 #define IWP_PROTOCOL_VERSION 1
-#define IWP_DICT_HASH 0x29166749UL
+#define IWP_DICT_HASH 0xe8dad521UL
 #define IWP_MAX_PAYLOAD 64
 
 /* messages: type byte, payload size, byte offset of each field (little-endian, packed) */
@@ -49,7 +49,7 @@
 #define IWP_MSG_STREAM_SIZE 2
 #define IWP_OFF_STREAM_EVERY 1 /* uint8_t, ticks */
 #define IWP_MSG_IDENT 0x81
-#define IWP_MSG_IDENT_SIZE 22
+#define IWP_MSG_IDENT_SIZE 26
 #define IWP_OFF_IDENT_NONCE 1 /* uint16_t, - */
 #define IWP_OFF_IDENT_PROTOCOL 3 /* uint8_t, - */
 #define IWP_OFF_IDENT_FW_MAJOR 4 /* uint8_t, - */
@@ -60,6 +60,7 @@
 #define IWP_OFF_IDENT_DICT_HASH 10 /* uint32_t, - */
 #define IWP_OFF_IDENT_PARAMS_HASH 14 /* uint32_t, - */
 #define IWP_OFF_IDENT_BASE_US 18 /* uint32_t, us */
+#define IWP_OFF_IDENT_TICK 22 /* uint32_t, ticks */
 #define IWP_MSG_ACK 0x82
 #define IWP_MSG_ACK_SIZE 8
 #define IWP_OFF_ACK_MSG 1 /* uint8_t, - */
