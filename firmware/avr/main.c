@@ -7,7 +7,7 @@
  *   H-bridge              PWM D9 (OC1A, 20 kHz), IN1 D7, IN2 D8 (L298N, TB6612, ...)
  *   current sense         A0 (optional: -DIWP_CURRENT_SENSE, an ACS712-5A by default)
  *   step marker           D13 (high while the control step runs: a scope, or simavr, times it)
- *   serial                500000 baud, 8N1 (the USB adapter of the board)
+ *   serial                500000 baud, 8N1 (the USB adapter of the board); sent from an interrupt
  * Timer2 ticks every millisecond; the loop runs every period_us / 1000 ticks. The AVR's own watchdog
  * (120 ms) resets the board, motor off, if this loop ever hangs; the core's watchdog stops the motor
  * when the host stops sending.
@@ -92,6 +92,34 @@ ISR(USART_RX_vect)
 {
     uint8_t b = UDR0, next = (uint8_t)((rx_head + 1) & (RX_LEN - 1));
     if (next != rx_tail) { rx_buf[rx_head] = b; rx_head = next; } /* else lost: the frame's CRC fails */
+}
+
+#define TX_LEN 128 /* sent by the UDRE interrupt, also while the control step runs */
+static volatile uint8_t tx_buf[TX_LEN], tx_head, tx_tail;
+ISR(USART_UDRE_vect)
+{
+    if (tx_tail == tx_head) {
+        UCSR0B &= (uint8_t)~_BV(UDRIE0); /* nothing more to send */
+        return;
+    }
+    UDR0 = tx_buf[tx_tail];
+    tx_tail = (uint8_t)((tx_tail + 1) & (TX_LEN - 1));
+}
+
+/* move what the core has to send into the interrupt's buffer */
+static void uart_feed(void)
+{
+    uint8_t moved = 0;
+    while (iwp_core_tx_pending(&core)) {
+        uint8_t next = (uint8_t)((tx_head + 1) & (TX_LEN - 1));
+        if (next == tx_tail) break;
+        uint8_t b;
+        iwp_core_tx_take(&core, &b, 1);
+        tx_buf[tx_head] = b;
+        tx_head = next;
+        moved = 1;
+    }
+    if (moved) UCSR0B |= _BV(UDRIE0);
 }
 
 static void uart_init(void)
@@ -188,13 +216,10 @@ int main(void)
             rx_tail = (uint8_t)((rx_tail + 1) & (RX_LEN - 1));
             iwp_core_rx(&core, &b, 1);
         }
-        while ((UCSR0A & _BV(UDRE0)) && iwp_core_tx_pending(&core)) {
-            uint8_t b;
-            iwp_core_tx_take(&core, &b, 1);
-            UDR0 = b;
-        }
+        uart_feed();
         ATOMIC_BLOCK(ATOMIC_FORCEON) {
-            if (!due && rx_tail == rx_head && !iwp_core_tx_pending(&core)) {
+            uint8_t tx_full = ((uint8_t)(tx_head + 1) & (TX_LEN - 1)) == tx_tail;
+            if (!due && rx_tail == rx_head && (!iwp_core_tx_pending(&core) || tx_full)) {
                 set_sleep_mode(SLEEP_MODE_IDLE);
                 sleep_enable();
                 sei();

@@ -125,7 +125,7 @@ int main(int argc, char **argv)
         }
     }
     write_stats();
-    uart_pty_stop(&pty);
+    /* no uart_pty_stop(): it signals its thread with SIGINT, which this program catches; exit ends the thread */
     fprintf(stderr, "iwp_simavr: %llu control steps, %.0f cycles mean, %llu max (%s)\n", (unsigned long long)steps,
             steps ? (double)total / (double)steps : 0.0, (unsigned long long)worst,
             state == cpu_Crashed ? "crashed" : "stopped");

@@ -40,7 +40,14 @@ static void tx_put(iwp_core_t *c, uint8_t byte)
 
 uint16_t iwp_core_tx_pending(const iwp_core_t *c) { return (uint16_t)((c->tx_head - c->tx_tail) & (IWP_TX_LEN - 1)); }
 
-static void send(iwp_core_t *c, uint8_t *payload, uint8_t n)
+/* Room kept in the send buffer for answers (ACK, IDENT): telemetry that would eat into it is skipped (the host
+ * sees the gap in its seq), answers never are. */
+#define TX_RESERVE 40
+
+static void send_frame(iwp_core_t *c, uint8_t *payload, uint8_t n, uint16_t reserve);
+static void send(iwp_core_t *c, uint8_t *payload, uint8_t n) { send_frame(c, payload, n, 0); }
+
+static void send_frame(iwp_core_t *c, uint8_t *payload, uint8_t n, uint16_t reserve)
 {
     uint8_t body[IWP_MAX_PAYLOAD + 2];
     uint8_t stuffed[IWP_MAX_PAYLOAD + 4];
@@ -49,7 +56,7 @@ static void send(iwp_core_t *c, uint8_t *payload, uint8_t n)
     body[n] = (uint8_t)(crc >> 8);
     body[n + 1] = (uint8_t)crc;
     uint16_t m = iwp_cobs_encode(body, (uint16_t)(n + 2), stuffed);
-    if ((uint16_t)(IWP_TX_LEN - 1 - iwp_core_tx_pending(c)) < m + 2) return; /* no room: dropped (seq shows it) */
+    if ((uint16_t)(IWP_TX_LEN - 1 - iwp_core_tx_pending(c)) < m + 2 + reserve) return; /* no room: dropped */
     tx_put(c, 0);
     for (uint16_t i = 0; i < m; i++) tx_put(c, stuffed[i]);
     tx_put(c, 0);
@@ -123,7 +130,7 @@ static void telemetry(iwp_core_t *c)
     put_u16(b + IWP_OFF_TELEMETRY_OVERRUNS, c->overruns);
     put_u16(b + IWP_OFF_TELEMETRY_LATE, c->late);
     put_u16(b + IWP_OFF_TELEMETRY_RX_ERRORS, c->rx_errors);
-    send(c, b, sizeof b);
+    send_frame(c, b, sizeof b, TX_RESERVE);
 }
 
 /* ------------------------------------------------------------------ parameters */
@@ -132,8 +139,14 @@ static void derive(iwp_core_t *c)
     c->step1 = TWO_PI / c->p[IWP_P_COUNTS1];
     c->step2 = TWO_PI / c->p[IWP_P_COUNTS2];
     c->dt = c->p[IWP_P_PERIOD_US] * 1e-6f;
+    c->w1 = c->step1 / c->dt;
+    c->w2 = c->step2 / c->dt;
     float tau = c->p[IWP_P_FILTER_TAU];
     c->a3 = tau > 0.0f ? expf(-c->dt / tau) : 0.0f;
+    c->q4_stall = 0.1f * c->p[IWP_P_Q4_MAX];
+    c->period_us = (uint32_t)c->p[IWP_P_PERIOD_US];
+    c->watchdog_us = (uint32_t)(c->p[IWP_P_WATCHDOG_MS] * 1000.0f);
+    c->sat_max_us = (uint32_t)(c->p[IWP_P_SAT_MS_MAX] * 1000.0f);
 }
 
 static uint8_t set_param(iwp_core_t *c, uint8_t id, float value)
@@ -165,7 +178,7 @@ void iwp_core_init(iwp_core_t *c, uint8_t board, uint16_t caps, uint32_t base_us
     derive(c);
 }
 
-uint32_t iwp_core_period_us(const iwp_core_t *c) { return (uint32_t)c->p[IWP_P_PERIOD_US]; }
+uint32_t iwp_core_period_us(const iwp_core_t *c) { return c->period_us; }
 
 int iwp_core_fixture(iwp_core_t *c, uint8_t *action, float *q1)
 {
@@ -425,9 +438,9 @@ float iwp_core_tick(iwp_core_t *c, int32_t count1, int32_t count2, float current
     c->c2 = count2 - c->off2;
     c->q1 = (float)c->c1 * c->step1;
     if (c->have_prev) {
-        float q3raw = (float)(c->c1 - c->c1_prev) * c->step1 / c->dt;
+        float q3raw = (float)(c->c1 - c->c1_prev) * c->w1;
         c->q3 = c->a3 * c->q3 + (1.0f - c->a3) * q3raw;
-        c->q4 = (float)(c->c2 - c->c2_prev) * c->step2 / c->dt;
+        c->q4 = (float)(c->c2 - c->c2_prev) * c->w2;
     } else {
         c->q3 = 0.0f;
         c->q4 = 0.0f;
@@ -440,7 +453,7 @@ float iwp_core_tick(iwp_core_t *c, int32_t count1, int32_t count2, float current
         uint8_t f = outside_limits(c);
         if (f != IWP_FAULT_NONE) trip(c, f);
         /* the watchdog: at most watchdog_ms + one period after the last valid COMMAND or HEARTBEAT */
-        else if ((uint32_t)(t_us - c->fed_us) >= (uint32_t)(c->p[IWP_P_WATCHDOG_MS] * 1000.0f))
+        else if ((uint32_t)(t_us - c->fed_us) >= c->watchdog_us)
             trip(c, IWP_FAULT_WATCHDOG);
     }
     if (c->state == IWP_STATE_ARMED) {
@@ -468,13 +481,13 @@ float iwp_core_tick(iwp_core_t *c, int32_t count1, int32_t count2, float current
         c->flags = (uint16_t)(c->flags & ~IWP_FLAG_SATURATED);
         v = clamp_abs(c, v, c->p[IWP_P_V_MAX]);
         /* a stall: the command saturated while the wheel hardly turns (below a tenth of q4_max) */
-        if ((c->flags & IWP_FLAG_SATURATED) && fabsf(c->q4) < 0.1f * c->p[IWP_P_Q4_MAX])
-            c->sat_us += (uint32_t)c->p[IWP_P_PERIOD_US];
+        if ((c->flags & IWP_FLAG_SATURATED) && fabsf(c->q4) < c->q4_stall)
+            c->sat_us += c->period_us;
         else c->sat_us = 0;
         c->flags |= (uint16_t)(before & IWP_FLAG_SATURATED);
         c->u = u;
         c->v = v;
-        if (c->p[IWP_P_SAT_MS_MAX] > 0.0f && c->sat_us > (uint32_t)(c->p[IWP_P_SAT_MS_MAX] * 1000.0f))
+        if (c->sat_max_us && c->sat_us > c->sat_max_us)
             trip(c, IWP_FAULT_DUTY_LIMIT);
     } else {
         motor_off(c);

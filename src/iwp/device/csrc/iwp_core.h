@@ -39,7 +39,10 @@ typedef struct {
     float p[IWP_N_PARAMS];
     float step1, step2; /* encoder steps [rad] */
     float dt;           /* loop period [s] */
+    float w1, w2;       /* count differences to speeds: step / dt [rad/s per count] */
     float a3;           /* q3 filter pole exp(-dt/tau) */
+    float q4_stall;     /* below this wheel speed a saturated command is a stall [rad/s] */
+    uint32_t period_us, watchdog_us, sat_max_us; /* the same parameters as integers, once */
     /* state machine */
     uint8_t state, fault, mode, stream_every;
     uint32_t tick;         /* ticks since boot; the first is 1 */

@@ -1,8 +1,15 @@
 /* iwp_frame.c: CRC-16/CCITT-FALSE and COBS (see iwp_frame.h). */
 #include "iwp_frame.h"
 
+#ifdef __AVR__
+#include <util/crc16.h>
+#endif
+
 uint16_t iwp_crc16_update(uint16_t crc, uint8_t byte)
 {
+#ifdef __AVR__
+    return _crc_xmodem_update(crc, byte); /* avr-libc's hand-written form of the same polynomial */
+#endif
     /* the byte-wise form of the 0x1021 polynomial (no table: 32 bytes of RAM saved on the AVR) */
     uint8_t x = (uint8_t)((crc >> 8) ^ byte);
     x ^= (uint8_t)(x >> 4);
