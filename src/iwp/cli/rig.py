@@ -290,7 +290,8 @@ def run_emulate(args) -> int:
 
     timing = run_emulator(device, on_port=on_port, link=args.link, setup=setup, on_event=on_event)
     print(f"iwp: emulator stopped after {timing['ticks']} ticks; lateness of its ticks p50 "
-          f"{timing['p50'] * 1e3:.3f} ms, p99 {timing['p99'] * 1e3:.3f} ms, max {timing['max'] * 1e3:.3f} ms; "
+          f"{timing['p50'] * 1e3:.3f} ms, p99 {timing['p99'] * 1e3:.3f} ms, max {timing['max'] * 1e3:.3f} ms "
+          f"({timing['scheduling']}); "
           f"device {timing['state']}" + (f" ({timing['fault']})" if timing['fault'] != "NONE" else ""),
           file=sys.stderr)
     return 0

@@ -37,6 +37,7 @@ from ..rig.stepper import TwinStepper
 from .core import DeviceCore
 from .framing import encode_frame
 from .protocol import FAULTS, FIXTURE_ACTIONS, PARAMS, STATES, encode, name_of
+from .realtime import realtime_priority
 
 __all__ = ["TwinDevice", "Emulator", "open_pty", "run_emulator"]
 
@@ -123,6 +124,7 @@ class Emulator:
         #: called with a dict when the device's state changes (see :meth:`serve`)
         self.on_event = None
         self._state = None
+        self.scheduling = "normal"
 
     def stop(self) -> None:
         """Ask :meth:`serve` to return (from another thread or a signal handler)."""
@@ -159,7 +161,11 @@ class Emulator:
             del self._out[:n]
 
     def serve(self, *, max_ticks: int | None = None) -> None:
-        """Run until :meth:`stop` (or ``max_ticks`` ticks)."""
+        """Run until :meth:`stop` (or ``max_ticks`` ticks), with real-time priority where allowed."""
+        with realtime_priority() as self.scheduling:
+            self._serve(max_ticks)
+
+    def _serve(self, max_ticks: int | None) -> None:
         dev = self.device
         deadline = time.monotonic() + dev.period
         try:
@@ -220,9 +226,10 @@ class Emulator:
         """Lateness of the real-time ticks after their deadline [s]: p50, p99, max, and the count."""
         lat = np.asarray(self.lateness, dtype=float)
         if lat.size == 0:
-            return {"ticks": self.ticks, "p50": math.nan, "p99": math.nan, "max": math.nan}
+            return {"ticks": self.ticks, "p50": math.nan, "p99": math.nan, "max": math.nan,
+                    "scheduling": self.scheduling}
         return {"ticks": self.ticks, "p50": float(np.percentile(lat, 50)), "p99": float(np.percentile(lat, 99)),
-                "max": float(lat.max())}
+                "max": float(lat.max()), "scheduling": self.scheduling}
 
 
 def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup: dict | None = None,

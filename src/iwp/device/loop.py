@@ -19,6 +19,7 @@ not the device's and only the counters are reported.
 from __future__ import annotations
 
 import contextlib
+import gc
 import math
 import signal
 import time
@@ -28,6 +29,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import DeviceError
+from .realtime import realtime_priority
 from .rig import Rig, Sample
 
 __all__ = ["run_loop", "LoopResult", "HostLimits", "Terminated", "stop_signals", "DEFAULT_LEAD"]
@@ -105,6 +107,7 @@ class LoopResult:
     host_clock: bool = False
     counters0: tuple[int, int, int] = (0, 0, 0)
     wall: float = 0.0
+    scheduling: str = "normal"
 
     @property
     def seq0(self) -> int | None:
@@ -113,7 +116,8 @@ class LoopResult:
     def timing(self) -> dict:
         """Loop timing and counters (see the module's docstring); periods in milliseconds."""
         out: dict = {"Ts_ms": self.Ts * 1e3, "samples": len(self.samples), "wall_s": self.wall,
-                     "clock": "host (faster than real time)" if self.host_clock else "device (real time)"}
+                     "clock": "host (faster than real time)" if self.host_clock else "device (real time)",
+                     "scheduling": self.scheduling}
         if self.samples:
             last = self.samples[-1]
             o0, l0, r0 = self.counters0
@@ -187,6 +191,14 @@ def run_loop(
     wall0 = time.monotonic()
     next_progress = wall0
     link_timeout = max(link_timeout, 20 * Ts)
+    # a full collection of a process holding numpy, scipy and numba takes tens of milliseconds: the device's
+    # watchdog would see a silent host. The objects so far are frozen out of it, and the loop runs without it
+    # (what it allocates has no cycles and is freed by reference counting).
+    gc.collect()
+    gc.freeze()
+    gc.disable()
+    priority = realtime_priority()
+    res.scheduling = priority.__enter__()
     try:
         if input is not None:
             input(0.0)  # load what it needs (compiled code) now, not while the watchdog counts
@@ -255,6 +267,9 @@ def run_loop(
         res.wall = time.monotonic() - wall0
         if armed:
             _stop_motor(rig, res.interrupted)
+        priority.__exit__(None, None, None)
+        gc.enable()
+        gc.unfreeze()
     return res
 
 
