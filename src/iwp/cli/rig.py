@@ -217,6 +217,8 @@ def run_port(args) -> int:
 
 def finish_port_run(run, out, args, write) -> int:
     """Write what a run on a rig recorded (also when it stopped early) and say how it ended."""
+    if not args.quiet and sys.stderr.isatty():
+        print(file=sys.stderr)  # end the progress line
     if run.log is not None:
         write(run.log, out, force=True)
     what = "nothing recorded" if run.log is None else (

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ..errors import InputError
 
-__all__ = ["DeviceError", "LinkLost", "DeviceStopped"]
+__all__ = ["DeviceError", "LinkLost"]
 
 
 class DeviceError(InputError):
@@ -13,8 +13,4 @@ class DeviceError(InputError):
 
 
 class LinkLost(DeviceError):
-    """The device stopped answering during a run (no telemetry within the link timeout)."""
-
-
-class DeviceStopped(DeviceError):
-    """The device stopped the motor by itself during a run (a limit, its watchdog) or the host's check did."""
+    """The device stopped answering (no telemetry within the link timeout); a run ends with the motor stopped."""

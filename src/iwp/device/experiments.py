@@ -40,7 +40,7 @@ from ..rig.experiments import (
 )
 from ..rig.virtual import STATIC_WINDOW
 from ..sim.inputs import Chirp, Sine
-from .errors import DeviceError
+from .errors import DeviceError, LinkLost
 from .loop import HostLimits, LoopResult, run_loop
 from .record import loop_log
 from .rig import Rig
@@ -263,7 +263,7 @@ def settle(rig: Rig, seconds: float) -> None:
     while n * Ts < seconds:
         got = rig.samples(1.0)
         if not got:
-            raise DeviceError(f"link lost: no telemetry from {rig.port}")
+            raise LinkLost(f"link lost: no telemetry from {rig.port}")
         for x in got:
             rig.heartbeat(x.seq + 2)
         n += len(got)
@@ -333,7 +333,7 @@ def _wait_still(rig: Rig, Ts: float) -> None:
     while same < need:
         got = rig.samples(0.5)
         if not got:
-            raise DeviceError(f"link lost: no telemetry from {rig.port}")
+            raise LinkLost(f"link lost: no telemetry from {rig.port}")
         for x in got:
             same = same + 1 if x.count2 == last else 0
             last = x.count2

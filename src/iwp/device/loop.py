@@ -28,7 +28,7 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import DeviceError
+from .errors import DeviceError, LinkLost
 from .realtime import realtime_priority
 from .rig import Rig, Sample
 
@@ -223,7 +223,7 @@ def run_loop(
         while True:
             batch = rig.samples(link_timeout)
             if not batch:
-                raise DeviceError(f"link lost: no telemetry from {rig.port} for {link_timeout:g} s")
+                raise LinkLost(f"link lost: no telemetry from {rig.port} for {link_timeout:g} s")
             for s in batch:
                 if s.seq < start:  # before time 0: keep the queue ahead
                     if controller is not None:
@@ -284,7 +284,7 @@ class _Stop(Exception):
 def _first_sample(rig: Rig, timeout: float) -> Sample:
     got = rig.samples(timeout)
     if not got:
-        raise DeviceError(f"link lost: no telemetry from {rig.port} for {timeout:g} s")
+        raise LinkLost(f"link lost: no telemetry from {rig.port} for {timeout:g} s")
     return got[-1]
 
 
