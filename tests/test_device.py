@@ -25,6 +25,8 @@ import numpy as np
 import pytest
 
 from iwp.data import read_experiment
+from iwp.data.rig_description import RigDescription
+from iwp.data.rig_log import read_rig_log
 from iwp.device.cheader import HEADER_PATH, c_header
 from iwp.device.core import DeviceCore
 from iwp.device.experiments import run_on_rig
@@ -302,6 +304,8 @@ def test_ctrl_c_leaves_a_complete_readable_log_marked_interrupted(emulator, tmp_
     assert 0.2 < log.t[-1] < 4.0 and np.allclose(np.diff(log.t), 0.005)
     assert np.allclose(log.u, 60 * np.sin((3 + log.t / 100) * log.t), atol=1e-4)  # every row up to the stop
     assert load_logs([out], None)[0].n_samples == log.n_samples  # iwp fit reads it
+    rig = RigDescription.from_dict(json.loads(log.metadata["rig"]), where="rig")  # and with its rig description
+    assert np.array_equal(read_rig_log(out, rig).q2, log.q2)
     timing = json.loads(log.metadata["timing"])  # real time: the jitter is reported, loosely bounded
     assert timing["clock"] == "device (real time)" and timing["jitter_p99_ms"] < 5.0
     assert {"jitter_p50_ms", "jitter_max_ms", "device_overruns", "late_ticks", "host_overruns"} <= set(timing)

@@ -252,8 +252,9 @@ def hold_at(rig: Rig, q1: float, operator) -> None:
     if rig.fixture("HOLD", q1) is not None:
         settle(rig, _SETTLE)
     else:
-        operator(f"hold the pendulum at q1 = {q1:g} rad (count {round(q1 / (2 * math.pi) * rig.info.params['counts1'])})"
-                 ", the wheel still, and let it go when the run starts")
+        count = round(q1 / (2 * math.pi) * rig.info.params["counts1"])
+        operator(f"hold the pendulum at q1 = {q1:g} rad (count {count}), the wheel still, and let it go when the run "
+                 "starts")
 
 
 def settle(rig: Rig, seconds: float) -> None:

@@ -41,8 +41,7 @@ def rig_description(info: DeviceInfo, Ts: float, input_name: str | None) -> dict
             "wheel": {"column": "q2", "quantity": "angle", "unit": "rad", "counts_per_rev": p.get("counts2")},
             "input": ({"column": None} if input_name is None else
                       {"column": input_name, "kind": "units", "limits": [-p.get("v_max", 100.0), p.get("v_max", 100.0)],
-                       "compensated": input_name == "u"}),
-            "drive": {"kind": "belt", "ratio": 13.5} if info.board.startswith("host") else {"kind": "direct"}}
+                       "compensated": input_name == "u"})}
 
 
 def loop_log(res: LoopResult, info: DeviceInfo, link: LinkStats, *, input_name: str | None,
