@@ -18,6 +18,7 @@ subpackage          what
 :mod:`iwp.control`  Hopf design and continuation, LQR balance, swing-up
 :mod:`iwp.rig`      the virtual rig
 :mod:`iwp.calibration`  the twin calibrated so that the paper's procedures return its numbers
+:mod:`iwp.device`   the rig in the loop: protocol, rig interface, emulator, safe loop
 :mod:`iwp.reproduce`  the paper end to end on the virtual rig
 :mod:`iwp.report`   self-contained HTML reports
 :mod:`iwp.plotting`  figures
@@ -60,6 +61,9 @@ _EXPORTS: dict[str, str] = {
     "find_orbit": "iwp.control", "lqr_balance": "iwp.control", "swing_up": "iwp.control",
     # the virtual rig (the reproduction is iwp.reproduce.reproduce)
     "VirtualRig": "iwp.rig", "RigTruth": "iwp.rig", "default_truth": "iwp.rig",
+    # the rig in the loop
+    "Rig": "iwp.device", "TwinRig": "iwp.device", "open_rig": "iwp.device", "run_on_rig": "iwp.device",
+    "run_control": "iwp.device",
     # errors
     "IwpError": "iwp.errors", "InputError": "iwp.errors", "DataFormatError": "iwp.errors",
     "SimulationError": "iwp.errors", "IdentificationError": "iwp.errors", "OutputExistsError": "iwp.errors",

@@ -1,12 +1,14 @@
-"""``iwp control``: swing-up and balance (figure, animation, CSV); the balance LQR."""
+"""``iwp control``: swing-up and balance (figure, animation, CSV); the balance LQR; controllers on a rig."""
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 from ..errors import InputError
 from ._common import add_force_arg, add_params_arg, float_list, load_lumped
+from .portargs import add_port_args, open_port_rig, port_operator, port_progress
 
 _SWINGUP_DESCRIPTION = """\
 Swing the pendulum up from rest at the bottom by pumping energy with the
@@ -48,6 +50,24 @@ def register(sub) -> None:
     q.add_argument("--u-max", type=float, default=100.0, help="saturation of u (default 100)")
     q.add_argument("--json", action="store_true", help="print as JSON")
     q.set_defaults(func=run_lqr)
+
+    r = csub.add_parser("run", help="run a controller on a rig in the loop (--port) and write its log",
+                        description="Run iwp's controllers on a rig in the loop: the Hopf law of section 5.3 "
+                                    "(on the device or from the host), the upright LQR (device or host), swing-up "
+                                    "and balance (host). Writes the log; Ctrl-C, a limit, a lost link or an "
+                                    "error stops the motor and writes the log so far, marked interrupted. Exit "
+                                    "status 1 when a balance or swing-up does not end balanced.")
+    r.add_argument("what", choices=["hopf", "balance", "swingup"], help="the controller")
+    r.add_argument("--where", choices=["device", "host"], help="where it runs (default: device; swingup: host)")
+    r.add_argument("--out", "-o", required=True, metavar="FILE", help="output log (.csv/.txt, .parquet/.pq, .mat)")
+    r.add_argument("--duration", type=float, metavar="S", help="length [s] (default: hopf 60, balance 10, swingup 20)")
+    r.add_argument("--k1", type=float, default=-10.0, help="hopf: k1 (default -10)")
+    r.add_argument("--k2", type=float, default=0.1, help="hopf: k2 (default 0.1)")
+    r.add_argument("--x0", type=float, metavar="Q1", help="where the pendulum is released [rad]")
+    add_params_arg(r)
+    add_port_args(r)
+    add_force_arg(r)
+    r.set_defaults(func=run_on_port)
 
 
 def run_swingup(args) -> int:
@@ -109,3 +129,30 @@ def run_lqr(args) -> int:
     print(f"  open-loop unstable eigenvalue {L.unstable_eigenvalue:.4g} 1/s; capture bound |w.x| < "
           f"{L.capture_bound:.4g} rad with |u| <= {L.u_max:g}")
     return 0
+
+
+def run_on_port(args) -> int:
+    from ..device.control import run_control
+    from ..files import LOG_SUFFIXES, check_output_file
+    from ..rig import write_result
+    from .rig import finish_port_run
+
+    if args.port is None:
+        raise InputError("--port is required: a board with iwp's firmware, the port of iwp rig emulate, or twin")
+    out = check_output_file(args.out, force=args.force, argument="out", suffixes=tuple(LOG_SUFFIXES))
+    params = load_lumped(args.params)
+    where = args.where or ("host" if args.what == "swingup" else "device")
+    duration = args.duration if args.duration is not None else {"hopf": 60.0, "balance": 10.0, "swingup": 20.0}[
+        args.what]
+    if duration <= 0:
+        raise InputError(f"--duration must be > 0, got {duration}")
+    with open_port_rig(args) as rig:
+        run = run_control(rig, args.what, where=where, params=params, duration=duration, k1=args.k1, k2=args.k2,
+                          x0=args.x0, fast=args.fast, operator=port_operator(args), progress=port_progress(args))
+    args.name = f"control {args.what}"
+    status = finish_port_run(run, out, args, write_result)
+    if status == 0 and args.what in ("balance", "swingup") and run.log is not None \
+            and run.log.metadata.get("balanced") != "yes":
+        print(f"iwp: {args.what}: not balanced at the end", file=sys.stderr)
+        return 1
+    return status

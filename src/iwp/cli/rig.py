@@ -1,8 +1,13 @@
-"""``iwp rig``: the virtual rig -- list the paper's experiments, run one, write the default truth.
+"""``iwp rig``: the virtual rig and rigs in the loop -- list the paper's experiments, run one, emulate a rig.
 
 ``iwp rig list`` names the experiments; ``iwp rig run NAME --out FILE``
-runs one with the paper's settings (options override them) and writes the
-log (CSV, Parquet or MAT by extension; static curves as CSV);
+runs one with the paper's settings (options override them) on the virtual
+rig and writes the log (CSV, Parquet or MAT by extension; static curves as
+CSV); with ``--port PORT`` it runs on a rig in the loop (a board with iwp's
+firmware, the port of ``iwp rig emulate``, or ``twin`` for the twin in this
+process), also user inputs (chirp, prbs, steps, sine, release);
+``iwp rig emulate`` puts the twin behind a pseudo-terminal that speaks iwp's
+protocol in real time and prints its port;
 ``iwp rig truth --out TRUTH.json`` writes the default truth plant for
 editing (``--truth`` reads it back, field by field);
 ``iwp rig calibrate --out TRUTH.json`` calibrates the truth so that the
@@ -14,9 +19,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_force_arg
+from ._common import add_force_arg, float_list
+from .portargs import add_port_args, open_port_rig, port_operator, port_progress
 
 
 def _x0(text: str) -> list[float]:
@@ -44,16 +51,20 @@ def _v_dz(text: str):
 def register(sub) -> None:
     p = sub.add_parser("rig", help="the virtual rig: run the paper's experiments on a truth plant",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    rs = p.add_subparsers(dest="rig_command", metavar="{list,run,truth,calibrate}", parser_class=type(p))
+    rs = p.add_subparsers(dest="rig_command", metavar="{list,run,emulate,truth,calibrate}", parser_class=type(p))
     rs.required = True
 
     pl = rs.add_parser("list", help="name the paper's experiments with their settings")
     pl.set_defaults(func=run_list)
 
     pr = rs.add_parser("run", help="run one experiment and write its log",
-                       description="Run one of the paper's experiments on the virtual rig; write its log "
-                                   "(.csv/.txt, .parquet/.pq, .mat; static curves .csv).")
-    pr.add_argument("name", metavar="NAME", help="experiment (see: iwp rig list)")
+                       description="Run one of the paper's experiments on the virtual rig, or with --port on a rig "
+                                   "in the loop (also the inputs chirp, prbs, steps, sine, release); write its log "
+                                   "(.csv/.txt, .parquet/.pq, .mat; static curves .csv). On a rig, Ctrl-C, a limit, "
+                                   "a lost link or an error stops the motor and writes the log so far, marked "
+                                   "interrupted.")
+    pr.add_argument("name", metavar="NAME", help="experiment (see: iwp rig list), or with --port: chirp, prbs, "
+                                                 "steps, sine, release")
     pr.add_argument("--out", "-o", required=True, metavar="FILE", help="output file")
     pr.add_argument("--amplitude", type=float, help="input amplitude [input units] (static curves: largest |input|)")
     pr.add_argument("--step", type=float, help="static curves: spacing of the inputs [input units]")
@@ -67,8 +78,32 @@ def register(sub) -> None:
     pr.add_argument("--x0", type=_x0, metavar="Q1[,Q2,Q3,Q4]", help="initial state [rad, rad/s]")
     pr.add_argument("--v-dz", type=_v_dz, metavar="V|VPOS,VNEG|none",
                     help="thresholds of the rig's dead-zone compensation (default 31; none: off)")
+    add_port_args(pr)
+    pr.add_argument("--controller", choices=["device", "host"], default="device",
+                    help="closed-loop: the Hopf law on the device (default) or on the host")
+    pr.add_argument("--w0", type=float, help="chirp: start frequency [rad/s]")
+    pr.add_argument("--tau", type=float, help="chirp: w(t) = w0 + t/tau [s]")
+    pr.add_argument("--omega", type=float, help="sine: frequency [rad/s]")
+    pr.add_argument("--hold-time", type=float, metavar="S", help="prbs: time each level is held [s]")
+    pr.add_argument("--levels", type=float_list, metavar="U1,U2,...", help="steps: the levels [input units]")
+    pr.add_argument("--step-time", type=float, metavar="S", help="steps: time on each level [s]")
+    pr.add_argument("--locked", action="store_true", help="chirp, sine, prbs, steps: pendulum clamped at rest")
     add_force_arg(pr)
     pr.set_defaults(func=run_run)
+
+    pe = rs.add_parser("emulate", help="the twin behind a pseudo-terminal that speaks iwp's protocol",
+                       description="Put the twin (the firmware's core with the twin as its plant) behind a "
+                                   "pseudo-terminal that speaks iwp's protocol in real time, print its port, and "
+                                   "serve until Ctrl-C. Then: iwp rig run NAME --port PORT --out FILE.")
+    pe.add_argument("--truth", metavar="TRUTH.json", help="truth plant overrides (default: the calibrated twin)")
+    pe.add_argument("--params", metavar="FILE.json",
+                    help="another rig: its parameters (a rigid coupling; its dead zone if any)")
+    pe.add_argument("--rig", metavar="RIG.json", help="another rig's description: its sample period and encoders")
+    pe.add_argument("--session", choices=["auto", "5.1", "5.2"], default="auto",
+                    help="the twin's motor session (default auto: clamped 5.1, free 5.2)")
+    pe.add_argument("--seed", type=int, default=0, help="encoder noise seed")
+    pe.add_argument("--link", metavar="PATH", help="also make the port reachable as PATH (a symbolic link)")
+    pe.set_defaults(func=run_emulate)
 
     pt = rs.add_parser("truth", help="write the default truth plant as JSON (for editing)")
     pt.add_argument("--out", "-o", required=True, metavar="TRUTH.json", help="output file")
@@ -113,8 +148,14 @@ def _truth(path):
 
 
 def run_run(args) -> int:
+    if args.port is not None:
+        return run_port(args)
     from ..rig import VirtualRig, check_output_path, write_result
 
+    port_only = [f for f in ("w0", "tau", "omega", "hold_time", "levels", "step_time") if getattr(args, f) is not None]
+    if args.fast or args.locked or port_only:
+        flag = "--fast" if args.fast else "--locked" if args.locked else "--" + port_only[0].replace("_", "-")
+        raise InputError(f"{flag} needs --port (a rig in the loop; --port twin for the twin)")
     overrides = {}
     for opt, key in (("amplitude", "amplitude"), ("step", "step"), ("duration", "duration"), ("seed", "seed"),
                      ("noise", "noise_std"), ("k1", "k1"), ("k2", "k2"), ("x0", "x0"), ("v_dz", "v_dz")):
@@ -124,6 +165,11 @@ def run_run(args) -> int:
     truth = _truth(args.truth)
     rig = VirtualRig(truth)
     spec_opts = {s.name: s.options for s in rig.list_experiments()}
+    if args.name not in spec_opts:
+        from ..device.experiments import USER_INPUTS
+
+        if args.name in USER_INPUTS:
+            raise InputError(f"{args.name!r} runs on a rig in the loop: add --port PORT (--port twin for the twin)")
     if args.name in spec_opts:
         flags = {"noise_std": "--noise", "v_dz": "--v-dz"}
         bad = [k for k in overrides if k not in spec_opts[args.name]]
@@ -138,6 +184,118 @@ def run_run(args) -> int:
     else:
         what = f"{result.n_points} points"
     print(f"wrote {out} ({args.name}, {what}, seed {result.metadata.get('seed')})")
+    return 0
+
+
+def run_port(args) -> int:
+    """``iwp rig run NAME --port PORT``: the experiment on a rig in the loop."""
+    from ..device.experiments import RUN_NAMES, run_on_rig
+    from ..files import check_output_file
+    from ..rig import check_output_path, write_result
+
+    if args.name not in RUN_NAMES:
+        raise InputError(f"unknown experiment or input {args.name!r}; valid: {', '.join(RUN_NAMES)}")
+    if args.name.startswith("static-curve") or args.name in ("chirp", "prbs", "steps", "sine", "release"):
+        from ..files import LOG_SUFFIXES
+
+        suffixes = (".csv", ".txt") if args.name.startswith("static-curve") else tuple(LOG_SUFFIXES)
+        out = check_output_file(args.out, force=args.force, argument="out", suffixes=suffixes)
+    else:
+        out = check_output_path(args.name, args.out, force=args.force)
+    if args.truth is not None and args.port != "twin":
+        raise InputError("--truth sets the twin's truth: use it with --port twin (or with iwp rig emulate)")
+    options = {"amplitude": args.amplitude, "step": args.step, "duration": args.duration, "seed": args.seed,
+               "noise_std": args.noise, "k1": args.k1, "k2": args.k2, "x0": args.x0,
+               "v_dz": args.v_dz, "w0": args.w0, "tau": args.tau, "omega": args.omega,
+               "hold_time": args.hold_time, "levels": args.levels, "step_time": args.step_time,
+               "locked": True if args.locked else None}
+    with open_port_rig(args, _truth(args.truth) if args.truth else None) as rig:
+        run = run_on_rig(rig, args.name, controller=args.controller, fast=args.fast, operator=port_operator(args),
+                         progress=port_progress(args), **options)
+    return finish_port_run(run, out, args, write_result)
+
+
+def finish_port_run(run, out, args, write) -> int:
+    """Write what a run on a rig recorded (also when it stopped early) and say how it ended."""
+    if not args.quiet and sys.stderr.isatty():
+        print(file=sys.stderr)  # end the progress line
+    if run.log is not None:
+        write(run.log, out, force=True)
+    what = "nothing recorded" if run.log is None else (
+        f"{run.log.n_samples} samples, t = 0..{run.log.t[-1]:g} s" if hasattr(run.log, "n_samples")
+        else f"{run.log.n_points} points")
+    if not run.interrupted:
+        print(f"wrote {out} ({args.name} on {args.port}, {what})")
+        return 0
+    if run.log is not None:
+        print(f"wrote {out} ({args.name} on {args.port}, {what}; interrupted: {run.reason})")
+    if isinstance(run.error, KeyboardInterrupt):
+        raise run.error
+    from ..device.errors import DeviceError
+    from ..device.loop import Terminated
+
+    if isinstance(run.error, Terminated):
+        print(f"iwp: the motor was stopped: {run.reason}", file=sys.stderr)
+        return 143
+    if run.error is not None and not isinstance(run.error, DeviceError):
+        raise run.error
+    print(f"iwp: the motor was stopped: {run.reason}", file=sys.stderr)
+    return 1
+
+
+def run_emulate(args) -> int:
+    from ..data.rig_description import load_rig
+    from ..device.emulator import TwinDevice, run_emulator
+    from ..models.actuator import StartupFriction
+    from ..rig import RigTruth
+    from ..rig.stepper import TwinStepper
+    from ._common import load_lumped
+
+    if args.seed < 0:
+        raise InputError(f"--seed must be >= 0, got {args.seed}")
+    truth = _truth(args.truth)
+    setup = {}
+    what = "the calibrated twin of the paper's rig" if args.truth is None else f"the twin of {args.truth}"
+    if args.params is not None:
+        lumped = load_lumped(args.params)
+        truth = RigTruth(lumped=lumped, belt=None, startup=StartupFriction())
+        what = f"a rig with the parameters of {args.params}"
+    if args.rig is not None:
+        rig = load_rig(args.rig)
+        if rig.sample_period is not None:
+            setup["period_us"] = round(rig.sample_period * 1e6)
+        cpr = getattr(rig.pendulum, "counts_per_rev", None)
+        if cpr:
+            setup["counts1"] = float(cpr)
+            truth = truth.replace(counts_per_rev=int(cpr))
+        wcpr = getattr(rig.wheel, "counts_per_rev", None)
+        if wcpr:
+            setup["counts2"] = float(wcpr)
+        what += f", sampled as {args.rig} describes"
+    if args.link is not None:
+        if Path(args.link).exists() or Path(args.link).is_symlink():
+            raise InputError(f"--link {args.link}: exists; pick another path")
+    device = TwinDevice(TwinStepper(truth, session=args.session, seed=args.seed))
+
+    def on_port(path: str) -> None:
+        print(f"iwp: emulating {what} in real time; Ctrl-C stops", file=sys.stderr, flush=True)
+        print(f"port: {path}", flush=True)
+        if args.link:
+            print(f"link: {args.link}", flush=True)
+
+    def on_event(e: dict) -> None:
+        what = e["state"] + (f" ({e['fault']})" if e["fault"] != "NONE" else "")
+        after = "" if e["after_host"] != e["after_host"] else f", {e['after_host'] * 1e3:.1f} ms after the host's " \
+                                                                "last bytes"
+        print(f"iwp: device {what} at t = {e['t_device']:.3f} s (tick {e['tick']}){after}", file=sys.stderr,
+              flush=True)
+
+    timing = run_emulator(device, on_port=on_port, link=args.link, setup=setup, on_event=on_event)
+    print(f"iwp: emulator stopped after {timing['ticks']} ticks; lateness of its ticks p50 "
+          f"{timing['p50'] * 1e3:.3f} ms, p99 {timing['p99'] * 1e3:.3f} ms, max {timing['max'] * 1e3:.3f} ms "
+          f"({timing['scheduling']}); "
+          f"device {timing['state']}" + (f" ({timing['fault']})" if timing['fault'] != "NONE" else ""),
+          file=sys.stderr)
     return 0
 
 

@@ -1,0 +1,231 @@
+/* main.c: the thin hardware layer of iwp's firmware for an ATmega328P board (Arduino Uno/Nano, 16 MHz).
+ *
+ * Everything the rig does is in the portable core (core/iwp_core.c); this file only connects it to the
+ * board (see firmware/README.md for the wiring):
+ *   pendulum encoder A/B  D2/D3 (INT0/INT1, both edges: 4 counts per line)
+ *   wheel encoder A/B     D4/D5 (PCINT20/21, both edges)
+ *   H-bridge              PWM D9 (OC1A, 20 kHz), IN1 D7, IN2 D8 (L298N, TB6612, ...)
+ *   current sense         A0 (optional: -DIWP_CURRENT_SENSE, an ACS712-5A by default)
+ *   step marker           D13 (high while the control step runs: a scope, or simavr, times it)
+ *   serial                500000 baud, 8N1 (the USB adapter of the board); sent from an interrupt
+ * Timer2 ticks every millisecond; the loop runs every period_us / 1000 ticks. The AVR's own watchdog
+ * (120 ms) resets the board, motor off, if this loop ever hangs; the core's watchdog stops the motor
+ * when the host stops sending.
+ */
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <avr/sleep.h>
+#include <avr/wdt.h>
+#include <math.h>
+#include <stdint.h>
+#include <util/atomic.h>
+
+#include "iwp_core.h"
+
+#ifndef F_CPU
+#define F_CPU 16000000UL
+#endif
+#ifndef IWP_BAUD
+#define IWP_BAUD 500000UL
+#endif
+#define BASE_US 1000UL
+
+#ifdef IWP_CURRENT_SENSE
+#define CAPS (IWP_CAP_HOPF | IWP_CAP_STATE_FEEDBACK | IWP_CAP_CURRENT)
+#ifndef IWP_AMPS_PER_COUNT /* ACS712-5A: 185 mV/A at 5 V / 1024 counts */
+#define IWP_AMPS_PER_COUNT (5.0f / 1024.0f / 0.185f)
+#endif
+#define IWP_CURRENT_ZERO 512
+#else
+#define CAPS (IWP_CAP_HOPF | IWP_CAP_STATE_FEEDBACK)
+#endif
+
+static iwp_core_t core;
+
+/* ------------------------------------------------------------------ encoders (x4 quadrature) */
+static const int8_t QUAD[16] = {0, -1, 1, 0, 1, 0, 0, -1, -1, 0, 0, 1, 0, 1, -1, 0};
+static volatile int32_t count1, count2;
+static volatile uint8_t ab1, ab2;
+
+static inline void pendulum_edge(void)
+{
+    uint8_t ab = (uint8_t)((PIND >> 2) & 3); /* D2 = A, D3 = B */
+    count1 += QUAD[(ab1 << 2) | ab];
+    ab1 = ab;
+}
+ISR(INT0_vect) { pendulum_edge(); }
+ISR(INT1_vect, ISR_ALIASOF(INT0_vect));
+ISR(PCINT2_vect)
+{
+    uint8_t ab = (uint8_t)((PIND >> 4) & 3); /* D4 = A, D5 = B */
+    count2 += QUAD[(ab2 << 2) | ab];
+    ab2 = ab;
+}
+
+/* ------------------------------------------------------------------ the clock: Timer2, 1 kHz */
+static volatile uint32_t ms;
+static volatile uint8_t due, missed;
+static volatile uint16_t every = 5, phase;
+
+ISR(TIMER2_COMPA_vect)
+{
+    ms++;
+    if (++phase >= every) {
+        phase = 0;
+        if (due) missed++; /* the last step has not run yet: an overrun */
+        due = 1;
+    }
+}
+
+static uint32_t micros(void)
+{
+    uint32_t m;
+    uint8_t t;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { m = ms; t = TCNT2; }
+    return m * 1000UL + (uint32_t)t * 4UL;
+}
+
+/* ------------------------------------------------------------------ serial, interrupt driven */
+#define RX_LEN 64
+static volatile uint8_t rx_buf[RX_LEN], rx_head, rx_tail;
+ISR(USART_RX_vect)
+{
+    uint8_t b = UDR0, next = (uint8_t)((rx_head + 1) & (RX_LEN - 1));
+    if (next != rx_tail) { rx_buf[rx_head] = b; rx_head = next; } /* else lost: the frame's CRC fails */
+}
+
+#define TX_LEN 128 /* sent by the UDRE interrupt, also while the control step runs */
+static volatile uint8_t tx_buf[TX_LEN], tx_head, tx_tail;
+ISR(USART_UDRE_vect)
+{
+    if (tx_tail == tx_head) {
+        UCSR0B &= (uint8_t)~_BV(UDRIE0); /* nothing more to send */
+        return;
+    }
+    UDR0 = tx_buf[tx_tail];
+    tx_tail = (uint8_t)((tx_tail + 1) & (TX_LEN - 1));
+}
+
+/* move what the core has to send into the interrupt's buffer */
+static void uart_feed(void)
+{
+    uint8_t moved = 0;
+    while (iwp_core_tx_pending(&core)) {
+        uint8_t next = (uint8_t)((tx_head + 1) & (TX_LEN - 1));
+        if (next == tx_tail) break;
+        uint8_t b;
+        iwp_core_tx_take(&core, &b, 1);
+        tx_buf[tx_head] = b;
+        tx_head = next;
+        moved = 1;
+    }
+    if (moved) UCSR0B |= _BV(UDRIE0);
+}
+
+static void uart_init(void)
+{
+    UCSR0A = _BV(U2X0);
+    UBRR0 = (uint16_t)(F_CPU / (8UL * IWP_BAUD) - 1UL);
+    UCSR0B = _BV(RXEN0) | _BV(TXEN0) | _BV(RXCIE0);
+    UCSR0C = _BV(UCSZ01) | _BV(UCSZ00);
+}
+
+/* ------------------------------------------------------------------ the motor */
+#define PWM_TOP 400 /* 16 MHz / (2 * 400) = 20 kHz, phase correct */
+
+static void motor_init(void)
+{
+    DDRB |= _BV(PB1) | _BV(PB0) | _BV(PB5); /* D9 PWM, D8 IN2, D13 step marker */
+    DDRD |= _BV(PD7);                       /* D7 IN1 */
+    TCCR1A = _BV(COM1A1) | _BV(WGM11);
+    TCCR1B = _BV(WGM13) | _BV(CS10);
+    ICR1 = PWM_TOP;
+    OCR1A = 0;
+}
+
+static void motor_set(float v) /* v in input units, |v| <= 100 = full duty */
+{
+    float a = v < 0.0f ? -v : v;
+    uint16_t duty = (uint16_t)(a * (PWM_TOP / 100.0f) + 0.5f);
+    if (duty > PWM_TOP) duty = PWM_TOP;
+    if (v > 0.0f) { PORTD |= _BV(PD7); PORTB &= (uint8_t)~_BV(PB0); }
+    else if (v < 0.0f) { PORTD &= (uint8_t)~_BV(PD7); PORTB |= _BV(PB0); }
+    else { PORTD &= (uint8_t)~_BV(PD7); PORTB &= (uint8_t)~_BV(PB0); }
+    OCR1A = duty;
+}
+
+static float current_amps(void)
+{
+#ifdef IWP_CURRENT_SENSE
+    ADCSRA |= _BV(ADSC);
+    while (ADCSRA & _BV(ADSC)) {}
+    return ((int16_t)ADC - IWP_CURRENT_ZERO) * IWP_AMPS_PER_COUNT;
+#else
+    return NAN;
+#endif
+}
+
+static void io_init(void)
+{
+    /* encoders: inputs with pull-ups, interrupts on any edge */
+    DDRD &= (uint8_t)~(_BV(PD2) | _BV(PD3) | _BV(PD4) | _BV(PD5));
+    PORTD |= _BV(PD2) | _BV(PD3) | _BV(PD4) | _BV(PD5);
+    EICRA = _BV(ISC00) | _BV(ISC10);
+    EIMSK = _BV(INT0) | _BV(INT1);
+    PCMSK2 = _BV(PCINT20) | _BV(PCINT21);
+    PCICR = _BV(PCIE2);
+    ab1 = (uint8_t)((PIND >> 2) & 3);
+    ab2 = (uint8_t)((PIND >> 4) & 3);
+    /* Timer2: CTC, 16 MHz / 64 / 250 = 1 kHz */
+    TCCR2A = _BV(WGM21);
+    TCCR2B = _BV(CS22);
+    OCR2A = 249;
+    TIMSK2 = _BV(OCIE2A);
+#ifdef IWP_CURRENT_SENSE
+    ADMUX = _BV(REFS0);
+    ADCSRA = _BV(ADEN) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0);
+#endif
+}
+
+int main(void)
+{
+    MCUSR = 0;
+    wdt_enable(WDTO_120MS);
+    motor_init();
+    motor_set(0.0f);
+    iwp_core_init(&core, 1, CAPS, BASE_US);
+    uart_init();
+    io_init();
+    sei();
+    for (;;) {
+        wdt_reset();
+        if (due) {
+            int32_t c1, c2;
+            uint8_t lost;
+            ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { c1 = count1; c2 = count2; due = 0; lost = missed; missed = 0; }
+            PORTB |= _BV(PB5); /* the control step starts */
+            while (lost--) iwp_core_overrun(&core);
+            float v = iwp_core_tick(&core, c1, c2, current_amps(), micros());
+            motor_set(v);
+            PORTB &= (uint8_t)~_BV(PB5); /* ... and ends */
+            uint16_t per = (uint16_t)(iwp_core_period_us(&core) / BASE_US);
+            ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { every = per ? per : 1; }
+        }
+        while (rx_tail != rx_head) {
+            uint8_t b = rx_buf[rx_tail];
+            rx_tail = (uint8_t)((rx_tail + 1) & (RX_LEN - 1));
+            iwp_core_rx(&core, &b, 1);
+        }
+        uart_feed();
+        ATOMIC_BLOCK(ATOMIC_FORCEON) {
+            uint8_t tx_full = ((uint8_t)(tx_head + 1) & (TX_LEN - 1)) == tx_tail;
+            if (!due && rx_tail == rx_head && (!iwp_core_tx_pending(&core) || tx_full)) {
+                set_sleep_mode(SLEEP_MODE_IDLE);
+                sleep_enable();
+                sei();
+                sleep_cpu(); /* the next interrupt wakes it: a tick, a byte */
+                sleep_disable();
+            }
+        }
+    }
+}

@@ -1,0 +1,122 @@
+"""iwp's controllers on a rig in the loop: the Hopf law, the upright LQR, swing-up and balance.
+
+:func:`run_control` runs one of them on a :class:`~iwp.device.rig.Rig`,
+on the device (its Hopf law or its state feedback, with the gains uploaded)
+or from the host (the Python controllers of :mod:`iwp.control` and
+:mod:`iwp.rig.controller`, one period of delay), and returns the run as
+:func:`iwp.device.experiments.run_on_rig` does.
+
+* ``hopf``: the closed loop of section 5.3, ``u = k1 q3 + k2 q3^3``, from
+  the pendulum released at ``x0`` (the experiment ``closed-loop``).
+* ``balance``: the LQR at the upright (:func:`iwp.control.lqr_balance`,
+  discrete at the loop period), from the pendulum released near the top.
+  On the device it is state feedback on the device's velocity estimates;
+  on the host the LQR acts on the observer of
+  :class:`~iwp.control.SwingUpController`.
+* ``swingup``: energy pumping from rest, then the LQR
+  (:class:`~iwp.control.SwingUpController` on the rig's conditions); host
+  only. Success: within ``tolerance`` of the upright over the last ``hold``
+  seconds.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..control import RigConditions, SwingUpController, lqr_balance
+from ..control.balance import wrap_angle
+from ..errors import InputError
+from ..models.parameters import LumpedParameters
+from .experiments import RigRun, arrange, default_operator, hold_at, releaser, run_on_rig
+from .loop import HostLimits, run_loop
+from .record import loop_log
+from .rig import Rig
+
+__all__ = ["run_control", "CONTROLLERS", "balanced", "BALANCE_START", "V_DZ"]
+
+#: The balance starts this far from the upright [rad] (the capture region of the LQR with |u| <= 69 is 0.05 rad).
+BALANCE_START = 0.02
+#: The paper's feedforward threshold (section 5.1) [input units].
+V_DZ = 31.0
+
+#: The controllers and where each can run.
+CONTROLLERS = {"hopf": ("device", "host"), "balance": ("device", "host"), "swingup": ("host",)}
+
+
+def balanced(q1, t, *, tolerance: float = 0.05, hold: float = 3.0) -> bool:
+    """Within ``tolerance`` [rad] of the upright over the last ``hold`` [s] of the log."""
+    q1, t = np.asarray(q1, dtype=float), np.asarray(t, dtype=float)
+    if t.size == 0 or t[-1] - t[0] < hold:
+        return False
+    return bool(np.all(np.abs(wrap_angle(q1[t >= t[-1] - hold] - math.pi)) < tolerance))
+
+
+def run_control(rig: Rig, what: str, *, where: str = "device", params: LumpedParameters, duration: float,
+                k1: float = -10.0, k2: float = 0.1, x0=None, fast: bool = False, operator=None, progress=None,
+                limits: HostLimits | None = None) -> RigRun:
+    """Run controller ``what`` (:data:`CONTROLLERS`) on ``rig``; see the module's docstring.
+
+    Parameters
+    ----------
+    params : LumpedParameters
+        The model the LQR and the swing-up are designed on (e.g. Table 1).
+    duration : float
+        [s]
+    k1, k2 : float
+        Hopf gains.
+    x0 : float or sequence, optional
+        Where the pendulum is released [rad] (hopf: 0.3; balance: pi - 0.05; swingup: rest at the bottom).
+    """
+    if what not in CONTROLLERS:
+        raise InputError(f"unknown controller {what!r}; valid: {', '.join(CONTROLLERS)}")
+    if where not in CONTROLLERS[what]:
+        raise InputError(f"{what} runs on the {' or the '.join(CONTROLLERS[what])}, not on the {where}",
+                         argument="where")
+    if what == "hopf":
+        return run_on_rig(rig, "closed-loop", controller=where, fast=fast, operator=operator, progress=progress,
+                          limits=limits, k1=k1, k2=k2, duration=duration, x0=0.3 if x0 is None else x0)
+    if fast and not rig.has("HOST_CLOCK"):
+        raise InputError(f"{rig.port}: this device runs in real time only (no HOST_CLOCK); drop --fast")
+    Ts = rig.info.params["period_us"] * 1e-6
+    # what the driver can give on top of the feedforward: |u| <= v_max - v_dz
+    u_max = min(rig.info.params["u_max"], rig.info.params["v_max"] - V_DZ)
+    q1_start = (math.pi - BALANCE_START if what == "balance" else 0.0) if x0 is None else float(np.ravel([x0])[0])
+    operator = operator or default_operator
+    got = rig.samples(0.5)
+    if got and got[-1].state != "DISARMED":
+        rig.clear()
+    rig.disarm()
+    rig.stream(1)
+    rig.set_params(host_clock=1.0 if fast else 0.0, v_dz_pos=V_DZ, v_dz_neg=V_DZ)
+    meta = {"experiment": f"control {what}", "controller": where, "pendulum": "free", "x0": repr(q1_start),
+            "params": params.to_dict() if hasattr(params, "to_dict") else str(params)}
+    arrange(rig, False, operator)
+    on_start = None
+    if q1_start != 0.0:
+        hold_at(rig, q1_start, operator)
+        on_start = releaser(rig)
+    kw = {}
+    if what == "balance" and where == "device":
+        lqr = lqr_balance(params, u_max=u_max, Ts=Ts)
+        rig.set_params(K_q1=float(lqr.K[0]), K_q3=float(lqr.K[1]), K_q4=float(lqr.K[2]), q1_ref=math.pi, u_max=u_max)
+        rig.mode("STATE_FEEDBACK")
+        meta["K"] = repr([float(k) for k in lqr.K])
+        kw["device_law"] = True
+    else:
+        rig.mode("HOST")
+        cond = RigConditions(Ts=Ts, u_max=u_max, counts_per_rev=int(rig.info.params["counts1"]))
+        ctrl = SwingUpController(params, rig=cond)
+        for _ in range(3):  # load its compiled observer now, not while the watchdog counts
+            ctrl(0.0, np.array([q1_start, 0.0, 0.0, 0.0]))
+        ctrl.reset()
+        kw["controller"] = ctrl
+    if limits is None:
+        limits = HostLimits(rig.info.params["q1_max"], rig.info.params["q4_max"])
+    res = run_loop(rig, duration=duration, limits=limits, progress=progress, on_start=on_start, **kw)
+    seq = np.array([s.seq for s in res.samples], dtype=float)
+    ok = balanced([s.q1 for s in res.samples], (seq - seq[0]) * Ts if seq.size else seq)
+    meta["balanced"] = "yes" if ok else "no"
+    log = loop_log(res, rig.info, rig.link.stats, input_name="u", metadata=meta, source=f"{what} on {rig.port}")
+    return RigRun(log, res.interrupted, res.reason, res.error, [res])

@@ -1,0 +1,285 @@
+"""The emulator: the firmware's core with the twin as its plant, behind a pseudo-terminal, in real time.
+
+:class:`TwinDevice` is one emulated board: the firmware's portable core
+(:class:`~iwp.device.core.DeviceCore`, the same C code the AVR runs) whose
+encoders read the twin (:class:`~iwp.rig.stepper.TwinStepper`) and whose
+motor command drives it, one loop period per :meth:`TwinDevice.tick`; the
+device time is the ideal tick time (the board's crystal), the plant is
+advanced by exactly one period.
+
+:class:`Emulator` serves a :class:`TwinDevice` on a file descriptor (the
+master side of a pseudo-terminal, :func:`open_pty`): bytes from the host go
+to the core, the core's bytes go back, and a tick runs every period of the
+wall clock. With the device's ``host_clock`` parameter set (caps
+``HOST_CLOCK``), a tick also runs as soon as the host allows the next one
+(it has sent the next tick's command or heartbeat), so that a run goes as
+fast as the host keeps up, and never slower than real time: without the
+host, the device ticks in real time and its watchdog stops the motor. A
+tick that starts more than one period late is an overrun (counted by the
+core, reported in telemetry); the lateness of every real-time tick is kept
+(:attr:`Emulator.lateness`).
+"""
+
+from __future__ import annotations
+
+import errno
+import math
+import os
+import select
+import signal
+import threading
+import time
+import tty
+
+import numpy as np
+
+from ..rig.stepper import TwinStepper
+from .core import DeviceCore
+from .framing import encode_frame
+from .protocol import FAULTS, FIXTURE_ACTIONS, PARAMS, STATES, encode, name_of
+from .realtime import realtime_priority
+
+__all__ = ["TwinDevice", "Emulator", "open_pty", "run_emulator"]
+
+_NAN = float("nan")
+#: Bytes kept for a host that does not read (beyond them the oldest are dropped, as a UART without flow control
+#: drops them; the host sees the gap).
+_TX_BACKLOG = 2048
+
+
+class TwinDevice:
+    """One emulated board: the firmware's core reading and driving the twin.
+
+    Parameters
+    ----------
+    stepper : TwinStepper, optional
+        The plant (default: the calibrated twin, ``session="auto"``).
+    core : DeviceCore, optional
+    """
+
+    def __init__(self, stepper: TwinStepper | None = None, core: DeviceCore | None = None):
+        self.stepper = TwinStepper() if stepper is None else stepper
+        self.core = DeviceCore() if core is None else core
+        self.stepper.warm()
+
+    @property
+    def period(self) -> float:
+        """The loop period [s]."""
+        return self.core.period_us * 1e-6
+
+    def rx(self, data: bytes) -> None:
+        self.core.rx(data)
+
+    def tx(self) -> bytes:
+        return self.core.tx()
+
+    def tick(self) -> float:
+        """One loop period: the operator's pending action, the encoders, the core, the plant over one period."""
+        fx = self.core.fixture()
+        if fx is not None:
+            action, q1 = fx
+            if action == FIXTURE_ACTIONS["CLAMP"]:
+                self.stepper.clamp()
+            elif action == FIXTURE_ACTIONS["HOLD"]:
+                self.stepper.hold(q1)
+            else:
+                self.stepper.release()
+        c1, c2 = self.stepper.counts()
+        period_us = self.core.period_us
+        v = self.core.tick(c1, c2, _NAN, int(round(self.stepper.t * 1e6)))
+        self.stepper.advance(v, period_us * 1e-6)
+        return v
+
+
+def open_pty() -> tuple[int, int, str]:
+    """A raw pseudo-terminal: ``(master_fd, slave_fd, slave_path)``; the master is non-blocking."""
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    os.set_blocking(master, False)
+    return master, slave, os.ttyname(slave)
+
+
+class Emulator:
+    """Serve a :class:`TwinDevice` on a file descriptor in real time (or faster, by the host's clock).
+
+    Parameters
+    ----------
+    device : TwinDevice
+    fd : int
+        A non-blocking descriptor to read the host's bytes from and write the device's to
+        (the master side of :func:`open_pty`).
+    """
+
+    def __init__(self, device: TwinDevice, fd: int):
+        self.device = device
+        self.fd = fd
+        self._stop = threading.Event()
+        self._out = bytearray()
+        self.lateness: list[float] = []
+        self.ticks = 0
+        self.dropped = 0
+        self.error: BaseException | None = None
+        #: wall time (time.monotonic) of the last bytes from the host [s]
+        self.last_rx = math.nan
+        #: called with a dict when the device's state changes (see :meth:`serve`)
+        self.on_event = None
+        self._state = None
+        self.scheduling = "normal"
+
+    def stop(self) -> None:
+        """Ask :meth:`serve` to return (from another thread or a signal handler)."""
+        self._stop.set()
+
+    def _read(self) -> None:
+        try:
+            data = os.read(self.fd, 65536)
+        except BlockingIOError:
+            return
+        except OSError as exc:  # EIO: nobody holds the other side
+            if exc.errno != errno.EIO:
+                raise
+            return
+        if data:
+            self.last_rx = time.monotonic()
+            self.device.rx(data)
+
+    def _flush(self) -> None:
+        self._out += self.device.tx()
+        if len(self._out) > _TX_BACKLOG:
+            self.dropped += len(self._out) - _TX_BACKLOG
+            del self._out[: len(self._out) - _TX_BACKLOG]
+        while self._out:
+            try:
+                n = os.write(self.fd, self._out)
+            except BlockingIOError:
+                return
+            except OSError as exc:
+                if exc.errno != errno.EIO:
+                    raise
+                self._out.clear()
+                return
+            del self._out[:n]
+
+    def serve(self, *, max_ticks: int | None = None) -> None:
+        """Run until :meth:`stop` (or ``max_ticks`` ticks), with real-time priority where allowed."""
+        with realtime_priority() as self.scheduling:
+            self._serve(max_ticks)
+
+    def _serve(self, max_ticks: int | None) -> None:
+        dev = self.device
+        deadline = time.monotonic() + dev.period
+        try:
+            while not self._stop.is_set() and (max_ticks is None or self.ticks < max_ticks):
+                now = time.monotonic()
+                if dev.core.ready():
+                    deadline = now  # the host allows the next tick: run it now, and a period from now at the latest
+                    late = 0.0
+                elif now < deadline:
+                    r, w, _ = select.select([self.fd], [self.fd] if self._out else [], [], deadline - now)
+                    if r:
+                        self._read()
+                    if w:
+                        self._flush()
+                    continue
+                else:
+                    late = now - deadline
+                    self.lateness.append(late)
+                self._read()
+                if late > dev.period:
+                    dev.core.overrun()
+                    deadline = now  # the lost periods are not caught up
+                dev.tick()
+                self.ticks += 1
+                if self.on_event is not None:
+                    self._report()
+                self._flush()
+                deadline += dev.period
+        except BaseException as exc:  # noqa: BLE001 (kept for the thread's owner)
+            self.error = exc
+            raise
+
+    def _report(self) -> None:
+        """Tell :attr:`on_event` when the state changed: device time, wall time, and how long after the host's
+        last bytes (the watchdog's measure)."""
+        tick, state, fault, v = self.device.core.status()
+        if state == self._state:
+            return
+        self._state = state
+        now = time.monotonic()
+        self.on_event({"state": name_of(STATES, state), "fault": name_of(FAULTS, fault), "tick": tick,
+                       "t_device": self.device.stepper.t, "wall": now, "v": v,
+                       "after_host": now - self.last_rx if math.isfinite(self.last_rx) else math.nan})
+
+    def start(self) -> threading.Thread:
+        """Serve in a daemon thread (the in-process twin, tests)."""
+        th = threading.Thread(target=self._serve_quietly, name="iwp-emulator", daemon=True)
+        th.start()
+        return th
+
+    def _serve_quietly(self) -> None:
+        try:
+            self.serve()
+        except BaseException:  # noqa: BLE001 (recorded in self.error)
+            pass
+
+    def timing(self) -> dict[str, float]:
+        """Lateness of the real-time ticks after their deadline [s]: p50, p99, max, and the count."""
+        lat = np.asarray(self.lateness, dtype=float)
+        if lat.size == 0:
+            return {"ticks": self.ticks, "p50": math.nan, "p99": math.nan, "max": math.nan,
+                    "scheduling": self.scheduling}
+        return {"ticks": self.ticks, "p50": float(np.percentile(lat, 50)), "p99": float(np.percentile(lat, 99)),
+                "max": float(lat.max()), "scheduling": self.scheduling}
+
+
+def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup: dict | None = None,
+                 on_event=None) -> dict:
+    """Serve ``device`` on a new pseudo-terminal until SIGINT or SIGTERM; returns the timing.
+
+    Parameters
+    ----------
+    device : TwinDevice
+    on_port : callable
+        Called with the port's path once it is ready (the CLI prints it).
+    link : str, optional
+        Also reachable as this path (a symbolic link to the port, removed at the end).
+    setup : dict, optional
+        Device parameters to set before serving (``period_us``, ``counts1``, ...), as a host would.
+    on_event : callable, optional
+        Called with a dict at each change of the device's state (state, fault, tick, device and wall
+        time, ``after_host``: seconds since the host's last bytes).
+    """
+    for name, value in (setup or {}).items():
+        device.rx(encode_frame(encode("SET_PARAM", param=PARAMS[name].id, value=float(value))))
+    device.tx()  # the answers to ourselves
+    master, slave, path = open_pty()
+    emu = Emulator(device, master)
+    emu.on_event = on_event
+    made_link = False
+    old = {}
+
+    def handler(signum, frame):
+        emu.stop()
+
+    try:
+        for s in (signal.SIGINT, signal.SIGTERM):
+            old[s] = signal.signal(s, handler)
+        if link is not None:
+            os.symlink(path, link)
+            made_link = True
+        on_port(path)
+        emu.serve()
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        if made_link:
+            try:
+                os.unlink(link)
+            except OSError:
+                pass
+        os.close(master)
+        os.close(slave)
+    out = emu.timing()
+    tick, state, fault, v = device.core.status()
+    out.update(state=name_of(STATES, state), fault=name_of(FAULTS, fault))
+    return out

@@ -1,0 +1,344 @@
+"""The paper's experiments and the user's inputs on a rig in the loop.
+
+:func:`run_on_rig` runs one of the paper's experiments (section 5, the names
+of :mod:`iwp.rig.experiments`, with their settings) or a user input
+(:data:`USER_INPUTS`: a chirp, a PRBS, steps, a sine, a release with the
+wheel held) on any :class:`~iwp.device.rig.Rig`, and returns the log as the
+virtual rig returns it (:class:`~iwp.data.ExperimentData`, or a
+:class:`~iwp.data.StaticCurve` for the static curves), marked
+``interrupted`` if it stopped early.
+
+Each run sets the device's feedforward (7)-(8) (``v_dz``; 0 for a raw input
+``v``), arranges the pendulum (clamped at rest, hanging still, or held at an
+angle) with the emulated rig's hands (FIXTURE) or by asking the operator
+(``operator``), zeroes the encoders with the pendulum hanging at rest, then
+runs the loop (:func:`~iwp.device.loop.run_loop`). A static curve holds each
+input for ``duration`` seconds from rest, reads the wheel speed as the
+least-squares slope of ``q2`` over the last second (as the virtual rig
+does), and waits for the wheel to stop before the next input.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from ..checks import check_finite, check_nonnegative, check_positive
+from ..data import ExperimentData, StaticCurve
+from ..errors import InputError
+from ..rig.controller import EncoderHopfController
+from ..rig.described import prbs
+from ..rig.experiments import (
+    EXPERIMENTS,
+    compensation_thresholds,
+    experiment_spec,
+    initial_state,
+    open_loop_input,
+)
+from ..rig.virtual import STATIC_WINDOW
+from ..sim.inputs import Chirp, Sine
+from .errors import DeviceError, LinkLost
+from .loop import HostLimits, LoopResult, run_loop
+from .record import loop_log
+from .rig import Rig
+
+__all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "RUN_NAMES", "PAPER_SERIES", "arrange", "hold_at", "releaser",
+           "settle", "default_operator"]
+
+#: User inputs and the options each takes (with their defaults).
+USER_INPUTS: dict[str, dict[str, Any]] = {
+    "chirp": {"amplitude": 60.0, "w0": 3.0, "tau": 100.0, "duration": 60.0, "locked": False, "v_dz": 31.0},
+    "sine": {"amplitude": 40.0, "omega": 5.0, "duration": 20.0, "locked": False, "v_dz": 31.0},
+    "prbs": {"amplitude": 40.0, "hold_time": 0.3, "seed": 0, "duration": 30.0, "locked": False, "v_dz": 31.0},
+    "steps": {"levels": (40.0, 0.0, -40.0, 0.0), "step_time": 2.0, "duration": 16.0, "locked": False,
+              "v_dz": 31.0},
+    "release": {"x0": -1.0, "duration": 30.0},
+}
+#: Every name :func:`run_on_rig` takes.
+RUN_NAMES = tuple(EXPERIMENTS) + tuple(USER_INPUTS)
+#: The paper's time-series experiments.
+PAPER_SERIES = tuple(n for n in EXPERIMENTS if not n.startswith("static-curve"))
+#: Options that only the virtual rig's simulation has.
+_SIMULATION_ONLY = ("seed", "noise_std")
+#: Time for the device's velocity estimates to settle after the pendulum is put somewhere [s].
+_SETTLE = 0.2
+#: Wheel at rest: no count for this long [s] (static curves) ...
+_STILL = 0.5
+#: ... within this long [s].
+_STILL_MAX = 30.0
+
+
+@dataclass
+class RigRun:
+    """One run on a rig: the log (None if nothing was recorded) and how it ended."""
+
+    log: ExperimentData | StaticCurve | None
+    interrupted: bool = False
+    reason: str = "complete"
+    error: BaseException | None = None
+    loops: list[LoopResult] = field(default_factory=list)
+
+
+def default_operator(message: str) -> None:
+    """No operator: a rig without emulated hands cannot be arranged."""
+    raise DeviceError(f"this rig has no emulated hands: {message}, then run again with an operator "
+                      "(the command line asks you)")
+
+
+def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = False,
+               operator: Callable[[str], None] | None = None, progress: Callable[[dict], None] | None = None,
+               limits: HostLimits | None = None, **options) -> RigRun:
+    """Run experiment or input ``name`` on ``rig``.
+
+    Parameters
+    ----------
+    rig : Rig
+    name : str
+        One of the paper's experiments (``iwp rig list``) or :data:`USER_INPUTS`.
+    controller : {"device", "host"}
+        Where the closed loop's Hopf law runs (``closed-loop``).
+    fast : bool
+        Run by the host's clock (devices with caps ``HOST_CLOCK``: the emulator).
+    operator : callable, optional
+        ``operator(message)`` asks a person to arrange the pendulum when the rig has no emulated hands.
+    progress : callable, optional
+        See :func:`~iwp.device.loop.run_loop`.
+    limits : HostLimits, optional
+        The host's check (default: the device's own limits).
+    **options
+        The experiment's options (``iwp rig list``; for user inputs :data:`USER_INPUTS`).
+    """
+    if name not in RUN_NAMES:
+        raise InputError(f"unknown experiment or input {name!r}; valid: {', '.join(RUN_NAMES)}", argument="name")
+    s = _settings(name, options)
+    operator = operator or default_operator
+    if fast:
+        if not rig.has("HOST_CLOCK"):
+            raise DeviceError(f"{rig.port}: this device runs in real time only (no HOST_CLOCK); drop --fast")
+    _prepare(rig, fast)
+    compensated = s.get("v_dz") is not None
+    pair = compensation_thresholds(s.get("v_dz")) if compensated else (0.0, 0.0)
+    rig.set_params(v_dz_pos=pair[0], v_dz_neg=pair[1])
+    if limits is None:
+        limits = HostLimits(rig.info.params["q1_max"], rig.info.params["q4_max"])
+    meta: dict[str, Any] = {"experiment": name}
+    if name in EXPERIMENTS:
+        spec = experiment_spec(name)
+        meta.update(reference=spec.reference, description=spec.description, session=spec.session)
+    meta["settings"] = ", ".join(f"{k}={v}" for k, v in s.items())
+    if name.startswith("static-curve"):
+        return _static_curve(rig, name, s, compensated, operator, progress, limits, meta)
+    locked = bool(s.get("locked", False))
+    meta["pendulum"] = "locked" if locked else "free"
+    x0 = initial_state(s["x0"]) if "x0" in s else None
+    arrange(rig, locked, operator)
+    on_start = None
+    if x0 is not None and x0[0] != 0.0:
+        meta["x0"] = json_list(x0)
+        hold_at(rig, float(x0[0]), operator)
+        on_start = releaser(rig)
+    kw: dict[str, Any] = {}
+    arm = True
+    input_name = "u" if compensated else "v"
+    if name in ("free-pendulum", "release"):
+        arm, input_name = False, None
+    elif name == "closed-loop":
+        k1, k2 = check_finite("k1", s["k1"]), check_finite("k2", s["k2"])
+        tau = check_nonnegative("filter_tau", s["filter_tau"])
+        meta.update(k1=repr(k1), k2=repr(k2), filter_tau=repr(tau), controller=controller)
+        if controller == "device":
+            rig.set_params(k1=k1, k2=k2, filter_tau=tau)
+            rig.mode("HOPF")
+            kw["device_law"] = True
+        elif controller == "host":
+            kw["controller"] = EncoderHopfController(k1, k2, rig.info.params["period_us"] * 1e-6, tau)
+        else:
+            raise InputError(f"controller must be 'device' or 'host', got {controller!r}")
+    else:
+        kw["input"] = _input_function(name, s, rig.info.params["period_us"] * 1e-6)
+    if name != "closed-loop":
+        rig.mode("HOST")
+    res = run_loop(rig, duration=check_positive("duration", s["duration"]), arm=arm, limits=limits,
+                   progress=progress, on_start=on_start, **kw)
+    log = loop_log(res, rig.info, rig.link.stats, input_name=input_name, metadata=meta,
+                   source=f"{name} on {rig.port}")
+    return RigRun(log, res.interrupted, res.reason, res.error, [res])
+
+
+def json_list(x) -> str:
+    return "[" + ", ".join(repr(float(e)) for e in x) + "]"
+
+
+# --------------------------------------------------------------------------
+# settings
+# --------------------------------------------------------------------------
+def _settings(name: str, options: dict) -> dict:
+    if name in EXPERIMENTS:
+        spec = experiment_spec(name)
+        allowed = [o for o in spec.options if o not in _SIMULATION_ONLY]
+        s = dict(spec.settings)
+    else:
+        allowed = list(USER_INPUTS[name])
+        s = dict(USER_INPUTS[name])
+    given = {k: v for k, v in options.items() if v is not None}
+    for k in given:
+        if k in _SIMULATION_ONLY and name in EXPERIMENTS:
+            raise InputError(f"{k} is a setting of the virtual rig's simulation, not of a rig in the loop",
+                             argument=k)
+        if k not in allowed:
+            raise InputError(f"{name!r} does not take {k!r}; it takes: {', '.join(allowed)}", argument=k)
+    s.update(given)
+    if "v_dz" in given and given["v_dz"] == "none":
+        s["v_dz"] = None
+    if name == "static-curve":
+        s["v_dz"] = None
+    return s
+
+
+def _input_function(name: str, s: dict, Ts: float) -> Callable[[float], float]:
+    """The open-loop ideal input ``u(t)`` of ``name``."""
+    inp = open_loop_input(name, s) if name in EXPERIMENTS else None
+    if inp is None and name == "chirp":
+        inp = Chirp(check_finite("amplitude", s["amplitude"]), check_positive("w0", s["w0"]),
+                    check_positive("tau", s["tau"]))
+    if inp is None and name == "sine":
+        inp = Sine(check_finite("amplitude", s["amplitude"]), check_finite("omega", s["omega"]))
+    if inp is not None:
+        return lambda t: inp.evaluate(t)
+    if name == "prbs":
+        hold = max(1, int(round(check_positive("hold_time", s["hold_time"]) / Ts)))
+        n = int(math.floor(check_positive("duration", s["duration"]) / Ts)) + 2
+        values = prbs(n, hold=hold, amplitude=check_finite("amplitude", s["amplitude"]), seed=int(s["seed"]))
+        return lambda t: float(values[min(int(round(t / Ts)), n - 1)])
+    if name == "steps":
+        levels = [check_finite("levels", x) for x in s["levels"]]
+        if not levels:
+            raise InputError("levels must hold at least one value", argument="levels")
+        T = check_positive("step_time", s["step_time"])
+        return lambda t: levels[int(t // T) % len(levels)]
+    raise InputError(f"{name!r} has no open-loop input")
+
+
+# --------------------------------------------------------------------------
+# the set-up: the operator's hands
+# --------------------------------------------------------------------------
+def _prepare(rig: Rig, fast: bool) -> None:
+    got = rig.samples(0.5)
+    if got and got[-1].state != "DISARMED":
+        rig.clear()  # the user starts a new run: a fault of the last one (e.g. its watchdog) is cleared
+    rig.disarm()
+    rig.stream(1)
+    rig.set_params(host_clock=1.0 if fast else 0.0)
+
+
+def arrange(rig: Rig, locked: bool, operator) -> None:
+    """Clamp the pendulum at rest, or hold it still hanging down; then zero the encoders there."""
+    if locked:
+        if rig.fixture("CLAMP") is None:
+            operator("clamp the pendulum at rest, hanging down")
+    elif rig.fixture("HOLD", 0.0) is None:
+        operator("let the pendulum hang still, free")
+    rig.zero()
+    if not locked:
+        rig.fixture("RELEASE")
+
+
+def hold_at(rig: Rig, q1: float, operator) -> None:
+    """Hold the pendulum at ``q1`` [rad], the wheel still (the emulated hands, or the operator's), and let the
+    device's velocity estimates settle there."""
+    if rig.fixture("HOLD", q1) is not None:
+        settle(rig, _SETTLE)
+    else:
+        count = round(q1 / (2 * math.pi) * rig.info.params["counts1"])
+        operator(f"hold the pendulum at q1 = {q1:g} rad (count {count}), the wheel still, and let it go when the run "
+                 "starts")
+
+
+def settle(rig: Rig, seconds: float) -> None:
+    """Let ``seconds`` of device time pass (heartbeats allow the ticks with the host clock)."""
+    Ts = rig.info.params["period_us"] * 1e-6
+    n = 0
+    while n * Ts < seconds:
+        got = rig.samples(1.0)
+        if not got:
+            raise LinkLost(f"link lost: no telemetry from {rig.port}")
+        for x in got:
+            rig.heartbeat(x.seq + 2)
+        n += len(got)
+
+
+def releaser(rig: Rig):
+    """``on_start`` of :func:`~iwp.device.loop.run_loop` that lets the held pendulum go."""
+    def release() -> int | None:
+        return rig.fixture("RELEASE")  # None on a real rig: the operator lets go; the log starts before
+    return release
+
+
+# --------------------------------------------------------------------------
+# static curves (figure 2)
+# --------------------------------------------------------------------------
+def _static_curve(rig: Rig, name: str, s: dict, compensated: bool, operator, progress, limits,
+                  meta: dict) -> RigRun:
+    amplitude = check_positive("amplitude", s["amplitude"])
+    step_in = check_positive("step", s["step"])
+    hold = check_finite("duration", s["duration"])
+    if hold < 2 * STATIC_WINDOW:
+        raise InputError(f"duration (hold time per point) must be >= {2 * STATIC_WINDOW:g} s, got {hold!r} s",
+                         argument="duration")
+    m = int(math.floor(amplitude / step_in + 1e-9))
+    grid = step_in * np.arange(-m, m + 1)
+    arrange(rig, True, operator)
+    rig.mode("HOST")
+    Ts = rig.info.params["period_us"] * 1e-6
+    q4, done, loops = [], [], []
+    interrupted, reason, error = False, "complete", None
+    for value in grid:
+        res = run_loop(rig, duration=hold, input=lambda t, a=float(value): a, limits=limits, progress=progress)
+        loops.append(res)
+        if res.interrupted:
+            interrupted, reason, error = True, res.reason, res.error
+            break
+        t = (np.array([x.seq for x in res.samples]) - res.samples[0].seq) * Ts
+        q2 = np.array([x.q2 for x in res.samples])
+        win = t >= t[-1] - STATIC_WINDOW - 1e-9
+        tw = t[win] - t[win].mean()
+        q4.append(float(np.dot(tw, q2[win] - q2[win].mean()) / np.dot(tw, tw)) + 0.0)
+        done.append(float(value))
+        try:
+            _wait_still(rig, Ts)
+        except BaseException as exc:  # noqa: BLE001 (Ctrl-C while waiting: keep the points so far)
+            interrupted, reason, error = True, "Ctrl-C" if isinstance(exc, KeyboardInterrupt) else str(exc), exc
+            break
+    log = None
+    if len(done) >= 2:
+        meta = dict(meta, pendulum="locked", hold=repr(hold), compensated="yes" if compensated else "no",
+                    velocity=f"least-squares slope of q2 over the last {STATIC_WINDOW:g} s of each hold, "
+                             "each point started from rest",
+                    Ts=repr(Ts), counts_per_rev=f"{rig.info.params['counts1']:g}",
+                    saturation=repr(rig.info.params["v_max"]), source=f"iwp rig on {rig.port}",
+                    interrupted="true" if interrupted else "false", stop_reason=reason)
+        if compensated:
+            meta.update(v_dz_pos=repr(rig.info.params["v_dz_pos"]), v_dz_neg=repr(rig.info.params["v_dz_neg"]))
+        log = StaticCurve(input_name="u" if compensated else "v", input=np.array(done), q4=np.array(q4),
+                          metadata={k: str(v) for k, v in meta.items()}, source=f"{name} on {rig.port}")
+    return RigRun(log, interrupted, reason, error, loops)
+
+
+def _wait_still(rig: Rig, Ts: float) -> None:
+    """Wait until the wheel's count has not changed for :data:`_STILL` seconds (heartbeats keep the link)."""
+    need = max(2, int(round(_STILL / Ts)))
+    same, last, waited = 0, None, 0
+    while same < need:
+        got = rig.samples(0.5)
+        if not got:
+            raise LinkLost(f"link lost: no telemetry from {rig.port}")
+        for x in got:
+            same = same + 1 if x.count2 == last else 0
+            last = x.count2
+            waited += 1
+            rig.heartbeat(x.seq + 2)
+        if waited * Ts > _STILL_MAX:
+            raise DeviceError(f"the wheel did not stop within {_STILL_MAX:g} s")

@@ -1,0 +1,310 @@
+"""The fixed-rate loop on a rig: an open-loop input, a host controller or an on-device law, stopped on every path.
+
+:func:`run_loop` is clocked by the device: every telemetry sample is
+recorded and answered (the input ``lead`` ticks ahead, a host controller's
+output for the next tick, or a heartbeat), until the duration is reached.
+It stops the motor on every way out: the normal end (disarm), Ctrl-C and
+SIGTERM (:func:`stop_signals`), a device fault or limit, the host's own
+check of the limits, a lost link, an exception; and it always returns what
+it recorded (:class:`LoopResult`, ``interrupted`` and ``reason`` say how it
+ended), so that the caller writes the log up to the stop.
+
+Timing (:meth:`LoopResult.timing`): the period between the host's receipts
+of consecutive samples and its jitter ``|period - Ts|`` (p50, p99, max),
+the device's overruns and late ticks during the run, samples lost on the
+link. With the device's host clock (faster than real time) the periods are
+not the device's and only the counters are reported.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import gc
+import math
+import signal
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .errors import DeviceError, LinkLost
+from .realtime import realtime_priority
+from .rig import Rig, Sample
+
+__all__ = ["run_loop", "LoopResult", "HostLimits", "Terminated", "stop_signals", "DEFAULT_LEAD"]
+
+#: How many ticks ahead an open-loop input is sent in real time (20 ms at 5 ms: a USB-serial adapter's latency).
+DEFAULT_LEAD = 4
+
+
+class Terminated(BaseException):
+    """SIGTERM (or SIGHUP) arrived: stop as Ctrl-C does."""
+
+
+@contextlib.contextmanager
+def stop_signals():
+    """Within the block, SIGTERM and SIGHUP raise :class:`Terminated` (main thread only)."""
+    def handler(signum, frame):
+        raise Terminated(signal.Signals(signum).name)
+
+    old = {}
+    try:
+        for s in (signal.SIGTERM, signal.SIGHUP):
+            old[s] = signal.signal(s, handler)
+    except ValueError:  # not the main thread: nothing to install
+        pass
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+@dataclass(frozen=True)
+class HostLimits:
+    """The host's own check of the limits (the device checks them too) [rad, rad/s]."""
+
+    q1_max: float = math.inf
+    q4_max: float = math.inf
+
+    def violated(self, s: Sample) -> str | None:
+        if abs(s.q1) > self.q1_max:
+            return f"host limit: |q1| = {abs(s.q1):.3f} rad > {self.q1_max:g} rad"
+        if abs(s.q4) > self.q4_max:
+            return f"host limit: |q4| = {abs(s.q4):.1f} rad/s > {self.q4_max:g} rad/s"
+        return None
+
+
+@dataclass
+class LoopResult:
+    """What :func:`run_loop` recorded and how it ended.
+
+    Attributes
+    ----------
+    samples : list of Sample
+        From the first sample of the run (its ``seq`` is time 0) to the stop.
+    Ts : float
+        Loop period [s].
+    interrupted : bool
+        Ended before the duration.
+    reason : str
+        ``"complete"``, ``"Ctrl-C"``, ``"SIGTERM"``, ``"device FAULT (WATCHDOG)"``, a host limit, ``"link lost"``, or
+        the error.
+    error : BaseException or None
+        The exception that ended it, for the caller to re-raise after writing the log.
+    host_clock : bool
+        Ran by the host's clock (faster than real time).
+    counters0 : tuple of int
+        The device's ``(overruns, late, rx_errors)`` before the run.
+    """
+
+    samples: list[Sample] = field(default_factory=list)
+    Ts: float = 0.005
+    interrupted: bool = False
+    reason: str = "complete"
+    error: BaseException | None = None
+    host_clock: bool = False
+    counters0: tuple[int, int, int] = (0, 0, 0)
+    wall: float = 0.0
+    scheduling: str = "normal"
+
+    @property
+    def seq0(self) -> int | None:
+        return self.samples[0].seq if self.samples else None
+
+    def timing(self) -> dict:
+        """Loop timing and counters (see the module's docstring); periods in milliseconds."""
+        out: dict = {"Ts_ms": self.Ts * 1e3, "samples": len(self.samples), "wall_s": self.wall,
+                     "clock": "host (faster than real time)" if self.host_clock else "device (real time)",
+                     "scheduling": self.scheduling}
+        if self.samples:
+            last = self.samples[-1]
+            o0, l0, r0 = self.counters0
+            out["device_overruns"] = (last.overruns - o0) & 0xFFFF
+            out["late_ticks"] = (last.late - l0) & 0xFFFF
+            out["device_rx_errors"] = (last.rx_errors - r0) & 0xFFFF
+            seqs = np.array([s.seq for s in self.samples])
+            out["lost_samples"] = int(seqs[-1] - seqs[0] + 1 - seqs.size)
+        if not self.host_clock and len(self.samples) > 2:
+            th = np.array([s.t_host for s in self.samples])
+            d = np.diff(th)
+            jit = np.abs(d - self.Ts)
+            out.update(period_p50_ms=float(np.percentile(d, 50) * 1e3),
+                       jitter_p50_ms=float(np.percentile(jit, 50) * 1e3),
+                       jitter_p99_ms=float(np.percentile(jit, 99) * 1e3),
+                       jitter_max_ms=float(jit.max() * 1e3),
+                       host_overruns=int(np.sum(d > 2.0 * self.Ts)))
+        return out
+
+
+def run_loop(
+    rig: Rig,
+    *,
+    duration: float,
+    input: Callable[[float], float] | None = None,
+    controller: Callable[[float, np.ndarray], float] | None = None,
+    device_law: bool = False,
+    arm: bool = True,
+    lead: int | None = None,
+    limits: HostLimits = HostLimits(),
+    progress: Callable[[dict], None] | None = None,
+    link_timeout: float = 1.0,
+    on_start: Callable[[], int | None] | None = None,
+) -> LoopResult:
+    """Run the loop for ``duration`` seconds and return what it recorded.
+
+    Parameters
+    ----------
+    rig : Rig
+        Connected; parameters and mode already set; not armed.
+    duration : float
+        Length of the record [s] (``floor(duration / Ts) + 1`` samples).
+    input : callable, optional
+        Open-loop ideal input ``u(t)`` [input units], ``t`` from the run's start [s]; sent ``lead`` ticks ahead.
+    controller : callable, optional
+        Host controller ``controller(t, y) -> u`` with the measured ``y = [q1, q2]`` [rad]; its output
+        applies from the next tick (one period of delay, as on any host-side loop).
+    device_law : bool
+        The device's own law runs (MODE HOPF or STATE_FEEDBACK); the host sends heartbeats.
+    arm : bool
+        Arm the motor (False: the motor stays off, e.g. a free swing).
+    lead : int, optional
+        Ticks ahead (default :data:`DEFAULT_LEAD`, 1 for a controller).
+    limits : HostLimits
+    progress : callable, optional
+        Called about every 0.25 s with ``{"t", "duration", "q1", "u", "overruns", "late", "lost"}``.
+    link_timeout : float
+        No telemetry for this long [s]: the link is lost.
+    on_start : callable, optional
+        Called once the motor is armed (e.g. to release the pendulum); returns the device tick of the run's
+        first sample (None: as without it). Not with ``input``.
+    """
+    if sum(x is not None for x in (input, controller)) + bool(device_law) > 1:
+        raise DeviceError("give one of input, controller and device_law")
+    Ts = rig.info.params["period_us"] * 1e-6
+    n = int(math.floor(duration / Ts + 1e-9)) + 1
+    lead = (1 if controller is not None else DEFAULT_LEAD) if lead is None else max(1, int(lead))
+    res = LoopResult(Ts=Ts, host_clock=rig.info.params.get("host_clock", 0.0) != 0.0)
+    armed = False
+    start = None
+    wall0 = time.monotonic()
+    next_progress = wall0
+    link_timeout = max(link_timeout, 20 * Ts)
+    # a full collection of a process holding numpy, scipy and numba takes tens of milliseconds: the device's
+    # watchdog would see a silent host. The objects so far are frozen out of it, and the loop runs without it
+    # (what it allocates has no cycles and is freed by reference counting).
+    gc.collect()
+    gc.freeze()
+    gc.disable()
+    priority = realtime_priority()
+    res.scheduling = priority.__enter__()
+    try:
+        if input is not None:
+            input(0.0)  # load what it needs (compiled code) now, not while the watchdog counts
+        got = _first_sample(rig, link_timeout)
+        res.counters0 = (got.overruns, got.late, got.rx_errors)
+        if arm:
+            rig.arm()
+            armed = True
+            got = _first_sample(rig, link_timeout)
+        first = on_start() if on_start is not None else None
+        if first is not None:
+            start = first  # time 0: the first sample after the operator's action
+        else:
+            start = got.seq + lead  # time 0 of the run
+            for k in range(got.seq + 1, start + 1):  # prime the queue up to time 0
+                if input is not None:
+                    rig.command(float(input((k - start) * Ts)) if k >= start else 0.0, k)
+                elif controller is not None:
+                    rig.command(0.0, k)
+                else:
+                    rig.heartbeat(k)
+        while True:
+            batch = rig.samples(link_timeout)
+            if not batch:
+                raise LinkLost(f"link lost: no telemetry from {rig.port} for {link_timeout:g} s")
+            for s in batch:
+                if s.seq < start:  # before time 0: keep the queue ahead
+                    if controller is not None:
+                        rig.command(0.0, s.seq + 1)
+                    else:
+                        _answer(rig, s, s.seq + lead, start, Ts, input, None)
+                    continue
+                if not res.samples:  # the device's counters at time 0
+                    res.counters0 = (s.overruns, (s.late - ("LATE" in s.flags)) & 0xFFFF, s.rx_errors)
+                res.samples.append(s)
+                if armed and s.state != "ARMED":
+                    raise _Stop(f"device {s.state}" + (f" ({s.fault})" if s.fault != "NONE" else ""))
+                bad = limits.violated(s)
+                if bad:
+                    raise _Stop(bad)
+                if len(res.samples) >= n:
+                    raise _Done()
+                _answer(rig, s, s.seq + lead, start, Ts, input, controller)
+            now = time.monotonic()
+            if progress is not None and now >= next_progress:
+                s = res.samples[-1] if res.samples else batch[-1]
+                progress({"t": (s.seq - start) * Ts if res.samples else 0.0, "duration": duration, "q1": s.q1,
+                          "u": s.u, "overruns": (s.overruns - res.counters0[0]) & 0xFFFF,
+                          "late": (s.late - res.counters0[1]) & 0xFFFF, "lost": rig.link.stats.lost})
+                next_progress = now + 0.25
+    except _Done:
+        pass
+    except _Stop as stop:
+        res.interrupted, res.reason = True, str(stop)
+    except KeyboardInterrupt:
+        res.interrupted, res.reason = True, "Ctrl-C"
+        res.error = KeyboardInterrupt()
+    except Terminated as exc:
+        res.interrupted, res.reason = True, str(exc)
+        res.error = exc
+    except BaseException as exc:  # noqa: BLE001 (the motor is stopped below, the caller re-raises)
+        res.interrupted, res.reason = True, f"{type(exc).__name__}: {exc}" if not isinstance(
+            exc, DeviceError) else str(exc)
+        res.error = exc
+    finally:
+        res.wall = time.monotonic() - wall0
+        if armed:
+            _stop_motor(rig, res.interrupted)
+        priority.__exit__(None, None, None)
+        gc.enable()
+        gc.unfreeze()
+    return res
+
+
+class _Done(Exception):
+    pass
+
+
+class _Stop(Exception):
+    pass
+
+
+def _first_sample(rig: Rig, timeout: float) -> Sample:
+    got = rig.samples(timeout)
+    if not got:
+        raise LinkLost(f"link lost: no telemetry from {rig.port} for {timeout:g} s")
+    return got[-1]
+
+
+def _answer(rig: Rig, s: Sample, k: int, start: int, Ts: float, input, controller) -> None:
+    """What the host sends after sample ``s``: the input for tick ``k``, the controller's output for the next
+    tick, or a heartbeat allowing tick ``k``."""
+    if controller is not None:
+        rig.command(float(controller((s.seq - start) * Ts, np.array([s.q1, s.q2]))), s.seq + 1)
+    elif input is not None:
+        rig.command(float(input((k - start) * Ts)), k)
+    else:
+        rig.heartbeat(k)
+
+
+def _stop_motor(rig: Rig, abnormal: bool) -> None:
+    """Disarm at the normal end; emergency stop otherwise (and if the disarm fails)."""
+    if not abnormal:
+        try:
+            rig.disarm()
+            return
+        except BaseException:  # noqa: BLE001 (fall through to the emergency stop)
+            pass
+    rig.estop()

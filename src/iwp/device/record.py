@@ -1,0 +1,100 @@
+"""A run on a rig as an iwp log: the samples, and what is known of the device, the link and the timing.
+
+:func:`loop_log` turns a :class:`~iwp.device.loop.LoopResult` into an
+:class:`~iwp.data.ExperimentData` that every iwp reader and ``iwp fit``
+read: ``t = (seq - seq0) Ts`` (the device's ticks: regular by construction,
+so the readers' sampling check holds; the device's own time stamps and the
+host's receipt times are the extra columns ``t_device``, ``t_host``),
+``q1, q2`` from the encoder counts, the input ``u`` (compensated) or ``v``
+(raw) as the device applied it, the driver command after the feedforward
+and saturation ``v_command``, the device's wheel speed ``q4_device``, the
+motor current where measured, and the status ``flags``. The metadata say
+how the run ended (``interrupted``, ``stop_reason``), who the device is
+(``device``), what the link saw (``link``), the loop's timing (``timing``),
+and a rig description of the log's columns (``rig``,
+docs/rig-description.md).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from ..data import ExperimentData
+from ..files import jsonable
+from .link import LinkStats
+from .loop import LoopResult
+from .protocol import FLAGS
+from .rig import DeviceInfo
+
+__all__ = ["loop_log", "rig_description"]
+
+
+def rig_description(info: DeviceInfo, Ts: float, input_name: str | None) -> dict:
+    """A rig description (docs/rig-description.md) of the logs that :func:`loop_log` writes."""
+    p = info.params
+    return {"kind": "iwp-rig", "name": f"iwp rig on {info.port} ({info.board}, firmware {info.firmware})",
+            "sample_period": Ts, "time": {"column": "t", "unit": "s"},
+            "pendulum": {"column": "q1", "unit": "rad", "zero": "down", "offset": 0.0},
+            "wheel": {"column": "q2", "quantity": "angle", "unit": "rad", "counts_per_rev": p.get("counts2")},
+            "input": ({"column": None} if input_name is None else
+                      {"column": input_name, "kind": "units", "limits": [-p.get("v_max", 100.0), p.get("v_max", 100.0)],
+                       "compensated": input_name == "u"})}
+
+
+def loop_log(res: LoopResult, info: DeviceInfo, link: LinkStats, *, input_name: str | None,
+             metadata: dict | None = None, source: str | None = None) -> ExperimentData | None:
+    """The log of a run (see the module's docstring); None when fewer than 2 samples were recorded.
+
+    Parameters
+    ----------
+    res : LoopResult
+    info : DeviceInfo
+    link : LinkStats
+    input_name : {"u", "v", None}
+        ``u``: the device compensated the dead zone (its ``v_dz`` > 0); ``v``: raw; None: the motor was off.
+    metadata : dict, optional
+        More ``key: value`` entries (experiment, settings).
+    """
+    S = res.samples
+    if len(S) < 2:
+        return None
+    seq = np.array([s.seq for s in S], dtype=float)
+    t = (seq - seq[0]) * res.Ts
+    q1 = np.array([s.q1 for s in S])
+    q2 = np.array([s.q2 for s in S])
+    u = np.array([s.u for s in S])
+    v = np.array([s.v for s in S])
+    extra = {"v_command": v, "q4_device": np.array([s.q4 for s in S]),
+             "t_device": np.array([s.t_device for s in S]) - S[0].t_device,
+             "t_host": np.array([s.t_host for s in S]) - S[0].t_host,
+             "flags": np.array([sum(FLAGS[f] for f in s.flags) for s in S], dtype=float)}
+    cur = np.array([s.current for s in S])
+    if np.all(np.isfinite(cur)):
+        extra["current"] = cur
+    inputs = {} if input_name is None else {input_name: u if input_name == "u" else v}
+    p = info.params
+    meta = {k: str(val) for k, val in (metadata or {}).items()}
+    meta.update({
+        "source": f"iwp rig on {info.port}",
+        "interrupted": "true" if res.interrupted else "false",
+        "stop_reason": res.reason,
+        "Ts": repr(res.Ts),
+        "counts_per_rev": f"{p.get('counts1', math.nan):g}",
+        "compensated": "yes" if input_name == "u" else ("no" if input_name == "v" else "no (motor off, v = 0)"),
+        "saturation": repr(p.get("v_max")),
+        "columns": "q1, q2: encoder counts times 2 pi / counts_per_rev [rad]; u or v: the input the device applied; "
+                   "v_command: driver command after feedforward and saturation; q4_device: the device's wheel speed "
+                   "[rad/s]; t_device: the device's time stamps, t_host: the host's receipt times [s]; flags: "
+                   "telemetry flags (" + ", ".join(f"{k}={v}" for k, v in FLAGS.items()) + ")",
+        "device": json.dumps(jsonable(info.to_dict()), separators=(",", ":")),
+        "link": json.dumps(link.to_dict(), separators=(",", ":")),
+        "timing": json.dumps(jsonable(res.timing()), separators=(",", ":")),
+        "rig": json.dumps(rig_description(info, res.Ts, input_name), separators=(",", ":")),
+    })
+    if input_name == "u":
+        meta.update(v_dz_pos=repr(p.get("v_dz_pos")), v_dz_neg=repr(p.get("v_dz_neg")))
+    return ExperimentData(t=t, q1=q1, q2=q2, extra=extra, metadata=meta, source=source or f"rig {info.port}",
+                          **inputs)

@@ -1,0 +1,80 @@
+"""The virtual rig behind the rig interface: the emulator in this process, on a pseudo-terminal of its own.
+
+:class:`TwinRig` is a :class:`~iwp.device.rig.Rig` whose device is the
+emulator (:mod:`iwp.device.emulator`: the firmware's core with the twin as
+its plant) served by a thread of this process on a private pseudo-terminal:
+the host's code path is exactly that of a real rig, down to the bytes.
+In real time by default; ``fast=True`` sets the device's host clock, so a
+run goes as fast as the host keeps up.
+"""
+
+from __future__ import annotations
+
+import os
+
+from ..rig.stepper import TwinStepper
+from ..rig.truth import RigTruth
+from .emulator import Emulator, TwinDevice, open_pty
+from .rig import Rig
+
+__all__ = ["TwinRig", "open_rig", "TWIN_PORT"]
+
+
+class TwinRig(Rig):
+    """The twin as a rig (see the module's docstring).
+
+    Parameters
+    ----------
+    truth : RigTruth, optional
+        Default: the calibrated twin.
+    session : {"auto", "5.1", "5.2"}
+        See :class:`~iwp.rig.stepper.TwinStepper`.
+    x0 : float or sequence of 4 floats, optional
+        Initial state of the twin [rad, rad/s].
+    seed : int
+        Seed of the encoders' noise.
+    fast : bool
+        Run by the host's clock (the device's ``host_clock`` parameter).
+    """
+
+    def __init__(self, truth: RigTruth | None = None, *, session: str = "auto", x0=None, seed: int = 0,
+                 fast: bool = False):
+        self.device = TwinDevice(TwinStepper(truth, session=session, x0=x0, seed=seed))
+        self._master, self._slave, path = open_pty()
+        self.emulator = Emulator(self.device, self._master)
+        self._thread = self.emulator.start()
+        try:
+            super().__init__(path)
+            if fast:
+                self.set_params(host_clock=1.0)
+        except BaseException:
+            self._shutdown()
+            raise
+
+    def close(self) -> None:
+        super().close()
+        self._shutdown()
+
+    def _shutdown(self) -> None:
+        if self._thread is None:
+            return
+        self.emulator.stop()
+        self._thread.join(timeout=5.0)
+        self._thread = None
+        for fd in (self._master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass
+
+
+#: The ``--port`` value that names the in-process twin.
+TWIN_PORT = "twin"
+
+
+def open_rig(port: str, *, baudrate: int | None = None, truth: RigTruth | None = None, fast: bool = False) -> Rig:
+    """The rig on ``port``: :data:`TWIN_PORT` for the in-process twin (:class:`TwinRig`), else a device
+    (:class:`~iwp.device.rig.Rig`)."""
+    if port == TWIN_PORT:
+        return TwinRig(truth, fast=fast)
+    return Rig(port) if baudrate is None else Rig(port, baudrate=baudrate)

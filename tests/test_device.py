@@ -1,0 +1,349 @@
+"""The rig in the loop (iwp.device): the protocol, the link under byte errors, the emulator, the loop's safety.
+
+* the protocol's one dictionary: round trips, refusals, the generated C header and the docs are current;
+* injected byte errors lose no good frame and apply no bad one (both directions);
+* the paper's experiments through the emulator's port give what the virtual rig gives (the paper's
+  procedures, the targets' tolerances); the Hopf closed loop through the port oscillates at 2.58 rad (2 %);
+* SIGKILL of the host: the device stops the motor within its watchdog timeout plus one period;
+  Ctrl-C: a complete, readable log marked interrupted; a missing port: one line, exit 2;
+* the loop reports its jitter and overruns.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from iwp.data import read_experiment
+from iwp.data.rig_description import RigDescription
+from iwp.data.rig_log import read_rig_log
+from iwp.device.cheader import HEADER_PATH, c_header
+from iwp.device.core import DeviceCore
+from iwp.device.experiments import run_on_rig
+from iwp.device.framing import FrameDecoder, encode_frame
+from iwp.device.protocol import MESSAGES, PARAMS, ProtocolError, decode, encode, markdown_table, params_table
+from iwp.device.rig import Rig
+from iwp.device.twin import TwinRig
+from iwp.ident.logfit import load_logs
+from iwp.rig import compare_targets, load_targets, paper_numbers
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}
+
+#: the paper's experiments, shortened as the calibration's recovery test does (same settings on both rigs)
+QUICK = {
+    "static-curve": {"step": 4.0, "duration": 2.0},
+    "static-curve-compensated": {"step": 4.0, "duration": 2.0},
+    "motor-disk-chirp": {"duration": 40.0},
+    "free-pendulum": {"duration": 15.0},
+    "full-chirp": {"duration": 40.0},
+    "closed-loop": {"duration": 20.0},
+}
+
+
+# --------------------------------------------------------------------------
+# the dictionary
+# --------------------------------------------------------------------------
+def _example(m):
+    vals = {"B": 7, "H": 300, "I": 70000, "i": -5, "f": 1.5}
+    return {f.name: vals[f.code] for f in m.fields}
+
+
+def test_every_message_round_trips_and_wrong_lengths_are_refused():
+    for m in MESSAGES.values():
+        payload = encode(m.name, **_example(m))
+        assert len(payload) == m.size <= 64
+        d = decode(payload)
+        assert d.name == m.name and d.values == _example(m)
+        with pytest.raises(ProtocolError):
+            decode(payload[:-1])  # truncated
+        with pytest.raises(ProtocolError):
+            decode(payload + b"\x01")
+    with pytest.raises(ProtocolError):
+        decode(b"\x7f")
+    assert len({m.id for m in MESSAGES.values()}) == len(MESSAGES)
+    assert [p.id for p in PARAMS.values()] == list(range(len(PARAMS)))
+    assert all(p.lo <= p.default <= p.hi for p in PARAMS.values())
+
+
+def test_c_header_and_docs_come_from_the_dictionary():
+    assert HEADER_PATH.read_text() == c_header(), "run: python tools/gen_protocol_header.py"
+    doc = (ROOT / "docs" / "protocol.md").read_text()
+    assert markdown_table() in doc and params_table() in doc, "docs/protocol.md: paste markdown_table()/params_table()"
+    assert (ROOT / "firmware" / "core").resolve() == HEADER_PATH.parent.resolve()
+
+
+# --------------------------------------------------------------------------
+# byte errors
+# --------------------------------------------------------------------------
+def _corrupt(stream: bytes, rate: float, rng) -> tuple[bytes, np.ndarray]:
+    """``stream`` with bytes replaced at random (never by themselves); the mask of hit bytes."""
+    a = np.frombuffer(stream, dtype=np.uint8).copy()
+    hit = rng.random(a.size) < rate
+    a[hit] ^= rng.integers(1, 256, size=int(hit.sum()), dtype=np.uint8)
+    return a.tobytes(), hit
+
+
+def test_injected_byte_errors_lose_no_good_frame_and_pass_no_bad_one():
+    rng = np.random.default_rng(3)
+    payloads = [encode("TELEMETRY", seq=k, t_us=5000 * k, count1=int(rng.integers(-9000, 9000)), count2=k * 37,
+                       q4=float(rng.normal()), u=float(rng.normal()), v=0.0, current=float("nan"), state=1,
+                       fault=0, flags=0, overruns=0, late=0, rx_errors=0) for k in range(1, 3001)]
+    frames = [encode_frame(p) for p in payloads]
+    stream, hit = _corrupt(b"".join(frames), 0.002, rng)
+    bounds = np.cumsum([0] + [len(f) for f in frames])
+    good = [k for k in range(len(frames)) if not hit[bounds[k]:bounds[k + 1]].any()]
+    dec = FrameDecoder()
+    got = []
+    for i in range(0, len(stream), 97):  # arbitrary chunks, as a port delivers them
+        got += dec.feed(stream[i:i + 97])
+    assert 100 < len(frames) - len(good) < 600  # the errors hit some frames (10 %) ...
+    assert set(got) >= {payloads[k] for k in good}  # ... no good frame is lost ...
+    assert set(got) <= set(payloads)  # ... and no bad one passes
+    assert dec.counts.bad >= len(frames) - len(good) - (len(got) - len(good))
+
+
+def test_corrupted_commands_are_never_applied_by_the_core():
+    rng = np.random.default_rng(5)
+    core = DeviceCore()
+    dec = FrameDecoder()
+
+    def send(name, **kw):
+        core.rx(encode_frame(encode(name, **kw)))
+
+    send("ARM")
+    sent, applied, seq = {0.0}, [], 0
+    for k in range(1, 2001):
+        u = round(float(rng.uniform(-50, 50)), 3)
+        seq += 1
+        frame = encode_frame(encode("COMMAND", seq=seq, tick=k, u=u))
+        bad, _ = _corrupt(frame, 0.05, rng)
+        core.rx(bad)
+        if bad == frame:
+            sent.add(float(np.float32(u)))
+        else:
+            seq += 1  # a heartbeat keeps the watchdog fed whatever happened to the command
+            send("HEARTBEAT", seq=seq, tick=k)
+        core.tick(0, 0, float("nan"), 5000 * k)
+        applied += [decode(p)["u"] for p in dec.feed(core.tx()) if p[0] == MESSAGES["TELEMETRY"].id]
+    assert len(applied) == 2000
+    assert set(applied) <= sent  # every applied input is one the host sent intact
+    assert 500 < len(sent) < 1500 and len(set(applied)) == len(sent)  # and every intact one was applied
+    assert core.status()[1] == 1  # still ARMED: nothing tripped
+
+
+class _Flipper:
+    """A pyserial-like wrapper that replaces bytes at random in both directions (the wire's noise)."""
+
+    def __init__(self, inner, rate, seed):
+        self.inner, self.rate, self.rng = inner, rate, np.random.default_rng(seed)
+        self.read_hits = 0
+
+    def write(self, data):
+        bad, hit = _corrupt(bytes(data), self.rate, self.rng)
+        return self.inner.write(bad)
+
+    def read(self, n=1):
+        data = self.inner.read(n)
+        bad, hit = _corrupt(data, self.rate, self.rng)
+        self.read_hits += int(hit.sum())
+        return bad
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+    def __setattr__(self, name, value):
+        if name == "timeout":
+            self.inner.timeout = value
+        else:
+            object.__setattr__(self, name, value)
+
+
+def test_a_noisy_link_through_the_emulator_applies_only_what_the_host_sent(monkeypatch):
+    rig = TwinRig(fast=True)
+    try:
+        rig.link.serial = _Flipper(rig.link.serial, 0.0, 1)  # clean while setting up
+        run = run_on_rig(rig, "sine-60", fast=True, duration=0.2)
+        assert not run.interrupted
+        rig.link.serial.rate = 2e-3
+        sent = {}
+        orig = rig.command
+
+        def command(u, tick=0):
+            sent[tick] = float(np.float32(u))
+            orig(u, tick)
+
+        monkeypatch.setattr(rig, "command", command)
+        run = run_on_rig(rig, "sine-60", fast=True, duration=4.0)
+    finally:
+        rig.link.serial.rate = 0.0
+        rig.close()
+    log = run.log
+    stats = rig.link.stats
+    assert stats.corrupt + stats.truncated + stats.refused > 0  # errors were injected on the way back ...
+    sent_values = set(sent.values()) | {0.0}
+    assert set(log.u.tolist()) <= sent_values  # ... and none was applied on the way out
+    assert log.n_samples >= 0.9 * 801 or run.interrupted
+
+
+# --------------------------------------------------------------------------
+# the paper through the port
+# --------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def port_logs():
+    rig = TwinRig(fast=True)
+    try:
+        logs = {}
+        for name, kw in QUICK.items():
+            run = run_on_rig(rig, name, fast=True, **kw)
+            assert not run.interrupted, (name, run.reason)
+            logs[name] = run.log
+    finally:
+        rig.close()
+    return logs
+
+
+def test_the_paper_through_the_port_gives_what_the_virtual_rig_gives(port_logs):
+    """The paper's procedures on the emulator's logs against the same on the virtual rig's (same settings):
+    every graded statistic agrees within its target's tolerance."""
+    virtual = paper_numbers(overrides=QUICK)
+    port = paper_numbers(logs=port_logs)
+    targets = [t for t in load_targets() if t.graded]
+    rows_v = {r.target.key: r for r in compare_targets(targets, virtual.values({t.statistic for t in targets}))}
+    rows_p = {r.target.key: r for r in compare_targets(targets, port.values({t.statistic for t in targets}))}
+    for key, rv in rows_v.items():
+        rp = rows_p[key]
+        scale = max(abs(rv.reproduced), 1e-12)
+        assert abs(rp.reproduced - rv.reproduced) <= rv.target.tolerance * scale, (key, rp.reproduced, rv.reproduced)
+    # the logs are iwp logs, marked complete, with the device and the timing in their metadata
+    log = port_logs["full-chirp"]
+    assert log.metadata["interrupted"] == "false" and json.loads(log.metadata["timing"])["lost_samples"] == 0
+    assert json.loads(log.metadata["device"])["board"].startswith("host")
+    assert port_logs["static-curve"].input_name == "v" and port_logs["motor-disk-chirp"].metadata["pendulum"] == "locked"
+
+
+@pytest.fixture(scope="module")
+def emulator(tmp_path_factory):
+    """``iwp rig emulate`` in its own process; yields (port, stderr path)."""
+    err = tmp_path_factory.mktemp("emu") / "stderr.txt"
+    with open(err, "w") as fh:
+        p = subprocess.Popen([sys.executable, "-m", "iwp", "rig", "emulate"], stdout=subprocess.PIPE, stderr=fh,
+                             text=True, env=ENV)
+    try:
+        line = p.stdout.readline()
+        assert line.startswith("port: "), line
+        yield line.split()[1], err
+    finally:
+        p.send_signal(signal.SIGINT)
+        try:
+            p.wait(10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+
+
+def _iwp(*args, timeout=120):
+    return subprocess.run([sys.executable, "-m", "iwp", *args], capture_output=True, text=True, env=ENV,
+                          timeout=timeout)
+
+
+def test_hopf_closed_loop_through_the_port_oscillates_at_2_58(emulator, tmp_path):
+    port, _ = emulator
+    out = tmp_path / "hopf.csv"
+    r = _iwp("control", "run", "hopf", "--port", port, "--fast", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    log = read_experiment(out)
+    amp = np.max(np.abs(log.q1[log.t >= log.t[-1] - 20]))
+    assert abs(amp - 2.58) < 0.02 * 2.58, amp
+    assert log.metadata["k1"] == "-10.0" and log.metadata["controller"] == "device"
+    assert log.n_samples == 12001 and log.metadata["interrupted"] == "false"
+
+
+def test_sigkill_of_the_host_stops_the_motor_within_the_watchdog(emulator, tmp_path):
+    port, err = emulator
+    before = err.read_text()
+    p = subprocess.Popen([sys.executable, "-m", "iwp", "rig", "run", "sine-60", "--port", port, "--duration", "30",
+                          "--out", str(tmp_path / "k.csv")], env=ENV, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 30
+    while "device ARMED" not in err.read_text()[len(before):] and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)  # driving the motor
+    p.kill()
+    p.wait(10)
+    time.sleep(0.5)
+    events = err.read_text()[len(before):]
+    m = re.search(r"device FAULT \(WATCHDOG\) at t = [\d.]+ s \(tick \d+\), ([\d.]+) ms after the host's last bytes",
+                  events)
+    assert m, events
+    # watchdog 100 ms + one period of 5 ms (+ the emulator's own pacing, well under a period)
+    assert float(m.group(1)) <= 100.0 + 5.0 + 2.0, events
+    assert not (tmp_path / "k.csv").exists()  # a killed host writes nothing; the device stopped by itself
+
+
+def test_ctrl_c_leaves_a_complete_readable_log_marked_interrupted(emulator, tmp_path):
+    port, _ = emulator
+    out = tmp_path / "c.csv"
+    p = subprocess.Popen([sys.executable, "-m", "iwp", "rig", "run", "full-chirp", "--port", port, "--out", str(out)],
+                         env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(4.0)
+    p.send_signal(signal.SIGINT)
+    _, stderr = p.communicate(timeout=30)
+    assert p.returncode == 130, stderr
+    log = read_experiment(out)
+    assert log.metadata["interrupted"] == "true" and log.metadata["stop_reason"] == "Ctrl-C"
+    assert 0.2 < log.t[-1] < 4.0 and np.allclose(np.diff(log.t), 0.005)
+    assert np.allclose(log.u, 60 * np.sin((3 + log.t / 100) * log.t), atol=1e-4)  # every row up to the stop
+    assert load_logs([out], None)[0].n_samples == log.n_samples  # iwp fit reads it
+    rig = RigDescription.from_dict(json.loads(log.metadata["rig"]), where="rig")  # and with its rig description
+    assert np.array_equal(read_rig_log(out, rig).q2, log.q2)
+    timing = json.loads(log.metadata["timing"])  # real time: the jitter is reported, loosely bounded
+    assert timing["clock"] == "device (real time)" and timing["jitter_p99_ms"] < 5.0
+    assert {"jitter_p50_ms", "jitter_max_ms", "device_overruns", "late_ticks", "host_overruns"} <= set(timing)
+
+
+def test_a_port_that_does_not_exist_is_one_line_exit_2(tmp_path):
+    out = tmp_path / "x.csv"
+    r = _iwp("rig", "run", "sine-60", "--port", str(tmp_path / "nope"), "--out", str(out), timeout=60)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--port" in r.stderr and "no such device" in r.stderr
+    assert not out.exists()
+    r = _iwp("control", "run", "swingup", "--where", "device", "--port", "twin", "--out", str(out), timeout=60)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and not out.exists()
+    r = _iwp("rig", "run", "chirp", "--out", str(out), timeout=60)  # a user input needs a port
+    assert r.returncode == 2 and "--port" in r.stderr and not out.exists()
+    out.write_text("x")
+    r = _iwp("rig", "run", "sine-60", "--port", "twin", "--out", str(out), timeout=60)  # never overwritten
+    assert r.returncode == 2 and "--force" in r.stderr and out.read_text() == "x"
+
+
+def test_the_twin_rig_stops_the_motor_when_closed_and_refuses_bad_requests():
+    rig = TwinRig(fast=True)
+    try:
+        rig.arm()
+        rig.command(30.0)
+        got = []
+        for _ in range(5):
+            got += rig.samples(0.5)
+            rig.heartbeat(got[-1].seq + 2)
+        assert got[-1].v == pytest.approx(61.0) and got[-1].state == "ARMED"
+        from iwp.device.errors import DeviceError
+
+        with pytest.raises(DeviceError, match="refused"):
+            rig.set_params(v_max=50.0)  # not while armed
+        assert rig.estop() and rig.estop()  # idempotent
+        with pytest.raises(DeviceError, match="refused ARM"):
+            rig.arm()  # latched until CLEAR
+    finally:
+        rig.close()
+    assert rig.device.core.status()[1] == 3 and rig.device.core.status()[3] == 0.0  # ESTOP, motor at 0
+    rig.close()  # idempotent
+    assert isinstance(Rig, type) and math.isfinite(rig.info.params["period_us"])
