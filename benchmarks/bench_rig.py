@@ -32,6 +32,8 @@ from pathlib import Path
 
 import numpy as np
 
+from iwp.calibration import compare_targets, load_targets, paper_numbers
+from iwp.calibration.statistics import PAPER_EXPERIMENTS
 from iwp.data import read_experiment
 from iwp.device.experiments import run_on_rig
 from iwp.device.framing import FrameDecoder, encode_frame
@@ -39,9 +41,8 @@ from iwp.device.protocol import encode
 from iwp.device.rig import Rig
 from iwp.device.twin import TwinRig
 from iwp.ident.identification import identify
-from iwp.rig import VirtualRig, compare_targets, load_targets, paper_numbers
+from iwp.rig import VirtualRig
 from iwp.rig.experiments import experiment_spec, open_loop_input
-from iwp.rig.statistics import PAPER_EXPERIMENTS
 from iwp.sim.inputs import Sampled
 
 ROOT = Path(__file__).resolve().parents[1]

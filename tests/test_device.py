@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from iwp.calibration import compare_targets, load_targets, paper_numbers
 from iwp.data import read_experiment
 from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
@@ -35,7 +36,6 @@ from iwp.device.protocol import MESSAGES, PARAMS, ProtocolError, decode, encode,
 from iwp.device.rig import Rig
 from iwp.device.twin import TwinRig
 from iwp.ident.logfit import load_logs
-from iwp.rig import compare_targets, load_targets, paper_numbers
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", "")}

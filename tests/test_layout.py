@@ -141,8 +141,8 @@ def test_the_package_exports_its_api():
         iwp.nope  # noqa: B018
 
 
-@pytest.mark.parametrize("sub", ["models", "sim", "data", "ident", "control", "rig", "reproduce", "report",
-                                 "plotting"])
+@pytest.mark.parametrize("sub", ["models", "sim", "data", "ident", "control", "rig", "calibration", "device",
+                                 "reproduce", "report", "plotting"])
 def test_every_subpackage_lists_what_it_exports(sub):
     m = importlib.import_module(f"iwp.{sub}")
     assert m.__doc__ and len(m.__all__) > 0

@@ -13,17 +13,27 @@ data do determine.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
+from scipy import stats
 
-__all__ = ["CORR_WARN", "RCOND", "block_sigmas", "covariance_from_jacobian", "correlation_messages",
-           "null_space_message"]
+from ..errors import InputError
+
+__all__ = ["CORR_WARN", "RCOND", "BANDWIDTH_RULES", "AUTO_FACTOR", "block_sigmas", "covariance_from_jacobian",
+           "correlation_messages", "null_space_message", "bartlett_long_run_covariance", "hac_bandwidth",
+           "fixed_b_critical_value", "Covariance", "hac_sandwich", "white_covariance", "loss_weights",
+           "cluster_covariance"]
 
 #: |correlation| above which two free parameters are reported as not told apart.
 CORR_WARN = 0.95
 #: Relative singular value below which a direction counts as not determined.
 RCOND = 1e-8
+#: The automatic bandwidth rules of :func:`hac_bandwidth`.
+BANDWIDTH_RULES = ("auto", "andrews", "nw94", "rule")
+#: ``bandwidth="auto"`` = this factor times the Andrews (1991) AR(1) plug-in
+AUTO_FACTOR = 2.0
 
 
 def null_space_message(Vt_null: np.ndarray, names: Sequence[str]) -> str:
@@ -147,3 +157,230 @@ def correlation_messages(free: Sequence[str], values: np.ndarray, cov: np.ndarra
     if others:
         msgs.append("also strongly correlated (|correlation| > 0.95): " + ", ".join(others))
     return msgs
+
+
+def bartlett_long_run_covariance(H: np.ndarray, L: int) -> np.ndarray:
+    """Bartlett-kernel long-run covariance sum_l (1 - |l|/(L+1)) Gamma_l (unnormalised).
+
+    Uses the identity with overlapping window sums of length L+1 over the
+    zero-padded series, which is exact and costs O(T p^2) for any L.
+    """
+    T, r = H.shape
+    if L == 0:
+        return H.T @ H
+    Hp = np.concatenate([np.zeros((L, r)), H, np.zeros((L, r))])
+    C = np.concatenate([np.zeros((1, r)), np.cumsum(Hp, axis=0)])
+    W = C[L + 1 :] - C[: -(L + 1)]
+    return W.T @ W / (L + 1)
+
+
+def hac_bandwidth(H: np.ndarray, rule: str = "auto") -> int:
+    """Automatic Bartlett bandwidth [samples] for the scores ``H`` (T x r).
+
+    Parameters
+    ----------
+    H : ndarray, shape (T, r)
+        Score series (regressor times residual, summed per sample), one row
+        per sample, in time order.
+    rule : {"auto", "andrews", "nw94", "rule"}
+        ``"auto"`` (default of :func:`iwp.ident.lsq.solve_least_squares`): twice the
+        Andrews value, see there for why.  ``"andrews"``: Andrews (1991)
+        AR(1) plug-in,
+        ``L = 1.1447 (alpha(1) T)^(1/3)`` with ``alpha(1)`` from an AR(1)
+        fit to each score column; adapts to strongly autocorrelated
+        residuals.  ``"nw94"``: Newey-West (1994) nonparametric plug-in
+        with pilot lag ``4 (T/100)^(2/9)``.  ``"rule"``: the fixed rule
+        ``floor(4 (T/100)^(2/9))``.
+
+    Returns
+    -------
+    int
+        Number of lags, at most ``T // 4``.
+    """
+    T = H.shape[0]
+    cap = max(0, T // 4)
+    if rule == "rule":
+        return int(min(cap, math.floor(4.0 * (T / 100.0) ** (2.0 / 9.0))))
+    if rule in ("andrews", "auto"):
+        factor = AUTO_FACTOR if rule == "auto" else 1.0
+        Ht = np.ascontiguousarray(H.T)  # one contiguous row per score column (fast reductions)
+        x0, x1 = Ht[:, :-1], Ht[:, 1:]
+        den = np.einsum("ji,ji->j", x0, x0)
+        ok = den > 0
+        if not np.any(ok):
+            return 0
+        if not np.all(ok):
+            x0, x1, den = x0[ok], x1[ok], den[ok]
+        rho = np.einsum("ji,ji->j", x0, x1) / den
+        rho = np.clip(rho, -0.97, 0.97)
+        e = x1 - x0 * rho[:, None]
+        s2 = np.einsum("ji,ji->j", e, e) / max(1, T - 1)
+        num = np.sum(4.0 * rho**2 * s2**2 / ((1 - rho) ** 6 * (1 + rho) ** 2))
+        dnm = np.sum(s2**2 / (1 - rho) ** 4)
+        alpha = num / dnm if dnm > 0 else 0.0
+        L = factor * 1.1447 * (alpha * T) ** (1.0 / 3.0)
+        return int(min(cap, math.ceil(L)))
+    if rule == "nw94":
+        n = int(math.floor(4.0 * (T / 100.0) ** (2.0 / 9.0)))
+        h = H.sum(axis=1)
+        h = h - h.mean()
+        gam = np.array([h[j:] @ h[: T - j] / T for j in range(n + 1)])
+        s0 = gam[0] + 2.0 * gam[1:].sum()
+        s1 = 2.0 * np.sum(np.arange(1, n + 1) * gam[1:])
+        if s0 <= 0:
+            return 0
+        L = 1.1447 * ((s1 / s0) ** 2 * T) ** (1.0 / 3.0)
+        return int(min(cap, math.floor(L)))
+    raise InputError(f"bandwidth rule must be one of {', '.join(map(repr, BANDWIDTH_RULES))}, got {rule!r}")
+
+
+def fixed_b_critical_value(b: float) -> float:
+    """Two-sided 95 % fixed-b critical value of the Bartlett HAC t statistic.
+
+    Kiefer & Vogelsang (2005), polynomial fit for the Bartlett kernel,
+    ``b = bandwidth / T``; 1.96 at b = 0.
+    """
+    b = min(max(b, 0.0), 1.0)
+    return 1.96 + 2.9694 * b + 0.4160 * b**2 - 0.5324 * b**3
+
+
+@dataclass(frozen=True, eq=False)
+class Covariance:
+    """The covariance of a fit's unknowns (the optimiser's coordinates) and how it was formed.
+
+    Attributes
+    ----------
+    matrix : ndarray, shape (p, p)
+        NaN rows and columns for unknowns the data do not determine.
+    method : str
+        ``"white"``: ``(J_w^T J_w)^-1``, valid for residuals that are white
+        within each block; ``"hac"``: the sandwich ``A^-1 M A^-1`` with
+        ``A = J_w^T J_w`` and ``M`` the Bartlett (Newey-West) long-run
+        covariance of the scores ``J_w^T r_w`` summed per sample, over lags
+        within each experiment (experiments independent).
+    critical : float
+        Multiplier of the standard errors for 95 % intervals (Student t for
+        ``"white"``, the fixed-b value of Kiefer and Vogelsang for ``"hac"``).
+    bandwidth : int or None
+        Bartlett lags [samples] of ``"hac"``.
+    inflation : ndarray, shape (p,)
+        Variance of each unknown over what white residuals would give
+        (1: white; N: the residuals' correlation is worth N times fewer samples).
+    messages : list of str
+        Rank deficiency, ill conditioning.
+    """
+
+    matrix: np.ndarray
+    method: str
+    critical: float
+    bandwidth: int | None
+    inflation: np.ndarray
+    messages: list[str]
+
+
+def hac_sandwich(Jw: np.ndarray, rw: np.ndarray, groups: np.ndarray, times: np.ndarray, names: Sequence[str],
+                 dof: int, bandwidth: float | None = None) -> Covariance:
+    """The heteroscedasticity-and-autocorrelation-consistent sandwich covariance of a nonlinear least-squares fit.
+
+    Parameters
+    ----------
+    Jw, rw : ndarray
+        Jacobian (rows: residuals; columns: unknowns) and residuals, both
+        weighted (each block divided by its standard deviation).
+    groups : ndarray of int
+        The experiment of each row: lags never cross experiments.
+    times : ndarray of int
+        The sample of each row within its experiment: rows of one sample
+        (several outputs) form one score.
+    names : sequence of str
+        The unknowns (for the messages).
+    dof : int
+        Residual degrees of freedom (the small-sample factor ``n / dof``).
+
+    Notes
+    -----
+    Under model-structure error the residuals are correlated over long
+    times (a phase or amplitude error of the simulation); the sandwich is
+    then the covariance of the estimate around the best value in the model
+    family (the pseudo-true value), not around the truth, whose difference
+    (the bias) no standard error shows.
+    """
+    white, msgs = covariance_from_jacobian(Jw, names)
+    p = Jw.shape[1]
+    if p == 0:
+        return Covariance(white, "hac", math.nan, None, np.zeros(0), msgs)
+    scores = Jw * rw[:, None]
+    H_groups = []
+    for g in np.unique(groups):
+        rows = groups == g
+        t = times[rows]
+        H = np.zeros((int(t.max() - t.min()) + 1, p))
+        np.add.at(H, t - t.min(), scores[rows])
+        H_groups.append(H)
+    T = min(H.shape[0] for H in H_groups)
+    if bandwidth is None:
+        L = min(max(hac_bandwidth(H, "auto") for H in H_groups), max(T // 2, 0))
+    else:  # a fraction b of the shortest experiment (fixed-b inference)
+        L = int(min(max(round(bandwidth * T), 0), T - 1))
+    M = sum(bartlett_long_run_covariance(H, L) for H in H_groups)
+    n = Jw.shape[0]
+    A = np.nan_to_num(white)
+    cov = A @ M @ A * (n / max(dof, 1))
+    cov = 0.5 * (cov + cov.T)  # symmetric to rounding
+    bad = np.isnan(np.diag(white))
+    cov[bad, :] = np.nan
+    cov[:, bad] = np.nan
+    with np.errstate(invalid="ignore", divide="ignore"):
+        inflation = np.diag(cov) / np.diag(white)
+    return Covariance(cov, "hac", fixed_b_critical_value(L / max(T, 1)), int(L), inflation, msgs)
+
+
+def white_covariance(Jw: np.ndarray, names: Sequence[str], dof: int) -> Covariance:
+    """``(J_w^T J_w)^-1`` for residuals white within each block (their standard deviation 1 after weighting)."""
+    cov, msgs = covariance_from_jacobian(Jw, names)
+    return Covariance(cov, "white", float(stats.t.ppf(0.975, max(dof, 1))), None, np.ones(Jw.shape[1]), msgs)
+
+
+#: derivatives rho'(z) of the robust losses of scipy's least_squares, ``z = (r / f_scale)^2``
+_LOSS_DERIVATIVES = {
+    "linear": lambda z: np.ones_like(z),
+    "soft_l1": lambda z: 1.0 / np.sqrt(1.0 + z),
+    "huber": lambda z: np.where(z <= 1.0, 1.0, 1.0 / np.sqrt(np.maximum(z, 1.0))),
+    "cauchy": lambda z: 1.0 / (1.0 + z),
+    "arctan": lambda z: 1.0 / (1.0 + z * z),
+}
+
+
+def loss_weights(loss: str, r: np.ndarray, f_scale: float) -> np.ndarray:
+    """Iteratively-reweighted least-squares weights ``rho'((r/f)^2)`` of a robust loss at its optimum (1: linear)."""
+    return _LOSS_DERIVATIVES[loss]((r / f_scale) ** 2)
+
+
+def cluster_covariance(Jw: np.ndarray, rw: np.ndarray, groups: np.ndarray, names: Sequence[str],
+                       dof: int) -> Covariance:
+    """The cluster-robust sandwich over experiments: each experiment's summed score is one independent draw.
+
+    Valid whatever the correlation of the residuals within an experiment (a
+    simulation's error under model-structure error lasts as long as the
+    pendulum's damping time); its 95 % intervals use Student's t with
+    ``G - 1`` degrees of freedom for ``G`` experiments, so that few
+    experiments give wide intervals. Needs ``G >= 2``.
+    """
+    white, msgs = covariance_from_jacobian(Jw, names)
+    p = Jw.shape[1]
+    labels = np.unique(groups)
+    G = labels.size
+    if p == 0 or G < 2:
+        return Covariance(np.full((p, p), np.nan), "experiments", math.nan, None, np.full(p, np.nan), msgs)
+    scores = Jw * rw[:, None]
+    g = np.array([scores[groups == lab].sum(axis=0) for lab in labels])
+    n = Jw.shape[0]
+    A = np.nan_to_num(white)
+    cov = A @ (g.T @ g) @ A * (G / (G - 1)) * ((n - 1) / max(dof, 1))
+    cov = 0.5 * (cov + cov.T)
+    bad = np.isnan(np.diag(white))
+    cov[bad, :] = np.nan
+    cov[:, bad] = np.nan
+    with np.errstate(invalid="ignore", divide="ignore"):
+        inflation = np.diag(cov) / np.diag(white)
+    return Covariance(cov, "experiments", float(stats.t.ppf(0.975, G - 1)), None, inflation, msgs)

@@ -43,7 +43,13 @@ from scipy.linalg.lapack import dgeqrf as _dgeqrf
 from ..checks import check_finite
 from ..errors import IdentificationError, InputError
 from ..files import json_float
-from .covariance import null_space_message
+from .covariance import (
+    BANDWIDTH_RULES,
+    bartlett_long_run_covariance,
+    fixed_b_critical_value,
+    hac_bandwidth,
+    null_space_message,
+)
 from .parameters import Parameter, closing_lines, parameter_table
 
 __all__ = [
@@ -51,7 +57,6 @@ __all__ = [
     "LinearSystem",
     "solve_least_squares",
     "stack_rows",
-    "hac_bandwidth",
     "lstsq_projection",
     "DEFAULT_RCOND",
     "DEFAULT_COND_WARN",
@@ -67,9 +72,6 @@ DEFAULT_COND_WARN = 1e8
 #: Absolute correlation of two estimates above which a warning is given.
 DEFAULT_CORR_WARN = 0.95
 
-_BANDWIDTH_RULES = ("auto", "andrews", "nw94", "rule")
-#: ``bandwidth="auto"`` = this factor times the Andrews (1991) AR(1) plug-in
-_AUTO_FACTOR = 2.0
 _WEIGHT_FLOOR = 1e-8  # smallest block sigma relative to the largest one
 
 
@@ -319,91 +321,6 @@ def _svd_scaled(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
     return D, U, s, Vt
 
 
-def _bartlett_lrv(H: np.ndarray, L: int) -> np.ndarray:
-    """Bartlett-kernel long-run covariance sum_l (1 - |l|/(L+1)) Gamma_l (unnormalised).
-
-    Uses the identity with overlapping window sums of length L+1 over the
-    zero-padded series, which is exact and costs O(T p^2) for any L.
-    """
-    T, r = H.shape
-    if L == 0:
-        return _gram(H)
-    Hp = np.concatenate([np.zeros((L, r)), H, np.zeros((L, r))])
-    C = np.concatenate([np.zeros((1, r)), np.cumsum(Hp, axis=0)])
-    W = C[L + 1 :] - C[: -(L + 1)]
-    return _gram(W) / (L + 1)
-
-
-def hac_bandwidth(H: np.ndarray, rule: str = "auto") -> int:
-    """Automatic Bartlett bandwidth [samples] for the scores ``H`` (T x r).
-
-    Parameters
-    ----------
-    H : ndarray, shape (T, r)
-        Score series (regressor times residual, summed per sample), one row
-        per sample, in time order.
-    rule : {"auto", "andrews", "nw94", "rule"}
-        ``"auto"`` (default of :func:`solve_least_squares`): twice the
-        Andrews value, see there for why.  ``"andrews"``: Andrews (1991)
-        AR(1) plug-in,
-        ``L = 1.1447 (alpha(1) T)^(1/3)`` with ``alpha(1)`` from an AR(1)
-        fit to each score column; adapts to strongly autocorrelated
-        residuals.  ``"nw94"``: Newey-West (1994) nonparametric plug-in
-        with pilot lag ``4 (T/100)^(2/9)``.  ``"rule"``: the fixed rule
-        ``floor(4 (T/100)^(2/9))``.
-
-    Returns
-    -------
-    int
-        Number of lags, at most ``T // 4``.
-    """
-    T = H.shape[0]
-    cap = max(0, T // 4)
-    if rule == "rule":
-        return int(min(cap, math.floor(4.0 * (T / 100.0) ** (2.0 / 9.0))))
-    if rule in ("andrews", "auto"):
-        factor = _AUTO_FACTOR if rule == "auto" else 1.0
-        Ht = np.ascontiguousarray(H.T)  # one contiguous row per score column (fast reductions)
-        x0, x1 = Ht[:, :-1], Ht[:, 1:]
-        den = np.einsum("ji,ji->j", x0, x0)
-        ok = den > 0
-        if not np.any(ok):
-            return 0
-        if not np.all(ok):
-            x0, x1, den = x0[ok], x1[ok], den[ok]
-        rho = np.einsum("ji,ji->j", x0, x1) / den
-        rho = np.clip(rho, -0.97, 0.97)
-        e = x1 - x0 * rho[:, None]
-        s2 = np.einsum("ji,ji->j", e, e) / max(1, T - 1)
-        num = np.sum(4.0 * rho**2 * s2**2 / ((1 - rho) ** 6 * (1 + rho) ** 2))
-        dnm = np.sum(s2**2 / (1 - rho) ** 4)
-        alpha = num / dnm if dnm > 0 else 0.0
-        L = factor * 1.1447 * (alpha * T) ** (1.0 / 3.0)
-        return int(min(cap, math.ceil(L)))
-    if rule == "nw94":
-        n = int(math.floor(4.0 * (T / 100.0) ** (2.0 / 9.0)))
-        h = H.sum(axis=1)
-        h = h - h.mean()
-        gam = np.array([h[j:] @ h[: T - j] / T for j in range(n + 1)])
-        s0 = gam[0] + 2.0 * gam[1:].sum()
-        s1 = 2.0 * np.sum(np.arange(1, n + 1) * gam[1:])
-        if s0 <= 0:
-            return 0
-        L = 1.1447 * ((s1 / s0) ** 2 * T) ** (1.0 / 3.0)
-        return int(min(cap, math.floor(L)))
-    raise InputError(f"bandwidth rule must be one of {', '.join(map(repr, _BANDWIDTH_RULES))}, got {rule!r}")
-
-
-def _fixed_b_critical_value(b: float) -> float:
-    """Two-sided 95 % fixed-b critical value of the Bartlett HAC t statistic.
-
-    Kiefer & Vogelsang (2005), polynomial fit for the Bartlett kernel,
-    ``b = bandwidth / T``; 1.96 at b = 0.
-    """
-    b = min(max(b, 0.0), 1.0)
-    return 1.96 + 2.9694 * b + 0.4160 * b**2 - 0.5324 * b**3
-
-
 # ---------------------------------------------------------------------------
 # main entry point
 # ---------------------------------------------------------------------------
@@ -574,10 +491,10 @@ def solve_least_squares(
     if not (0.0 < rcond < 1.0):
         raise InputError(f"rcond must be in (0, 1), got {rcond!r}")
     if isinstance(bandwidth, str):
-        if bandwidth not in _BANDWIDTH_RULES:
+        if bandwidth not in BANDWIDTH_RULES:
             raise InputError(
                 "bandwidth must be a number of lags or one of "
-                f"{', '.join(map(repr, _BANDWIDTH_RULES))}, got {bandwidth!r}"
+                f"{', '.join(map(repr, BANDWIDTH_RULES))}, got {bandwidth!r}"
             )
     elif bandwidth is not None:
         if not isinstance(bandwidth, (int, np.integer)) or isinstance(bandwidth, bool) or bandwidth < 0:
@@ -727,9 +644,9 @@ def solve_least_squares(
                 f"HAC bandwidth {L_used} is more than a tenth of the {n_samples} samples: "
                 "few effectively independent samples, the uncertainty itself is uncertain"
             )
-        M = _bartlett_lrv(H, L_used) * (n_rows / dof if dof > 0 else math.nan)
+        M = bartlett_long_run_covariance(H, L_used) * (n_rows / dof if dof > 0 else math.nan)
         cov_s = A @ M @ A.T
-        crit = _fixed_b_critical_value(L_used / max(n_samples, 1))
+        crit = fixed_b_critical_value(L_used / max(n_samples, 1))
     cov_free = cov_s / np.outer(Dsafe, Dsafe)
 
     # non-identifiable parameters: NaN

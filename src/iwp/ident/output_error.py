@@ -402,6 +402,10 @@ class OutputError:
         """The experiment of each residual row (for covariances that treat experiments as independent)."""
         return np.concatenate([np.full(p.t.size * len(self.outputs), p.index) for p in self.prepared])
 
+    def row_times(self) -> np.ndarray:
+        """The sample of each residual row within its experiment (the rows of one sample share it)."""
+        return np.concatenate([np.tile(np.arange(p.t.size), len(self.outputs)) for p in self.prepared])
+
     # ------------------------------------------------------------- parameters
     def parameters(self, free: Sequence[str] = (), bounds: Mapping[str, tuple] | None = None, *,
                    log: bool = False) -> Parameters:

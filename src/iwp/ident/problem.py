@@ -33,10 +33,17 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol, Sequence
 
 import numpy as np
-from scipy import optimize, stats
+from scipy import optimize
 
 from ..errors import InputError
-from .covariance import block_sigmas, correlation_messages, covariance_from_jacobian
+from .covariance import (
+    block_sigmas,
+    cluster_covariance,
+    correlation_messages,
+    hac_sandwich,
+    loss_weights,
+    white_covariance,
+)
 from .jacobian import forward_difference_jacobian
 from .parameters import Parameters
 
@@ -158,6 +165,12 @@ class FitResult:
         Residual degrees of freedom (rows used minus unknowns).
     critical : float
         Multiplier of the standard errors giving the 95 % intervals.
+    covariance_method : str
+        ``"hac"``, ``"white"`` or ``"none"`` (:class:`~iwp.ident.covariance.Covariance`).
+    bandwidth : int or None
+        Bartlett lags of the HAC covariance [samples].
+    inflation : dict of str to float
+        Per free parameter, its variance over what white residuals would give.
     block_sigma : ndarray
         Standard deviation of the weighted residuals per block.
     start, optimum : object
@@ -188,6 +201,9 @@ class FitResult:
     optimum: Any
     jacobian: np.ndarray = field(repr=False)
     elapsed: float = 0.0
+    covariance_method: str = "white"
+    bandwidth: int | None = None
+    inflation: dict[str, float] = field(default_factory=dict)
 
 
 class _Objective:
@@ -247,12 +263,23 @@ class FitProblem:
         False where the residuals are not measurements with noise (the
         calibration of the twin matches published numbers): the parameters
         then carry no standard error (NaN).
+    covariance : {"hac", "white"}
+        ``"hac"`` (default where the model gives each residual's experiment
+        and sample, :class:`~iwp.ident.output_error.OutputError`): the
+        heteroscedasticity-and-autocorrelation-consistent sandwich
+        (:func:`~iwp.ident.covariance.hac_sandwich`), for residuals correlated
+        in time; ``"white"``: ``(J_w^T J_w)^-1``, valid for white residuals only.
     """
 
     parameters: Parameters
     model: ResidualModel
     loss: Loss = field(default_factory=Loss)
     statistics: bool = True
+    covariance: str = "hac"
+
+    def __post_init__(self) -> None:
+        if self.covariance not in ("hac", "white", "experiments") and not self.covariance.startswith("hac:"):
+            raise InputError(f"covariance must be 'hac', 'white' or 'experiments', got {self.covariance!r}")
 
     def solve(self, options: SolverOptions | None = None) -> FitResult:
         """Minimise the loss of the residuals over the free parameters; their statistics at the optimum."""
@@ -272,7 +299,7 @@ class FitProblem:
         if self.statistics:
             J = obj.jacobian(z)
             optimum = obj.evaluation(z)
-            result = _statistics(obj, z, J, optimum)
+            result = _statistics(self, obj, z, J, optimum, f_scale)
         else:
             J = np.zeros((self.model.n_rows, 0))
             optimum = obj.evaluation(z)
@@ -332,29 +359,41 @@ def _minimise(obj: _Objective, z0: np.ndarray, loss: Loss, options: SolverOption
     return z, success, message, float(scale)
 
 
-def _statistics(obj: _Objective, z: np.ndarray, J: np.ndarray, optimum: Any) -> dict[str, Any]:
+def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.ndarray, optimum: Any,
+                f_scale: float) -> dict[str, Any]:
     """Covariance, correlations and intervals at the optimum (the residuals of each block weighted by their std)."""
     params = obj.params
     free = params.free
-    blocks = obj.model.row_blocks()
-    used = obj.model.row_used()
+    model = problem.model
+    blocks = model.row_blocks()
+    used = model.row_used()
     sig = block_sigmas(optimum.r, blocks, used, len(free))
     dof = max(int(np.count_nonzero(used)) - len(free), 1)
-    Jw = J / np.where(sig[blocks] > 0, sig[blocks], 1.0)[:, None] if J.size else J
-    cov_z, msgs = covariance_from_jacobian(Jw, free)
-    critical = float(stats.t.ppf(0.975, dof))
-    estimates = params.with_estimates(z, cov_z, critical)
+    w = 1.0 / np.where(sig[blocks] > 0, sig[blocks], 1.0)
+    if problem.loss.name != "linear":  # the robust loss's weights at the optimum (iteratively reweighted)
+        w = w * np.sqrt(loss_weights(problem.loss.name, optimum.r, f_scale))
+    Jw = J * w[:, None] if J.size else J
+    if problem.covariance == "experiments" and hasattr(model, "row_experiments"):
+        cov_z = cluster_covariance(Jw, optimum.r * w, model.row_experiments(), free, dof)
+    elif problem.covariance.startswith("hac") and hasattr(model, "row_times"):
+        b = None if problem.covariance == "hac" else float(problem.covariance.split(":")[1])
+        cov_z = hac_sandwich(Jw, optimum.r * w, model.row_experiments(), model.row_times(), free, dof, b)
+    else:
+        cov_z = white_covariance(Jw, free, dof)
+    estimates = params.with_estimates(z, cov_z.matrix, cov_z.critical)
     D = params.value_derivatives(z, free)
-    cov = D @ cov_z @ D.T if free else np.zeros((0, 0))
+    cov = D @ cov_z.matrix @ D.T if free else np.zeros((0, 0))
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)
-    model = [i for i, n in enumerate(free) if params[n].kind == "model"]
-    names = [free[i] for i in model]
+    kinds = [i for i, n in enumerate(free) if params[n].kind == "model"]
+    names = [free[i] for i in kinds]
+    msgs = list(cov_z.messages)
     msgs.extend(correlation_messages(names, np.array([estimates[n].value for n in names]),
-                                     cov[np.ix_(model, model)], [params[n].unit for n in names], J[:, model]))
-    return dict(parameters=estimates, free=free, covariance=cov, correlation=corr, dof=dof, critical=critical,
-                block_sigma=sig, warnings=msgs)
+                                     cov[np.ix_(kinds, kinds)], [params[n].unit for n in names], J[:, kinds]))
+    return dict(parameters=estimates, free=free, covariance=cov, correlation=corr, dof=dof, critical=cov_z.critical,
+                block_sigma=sig, warnings=msgs, covariance_method=cov_z.method, bandwidth=cov_z.bandwidth,
+                inflation=dict(zip(free, (float(x) for x in cov_z.inflation))))
 
 
 def _no_statistics(params: Parameters, z: np.ndarray) -> dict[str, Any]:
@@ -363,7 +402,8 @@ def _no_statistics(params: Parameters, z: np.ndarray) -> dict[str, Any]:
     nan = np.full((n, n), np.nan)
     estimates = params.with_estimates(z, nan, math.nan)
     return dict(parameters=estimates, free=params.free, covariance=nan, correlation=nan.copy(), dof=0,
-                critical=math.nan, block_sigma=np.zeros(0), warnings=[])
+                critical=math.nan, block_sigma=np.zeros(0), warnings=[], covariance_method="none", bandwidth=None,
+                inflation={})
 
 
 def _bound_messages(params: Parameters, z: np.ndarray) -> list[str]:
