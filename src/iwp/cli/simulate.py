@@ -33,6 +33,11 @@ def register(sub) -> None:
     p.add_argument("--saturation", type=float, default=None, help="clip the command to +-VALUE")
     p.add_argument("--rtol", type=float, default=1e-10)
     p.add_argument("--atol", type=float, default=1e-10)
+    p.add_argument("--band", choices=["linear", "monte-carlo"], default=None,
+                   help="also write the 95 %% parameter and prediction bands (columns q1_lo, q1_hi, q1_plo, q1_phi, "
+                        "...) from the covariance in --params (the parameters.json of iwp fit)")
+    p.add_argument("--draws", type=int, default=1000, help="parameter draws of a monte-carlo band (default 1000)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the parameter draws (default 0)")
     p.add_argument("--out", required=True, help="output CSV file")
     p.add_argument("--plot", default=None, help="also save a figure (PNG/SVG/PDF)")
     add_force_arg(p)
@@ -43,6 +48,7 @@ def run(args) -> int:
     from ..models.plant import Plant
     from ..sim.inputs import make_input
     from ..sim.tasks import SimulationTask, write_simulation
+    from ..sim.uncertainty import load_uncertainty
 
     if args.controller is not None:
         inp = make_input(args.controller, k1=args.k1, k2=args.k2, Ts=args.ts if args.sampled else None,
@@ -50,8 +56,10 @@ def run(args) -> int:
     else:
         inp = make_input(args.input or "zero", amplitude=args.amplitude, omega=args.omega, w0=args.w0, tau=args.tau,
                          t_step=args.t_step)
-    task = SimulationTask(Plant(load_lumped(args.params), model=args.model), inp, x0=args.x0, t0=args.t0,
-                          t_end=args.t_end, Ts=args.ts, feedforward=args.feedforward, saturation=args.saturation,
-                          rtol=args.rtol, atol=args.atol)
+    uncertainty = load_uncertainty(args.params) if args.band is not None else None
+    params = uncertainty.params if uncertainty is not None else load_lumped(args.params)
+    task = SimulationTask(Plant(params, model=args.model), inp, x0=args.x0, t0=args.t0, t_end=args.t_end, Ts=args.ts,
+                          feedforward=args.feedforward, saturation=args.saturation, rtol=args.rtol, atol=args.atol,
+                          uncertainty=uncertainty, band=args.band, draws=args.draws, seed=args.seed)
     print(write_simulation(task, args.out, plot=args.plot, force=args.force))
     return 0

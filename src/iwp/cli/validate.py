@@ -48,6 +48,9 @@ def register(sub) -> None:
     p.add_argument("--k2", type=float, default=0.1, help="Hopf gain k2 (default 0.1)")
     p.add_argument("--controller-ts", type=float, default=None,
                    help="sample the controller every TS seconds and hold it (default: continuous)")
+    p.add_argument("--band", action="store_true",
+                   help="the fit's 95 %% parameter and prediction bands (linearised, from the covariance in P.json, "
+                        "the parameters.json of iwp fit) and the share of the samples inside the prediction band")
     p.add_argument("--json", action="store_true", help='print {"fit": {"q1": ..., ...}, ...} as JSON')
     p.add_argument("--plot", default=None, metavar="FIG", help="save the comparison figure (PNG/SVG/PDF)")
     add_force_arg(p)
@@ -71,6 +74,7 @@ def run(args) -> int:
     from ..models.parameters import stored_model
     from ..plotting import savefig
     from ..sim.inputs import HopfController
+    from ..sim.uncertainty import load_uncertainty
     from ._common import load_lumped
 
     if args.plot is not None:
@@ -78,7 +82,7 @@ def run(args) -> int:
     signals = tuple(s.strip() for s in args.signals.split(",") if s.strip())
     if not signals:
         raise InputError("--signals: give at least one of q1,q2,q3,q4")
-    params = load_lumped(args.params)
+    params = load_uncertainty(args.params) if args.band else load_lumped(args.params)
     try:
         data = read_experiment(args.file, format=args.format)
     except DataFormatError as exc:

@@ -24,7 +24,8 @@ from ..errors import InputError
 __all__ = ["CORR_WARN", "RCOND", "BANDWIDTH_RULES", "AUTO_FACTOR", "block_sigmas", "covariance_from_jacobian",
            "correlation_messages", "null_space_message", "bartlett_long_run_covariance", "hac_bandwidth",
            "fixed_b_critical_value", "Covariance", "hac_sandwich", "white_covariance", "loss_weights",
-           "cluster_covariance"]
+           "cluster_covariance", "Reliability", "reliability", "SPREAD_WARN",
+           "across_and_within"]
 
 #: |correlation| above which two free parameters are reported as not told apart.
 CORR_WARN = 0.95
@@ -384,3 +385,113 @@ def cluster_covariance(Jw: np.ndarray, rw: np.ndarray, groups: np.ndarray, names
     with np.errstate(invalid="ignore", divide="ignore"):
         inflation = np.diag(cov) / np.diag(white)
     return Covariance(cov, "experiments", float(stats.t.ppf(0.975, G - 1)), None, inflation, msgs)
+
+
+#: The experiments disagree beyond their noise when the spread across them is this many times (in variance) what the
+#: correlation within each explains: with three experiments a correct model passes this with probability ~0.99.
+SPREAD_WARN = 6.0
+
+
+@dataclass(frozen=True)
+class Reliability:
+    """How far a fit's intervals can be trusted, said beside them.
+
+    Attributes
+    ----------
+    method : str
+        The covariance used (:class:`Covariance`).
+    experiments : int
+        Independent experiments in the fit.
+    spread : float or None
+        With several experiments: the largest ratio over the model's
+        parameters of the variance across experiments to the variance that the
+        residuals' correlation within each explains (1: the logs agree within
+        their noise). None with one experiment.
+    structure_error : bool
+        The data show model-structure error (the experiments disagree beyond their noise).
+    reliable : bool
+        The intervals can be read as they are.
+    notes : list of str
+        Why, in words (one line each).
+    """
+
+    method: str
+    experiments: int
+    spread: float | None
+    structure_error: bool
+    reliable: bool
+    notes: list[str]
+
+    def describe(self) -> str:
+        """One line for a summary: the method, and what the intervals hold for."""
+        return f"intervals: {self.method}" + ("" if not self.notes else "; " + "; ".join(self.notes))
+
+    def to_dict(self) -> dict:
+        return {"method": self.method, "experiments": self.experiments, "spread": self.spread,
+                "structure_error": self.structure_error, "reliable": self.reliable, "notes": list(self.notes)}
+
+
+def reliability(chosen: Covariance, within: Covariance | None, experiments: int, model_columns: Sequence[int],
+                length: int) -> Reliability:
+    """The verdict on a fit's intervals from the covariance used and, with several experiments, the one within them.
+
+    ``model_columns`` are the unknowns that are model parameters (not initial
+    states); ``length`` the samples of the shortest experiment.
+    """
+    notes: list[str] = []
+    cols = list(model_columns)
+    if chosen.method == "experiments":
+        method = f"the spread across {experiments} experiments (Student t, {experiments - 1} dof)"
+    elif chosen.method == "hac":
+        method = f"HAC sandwich (Bartlett, {chosen.bandwidth} lags)"
+    elif chosen.method == "white":
+        method = "white residuals"
+    else:
+        return Reliability("none", experiments, None, False, False, ["no uncertainty estimated"])
+    spread = None
+    structure = False
+    if within is not None and cols:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.diag(chosen.matrix)[cols] / np.diag(within.matrix)[cols]
+        ratio = ratio[np.isfinite(ratio)]
+        spread = float(np.max(ratio)) if ratio.size else None
+        if spread is not None and spread > SPREAD_WARN:
+            structure = True
+            notes.append(f"model-structure error: the experiments disagree {math.sqrt(spread):.1f} times beyond their "
+                         "noise, so the intervals hold for the best model of this family on such experiments, not "
+                         "for the physical values (the model's bias is not in them)")
+    reliable = not structure
+    if experiments < 2:
+        if chosen.method == "hac" and chosen.bandwidth is not None and chosen.bandwidth > length // 10:
+            reliable = False
+            notes.append(f"unreliable: the residuals are correlated over {chosen.bandwidth} of {length} samples, so "
+                         "the one experiment holds few independent samples; fit several experiments")
+        else:
+            notes.append("one experiment: the model's structure cannot be checked; if the model misses something, "
+                         "its error outlasts the log and these intervals are too narrow (fit several experiments)")
+            reliable = False
+    elif experiments < 4 and not structure:
+        notes.append(f"only {experiments} experiments: wide intervals (Student t with {experiments - 1} dof)")
+    return Reliability(method, experiments, spread, structure, reliable, notes)
+
+
+def across_and_within(across: Covariance, within: Covariance) -> Covariance:
+    """The covariance of a fit over several experiments: per unknown the larger variance of the two, with the
+    correlations of the one within experiments.
+
+    The spread across ``G`` experiments (:func:`cluster_covariance`) holds
+    whatever the residuals' correlation within each, but it has rank at most
+    ``G - 1``: with fewer experiments than unknowns it determines no joint
+    distribution (a draw of the parameters would move along ``G - 1``
+    directions only). The sandwich within experiments (:func:`hac_sandwich`)
+    has full rank but misses what lasts longer than an experiment. This one
+    scales the second to the first where the first is larger:
+    ``C = D C_within D`` with ``D_jj = sqrt(max(1, C_across,jj / C_within,jj))``,
+    and keeps the Student t quantile of the spread across experiments.
+    """
+    a, w = np.diag(across.matrix), np.diag(within.matrix)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = np.sqrt(np.where(np.isfinite(a / w) & (w > 0), np.maximum(a / w, 1.0), 1.0))
+    cov = within.matrix * np.outer(d, d)
+    return Covariance(cov, "experiments", across.critical, within.bandwidth, within.inflation * d * d,
+                      within.messages)

@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
+from scipy import optimize
 
 from ..data import ExperimentData, read_experiment
 from ..data.rig_description import RigDescription, load_rig
@@ -188,6 +189,7 @@ class LogFitResult:
             "validation_fit": {k: json_float(v) for k, v in self.validation_fit.items()},
             "refinement": {k: r.to_dict()[k] for k in ("cost_start", "cost", "success", "message", "nfev", "njev",
                                                         "n_samples", "residual_std")},
+            "uncertainty": None if r.reliability is None else r.reliability.to_dict(),
             "warnings": list(self.warnings),
             "elapsed_s": json_float(self.elapsed),
             "lumped": self.params.to_dict(),
@@ -199,7 +201,9 @@ class LogFitResult:
                  f"{', '.join(self.outputs)}, start: {self.start_method}"]
         for n in self.refinement.free:
             pe = self.refinement.parameters[n]
-            lines.append(f"  {n:<9} {pe.value:>12.6g} +- {pe.stderr:.2g}")
+            lines.append(f"  {n:<9} {pe.value:>12.6g} +- {pe.stderr:.2g}  [{pe.ci95_low:.6g}, {pe.ci95_high:.6g}]")
+        if self.refinement.reliability is not None:
+            lines.append(self.refinement.reliability.describe())
         for f in self.train + self.validation:
             fits = ", ".join(f"{k} {v:.2f} %" for k, v in f.fit.items())
             lines.append(f"{f.role:>8} {f.source}: fit {fits}")
@@ -350,7 +354,10 @@ def least_squares_start(logs: Sequence[ExperimentData], *, base: LumpedParameter
     B = np.column_stack([columns(q3_row(sig), names, n), np.cos(sig.q1)])
     scale = np.linalg.norm(B, axis=0)
     scale[scale == 0] = 1.0
-    th, *_ = np.linalg.lstsq(B / scale, sig.dq3, rcond=None)
+    # the physical signs as bounds (p1, the frictions, p2 >= 0): the friction columns |cos q1| q3 and q3 are
+    # nearly collinear, and unbounded least squares trades a large positive one for a large negative one
+    lo = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -np.inf, -np.inf])
+    th = optimize.lsq_linear(B / scale, sig.dq3, bounds=(lo, np.full(7, np.inf)), method="bvls").x
     p1, sa, sv, sb, p2b, p3b, c1 = (float(v) for v in th / scale)
     details = {"rho_p2": float(rp2), "rho_p3": float(rp3), "p1": p1, "sigma_a1": sa, "sigma_v1": sv, "sigma_b1": sb,
                "p2": p2b, "p3": p3b, "q1_offset": c1 / p1 if p1 else float("nan")}

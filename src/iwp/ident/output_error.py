@@ -33,7 +33,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from ..data import ExperimentData
+from ..data import ExperimentData, check_distinct
 from ..errors import InputError
 from ..models.parameters import PARAMETER_INFO
 from ..models.plant import Plant
@@ -367,6 +367,7 @@ class OutputError:
                     raise InputError(f"output_offsets names {o!r}, which is not an output ({', '.join(self.outputs)})")
         if self.fitting:
             self._check_outputs(exps)
+            check_distinct([e.data.window(*e.window) for e in exps], "experiments")
         n_min = MIN_SAMPLES if self.fitting else 2
         self.prepared = [prepare(e, i, self.plant, self.outputs, n_min) for i, e in enumerate(exps)]
         self.scale = {}

@@ -37,11 +37,14 @@ from scipy import optimize
 
 from ..errors import InputError
 from .covariance import (
+    Reliability,
+    across_and_within,
     block_sigmas,
     cluster_covariance,
     correlation_messages,
     hac_sandwich,
     loss_weights,
+    reliability,
     white_covariance,
 )
 from .jacobian import forward_difference_jacobian
@@ -171,6 +174,8 @@ class FitResult:
         Bartlett lags of the HAC covariance [samples].
     inflation : dict of str to float
         Per free parameter, its variance over what white residuals would give.
+    reliability : Reliability or None
+        How far the intervals can be trusted (:func:`~iwp.ident.covariance.reliability`).
     block_sigma : ndarray
         Standard deviation of the weighted residuals per block.
     start, optimum : object
@@ -204,6 +209,7 @@ class FitResult:
     covariance_method: str = "white"
     bandwidth: int | None = None
     inflation: dict[str, float] = field(default_factory=dict)
+    reliability: Reliability | None = None
 
 
 class _Objective:
@@ -263,23 +269,31 @@ class FitProblem:
         False where the residuals are not measurements with noise (the
         calibration of the twin matches published numbers): the parameters
         then carry no standard error (NaN).
-    covariance : {"hac", "white"}
-        ``"hac"`` (default where the model gives each residual's experiment
-        and sample, :class:`~iwp.ident.output_error.OutputError`): the
-        heteroscedasticity-and-autocorrelation-consistent sandwich
-        (:func:`~iwp.ident.covariance.hac_sandwich`), for residuals correlated
-        in time; ``"white"``: ``(J_w^T J_w)^-1``, valid for white residuals only.
+    covariance : {"auto", "experiments", "hac", "white"}
+        ``"experiments"``: the cluster-robust sandwich over experiments
+        (:func:`~iwp.ident.covariance.cluster_covariance`): each experiment's
+        summed score one independent draw, Student t with ``G - 1`` dof;
+        ``"hac"``: the heteroscedasticity-and-autocorrelation-consistent
+        sandwich within experiments (:func:`~iwp.ident.covariance.hac_sandwich`);
+        ``"white"``: ``(J_w^T J_w)^-1``, for white residuals only. ``"auto"``
+        (default): ``"experiments"`` with two experiments or more, ``"hac"``
+        with one, ``"white"`` for residual models without time
+        (:class:`~iwp.ident.output_error.OutputError` has it). Chosen by the
+        coverage measured on the virtual rig (``docs/uncertainty.md``): with
+        model-structure error a simulation's error lasts about the pendulum's
+        damping time, longer than a log, and only independent experiments
+        show the estimate's spread.
     """
 
     parameters: Parameters
     model: ResidualModel
     loss: Loss = field(default_factory=Loss)
     statistics: bool = True
-    covariance: str = "hac"
+    covariance: str = "auto"
 
     def __post_init__(self) -> None:
-        if self.covariance not in ("hac", "white", "experiments") and not self.covariance.startswith("hac:"):
-            raise InputError(f"covariance must be 'hac', 'white' or 'experiments', got {self.covariance!r}")
+        if self.covariance not in ("auto", "hac", "white", "experiments") and not self.covariance.startswith("hac:"):
+            raise InputError(f"covariance must be 'auto', 'experiments', 'hac' or 'white', got {self.covariance!r}")
 
     def solve(self, options: SolverOptions | None = None) -> FitResult:
         """Minimise the loss of the residuals over the free parameters; their statistics at the optimum."""
@@ -373,27 +387,43 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     if problem.loss.name != "linear":  # the robust loss's weights at the optimum (iteratively reweighted)
         w = w * np.sqrt(loss_weights(problem.loss.name, optimum.r, f_scale))
     Jw = J * w[:, None] if J.size else J
-    if problem.covariance == "experiments" and hasattr(model, "row_experiments"):
-        cov_z = cluster_covariance(Jw, optimum.r * w, model.row_experiments(), free, dof)
-    elif problem.covariance.startswith("hac") and hasattr(model, "row_times"):
-        b = None if problem.covariance == "hac" else float(problem.covariance.split(":")[1])
-        cov_z = hac_sandwich(Jw, optimum.r * w, model.row_experiments(), model.row_times(), free, dof, b)
+    rw = optimum.r * w
+    timed = hasattr(model, "row_times")
+    groups = model.row_experiments() if timed else np.zeros(rw.size, dtype=np.int64)
+    n_exp = int(np.unique(groups).size)
+    method = problem.covariance
+    if method == "auto":
+        method = ("experiments" if n_exp >= 2 else "hac") if timed else "white"
+    within = None
+    if timed and (method in ("experiments", "hac") or method.startswith("hac:")):
+        b = float(method.split(":")[1]) if method.startswith("hac:") else None
+        within = hac_sandwich(Jw, rw, groups, model.row_times(), free, dof, b)
+    across = None
+    if method == "experiments" and n_exp >= 2:
+        across = cluster_covariance(Jw, rw, groups, free, dof)
+        cov_z = across_and_within(across, within) if within is not None else across
+    elif within is not None:
+        cov_z = within
     else:
         cov_z = white_covariance(Jw, free, dof)
+    kinds = [i for i, n in enumerate(free) if params[n].kind == "model"]
+    length = int(min(np.count_nonzero(groups == g) for g in np.unique(groups))) if rw.size else 0
+    n_out = int(np.max(blocks)) + 1 if blocks.size else 1
+    verdict = reliability(across if across is not None else cov_z, within if across is not None else None, n_exp,
+                          kinds, length // n_out)
     estimates = params.with_estimates(z, cov_z.matrix, cov_z.critical)
     D = params.value_derivatives(z, free)
     cov = D @ cov_z.matrix @ D.T if free else np.zeros((0, 0))
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(sd, sd)
-    kinds = [i for i, n in enumerate(free) if params[n].kind == "model"]
     names = [free[i] for i in kinds]
     msgs = list(cov_z.messages)
     msgs.extend(correlation_messages(names, np.array([estimates[n].value for n in names]),
                                      cov[np.ix_(kinds, kinds)], [params[n].unit for n in names], J[:, kinds]))
     return dict(parameters=estimates, free=free, covariance=cov, correlation=corr, dof=dof, critical=cov_z.critical,
                 block_sigma=sig, warnings=msgs, covariance_method=cov_z.method, bandwidth=cov_z.bandwidth,
-                inflation=dict(zip(free, (float(x) for x in cov_z.inflation))))
+                inflation=dict(zip(free, (float(x) for x in cov_z.inflation))), reliability=verdict)
 
 
 def _no_statistics(params: Parameters, z: np.ndarray) -> dict[str, Any]:
@@ -403,7 +433,7 @@ def _no_statistics(params: Parameters, z: np.ndarray) -> dict[str, Any]:
     estimates = params.with_estimates(z, nan, math.nan)
     return dict(parameters=estimates, free=params.free, covariance=nan, correlation=nan.copy(), dof=0,
                 critical=math.nan, block_sigma=np.zeros(0), warnings=[], covariance_method="none", bandwidth=None,
-                inflation={})
+                inflation={}, reliability=None)
 
 
 def _bound_messages(params: Parameters, z: np.ndarray) -> list[str]:

@@ -59,6 +59,7 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import PARAMETER_INFO, BeltParameters, LumpedParameters
 from ..models.plant import MODELS, Plant
+from .covariance import Reliability
 from .fit import fit_percent
 from .output_error import Experiment, OutputError, offset_name, x0_name
 from .parameters import Parameter
@@ -231,6 +232,8 @@ class RefineResult:
         Standard deviation of the simulation error per output at the optimum (in the output's unit).
     fit_result : FitResult
         The fit problem's own result (every unknown, the Jacobian, the evaluations).
+    reliability : Reliability or None
+        How far the intervals can be trusted (:class:`~iwp.ident.covariance.Reliability`).
     """
 
     params: LumpedParameters
@@ -272,6 +275,7 @@ class RefineResult:
     belt: BeltParameters | None = None
     belt_start: BeltParameters | None = None
     fit_result: FitResult | None = field(default=None, repr=False)
+    reliability: Reliability | None = None
 
     def value(self, name: str) -> float:
         """Value of one parameter."""
@@ -331,6 +335,7 @@ class RefineResult:
             "n_samples": int(self.n_samples),
             "elapsed_s": json_float(self.elapsed),
             "warnings": list(self.warnings),
+            "uncertainty": None if self.reliability is None else self.reliability.to_dict(),
             "lumped": self.params.to_dict(),
             **({"belt": self.belt.to_dict()} if self.belt is not None else {}),
         }
@@ -347,6 +352,8 @@ class RefineResult:
         for i, f in enumerate(self.fit):
             fs = ", ".join(f"{k} {v:.2f} % (start {self.fit_start[i][k]:.2f} %)" for k, v in f.items())
             lines.append(f"experiment {i} [{self.windows[i][0]:g}, {self.windows[i][1]:g}] s: fit {fs}")
+        if self.reliability is not None:
+            lines.append(self.reliability.describe())
         lines.append(f"cost {self.cost_start:.6g} -> {self.cost:.6g}, {self.nfev} simulations, "
                      f"{self.njev} with sensitivities, {self.elapsed:.3g} s; {self.message}")
         for w in self.warnings:
@@ -398,7 +405,7 @@ def refine_report(residuals: OutputError, result: FitResult, start: Plant) -> Re
         sources=[p.spec.data.source for p in residuals.prepared], simulated=sim,
         measured=[dict(p.y) for p in residuals.prepared], times=[p.t for p in residuals.prepared],
         weights=[dict(p.w) for p in residuals.prepared], offsets=offsets, belt=plant.belt, belt_start=start.belt,
-        fit_result=result)
+        fit_result=result, reliability=result.reliability)
 
 
 # --------------------------------------------------------------------------

@@ -40,6 +40,7 @@ from ..models.parameters import LumpedParameters, PhysicalParameters
 from ..models.plant import MODELS, Plant
 from ..plotting.validation import plot_validation
 from ..sim.inputs import Input
+from ..sim.uncertainty import ParameterUncertainty, PredictionBand, prediction_band
 from .fit import fit_percent
 from .output_error import Experiment, OutputError, measured_signals
 from .problem import FitProblem, SolverOptions
@@ -88,6 +89,10 @@ class ValidationResult:
     closed_loop: bool = False
     locked: bool = False
     restart_states: list[np.ndarray] = field(default_factory=list)
+    #: the fit's 95 % parameter and prediction bands, when the parameters came with their uncertainty
+    band: PredictionBand | None = None
+    #: per signal, the share of the measured samples inside the prediction band
+    coverage: dict[str, float] | None = None
 
     @property
     def rms(self) -> dict[str, float]:
@@ -114,6 +119,9 @@ class ValidationResult:
             "estimate_x0": self.estimate_x0,
             "closed_loop": self.closed_loop,
             "restart_times": [float(r) for r in self.restart_times],
+            "band": None if self.band is None else {
+                "method": self.band.method, "level": self.band.level,
+                "coverage": {k: json_float(v) for k, v in (self.coverage or {}).items()}},
             "source": self.source,
             "params": self.params.to_dict(),
         }
@@ -125,8 +133,11 @@ class ValidationResult:
                                              if self.restart_times else ""))
         lines = [head]
         for k in self.fit:
+            cov = ""
+            if self.coverage is not None and k in self.coverage and math.isfinite(self.coverage[k]):
+                cov = f", {100 * self.coverage[k]:.1f} % of the samples in the 95 % prediction band"
             lines.append(f"  {k}: fit {self.fit[k]:.2f} %, rms error {self.rms[k]:.4g}, "
-                         f"max |error| {self.max_abs_error[k]:.4g}")
+                         f"max |error| {self.max_abs_error[k]:.4g}{cov}")
         return "\n".join(lines)
 
     def __str__(self) -> str:
@@ -137,7 +148,8 @@ class ValidationResult:
         see :func:`iwp.plotting.validation.plot_validation`."""
         sig = tuple(signals) if signals is not None else tuple(self.measured)
         return plot_validation(self.t, self.measured, self.simulated, signals=sig, fit=self.fit,
-                               restart_times=self.restart_times, axes=axes, **kw)
+                               restart_times=self.restart_times, axes=axes, band=self.band, coverage=self.coverage,
+                               **kw)
 
 
 def auto_model(data: ExperimentData) -> str:
@@ -252,8 +264,12 @@ def validate(
     ----------
     experiment : ExperimentData
         The log.
-    params : LumpedParameters, PhysicalParameters or Plant
-        The parameters (with ``model``), or a plant.
+    params : LumpedParameters, PhysicalParameters, Plant or ParameterUncertainty
+        The parameters (with ``model``), or a plant. With a
+        :class:`~iwp.ident.uncertainty.ParameterUncertainty` (a fit's
+        parameters and covariance) the result also holds the fit's 95 %
+        parameter and prediction bands (linearised) and how much of the
+        measured data falls inside the prediction band.
     model : str
         ``"compensated"`` (9, input ``u``), ``"raw"`` (6, input ``v``),
         ``"motor-disk"``, ``"motor-disk-raw"`` (14), ``"free"`` (free
@@ -280,7 +296,8 @@ def validate(
     """
     if not isinstance(experiment, ExperimentData):
         raise InputError(f"experiment must be an ExperimentData, got {type(experiment).__name__}")
-    plant = validation_plant(params, experiment, model)
+    uncertainty = params if isinstance(params, ParameterUncertainty) else None
+    plant = validation_plant(params.params if uncertainty is not None else params, experiment, model)
     signals = (signals,) if isinstance(signals, str) else tuple(signals)
     if not signals:
         raise InputError("signals is empty")
@@ -308,11 +325,29 @@ def validate(
     measured = {s: np.concatenate([p.y[s] for p in model_.prepared]) for s in signals}
     simulated = {s: np.concatenate([q[s] for q in pred]) for s in signals}
     x0s = model_.states(ev.values)
+    band = coverage = None
+    if uncertainty is not None:
+        band = _band(model_, x0s, uncertainty, signals)
+        coverage = band.coverage(measured, {s: np.concatenate([p.w[s] > 0 for p in model_.prepared]) for s in signals})
     return ValidationResult(
         t=t, measured=measured, simulated=simulated, error={s: measured[s] - simulated[s] for s in signals},
         fit={s: fit_percent(measured[s], simulated[s]) for s in signals}, x0=np.asarray(x0s[0], dtype=float),
         restart_times=tuple(float(t[k]) for k in starts[1:]), model=plant.model, params=plant.lumped,
         source=experiment.source, estimate_x0=bool(estimate_x0), closed_loop=controller is not None,
-        locked=bool(plant.locked), restart_states=[np.asarray(x, dtype=float) for x in x0s[1:]],
+        locked=bool(plant.locked), restart_states=[np.asarray(x, dtype=float) for x in x0s[1:]], band=band,
+        coverage=coverage,
     )
+
+
+def _band(model: OutputError, x0s: list[np.ndarray], uncertainty: ParameterUncertainty,
+          signals: tuple[str, ...]) -> PredictionBand:
+    """The linearised bands of every segment of a validation, joined."""
+    parts = [prediction_band(p.plant, uncertainty, input=p.input, x0=x0, t_eval=p.t, signals=signals)
+             for p, x0 in zip(model.prepared, x0s)]
+
+    def join(attr):
+        return {s: np.concatenate([getattr(b, attr)[s] for b in parts]) for s in signals}
+
+    return PredictionBand(np.concatenate([b.t for b in parts]), join("nominal"), join("lower"), join("upper"),
+                          join("pred_lower"), join("pred_upper"), "linear", 0.95, 0)
 

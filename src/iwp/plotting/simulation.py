@@ -12,7 +12,7 @@ from .base import SIGNAL_LABELS, stacked_axes
 
 __all__ = ["plot_simulation", "plot_comparison"]
 
-def plot_simulation(result, signals=("q1", "q2", "q3", "q4", "u"), axes=None, label=None, **line_kw):
+def plot_simulation(result, signals=("q1", "q2", "q3", "q4", "u"), axes=None, label=None, band=None, **line_kw):
     """Plot simulated signals against time, one panel each.
 
     Parameters
@@ -24,6 +24,8 @@ def plot_simulation(result, signals=("q1", "q2", "q3", "q4", "u"), axes=None, la
         One per signal; new figure if omitted.
     label : str, optional
         Legend label of the lines.
+    band : PredictionBand, optional
+        Shade its 95 % parameter and prediction bands around the signals it holds.
 
     Returns
     -------
@@ -36,6 +38,9 @@ def plot_simulation(result, signals=("q1", "q2", "q3", "q4", "u"), axes=None, la
     for ax, name in zip(axs, signals):
         if name not in cols:
             raise ValueError(f"signal {name!r} not in the result; available: {', '.join(cols)}")
+        if band is not None and name in band.lower:
+            ax.fill_between(band.t, band.pred_lower[name], band.pred_upper[name], color="C0", alpha=0.15, lw=0)
+            ax.fill_between(band.t, band.lower[name], band.upper[name], color="C0", alpha=0.35, lw=0)
         (ln,) = ax.plot(cols["t"], cols[name], label=label, **line_kw)
         lines.append(ln)
         ax.set_ylabel(SIGNAL_LABELS.get(name, name))
@@ -47,19 +52,28 @@ def plot_simulation(result, signals=("q1", "q2", "q3", "q4", "u"), axes=None, la
 
 
 def plot_comparison(t, measured, simulated, *, name="q4", ax=None, error_ax=None, labels=("experimental data",
-                    "numerical simulation")):
+                    "numerical simulation"), band=None):
     """Measured against simulated signal, with the error below (the paper's figures 3-10).
+
+    ``band``: optional ``(lower, upper, pred_lower, pred_upper)`` arrays of the
+    95 % parameter and prediction bands (:class:`iwp.ident.uncertainty.PredictionBand`),
+    shaded around the simulation.
 
     Returns
     -------
     dict
-        ``{"figure", "axes", "lines"}``; ``lines`` holds the measured, simulated and error lines.
+        ``{"figure", "axes", "lines", "bands"}``; ``lines`` holds the measured, simulated and error lines.
     """
     if ax is None:
         fig, (ax, error_ax) = plt.subplots(2, 1, sharex=True, figsize=(7.0, 4.2), constrained_layout=True,
                                            gridspec_kw={"height_ratios": [2, 1]})
     else:
         fig = ax.figure
+    bands = []
+    if band is not None:
+        lo, hi, plo, phi = band
+        bands.append(ax.fill_between(t, plo, phi, color="C1", alpha=0.15, lw=0, label="95 % prediction band"))
+        bands.append(ax.fill_between(t, lo, hi, color="C1", alpha=0.35, lw=0, label="95 % parameter band"))
     (l1,) = ax.plot(t, measured, "-", lw=1.0, label=labels[0])
     (l2,) = ax.plot(t, simulated, "--", lw=1.0, label=labels[1])
     ax.set_ylabel(SIGNAL_LABELS.get(name, name))
@@ -76,4 +90,4 @@ def plot_comparison(t, measured, simulated, *, name="q4", ax=None, error_ax=None
         axes.append(error_ax)
     else:
         ax.set_xlabel("t [s]")
-    return {"figure": fig, "axes": axes, "lines": lines}
+    return {"figure": fig, "axes": axes, "lines": lines, "bands": bands}

@@ -21,7 +21,7 @@ __all__ = ["plot_validation", "plot_correlation"]
 
 
 def plot_validation(t, measured, simulated, *, signals=None, fit=None, restart_times=(), axes=None,
-                    labels=("experimental data", "numerical simulation")):
+                    labels=("experimental data", "numerical simulation"), band=None, coverage=None):
     """Measured against simulated signals, each with its error ``measured - simulated`` below (figures 3-10).
 
     Parameters
@@ -38,6 +38,10 @@ def plot_validation(t, measured, simulated, *, signals=None, fit=None, restart_t
         Restart times of the simulation [s] (figure 9b), drawn as vertical lines.
     axes : sequence of Axes, optional
         ``2 * len(signals)`` axes: signal, error, signal, error, ...
+    band : PredictionBand, optional
+        Its 95 % parameter and prediction bands, shaded around the simulation.
+    coverage : dict of str to float, optional
+        The share of the measured samples inside the prediction band, in the titles.
 
     Returns
     -------
@@ -60,10 +64,19 @@ def plot_validation(t, measured, simulated, *, signals=None, fit=None, restart_t
     lines, rlines = [], []
     for i, name in enumerate(sig):
         ax, eax = ax_list[2 * i], ax_list[2 * i + 1]
-        out = plot_comparison(t, measured[name], simulated[name], name=name, ax=ax, error_ax=eax, labels=labels)
+        b = None
+        if band is not None and name in band.lower:
+            b = (band.lower[name], band.upper[name], band.pred_lower[name], band.pred_upper[name])
+        out = plot_comparison(t, measured[name], simulated[name], name=name, ax=ax, error_ax=eax, labels=labels,
+                              band=b)
         lines.extend(out["lines"])
+        title = []
         if fit is not None and name in fit and fit[name] is not None and math.isfinite(fit[name]):
-            ax.set_title(f"{name}: fit {fit[name]:.1f} %", fontsize=9)
+            title.append(f"fit {fit[name]:.1f} %")
+        if coverage is not None and name in coverage and math.isfinite(coverage[name]):
+            title.append(f"{100 * coverage[name]:.0f} % of the samples in the 95 % prediction band")
+        if title:
+            ax.set_title(f"{name}: " + ", ".join(title), fontsize=9)
         for rt in restart_times:
             for a in (ax, eax):
                 rlines.append(a.axvline(rt, color="0.5", ls=":", lw=1.0))

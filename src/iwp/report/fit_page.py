@@ -29,6 +29,7 @@ from ..files import jsonable, staged_dir
 from ..models.parameters import save_params
 from ..plotting.report import plot_comparisons
 from ..plotting.validation import plot_correlation
+from ..sim.uncertainty import uncertainty_record
 from .folder import decimate, save_figure
 from .page import FigureEntry, Report, Section, Table, fmt, write_html
 
@@ -99,8 +100,8 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                          fmt(getattr(result.start, n), 5), fmt(ls, 5) if ls is not None else "-"])
         ptab = Table("Parameters (simulation-error fit on all training logs)",
                      ["parameter", "value", "stderr", "95 % interval", "start", "least squares"], rows,
-                     note="stderr from the Jacobian at the optimum, a lower bound (simulation residuals are "
-                          "correlated in time); start: " + result.start_method)
+                     note=("no uncertainty estimated" if r.reliability is None else r.reliability.describe())
+                     + "; start: " + result.start_method)
         frows = []
         for f in result.train + result.validation:
             frows.append([Path(f.source).name, f.role] + [fmt(f.fit.get(o), 4) for o in result.outputs]
@@ -128,6 +129,7 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         (tmp / "fit.json").write_text(json.dumps(jsonable(doc), indent=2) + "\n")
         save_params(result.params, tmp / "parameters.json", force=True,
                     extra={"model": result.model, "source": "iwp fit",
-                           "stderr": {n: r.parameters[n].stderr for n in r.free}})
+                           "stderr": {n: r.parameters[n].stderr for n in r.free},
+                           "covariance": uncertainty_record(r)})
     return {"folder": out, "report": out / "report.html", "json": out / "fit.json",
             "parameters": out / "parameters.json", "figures": fig_paths}

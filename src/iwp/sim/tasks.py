@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -20,6 +20,7 @@ from ..plotting import plot_simulation, savefig
 from .inputs import Input
 from .result import SimulationResult
 from .simulate import simulate
+from .uncertainty import ParameterUncertainty, prediction_band
 
 __all__ = ["SimulationTask", "write_simulation", "physical_range_message"]
 
@@ -67,6 +68,13 @@ class SimulationTask:
         Clip the command to ``+-saturation`` [input units].
     rtol, atol : float
         Tolerances of the integration.
+    uncertainty : ParameterUncertainty, optional
+        The fit's parameters and covariance (:func:`~iwp.sim.uncertainty.load_uncertainty`): with ``band``,
+        the 95 % parameter and prediction bands are computed and written beside the log.
+    band : {"linear", "monte-carlo"}, optional
+        How the band is computed (:func:`~iwp.sim.uncertainty.prediction_band`).
+    draws, seed : int
+        Of a Monte Carlo band.
     """
 
     plant: Plant
@@ -79,6 +87,15 @@ class SimulationTask:
     saturation: float | None = None
     rtol: float = 1e-10
     atol: float = 1e-10
+    uncertainty: ParameterUncertainty | None = None
+    band: str | None = None
+    draws: int = 1000
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.band is not None and self.uncertainty is None:
+            raise InputError("band needs the fit's uncertainty: the parameters.json that iwp fit writes",
+                             argument="band")
 
     def run(self) -> SimulationResult:
         """Simulate; a run that stops short or gives NaN is an error (nothing to write), an unphysical one a warning."""
@@ -109,11 +126,19 @@ def write_simulation(task: SimulationTask, out, *, plot=None, force: bool = Fals
             raise InputError(f"plot {plot}: is the same file as --out", argument="plot")
     res = task.run()
     log = res.to_experiment()
+    band = None
+    if task.band is not None:
+        band = prediction_band(task.plant, task.uncertainty, input=task.input, x0=task.x0, t_eval=res.t,
+                               method=task.band, draws=task.draws, seed=task.seed,
+                               signals=tuple(s for s in ("q1", "q2", "q3", "q4") if s in task.plant.outputs))
+        log = replace(log, extra={**log.extra, **band.columns()},
+                      metadata={**log.metadata, "band": f"{band.method}, 95 %" + (
+                          f", {band.draws} draws" if band.draws else "")})
     writes = [(out, lambda tmp: write_experiment(log, tmp, format=LOG_SUFFIXES[out.suffix.lower()], force=True))]
     msg = (f"wrote {out} ({res.t.size} samples, t = {res.t[0]:g}..{res.t[-1]:g} s, "
            f"max |q1| = {abs(res.q1).max():.4g} rad)")
     if plot is not None:
-        fig = plot_simulation(res)["figure"]
+        fig = plot_simulation(res, band=band)["figure"]
         writes.append((plot, lambda tmp: savefig(fig, tmp)))
         msg += f"; figure {plot}"
     write_all(writes)

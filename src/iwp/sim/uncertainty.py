@@ -1,0 +1,319 @@
+"""What a fit knows about its parameters, carried to predictions: parameter draws and prediction bands.
+
+A fit (:func:`~iwp.ident.refinement.refine`, ``iwp fit``) estimates its free
+parameters with a covariance (:mod:`iwp.ident.covariance`) and leaves
+residuals of a known spread. :class:`ParameterUncertainty` keeps both with the
+parameter set, in memory or in a parameter file (``iwp fit`` writes it into
+``parameters.json``), so that a simulation can say how far it can be trusted:
+
+* the **parameter band**: where the simulated output lies for parameters
+  within their uncertainty -- linearised, ``var y(t) = S(t) C S(t)^T`` with
+  the engine's forward sensitivities ``S = dy/dtheta``
+  (:func:`~iwp.sim.sensitivity.simulate_sensitivities`), or by Monte Carlo,
+  the quantiles of simulations of parameter draws run side by side
+  (:func:`~iwp.sim.simulate.simulate_batch`);
+* the **prediction band**: the parameter band widened by the measurement
+  noise, the spread of the fit's residuals per output, where a new
+  measurement falls (:meth:`PredictionBand.coverage`).
+
+Draws keep the physical signs (:data:`iwp.models.parameters.PARAMETER_INFO`):
+a draw with a negative friction or inertia ratio is drawn again.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+from scipy import stats
+
+from ..errors import InputError
+from ..files import json_float, read_json
+from ..models.parameters import PARAMETER_INFO, LumpedParameters, load_params
+from ..models.plant import Plant
+from .inputs import Input
+from .sensitivity import simulate_sensitivities
+from .simulate import output_times, simulate_batch
+
+__all__ = ["ParameterUncertainty", "PredictionBand", "prediction_band", "uncertainty_record", "load_uncertainty",
+           "BAND_METHODS", "SIGNAL_INDEX"]
+
+#: How a band is computed: linearised with the sensitivities, or by Monte Carlo draws.
+BAND_METHODS = ("linear", "monte-carlo")
+SIGNAL_INDEX = {"q1": 0, "q2": 1, "q3": 2, "q4": 3}
+#: most draws of one Monte Carlo band
+MAX_DRAWS = 100_000
+#: fewest share of physical draws (the rest drawn again) before the estimate counts as too uncertain to draw from
+MIN_ACCEPTED = 0.05
+
+
+@dataclass(frozen=True, eq=False)
+class ParameterUncertainty:
+    """A parameter set and the covariance of its free parameters, as a fit left them.
+
+    Parameters
+    ----------
+    params : LumpedParameters
+        The estimates (and the fixed values).
+    free : tuple of str
+        The free parameters, in the order of ``covariance``.
+    covariance : ndarray, shape (len(free), len(free))
+        Their covariance [units of the parameters squared].
+    noise : dict of str to float
+        Measurement noise per output, the spread of the fit's residuals [rad, rad/s].
+    method : str
+        How the covariance was formed (:class:`~iwp.ident.covariance.Covariance`).
+    reliable : bool
+        False where the fit said its intervals cannot be read as they are.
+    notes : list of str
+        The fit's verdict on its intervals.
+    """
+
+    params: LumpedParameters
+    free: tuple[str, ...]
+    covariance: np.ndarray
+    noise: Mapping[str, float] = field(default_factory=dict)
+    method: str = ""
+    reliable: bool = True
+    notes: Sequence[str] = ()
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.params, LumpedParameters):
+            raise InputError(f"params must be LumpedParameters, got {type(self.params).__name__}")
+        free = tuple(self.free)
+        for n in free:
+            if n not in PARAMETER_INFO or PARAMETER_INFO[n].owner != "lumped":
+                raise InputError(f"unknown lumped parameter {n!r} in the covariance")
+        C = np.asarray(self.covariance, dtype=float)
+        if C.shape != (len(free), len(free)):
+            raise InputError(f"the covariance must be {len(free)} x {len(free)}, got {C.shape}")
+        if not np.all(np.isfinite(C)):
+            raise InputError("the covariance has NaN or inf: the fit did not determine every free parameter "
+                             "(fix the parameters the data cannot tell apart and fit again)")
+        if np.min(np.linalg.eigvalsh(0.5 * (C + C.T))) < -1e-9 * max(np.max(np.abs(np.diag(C))), 1e-300):
+            raise InputError("the covariance is not positive semi-definite")
+        object.__setattr__(self, "free", free)
+        object.__setattr__(self, "covariance", 0.5 * (C + C.T))
+
+    @classmethod
+    def from_refinement(cls, r) -> "ParameterUncertainty":
+        """From a :class:`~iwp.ident.refinement.RefineResult` (or an ``iwp fit`` result's ``.refinement``)."""
+        rel = r.reliability
+        return cls(r.params, tuple(r.free), np.asarray(r.covariance, dtype=float), dict(r.residual_std),
+                   "" if rel is None else rel.method, True if rel is None else rel.reliable,
+                   () if rel is None else tuple(rel.notes))
+
+    @property
+    def stderr(self) -> dict[str, float]:
+        """Standard error of each free parameter."""
+        return {n: float(math.sqrt(max(self.covariance[i, i], 0.0))) for i, n in enumerate(self.free)}
+
+    def draws(self, n: int, seed: int = 0) -> list[LumpedParameters]:
+        """``n`` parameter sets drawn from the normal distribution of the estimates, physical signs kept.
+
+        A draw outside the physical range of :data:`~iwp.models.parameters.PARAMETER_INFO`
+        (a negative friction, a non-positive inertia ratio) is drawn again (the
+        normal distribution truncated to the physical range, correlations kept);
+        when fewer than :data:`MIN_ACCEPTED` of the draws are physical, the
+        estimate is too uncertain to draw from and an error says so.
+        """
+        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_DRAWS:
+            raise InputError(f"draws must be an integer from 1 to {MAX_DRAWS}, got {n!r}")
+        rng = np.random.default_rng(seed)
+        mean = np.array([getattr(self.params, k) for k in self.free])
+        lo = np.array([PARAMETER_INFO[k].default_bounds()[0] for k in self.free])
+        out: list[np.ndarray] = []
+        tries = accepted = 0
+        while len(out) < n:
+            m = 4 * (n - len(out)) + 64
+            z = rng.multivariate_normal(mean, self.covariance, size=m, method="eigh") if self.free else \
+                np.zeros((m, 0))
+            ok = np.all(z >= lo, axis=1) if self.free else np.ones(m, dtype=bool)
+            out.extend(z[ok][: n - len(out)])
+            tries += m
+            accepted += int(np.count_nonzero(ok))
+            if tries >= 20 * n + 256 and accepted < MIN_ACCEPTED * tries:
+                raise InputError(f"only {100 * accepted / tries:.1f} % of the parameter draws are physical (no "
+                                 "negative friction or inertia ratio): the estimates are too uncertain to draw from")
+        return [self.params.replace(**dict(zip(self.free, (float(v) for v in row)))) for row in out]
+
+
+def uncertainty_record(r) -> dict[str, Any]:
+    """The JSON record of a fit's uncertainty (stored in ``parameters.json`` by ``iwp fit``)."""
+    u = ParameterUncertainty.from_refinement(r) if np.all(np.isfinite(r.covariance)) else None
+    return {"free": list(r.free), "matrix": [[json_float(v) for v in row] for row in np.asarray(r.covariance)],
+            "noise": {k: json_float(v) for k, v in r.residual_std.items()},
+            "method": "" if r.reliability is None else r.reliability.method,
+            "reliable": bool(u.reliable) if u is not None else False,
+            "notes": [] if r.reliability is None else list(r.reliability.notes)}
+
+
+def load_uncertainty(path, *, argument: str = "params") -> ParameterUncertainty:
+    """The parameter set and its uncertainty from a parameter file written by ``iwp fit`` (its ``covariance``).
+
+    Raises :class:`~iwp.errors.InputError` naming the file when it holds no
+    covariance (a parameter set alone: Table 1, ``iwp identify --out``).
+    """
+    params = load_params(path)
+    if not isinstance(params, LumpedParameters):
+        raise InputError(f"{path}: a band needs lumped parameters", argument=argument)
+    doc = read_json(path) if not str(path) == "table1" else {}
+    rec = doc.get("covariance") if isinstance(doc, dict) else None
+    if not isinstance(rec, dict):
+        raise InputError(f"{path}: holds no covariance of its parameters; a band needs the parameters.json that "
+                         "iwp fit writes", argument=argument)
+    try:
+        free = tuple(str(n) for n in rec["free"])
+        C = np.array(rec["matrix"], dtype=float)
+        noise = {str(k): float(v) for k, v in (rec.get("noise") or {}).items() if v is not None}
+    except (KeyError, TypeError, ValueError):
+        raise InputError(f"{path}: its 'covariance' entry is malformed (needs 'free' and 'matrix')",
+                         argument=argument) from None
+    try:
+        return ParameterUncertainty(params, free, C, noise, str(rec.get("method", "")), bool(rec.get("reliable", True)),
+                                    tuple(rec.get("notes") or ()))
+    except InputError as exc:
+        raise InputError(f"{path}: {exc}", argument=argument) from None
+
+
+@dataclass(frozen=True, eq=False)
+class PredictionBand:
+    """Where a simulation's outputs lie for parameters within their uncertainty (and new measurements, too).
+
+    Attributes
+    ----------
+    t : ndarray
+        Sample times [s].
+    nominal : dict of str to ndarray
+        The simulation with the estimates, per signal.
+    lower, upper : dict of str to ndarray
+        The parameter band: outputs for parameters within their uncertainty.
+    pred_lower, pred_upper : dict of str to ndarray
+        The prediction band: the parameter band widened by the measurement noise.
+    method : str
+        ``"linear"`` or ``"monte-carlo"``.
+    level : float
+        Probability the band holds (0.95).
+    draws : int
+        Simulations of a Monte Carlo band (0 for the linear one).
+    """
+
+    t: np.ndarray
+    nominal: dict[str, np.ndarray]
+    lower: dict[str, np.ndarray]
+    upper: dict[str, np.ndarray]
+    pred_lower: dict[str, np.ndarray]
+    pred_upper: dict[str, np.ndarray]
+    method: str
+    level: float
+    draws: int = 0
+
+    @property
+    def signals(self) -> tuple[str, ...]:
+        return tuple(self.nominal)
+
+    def coverage(self, measured: Mapping[str, np.ndarray], used: Mapping[str, np.ndarray] | None = None
+                 ) -> dict[str, float]:
+        """Per signal, the fraction of the measured samples inside the prediction band (``used``: a mask)."""
+        out = {}
+        for s, y in measured.items():
+            if s not in self.nominal:
+                continue
+            y = np.asarray(y, dtype=float)
+            m = np.ones(y.size, dtype=bool) if used is None or s not in used else np.asarray(used[s], dtype=bool)
+            inside = (y >= self.pred_lower[s]) & (y <= self.pred_upper[s])
+            out[s] = float(np.mean(inside[m])) if np.any(m) else float("nan")
+        return out
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """The band as log columns: ``<signal>_lo``/``_hi`` (parameter band), ``<signal>_plo``/``_phi`` (prediction)."""
+        out = {}
+        for s in self.signals:
+            out[f"{s}_lo"], out[f"{s}_hi"] = self.lower[s], self.upper[s]
+            out[f"{s}_plo"], out[f"{s}_phi"] = self.pred_lower[s], self.pred_upper[s]
+        return out
+
+
+def prediction_band(
+    plant: Plant,
+    uncertainty: ParameterUncertainty,
+    *,
+    input: Input | None = None,
+    x0=None,
+    t_eval=None,
+    method: str = "linear",
+    draws: int = 1000,
+    seed: int = 0,
+    signals: Sequence[str] = ("q1", "q4"),
+) -> PredictionBand:
+    """The 95 % parameter and prediction bands of a simulation of ``plant`` with the fit's ``uncertainty``.
+
+    Parameters
+    ----------
+    plant : Plant
+        The model; its parameters are replaced by ``uncertainty.params``.
+    uncertainty : ParameterUncertainty
+    input : Input, optional
+        As for :func:`~iwp.sim.simulate.simulate` (a log's input replayed: :class:`~iwp.sim.inputs.Sampled`).
+    x0 : array_like, optional
+        Initial state (default rest).
+    t_eval : array_like
+        Output times [s] (starting at the initial time).
+    method : {"linear", "monte-carlo"}
+        ``"linear"``: ``var y(t) = S(t) C S(t)^T`` from the forward
+        sensitivities, normal quantiles; ``"monte-carlo"``: the 2.5 and 97.5 %
+        quantiles over ``draws`` simulations of parameter draws, side by side.
+    draws, seed : int
+        Of the Monte Carlo band.
+    signals : sequence of str
+        Among ``q1, q2, q3, q4``.
+    """
+    if method not in BAND_METHODS:
+        raise InputError(f"band method must be one of {', '.join(BAND_METHODS)}, got {method!r}", argument="band")
+    if not isinstance(plant, Plant):
+        raise InputError(f"plant must be a Plant, got {type(plant).__name__}")
+    signals = tuple(signals)
+    for s in signals:
+        if s not in SIGNAL_INDEX:
+            raise InputError(f"unknown signal {s!r}; choose among q1, q2, q3, q4")
+    if t_eval is None:
+        raise InputError("give t_eval, the output times of the band")
+    t = output_times(float(np.asarray(t_eval, dtype=float).ravel()[0]),
+                     float(np.asarray(t_eval, dtype=float).ravel()[-1]), 0.005, t_eval)
+    base = plant.with_params(uncertainty.params)
+    z = float(stats.norm.ppf(0.975))
+    if method == "linear":
+        r = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=input, wrt=uncertainty.free)
+        nominal = {s: r.x[:, SIGNAL_INDEX[s]] for s in signals}
+        half = {}
+        for s in signals:
+            S = r.S[:, SIGNAL_INDEX[s], :]
+            half[s] = z * np.sqrt(np.clip(np.einsum("ij,jk,ik->i", S, uncertainty.covariance, S), 0.0, None))
+        lower = {s: nominal[s] - half[s] for s in signals}
+        upper = {s: nominal[s] + half[s] for s in signals}
+        n_draws = 0
+    else:
+        plants = [base.with_params(p) for p in uncertainty.draws(draws, seed)]
+        batch = simulate_batch(plants, x0=x0, t0=float(t[0]), t_end=float(t[-1]), t_eval=t, input=input,
+                               rtol=1e-8, atol=1e-8)
+        ok = batch.status == 0
+        if np.count_nonzero(ok) < max(10, draws // 2):
+            raise InputError(f"{np.count_nonzero(~ok)} of {draws} draws failed to simulate; the band is not defined")
+        X = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=input, rtol=1e-8, atol=1e-8).x
+        nominal = {s: X[:, SIGNAL_INDEX[s]] for s in signals}
+        lower, upper = {}, {}
+        for s in signals:
+            Y = batch.x[ok][:, :, SIGNAL_INDEX[s]]
+            lower[s], upper[s] = np.quantile(Y, [0.025, 0.975], axis=0)
+        half = {s: 0.5 * (upper[s] - lower[s]) for s in signals}
+        n_draws = int(np.count_nonzero(ok))
+    pred_lower, pred_upper = {}, {}
+    for s in signals:
+        noise = float(uncertainty.noise.get(s, 0.0))
+        # the parameters' band and the noise, independent: the half-widths add in quadrature
+        ph = np.sqrt(half[s] ** 2 + (z * noise) ** 2)
+        mid = 0.5 * (lower[s] + upper[s])
+        pred_lower[s], pred_upper[s] = mid - ph, mid + ph
+    return PredictionBand(t, nominal, lower, upper, pred_lower, pred_upper, method, 0.95, n_draws)
