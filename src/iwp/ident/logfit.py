@@ -56,9 +56,10 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import TYPICAL, LumpedParameters
 from ..models.plant import Plant
+from ..sim.uncertainty import ParameterUncertainty, prediction_band
 from .differentiate import Differentiator
 from .fit import fit_percent
-from .output_error import Experiment, OutputError
+from .output_error import Experiment, OutputError, measured_state_covariance
 from .problem import Loss
 from .refinement import RefineResult, as_experiments, refine
 from .regressors import columns, q3_row, row_sum
@@ -108,6 +109,8 @@ class LogFit:
     x0: np.ndarray
     q1_offset: float = 0.0
     glitches: list[str] = field(default_factory=list)
+    #: held-out logs: per signal, the share of the samples inside the fit's 95 % prediction band
+    coverage: dict[str, float] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         return {"source": self.source, "role": self.role,
@@ -116,7 +119,7 @@ class LogFit:
                 "max_abs_error": {k: json_float(v) for k, v in self.max_abs_error.items()},
                 "samples": int(self.t.size), "t_start": float(self.t[0]), "t_end": float(self.t[-1]),
                 "x0": [json_float(v) for v in self.x0], "q1_offset": json_float(self.q1_offset),
-                "glitches": list(self.glitches)}
+                "glitches": list(self.glitches), "band_coverage": {k: json_float(v) for k, v in self.coverage.items()}}
 
 
 @dataclass(eq=False)
@@ -206,7 +209,9 @@ class LogFitResult:
             lines.append(self.refinement.reliability.describe())
         for f in self.train + self.validation:
             fits = ", ".join(f"{k} {v:.2f} %" for k, v in f.fit.items())
-            lines.append(f"{f.role:>8} {f.source}: fit {fits}")
+            band = (", in the 95 % prediction band: " + ", ".join(f"{k} {100 * v:.0f} %" for k, v in f.coverage.items())
+                    if f.coverage else "")
+            lines.append(f"{f.role:>8} {f.source}: fit {fits}{band}")
         for w in self.warnings if warnings else ():
             lines.append(f"warning: {w}")
         lines.append(f"{self.elapsed:.3g} s")
@@ -539,7 +544,10 @@ def fit_logs(
         msgs.append(f"held-out logs: the pendulum zero offset is taken as the training logs' mean, "
                     f"{val_off:+.4g} rad (offsets of the training logs: "
                     + ", ".join(f"{o:+.4g}" for o in offs) + ")")
-    val_fits = [_held_out(d, Plant(r.params, model=model), outputs, val_off, msgs) for d in val_logs]
+    uncertainty = ParameterUncertainty.from_refinement(r) if np.all(np.isfinite(r.covariance)) else None
+    if val_logs and uncertainty is None:
+        msgs.append("held-out logs: no prediction band, for the fit did not determine every free parameter")
+    val_fits = [_held_out(d, Plant(r.params, model=model), outputs, val_off, msgs, uncertainty) for d in val_logs]
     res = LogFitResult(params=r.params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
                        model=model, outputs=outputs, options=options.to_dict(offset_given), train=train_fits,
                        validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0)
@@ -549,15 +557,21 @@ def fit_logs(
     return res
 
 
-def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset: float, msgs: list[str]) -> LogFit:
-    """A held-out log simulated from its measured initial state (its angle less ``offset``), not fitted."""
+def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset: float, msgs: list[str],
+              uncertainty: ParameterUncertainty | None) -> LogFit:
+    """A held-out log simulated from its measured initial state (its angle less ``offset``), not fitted; with the
+    fit's uncertainty, the share of its samples inside the 95 % prediction band (the initial state's in it)."""
     dc = replace(d, q1=d.q1 - offset) if offset else d
-    model = OutputError(plant, [Experiment(dc, x0=measured_initial_state(dc), estimate_x0=False)], outputs,
-                        fitting=False)
+    x0 = measured_initial_state(dc)
+    model = OutputError(plant, [Experiment(dc, x0=x0, estimate_x0=False)], outputs, fitting=False)
     ev = model.evaluate(model.parameters().values())
     p = model.prepared[0]
     fit = _log_fit(d, "validate", p.t, dict(p.y), model.predictions(ev)[0], dict(p.w), model.states(ev.values)[0],
                    offset)
+    if uncertainty is not None and not p.mean:
+        band = prediction_band(plant, uncertainty, input=p.input, x0=x0, t_eval=p.t, signals=outputs,
+                               x0_covariance=measured_state_covariance(dc, 0))
+        fit.coverage = band.coverage(p.y, {o: p.w[o] > 0 for o in outputs})
     if ev.status[0] != 0 or not all(math.isfinite(x) for x in fit.fit.values()):
         msgs.append(f"{d.source}: the validation simulation failed or diverged")
     return fit

@@ -51,6 +51,7 @@ __all__ = [
     "initial_state",
     "measured_signals",
     "measured_state",
+    "measured_state_covariance",
     "plant_for_kind",
     "replay",
     "x0_name",
@@ -143,6 +144,52 @@ def measured_state(data: ExperimentData, index: int, differentiator: Differentia
             y = data.q4
             x[3] = 0.5 * (y[index] + y[index + 1]) if index > 0 else 1.5 * y[1] - 0.5 * y[2]
     return x
+
+
+#: the local quadratic of :func:`measured_state_covariance` spans about this long [s] (at least 7 samples)
+LOCAL_SECONDS = 0.1
+
+
+def _local_fit(t: np.ndarray, y: np.ndarray, index: int, m: int) -> tuple[float, float, np.ndarray]:
+    """Value and slope at ``t[index]`` of a quadratic fitted to ``m`` samples around it, and their covariance."""
+    lo = max(0, min(index - m // 2, t.size - m))
+    sl = slice(lo, lo + m)
+    tt = t[sl] - t[index]
+    X = np.column_stack([np.ones(m), tt, tt * tt])
+    coef, *_ = np.linalg.lstsq(X, y[sl], rcond=None)
+    resid = y[sl] - X @ coef
+    diffs = np.abs(np.diff(y[sl]))
+    quantum = float(np.min(diffs[diffs > 0])) if np.any(diffs > 0) else 0.0
+    s2 = max(float(resid @ resid) / max(m - 3, 1), quantum * quantum / 12.0)
+    cov = np.linalg.inv(X.T @ X)[:2, :2] * s2
+    return float(coef[0]), float(coef[1]), cov
+
+
+def measured_state_covariance(data: ExperimentData, index: int) -> np.ndarray:
+    """The covariance of a measured state ``[q1, q2, q3, q4]`` at sample ``index`` [rad, rad/s squared].
+
+    From a quadratic fitted to about :data:`LOCAL_SECONDS` of each angle around
+    the sample (one-sided at the ends of the log): its residual variance (at
+    least the encoder's quantisation, ``step^2 / 12``) through the least
+    squares gives the variance of the position and of the slope, the
+    velocity. A logged speed ``q4`` is treated as a measured value with the
+    spread of its own local quadratic.
+    """
+    m = min(max(7, int(round(LOCAL_SECONDS / data.Ts)) + 1), data.n_samples)
+    t = np.asarray(data.t, dtype=float)
+    C = np.zeros((4, 4))
+    for pos, vel in ((0, 2), (1, 3)):
+        y = data.q1 if pos == 0 else data.q2
+        if y is None:
+            continue
+        _v, _s, c = _local_fit(t, np.asarray(y, dtype=float), index, m)
+        C[np.ix_([pos, vel], [pos, vel])] = c
+    if data.q4 is not None:
+        _v, _s, c = _local_fit(t, np.asarray(data.q4, dtype=float), index, m)
+        C[3, :] = 0.0
+        C[:, 3] = 0.0
+        C[3, 3] = c[0, 0]
+    return C
 
 
 def initial_state(data: ExperimentData, index: int, plant: Plant,

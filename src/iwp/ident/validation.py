@@ -42,7 +42,7 @@ from ..plotting.validation import plot_validation
 from ..sim.inputs import Input
 from ..sim.uncertainty import ParameterUncertainty, PredictionBand, prediction_band
 from .fit import fit_percent
-from .output_error import Experiment, OutputError, measured_signals
+from .output_error import Experiment, OutputError, measured_signals, measured_state_covariance, x0_name
 from .problem import FitProblem, SolverOptions
 from .refinement import REFINE_MODELS
 
@@ -235,8 +235,8 @@ def _segments(t: np.ndarray, restart_times: Sequence[float]) -> list[int]:
     return sorted(starts)
 
 
-def _estimated_x0(experiment: Experiment, plant: Plant, signals: tuple[str, ...]) -> np.ndarray:
-    """The initial state fitted to the signals that move (the parameters fixed): a fit of the initial state only."""
+def _estimated_x0(experiment: Experiment, plant: Plant, signals: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """The initial state fitted to the signals that move (the parameters fixed), and its 4 x 4 covariance."""
     fit_out = tuple(s for s in signals if s in plant.outputs)
     measured = measured_signals(experiment.data.window(*experiment.window), fit_out)
     fit_out = tuple(s for s in fit_out if np.ptp(measured[s]) > 0)
@@ -244,7 +244,11 @@ def _estimated_x0(experiment: Experiment, plant: Plant, signals: tuple[str, ...]
         raise InputError(f"estimate_x0: none of the signals {', '.join(signals)} varies in the window")
     model = OutputError(plant, [experiment], fit_out)
     res = FitProblem(model.parameters(), model).solve()
-    return model.states(res.parameters.values())[0]
+    est = model.prepared[0].est
+    C = np.zeros((4, 4))
+    idx = [res.free.index(x0_name(s, 0)) for s in est]
+    C[np.ix_(est, est)] = np.nan_to_num(res.covariance[np.ix_(idx, idx)])
+    return model.states(res.parameters.values())[0], C
 
 
 def validate(
@@ -316,8 +320,11 @@ def validate(
     ends = [k - 1 for k in starts[1:]] + [t.size - 1]
     exps = [Experiment(experiment, kind=kind, window=(float(t[a]), float(t[b])), estimate_x0=False,
                        controller=controller) for a, b in zip(starts, ends)]
+    x0_cov = [measured_state_covariance(experiment, int(np.searchsorted(experiment.t, e.window[0])))
+              for e in exps]
     if estimate_x0:
-        exps[0] = replace(exps[0], x0=_estimated_x0(replace(exps[0], estimate_x0=True), plant, signals)[:4])
+        x0, x0_cov[0] = _estimated_x0(replace(exps[0], estimate_x0=True), plant, signals)
+        exps[0] = replace(exps[0], x0=x0[:4])
     model_ = OutputError(plant, exps, signals, rtol=VALIDATION_OPTIONS.rtol, atol=VALIDATION_OPTIONS.atol,
                          fitting=False)
     ev = model_.evaluate(model_.parameters().values())
@@ -327,7 +334,7 @@ def validate(
     x0s = model_.states(ev.values)
     band = coverage = None
     if uncertainty is not None:
-        band = _band(model_, x0s, uncertainty, signals)
+        band = _band(model_, x0s, x0_cov, uncertainty, signals)
         coverage = band.coverage(measured, {s: np.concatenate([p.w[s] > 0 for p in model_.prepared]) for s in signals})
     return ValidationResult(
         t=t, measured=measured, simulated=simulated, error={s: measured[s] - simulated[s] for s in signals},
@@ -339,11 +346,21 @@ def validate(
     )
 
 
-def _band(model: OutputError, x0s: list[np.ndarray], uncertainty: ParameterUncertainty,
+def _moving(plant: Plant, C: np.ndarray) -> np.ndarray:
+    """The covariance of a measured state restricted to the states the plant moves (a held wheel, a clamp)."""
+    keep = np.zeros(4, dtype=bool)
+    keep[[i for i in plant.info.moving if i < 4]] = True
+    if plant.pendulum_locked:
+        keep[[0, 2]] = False
+    return np.where(np.outer(keep, keep), C, 0.0)
+
+
+def _band(model: OutputError, x0s: list[np.ndarray], x0_cov: list[np.ndarray], uncertainty: ParameterUncertainty,
           signals: tuple[str, ...]) -> PredictionBand:
-    """The linearised bands of every segment of a validation, joined."""
-    parts = [prediction_band(p.plant, uncertainty, input=p.input, x0=x0, t_eval=p.t, signals=signals)
-             for p, x0 in zip(model.prepared, x0s)]
+    """The linearised bands of every segment of a validation (the initial state's uncertainty in), joined."""
+    parts = [prediction_band(p.plant, uncertainty, input=p.input, x0=x0, t_eval=p.t, signals=signals,
+                             x0_covariance=_moving(p.plant, c))
+             for p, x0, c in zip(model.prepared, x0s, x0_cov)]
 
     def join(attr):
         return {s: np.concatenate([getattr(b, attr)[s] for b in parts]) for s in signals}

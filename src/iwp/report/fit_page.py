@@ -105,11 +105,15 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         frows = []
         for f in result.train + result.validation:
             frows.append([Path(f.source).name, f.role] + [fmt(f.fit.get(o), 4) for o in result.outputs]
-                         + [fmt(f.rms.get(o), 3) for o in result.outputs] + [fmt(f.q1_offset, 3)])
+                         + [fmt(f.rms.get(o), 3) for o in result.outputs] + [fmt(f.q1_offset, 3)]
+                         + [fmt(100 * f.coverage[o], 3) if o in f.coverage else "-" for o in result.outputs])
         ftab = Table("Fits per log and signal",
                      ["log", "role"] + [f"fit {o} [%]" for o in result.outputs]
-                     + [f"RMS {o}" for o in result.outputs] + ["q1 offset [rad]"], frows,
-                     note="fit = 100 (1 - |y - y_sim| / |y - mean y|); replaced glitch samples left out")
+                     + [f"RMS {o}" for o in result.outputs] + ["q1 offset [rad]"]
+                     + [f"in band {o} [%]" for o in result.outputs], frows,
+                     note="fit = 100 (1 - |y - y_sim| / |y - mean y|); replaced glitch samples left out; in band: the "
+                          "share of a held-out log's samples inside the fit's 95 % prediction band (parameters, "
+                          "measured initial state and the residuals' spread)")
         warn_par = [f"Warning: {w}" for w in result.warnings] or ["No warnings."]
         rep = Report(
             title="Model fitted to a rig's logs and validated on held-out logs",

@@ -137,7 +137,12 @@ def _identification_table(ctx: ReproduceResult):
     return Table("Least-squares identifications, set-up by set-up", ["set-up", "parameter", "value", "std. error",
                                                                     "95 % interval", "paper"], rows,
                  "eq. (16) prints theta7 = 2.6060, theta8 = 7.1394 and the text 2.5194, 7.2813 (ERRATA item 3); "
-                 "the paper's rho_1, rho_2 are theta3/theta1 and theta4/theta2 without the '- 1' (ERRATA item 2).")
+                 "the paper's rho_1, rho_2 are theta3/theta1 and theta4/theta2 without the '- 1' (ERRATA item 2). "
+                 "What each interval is about: v+ and v- are the apparent thresholds of the static curve (the dead "
+                 "zone plus the disk's Coulomb friction over p3, which a static curve cannot separate); with the "
+                 "wheel held to the arm the free set-up's p1 is p1 rho/(1 + rho) of model (9) (0.4 % lower); the "
+                 "intervals cover the encoder noise through the differentiator, not the bias of a model that lacks "
+                 "the rig's belt and Coulomb friction (the warnings of each set-up say where it shows).")
 
 
 def _fits_table(ctx: ReproduceResult):

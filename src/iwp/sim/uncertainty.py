@@ -247,6 +247,7 @@ def prediction_band(
     draws: int = 1000,
     seed: int = 0,
     signals: Sequence[str] = ("q1", "q4"),
+    x0_covariance=None,
 ) -> PredictionBand:
     """The 95 % parameter and prediction bands of a simulation of ``plant`` with the fit's ``uncertainty``.
 
@@ -269,6 +270,10 @@ def prediction_band(
         Of the Monte Carlo band.
     signals : sequence of str
         Among ``q1, q2, q3, q4``.
+    x0_covariance : array_like, shape (4, 4), optional
+        The uncertainty of the initial state (a measured one,
+        :func:`iwp.ident.output_error.measured_state_covariance`), carried
+        into the parameter band as well [rad, rad/s squared].
     """
     if method not in BAND_METHODS:
         raise InputError(f"band method must be one of {', '.join(BAND_METHODS)}, got {method!r}", argument="band")
@@ -284,19 +289,35 @@ def prediction_band(
                      float(np.asarray(t_eval, dtype=float).ravel()[-1]), 0.005, t_eval)
     base = plant.with_params(uncertainty.params)
     z = float(stats.norm.ppf(0.975))
+    C0 = None if x0_covariance is None else np.asarray(x0_covariance, dtype=float)[:4, :4]
+    if C0 is not None and (C0.shape != (4, 4) or not np.all(np.isfinite(C0))):
+        raise InputError("x0_covariance must be a finite 4 x 4 matrix")
     if method == "linear":
-        r = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=input, wrt=uncertainty.free)
+        states = () if C0 is None else tuple(i for i in range(4) if C0[i, i] > 0)
+        r = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=input, wrt=uncertainty.free,
+                                   wrt_x0=states)
+        C = uncertainty.covariance
+        if states:
+            k = len(uncertainty.free)
+            C = np.zeros((k + len(states), k + len(states)))
+            C[:k, :k] = uncertainty.covariance
+            C[k:, k:] = C0[np.ix_(states, states)]
         nominal = {s: r.x[:, SIGNAL_INDEX[s]] for s in signals}
         half = {}
         for s in signals:
             S = r.S[:, SIGNAL_INDEX[s], :]
-            half[s] = z * np.sqrt(np.clip(np.einsum("ij,jk,ik->i", S, uncertainty.covariance, S), 0.0, None))
+            half[s] = z * np.sqrt(np.clip(np.einsum("ij,jk,ik->i", S, C, S), 0.0, None))
         lower = {s: nominal[s] - half[s] for s in signals}
         upper = {s: nominal[s] + half[s] for s in signals}
         n_draws = 0
     else:
         plants = [base.with_params(p) for p in uncertainty.draws(draws, seed)]
-        batch = simulate_batch(plants, x0=x0, t0=float(t[0]), t_end=float(t[-1]), t_eval=t, input=input,
+        x0s = x0
+        if C0 is not None:
+            mean = np.zeros(base.n_states) if x0 is None else np.asarray(x0, dtype=float)
+            dx = np.random.default_rng(seed + 1).multivariate_normal(np.zeros(4), C0, size=draws, method="eigh")
+            x0s = [np.concatenate([mean[:4] + d, mean[4:]]) for d in dx]
+        batch = simulate_batch(plants, x0=x0s, t0=float(t[0]), t_end=float(t[-1]), t_eval=t, input=input,
                                rtol=1e-8, atol=1e-8)
         ok = batch.status == 0
         if np.count_nonzero(ok) < max(10, draws // 2):

@@ -21,6 +21,21 @@ from .base import RefineSpec, Setup
 __all__ = ["DeadZone", "StaticFit", "fit_static_curve"]
 
 
+def _bend(x: np.ndarray, y: np.ndarray, sgn: float) -> float | None:
+    """Difference of the thresholds of the lower and the upper half of a straight part (None: too few points)."""
+    if x.size < 6:
+        return None
+    order = np.argsort(sgn * x)
+    half = x.size // 2
+    v0 = []
+    for idx in (order[:half], order[half:]):
+        a, b = np.polyfit(x[idx], y[idx], 1)
+        if not a > 0:
+            return None
+        v0.append(-b / a)
+    return float(v0[0] - v0[1])
+
+
 @dataclass
 class StaticFit:
     """The dead-zone thresholds fitted on a static curve, with their uncertainty and diagnostics."""
@@ -122,6 +137,13 @@ def fit_static_curve(curve: Any, *, min_fraction: float = 0.2) -> "StaticFit":
         var = float(g @ r.covariance @ g)
         se = math.sqrt(max(var, 0.0))
         val = sgn * v0
+        bend = _bend(x[sel], y[sel], sgn)
+        if bend is not None and abs(bend) > 2.0 * se:
+            # the straight part is not straight: (5) does not describe the curve exactly, and where the line
+            # meets q4 = 0 depends on which points are taken; the interval takes in that spread
+            warnings.append(f"{side} side: the straight part bends: its lower and upper halves meet q4 = 0 "
+                            f"{abs(bend):.3g} apart (stderr {se:.2g}); the interval includes that spread")
+            se = math.sqrt(se * se + 0.25 * bend * bend)
         crit = r.critical_value
         params[name] = Parameter.estimate(name, float(val), se, crit)
         rms[side] = float(r.residual_rms[0]) if r.residual_rms else math.nan
@@ -147,6 +169,9 @@ def fit_static_curve(curve: Any, *, min_fraction: float = 0.2) -> "StaticFit":
                             f"line by {resid[lo]:+.3g} rad/s; the curve bends there, raise min_fraction")
         gap = abs(first - val * sgn)
         details[side]["jump_above_threshold"] = float(gap)
+    warnings.append("v_dz_pos and v_dz_neg are the apparent thresholds where the straight part meets q4 = 0: "
+                    "the dead zone (5) plus the disk's Coulomb friction over p3, which a static curve cannot "
+                    "separate (what a compensation (7)-(8) must cancel)")
     corr = np.eye(2)
     se = np.array([params["v_dz_pos"].stderr, params["v_dz_neg"].stderr])
     cov = np.diag(se ** 2)

@@ -42,6 +42,10 @@ def known_p2(p2: Any) -> tuple[float, float]:
     return v, 0.0
 
 
+#: the wheel counts as held to the arm when its speed stays below this share of the pendulum's
+HELD_WHEEL = 0.01
+
+
 class FreePendulum(Setup):
     """Set-up (c), the free pendulum of section 5.2."""
 
@@ -78,9 +82,21 @@ class FreePendulum(Setup):
                            "T5": p2_known})}
 
     def extra_warnings(self, reg, sig, res, params, ref, p2) -> tuple[list[str], dict]:
-        if p2 is not None or not res.success:
+        if not res.success:
             return [], {}
         q4max = max(sig.q4_max)
+        q3max = float(np.max(np.abs(sig.q3))) if sig.n else 0.0
+        if q4max < HELD_WHEEL * q3max:
+            # the wheel held to the arm: the arm carries the wheel's inertia, (4a) with q2'' = 0
+            k = ref.rho / (1.0 + ref.rho)
+            p1 = params["p1"]
+            return [f"the wheel is held to the arm during the swing (|q4| below {q4max:.2g} rad/s): the arm carries "
+                    f"the wheel's inertia and this row estimates p1 rho/(1 + rho) and the frictions times "
+                    f"rho/(1 + rho), not the p1 of model (9); with rho = {ref.rho:.5g} (base set) p1 = "
+                    f"{p1.value / k:.6g} +- {p1.stderr / k:.2g}; the refinement with model 'free' fits the held "
+                    "wheel itself (iwp identify --refine)"], {"wheel_held": True, "p1_of_model_9": p1.value / k}
+        if p2 is not None:
+            return [], {}
         bvec = lstsq_projection(reg.Phi, sig.q4[:, None])[:, 0]
         shift = ref.p2 * bvec
         names = self.columns

@@ -1,0 +1,176 @@
+"""How far the model can be trusted (issue 20): intervals that hold, their verdict, prediction bands."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+from iwp.cli import main
+from iwp.data import ExperimentData, write_experiment
+from iwp.errors import InputError
+from iwp.ident.refinement import refine
+from iwp.ident.validation import validate
+from iwp.models import Plant, quantize, save_params, table1
+from iwp.rig.described import prbs
+from iwp.sim import simulate
+from iwp.sim.inputs import Chirp, Sampled
+from iwp.sim.uncertainty import ParameterUncertainty, load_uncertainty, prediction_band, uncertainty_record
+
+TS = 0.005
+STEP = 2 * math.pi / 2000
+
+
+def _logs(truth, n: int, duration: float, noise: float = 0.0, seed0: int = 0):
+    """``n`` logs of model (9) with the parameters ``truth`` driven by PRBS inputs, through 2000-count encoders."""
+    out = []
+    for i in range(n):
+        rng = np.random.default_rng(seed0 + i)
+        u = prbs(int(round(duration / TS)) + 1, hold=60, amplitude=40.0, seed=seed0 + i)
+        r = simulate(Plant(truth), input=Sampled(u, TS), t_end=duration, rtol=1e-9, atol=1e-9)
+        q1 = quantize(r.q1 + rng.normal(0.0, noise, r.t.size), STEP)
+        q2 = quantize(r.q2 + rng.normal(0.0, noise, r.t.size), STEP)
+        out.append(ExperimentData(t=r.t, q1=q1, q2=q2, u=u[: r.t.size], source=f"prbs{seed0 + i}"))
+    return out
+
+
+def _fit(logs, start, free):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return refine(logs, Plant(start), free=free, outputs=("q1", "q2"))
+
+
+# --------------------------------------------------------------------------
+# the verdict beside the intervals
+# --------------------------------------------------------------------------
+def test_a_missing_friction_term_is_flagged_and_the_right_structure_is_not():
+    """A rig with Coulomb friction at the pendulum joint, fitted with model (9) which lacks it: the logs disagree
+    beyond their noise and the intervals are flagged; fitted with the term, they are not."""
+    truth = table1().replace(sigma_c1=0.08)
+    logs = _logs(truth, 3, 20.0, noise=5e-4)
+    base = ("p1", "p2", "p3", "rho", "sigma_v1")
+    wrong = _fit(logs, truth.replace(sigma_c1=0.0), base)
+    right = _fit(logs, truth, base + ("sigma_c1",))
+    assert wrong.reliability.method.startswith("the spread across 3 experiments")
+    assert wrong.reliability.structure_error and not wrong.reliability.reliable
+    assert wrong.reliability.spread > 6.0
+    assert any("model-structure error" in n for n in wrong.reliability.notes)
+    assert not right.reliability.structure_error and right.reliability.reliable
+    assert right.reliability.spread < 6.0
+    assert right.params.sigma_c1 == pytest.approx(0.08, rel=0.05)
+    assert "intervals:" in wrong.summary() and "model-structure error" in wrong.summary()
+    assert json.loads(json.dumps(wrong.to_dict()))["uncertainty"]["structure_error"] is True
+
+
+def test_one_experiment_is_never_called_reliable():
+    logs = _logs(table1(), 1, 20.0, noise=5e-4)
+    r = _fit(logs, table1().replace(p1=26.0), ("p1", "p2", "p3"))
+    assert r.reliability.experiments == 1 and not r.reliability.reliable
+    assert r.reliability.method.startswith("HAC sandwich")
+
+
+# --------------------------------------------------------------------------
+# parameter uncertainty
+# --------------------------------------------------------------------------
+def test_draws_keep_the_physical_signs_and_the_correlation():
+    C = np.array([[1e-4, -0.9e-4], [-0.9e-4, 1e-4]])  # sigma_a1, sigma_v1: only their sum is determined
+    u = ParameterUncertainty(table1().replace(sigma_a1=0.01, sigma_v1=0.01), ("sigma_a1", "sigma_v1"), C)
+    d = np.array([[p.sigma_a1, p.sigma_v1] for p in u.draws(4000, seed=1)])
+    assert np.all(d >= 0)
+    # the truncation at 0, one standard deviation away, keeps the sum's small spread and a strong anticorrelation
+    assert np.std(d.sum(axis=1)) == pytest.approx(math.sqrt(0.2e-4), rel=0.1)
+    assert np.corrcoef(d.T)[0, 1] < -0.6
+    assert [p.sigma_a1 for p in u.draws(5, seed=3)] == [p.sigma_a1 for p in u.draws(5, seed=3)]
+
+
+def test_bad_uncertainties_are_refused(tmp_path):
+    with pytest.raises(InputError, match="NaN or inf"):
+        ParameterUncertainty(table1(), ("p1",), np.array([[np.nan]]))
+    with pytest.raises(InputError, match="positive semi-definite"):
+        ParameterUncertainty(table1(), ("p1", "p3"), np.array([[1.0, 2.0], [2.0, 1.0]]))
+    with pytest.raises(InputError, match="too uncertain to draw"):  # a friction of -10 +- 0.1: no physical draw
+        ParameterUncertainty(table1().replace(sigma_v1=-10.0), ("sigma_v1",), np.array([[1e-2]])).draws(10)
+    p = tmp_path / "p.json"
+    save_params(table1(), p)
+    with pytest.raises(InputError, match="holds no covariance"):
+        load_uncertainty(p)
+
+
+def test_the_record_in_parameters_json_round_trips(tmp_path):
+    logs = _logs(table1(), 2, 15.0, noise=5e-4)
+    r = _fit(logs, table1().replace(p1=26.0), ("p1", "p2", "p3"))
+    p = tmp_path / "parameters.json"
+    save_params(r.params, p, extra={"covariance": uncertainty_record(r)})
+    u = load_uncertainty(p)
+    assert u.free == ("p1", "p2", "p3") and u.params == r.params
+    np.testing.assert_allclose(u.covariance, r.covariance, rtol=1e-12, atol=0)
+    assert u.noise["q1"] == pytest.approx(r.residual_std["q1"])
+
+
+# --------------------------------------------------------------------------
+# prediction bands
+# --------------------------------------------------------------------------
+def test_linear_and_monte_carlo_bands_agree_for_a_small_uncertainty():
+    p = table1()
+    C = np.diag([0.05, 0.0005]) ** 2  # p1 +- 0.05 s^-2, p3 +- 0.0005
+    u = ParameterUncertainty(p, ("p1", "p3"), C)
+    t = np.arange(0.0, 20.0 + 1e-9, 0.01)
+    lin = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t, method="linear")
+    mc = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t, method="monte-carlo", draws=400,
+                         seed=2)
+    assert mc.draws == 400
+    for s in ("q1", "q4"):
+        wl = lin.upper[s] - lin.lower[s]
+        wm = mc.upper[s] - mc.lower[s]
+        late = t > 5.0
+        # the widths agree to within the Monte Carlo error of 400 draws and the nonlinearity
+        assert np.median(wm[late] / wl[late]) == pytest.approx(1.0, abs=0.15), s
+        np.testing.assert_allclose(lin.nominal[s], mc.nominal[s], atol=1e-6 * np.max(np.abs(lin.nominal[s])))
+
+
+def test_the_prediction_band_holds_new_measurements():
+    """Noise of known spread and the exact parameters: the prediction band holds about 95 % of the samples."""
+    p = table1()
+    u = ParameterUncertainty(p, ("p1",), np.array([[1e-6]]), noise={"q1": 0.01, "q4": 0.5})
+    t = np.arange(0.0, 30.0 + 1e-9, TS)
+    b = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t)
+    rng = np.random.default_rng(0)
+    meas = {"q1": b.nominal["q1"] + rng.normal(0, 0.01, t.size), "q4": b.nominal["q4"] + rng.normal(0, 0.5, t.size)}
+    cov = b.coverage(meas)
+    assert cov["q1"] == pytest.approx(0.95, abs=0.01) and cov["q4"] == pytest.approx(0.95, abs=0.01)
+    assert set(b.columns()) == {f"{s}_{k}" for s in ("q1", "q4") for k in ("lo", "hi", "plo", "phi")}
+
+
+def test_validate_with_a_fit_reports_the_share_inside_its_band():
+    truth = table1()
+    logs = _logs(truth, 3, 15.0, noise=5e-4)
+    r = _fit(logs[:2], truth.replace(p1=26.3), ("p1", "p2", "p3"))
+    u = ParameterUncertainty.from_refinement(r)
+    # the held-out log's initial state estimated with the parameters fixed (as MATLAB's compare does); its
+    # uncertainty joins the band's
+    v = validate(logs[2], u, signals=("q1",), estimate_x0=True)
+    assert v.band is not None and v.band.method == "linear"
+    # the model is right: the held-out log falls inside its 95 % prediction band about as often as it says
+    assert 0.90 <= v.coverage["q1"] <= 0.99
+    assert "prediction band" in v.summary() and v.to_dict()["band"]["coverage"]["q1"] == pytest.approx(v.coverage["q1"])
+
+
+def test_cli_band_needs_a_fit_and_writes_its_columns(tmp_path, capsys):
+    log = _logs(table1(), 1, 5.0)[0]
+    path = write_experiment(log, tmp_path / "log.csv")
+    assert main(["validate", str(path), "--params", "table1", "--band"]) == 2
+    assert "holds no covariance" in capsys.readouterr().err
+    r = _fit(_logs(table1(), 2, 10.0, noise=5e-4), table1().replace(p1=26.0), ("p1", "p3"))
+    par = tmp_path / "parameters.json"
+    save_params(r.params, par, extra={"covariance": uncertainty_record(r)})
+    assert main(["validate", str(path), "--params", str(par), "--band", "--signals", "q1", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert 0.0 <= doc["band"]["coverage"]["q1"] <= 1.0 and doc["band"]["method"] == "linear"
+    out = tmp_path / "sim.csv"
+    assert main(["simulate", "--params", str(par), "--band", "linear", "--input", "chirp", "--t-end", "2",
+                 "--out", str(out)]) == 0
+    header = [ln for ln in out.read_text().splitlines() if not ln.startswith("#")][0].split(",")
+    assert {"q1_lo", "q1_hi", "q1_plo", "q1_phi"} <= set(header)
