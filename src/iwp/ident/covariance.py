@@ -286,8 +286,10 @@ def hac_sandwich(Jw: np.ndarray, rw: np.ndarray, groups: np.ndarray, times: np.n
     Parameters
     ----------
     Jw, rw : ndarray
-        Jacobian (rows: residuals; columns: unknowns) and residuals, both
-        weighted (each block divided by its standard deviation).
+        Jacobian (rows: residuals; columns: unknowns) and residuals of the
+        criterion the estimator minimised, with its own weights (the bread
+        ``J^T J`` is its curvature, the meat the long-run covariance of its
+        scores).
     groups : ndarray of int
         The experiment of each row: lags never cross experiments.
     times : ndarray of int
@@ -332,14 +334,27 @@ def hac_sandwich(Jw: np.ndarray, rw: np.ndarray, groups: np.ndarray, times: np.n
     cov[bad, :] = np.nan
     cov[:, bad] = np.nan
     with np.errstate(invalid="ignore", divide="ignore"):
-        inflation = np.diag(cov) / np.diag(white)
+        inflation = np.diag(cov) / np.diag(white) / max(float(rw @ rw) / max(dof, 1), 1e-300)
     return Covariance(cov, "hac", fixed_b_critical_value(L / max(T, 1)), int(L), inflation, msgs)
 
 
-def white_covariance(Jw: np.ndarray, names: Sequence[str], dof: int) -> Covariance:
-    """``(J_w^T J_w)^-1`` for residuals white within each block (their standard deviation 1 after weighting)."""
-    cov, msgs = covariance_from_jacobian(Jw, names)
-    return Covariance(cov, "white", float(stats.t.ppf(0.975, max(dof, 1))), None, np.ones(Jw.shape[1]), msgs)
+def white_covariance(J: np.ndarray, row_sigma: np.ndarray, names: Sequence[str], dof: int) -> Covariance:
+    """The covariance for residuals white within each block: ``A^-1 J^T diag(s^2) J A^-1``, ``A = J^T J``.
+
+    ``J`` is the Jacobian of the residuals the estimator minimised (their own
+    weights) and ``row_sigma`` each row's residual standard deviation (its
+    block's, :func:`block_sigmas`); with rows weighted by their noise
+    (``row_sigma`` 1) it is the textbook ``(J^T J)^-1``.
+    """
+    A, msgs = covariance_from_jacobian(J, names)
+    Js = J * row_sigma[:, None]
+    An = np.nan_to_num(A)
+    cov = An @ (Js.T @ Js) @ An
+    cov = 0.5 * (cov + cov.T)
+    bad = np.isnan(np.diag(A))
+    cov[bad, :] = np.nan
+    cov[:, bad] = np.nan
+    return Covariance(cov, "white", float(stats.t.ppf(0.975, max(dof, 1))), None, np.ones(J.shape[1]), msgs)
 
 
 #: derivatives rho'(z) of the robust losses of scipy's least_squares, ``z = (r / f_scale)^2``
@@ -442,6 +457,9 @@ def reliability(chosen: Covariance, within: Covariance | None, experiments: int,
     cols = list(model_columns)
     if chosen.method == "experiments":
         method = f"the spread across {experiments} experiments (Student t, {experiments - 1} dof)"
+    elif chosen.method == "hac" and experiments > 1:
+        method = (f"HAC sandwich within {experiments} experiments (Bartlett, {chosen.bandwidth} lags), which "
+                  "agree within their noise")
     elif chosen.method == "hac":
         method = f"HAC sandwich (Bartlett, {chosen.bandwidth} lags)"
     elif chosen.method == "white":

@@ -37,6 +37,8 @@ from scipy import optimize
 
 from ..errors import InputError
 from .covariance import (
+    SPREAD_WARN,
+    Covariance,
     Reliability,
     across_and_within,
     block_sigmas,
@@ -383,12 +385,15 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     used = model.row_used()
     sig = block_sigmas(optimum.r, blocks, used, len(free))
     dof = max(int(np.count_nonzero(used)) - len(free), 1)
-    w = 1.0 / np.where(sig[blocks] > 0, sig[blocks], 1.0)
-    if problem.loss.name != "linear":  # the robust loss's weights at the optimum (iteratively reweighted)
-        w = w * np.sqrt(loss_weights(problem.loss.name, optimum.r, f_scale))
+    # the sandwiches take the criterion as the estimator minimised it (its own weights per output); a robust
+    # loss enters through its weights at the optimum (iteratively reweighted least squares)
+    w = np.ones(optimum.r.size)
+    if problem.loss.name != "linear":
+        w = np.sqrt(loss_weights(problem.loss.name, optimum.r, f_scale))
     Jw = J * w[:, None] if J.size else J
     rw = optimum.r * w
     timed = hasattr(model, "row_times")
+    kinds = [i for i, n in enumerate(free) if params[n].kind == "model"]
     groups = model.row_experiments() if timed else np.zeros(rw.size, dtype=np.int64)
     n_exp = int(np.unique(groups).size)
     method = problem.covariance
@@ -402,11 +407,13 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     if method == "experiments" and n_exp >= 2:
         across = cluster_covariance(Jw, rw, groups, free, dof)
         cov_z = across_and_within(across, within) if within is not None else across
+        if problem.covariance == "auto" and within is not None and not _disagree(across, within, kinds):
+            # the experiments agree within their noise: the sandwich within them holds, with its many samples
+            cov_z = within
     elif within is not None:
         cov_z = within
     else:
-        cov_z = white_covariance(Jw, free, dof)
-    kinds = [i for i, n in enumerate(free) if params[n].kind == "model"]
+        cov_z = white_covariance(Jw, sig[blocks] * w, free, dof)
     length = int(min(np.count_nonzero(groups == g) for g in np.unique(groups))) if rw.size else 0
     n_out = int(np.max(blocks)) + 1 if blocks.size else 1
     verdict = reliability(across if across is not None else cov_z, within if across is not None else None, n_exp,
@@ -424,6 +431,14 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     return dict(parameters=estimates, free=free, covariance=cov, correlation=corr, dof=dof, critical=cov_z.critical,
                 block_sigma=sig, warnings=msgs, covariance_method=cov_z.method, bandwidth=cov_z.bandwidth,
                 inflation=dict(zip(free, (float(x) for x in cov_z.inflation))), reliability=verdict)
+
+
+def _disagree(across: Covariance, within: Covariance, columns: Sequence[int]) -> bool:
+    """True if the experiments disagree beyond their noise (:data:`~iwp.ident.covariance.SPREAD_WARN`)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.diag(across.matrix)[list(columns)] / np.diag(within.matrix)[list(columns)]
+    ratio = ratio[np.isfinite(ratio)]
+    return bool(ratio.size) and float(np.max(ratio)) > SPREAD_WARN
 
 
 def _no_statistics(params: Parameters, z: np.ndarray) -> dict[str, Any]:

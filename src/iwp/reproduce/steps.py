@@ -416,7 +416,8 @@ def step_refine(ctx: ReproduceResult) -> str:
         "stages": {
             key: {"free": list(r.free), "cost_start": float(r.cost_start), "cost": float(r.cost),
                   "fit_start": r.fit_start, "fit": r.fit, "nfev": int(r.nfev), "success": bool(r.success),
-                  "message": r.message}
+                  "message": r.message, "stderr": {k: float(r.parameters[k].stderr) for k in r.free},
+                  "intervals": "" if r.reliability is None else r.reliability.describe()}
             for key, r in (("free", r_free), ("two-step", r_two))},
         "cost_start": float(r_free.cost_start + r_two.cost_start),
         "cost": float(r_free.cost + r_two.cost),
