@@ -4,7 +4,10 @@ import numpy as np
 import pytest
 
 from iwp.cli import main
-from iwp.models import table1
+from iwp.data import read_experiment
+from iwp.models import Plant, table1
+from iwp.sim import simulate
+from iwp.sim.inputs import Chirp
 
 
 def test_simulate_hopf_writes_csv(tmp_path, capsys):
@@ -25,7 +28,13 @@ def test_simulate_chirp_and_params_file(tmp_path):
     out = tmp_path / "chirp.csv"
     assert main(["simulate", "--input", "chirp", "--amplitude", "60", "--w0", "3", "--tau", "100", "--t-end", "3",
                  "--params", str(pfile), "--out", str(out)]) == 0
-    assert out.exists()
+    # the run used the file's parameters (p1 = 30), not Table 1's: the same as simulate() with them
+    log = read_experiment(out)
+    ref = simulate(Plant(table1().replace(p1=30.0)), input=Chirp(60.0, 3.0, 100.0), t_end=3.0, rtol=1e-10,
+                   atol=1e-10)
+    np.testing.assert_allclose(log.q1, ref.q1, atol=1e-12)
+    other = simulate(Plant(table1()), input=Chirp(60.0, 3.0, 100.0), t_end=3.0, rtol=1e-10, atol=1e-10)
+    assert np.max(np.abs(other.q1 - log.q1)) > 1e-3
 
 
 def _one_line_error(capsys):
@@ -88,7 +97,7 @@ def test_identify_out_of_an_unphysical_fit_is_simulated(tmp_path, capsys):
     log = tmp_path / "fc.csv"
     assert main(["rig", "run", "full-chirp", "--duration", "40", "--out", str(log)]) == 0
     pfile = tmp_path / "full.json"
-    main(["identify", str(log), "--setup", "full", "--out", str(pfile)])
+    assert main(["identify", str(log), "--setup", "full", "--out", str(pfile)]) == 0
     assert pfile.exists()
     out = tmp_path / "sim.csv"
     assert main(["simulate", "--params", str(pfile), "--input", "chirp", "--t-end", "2", "--out", str(out)]) == 0

@@ -20,7 +20,7 @@ from iwp.models import (
 from iwp.models.equations import rhs_of
 from iwp.models.layout import M_PLAIN
 from iwp.models.mathfn import sincos
-from tests.test_params import physical
+from tests.helpers import physical
 
 
 def rhs(model, params, x, w, **options):

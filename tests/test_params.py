@@ -4,13 +4,8 @@ import math
 import pytest
 
 from iwp.errors import InputError, OutputExistsError
-from iwp.models import BeltParameters, PhysicalParameters, load_params, save_params, table1
-
-
-def physical():
-    return PhysicalParameters(m1=0.2, m2=0.3, I1=2e-3, I2=4e-5, l=0.25, c=0.12, g=9.81, kT=0.02, kF=0.02, R=5.0,
-                              N=13.5, beta=0.12, sigma_v1=1e-4, sigma_r=0.01, r=0.004, sigma_v2=1e-6,
-                              sigma_c2=2e-4, V_dz_pos=3.7, V_dz_neg=3.5)
+from iwp.models import BeltParameters, load_params, save_params, table1
+from tests.helpers import physical
 
 
 def test_table1_values():

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.test_reproduce import EXPECTED_FIGURES, quick_run_once
+from tests.helpers import EXPECTED_FIGURES
 
 _CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 
@@ -28,12 +28,6 @@ def _chromium() -> str | None:
         if path:
             return path
     return "/usr/bin/chromium" if Path("/usr/bin/chromium").exists() else None
-
-
-@pytest.fixture(scope="session")
-def quick_run(tmp_path_factory):
-    """The reduced run of tests/test_reproduce.py (run once per session, whichever file needs it first)."""
-    return quick_run_once(tmp_path_factory)
 
 
 @pytest.fixture(scope="module")

@@ -24,6 +24,7 @@ from iwp.rig import (
     uncalibrated_truth,
     write_result,
 )
+from iwp.rig.experiments import open_loop_input
 from iwp.sim import HopfController, simulate
 
 STEP = 2 * math.pi / 2000
@@ -82,7 +83,11 @@ def test_list_names_the_paper_experiments():
                                                                                                      True)
     full = EXPERIMENTS["full-chirp"].settings
     assert (full["amplitude"], full["w0"], full["tau"], full["duration"], full["locked"]) == (60, 3, 100, 300, False)
-    assert [EXPERIMENTS[f"sine-{a}"].settings["amplitude"] for a in (60, 40, 20)] == [60, 40, 20]
+    # the paper's sinusoids u = A sin(5 t), A = 60, 40, 20 (figures 3a, 3b, 4), as the rig applies them
+    t = np.linspace(0.0, 3.0, 301)
+    for name, A in (("sine-60", 60.0), ("sine-40", 40.0), ("sine-20", 20.0)):
+        inp = open_loop_input(name, EXPERIMENTS[name].settings)
+        np.testing.assert_allclose([inp.evaluate(tk) for tk in t], A * np.sin(5.0 * t), rtol=0, atol=1e-12)
     assert EXPERIMENTS["free-pendulum"].settings["x0"][0] == -1.422
     cl = EXPERIMENTS["closed-loop"].settings
     assert (cl["k1"], cl["k2"]) == (-10, 0.1)
