@@ -41,7 +41,9 @@ KI2, DPLAY, NB, B2I2, KG, KBRG = range(15, 21)
 SC1, UOFF = range(21, 23)
 #: belt (15): motor gain for a negative net input over the positive one (section 3.2 allows them to differ)
 KNEG = 23
-N_LUMPED = 24
+#: smoothing width of the pendulum's Coulomb sign (the disk's is EPSC)
+EPSC1 = 24
+N_LUMPED = 25
 
 # --------------------------------------------------------------------------
 # physical layout (model "el")
@@ -59,7 +61,8 @@ N_PACK = max(N_LUMPED, N_PHYS)
 #: lumped parameter name -> index (the fields of :class:`~iwp.models.parameters.LumpedParameters`)
 LUMPED_INDEX = {
     "p1": P1, "p2": P2, "p3": P3, "rho": RHO, "sigma_a1": SA, "sigma_v1": SV, "sigma_b1": SB,
-    "v_dz_pos": VPOS, "v_dz_neg": VNEG, "sigma_c2": SC2, "sigma_c1": SC1, "u_offset": UOFF,
+    "v_dz_pos": VPOS, "v_dz_neg": VNEG, "sigma_c2": SC2, "sigma_c1": SC1, "u_offset": UOFF, "eps_c1": EPSC1,
+    "eps_c2": EPSC,
 }
 #: belt parameter name -> index (the fields of :class:`~iwp.models.parameters.BeltParameters`)
 BELT_INDEX = {

@@ -121,6 +121,10 @@ LUMPED_INFO: dict[str, ParameterInfo] = _info("lumped", (
      (1e-5, 10.0)),
     ("sigma_c1", "rad/s^2", 0.05, "nonnegative", "Coulomb friction of the pendulum joint over I1_hat"),
     ("u_offset", "in", 1.0, "signed", "offset of the input"),
+    ("eps_c1", "rad/s", 0.01, "nonnegative", "smoothing width of the pendulum's Coulomb sign (0: the plant's)",
+     (1e-3, 2.0)),
+    ("eps_c2", "rad/s", 0.01, "nonnegative", "smoothing width of the disk's Coulomb sign (0: the plant's)",
+     (1e-3, 2.0)),
 ))
 
 #: The belt (15) and figure 5, by name.
@@ -226,6 +230,11 @@ class LumpedParameters:
         where ``w`` is the logged ``u`` (or ``v``), e.g. a driver whose zero
         command is not zero torque (:func:`iwp.models.actuator.effective_input`).
         0 by default.
+    eps_c1, eps_c2 : float
+        Smoothing widths of the Coulomb signs of the pendulum and the disk
+        [rad/s]: ``sgn q ~ tanh(q / eps)``. 0 (default): the plant's
+        ``coulomb_eps`` (0.01 rad/s). Real joints show wider transitions
+        (about 0.1 rad/s at a pendulum's bearing); a fit can estimate them.
     """
 
     p1: float  # [s^-2]
@@ -240,6 +249,8 @@ class LumpedParameters:
     sigma_c2: float = 0.0  # [rad s^-2]
     sigma_c1: float = 0.0  # [rad s^-2]
     u_offset: float = 0.0  # [input units]
+    eps_c1: float = 0.0  # [rad/s]
+    eps_c2: float = 0.0  # [rad/s]
 
     def __post_init__(self) -> None:
         # Structural checks only: finiteness and rho > 0 (the models divide by

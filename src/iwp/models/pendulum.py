@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from ..jit import jit
 from .friction import coulomb_sign, pendulum_friction
-from .layout import EPSC, P1, RHO, SA, SB, SC1, SV
+from .layout import EPSC1, P1, RHO, SA, SB, SC1, SV
 from .mathfn import sincos
 
 
@@ -39,12 +39,13 @@ def pendulum_accel_terms(q1, q3, P):
 def pendulum_coulomb(q3, P):
     """Coulomb friction of the pendulum joint over ``I1_hat``, ``sigma~_c1 sgn q3`` [s^-2] (0 when off).
 
-    ``sgn`` regularised as ``tanh(q3/eps)`` with the plant's ``coulomb_eps``
-    (:func:`iwp.models.friction.coulomb_sign`); it adds to ``xi``.
+    ``sgn`` regularised as ``tanh(q3/eps)`` with the width ``eps_c1`` (the
+    plant's ``coulomb_eps`` unless set, :func:`iwp.models.friction.coulomb_sign`);
+    it adds to ``xi``.
     """
     if P[SC1] == 0.0:
         return 0.0
-    return P[SC1] * coulomb_sign(q3, P[EPSC])
+    return P[SC1] * coulomb_sign(q3, P[EPSC1])
 
 
 @jit(inline=True)

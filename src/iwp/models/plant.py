@@ -32,6 +32,7 @@ from .layout import (
     DZ,
     E_EPSC,
     EPSC,
+    EPSC1,
     LOCK,
     LUMPED_INDEX,
     M_BELT,
@@ -99,10 +100,11 @@ class ModelInfo:
 
 
 _ALL4 = (0, 1, 2, 3)
-_PENDULUM = ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c1")
-_LUMPED = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2", "sigma_c1", "u_offset")
+_PENDULUM = ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c1", "eps_c1")
+_LUMPED = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2", "sigma_c1", "u_offset", "eps_c1",
+           "eps_c2")
 _DEAD_ZONE = ("v_dz_pos", "v_dz_neg")
-_MOTOR_DISK = ("p2", "p3", "rho", "sigma_c2", "u_offset")
+_MOTOR_DISK = ("p2", "p3", "rho", "sigma_c2", "u_offset", "eps_c2")
 _BELT = ("k_over_I2", "d", "b2_over_I2", "k_over_gamma", "kTbeta_over_Rgamma", "gain_neg", "sigma_c2")
 #: The models, by name.
 MODELS: dict[str, ModelInfo] = {m.name: m for m in (
@@ -251,6 +253,8 @@ class Plant:
             if self.belt is None:
                 raise InputError(f"parameter {name!r} belongs to the belt (15); model {self.model!r} has none")
             return float(getattr(self.belt, name))
+        if name in ("eps_c1", "eps_c2"):  # the width in effect (0 stands for the plant's coulomb_eps)
+            return float(self.packed()[LUMPED_INDEX[name]])
         if name in LUMPED_INFO:
             return float(getattr(self.lumped, name))
         raise InputError(f"unknown parameter {name!r}; known: {', '.join([*LUMPED_INFO, *BELT_INFO])}")
@@ -320,7 +324,8 @@ def _pack(plant: Plant, info: ModelInfo) -> np.ndarray:
         return P
     for name, index in LUMPED_INDEX.items():
         P[index] = getattr(params, name)
-    P[EPSC] = plant.coulomb_eps
+    P[EPSC] = params.eps_c2 if params.eps_c2 > 0 else plant.coulomb_eps
+    P[EPSC1] = params.eps_c1 if params.eps_c1 > 0 else plant.coulomb_eps
     if plant.startup is not None:
         P[BRK], P[WS] = plant.startup.break_ratio, plant.startup.omega_s
     else:
