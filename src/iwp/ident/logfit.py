@@ -63,6 +63,7 @@ from .output_error import Experiment, OutputError, measured_state_covariance
 from .problem import Loss
 from .refinement import RefineResult, as_experiments, refine
 from .regressors import columns, q3_row, row_sum
+from .structure import LadderResult, Rung, RungOutcome, information_criteria, ladder, select
 
 __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresStart", "least_squares_start",
            "load_logs", "measured_initial_state", "MIN_SAMPLES_PER_PERIOD"]
@@ -140,12 +141,14 @@ class LogFitResult:
         ``"compensated"`` (9) or ``"raw"`` (6).
     outputs : tuple of str
     options : dict
-        The model options used (dead zone, Coulomb terms, input offset).
+        The model options used (dead zone, Coulomb terms, widths, input offset).
     train, validation : list of LogFit
     warnings : list of str
     rig : RigDescription or None
     elapsed : float
         Wall time [s].
+    structures : LadderResult or None
+        The ladder of structures fitted and ranked (``select``), or None.
     """
 
     params: LumpedParameters
@@ -161,6 +164,7 @@ class LogFitResult:
     warnings: list[str]
     rig: RigDescription | None = None
     elapsed: float = 0.0
+    structures: LadderResult | None = None
 
     @property
     def validation_fit(self) -> dict[str, float]:
@@ -193,6 +197,7 @@ class LogFitResult:
             "refinement": {k: r.to_dict()[k] for k in ("cost_start", "cost", "success", "message", "nfev", "njev",
                                                         "n_samples", "residual_std")},
             "uncertainty": None if r.reliability is None else r.reliability.to_dict(),
+            "structures": None if self.structures is None else self.structures.to_dict(),
             "warnings": list(self.warnings),
             "elapsed_s": json_float(self.elapsed),
             "lumped": self.params.to_dict(),
@@ -200,8 +205,10 @@ class LogFitResult:
 
     def summary(self, warnings: bool = True) -> str:
         """Readable lines: parameters, fits per log and signal, (with ``warnings``) the warnings."""
-        lines = [f"model {self.model} ({'(6) with dead zone' if self.model == 'raw' else '(9)'}), outputs "
-                 f"{', '.join(self.outputs)}, start: {self.start_method}"]
+        lines = [self.structures.table()] if self.structures is not None else []
+        lines.append(f"model {self.model} ({'(6) with dead zone' if self.model == 'raw' else '(9)'}), free: "
+                     f"{', '.join(self.refinement.free)}; outputs {', '.join(self.outputs)}, start: "
+                     f"{self.start_method}")
         for n in self.refinement.free:
             pe = self.refinement.parameters[n]
             lines.append(f"  {n:<9} {pe.value:>12.6g} +- {pe.stderr:.2g}  [{pe.ci95_low:.6g}, {pe.ci95_high:.6g}]")
@@ -428,6 +435,13 @@ class LogFitOptions:
     coulomb, pendulum_coulomb, input_offset : bool
         Also fit Coulomb friction of the wheel (``sigma_c2``), of the pendulum
         (``sigma_c1``), and an offset of the input (``u_offset``).
+    widths : bool
+        Also fit the smoothing widths of the Coulomb signs that are on
+        (``eps_c2`` with ``coulomb``, ``eps_c1`` with ``pendulum_coulomb``).
+    select : bool
+        Fit the ladder of structures (:mod:`iwp.ident.structure`) and keep the
+        simplest within noise of the best on held-out data (``iwp fit``'s
+        default); the flags above are then ignored.
     loss : str
         ``"linear"`` or a robust loss (:class:`~iwp.ident.problem.Loss`).
     start : LumpedParameters, optional
@@ -440,6 +454,8 @@ class LogFitOptions:
     coulomb: bool = False
     pendulum_coulomb: bool = False
     input_offset: bool = False
+    widths: bool = False
+    select: bool = False
     loss: str = "linear"
     start: LumpedParameters | None = None
     window: tuple[float | None, float | None] = (None, None)
@@ -457,23 +473,30 @@ class LogFitOptions:
     def free(self) -> tuple[str, ...]:
         """The parameters fitted: model (9)'s and the options' terms."""
         extra = [(self.dead_zone, ("v_dz_pos", "v_dz_neg")), (self.coulomb, ("sigma_c2",)),
-                 (self.pendulum_coulomb, ("sigma_c1",)), (self.input_offset, ("u_offset",))]
+                 (self.pendulum_coulomb, ("sigma_c1",)), (self.input_offset, ("u_offset",)),
+                 (self.widths and self.coulomb, ("eps_c2",)), (self.widths and self.pendulum_coulomb, ("eps_c1",))]
         return BASE_FREE + tuple(n for on, names in extra if on for n in names)
 
+    def with_rung(self, rung: Rung) -> "LogFitOptions":
+        """These options with the structure of ``rung`` (and no ladder)."""
+        return replace(self, select=False, **rung.options())
+
     def starting_values(self, start: LumpedParameters, umax: float) -> LumpedParameters:
-        """The options' terms started at a fraction of what the logs' input and ``start`` allow."""
-        if self.dead_zone:
+        """The options' terms that are 0 in ``start`` started at a fraction of what the logs' input and ``start``
+        allow (terms a simpler structure fitted keep their values)."""
+        if self.dead_zone and start.v_dz_pos == 0 and start.v_dz_neg == 0:
             start = start.replace(v_dz_pos=0.05 * umax, v_dz_neg=0.05 * umax)
-        if self.coulomb:
+        if self.coulomb and start.sigma_c2 == 0:
             start = start.replace(sigma_c2=0.02 * start.p3 * umax)
-        if self.pendulum_coulomb:
+        if self.pendulum_coulomb and start.sigma_c1 == 0:
             start = start.replace(sigma_c1=0.01 * start.p1)
         return start
 
     def to_dict(self, offset_given: bool) -> dict[str, Any]:
         return {"dead_zone": bool(self.dead_zone), "coulomb": bool(self.coulomb),
                 "pendulum_coulomb": bool(self.pendulum_coulomb), "input_offset": bool(self.input_offset),
-                "loss": self.loss, "q1_offset": "given by the rig" if offset_given else "estimated per log"}
+                "widths": bool(self.widths), "loss": self.loss,
+                "q1_offset": "given by the rig" if offset_given else "estimated per log"}
 
 
 def fit_logs(
@@ -513,9 +536,6 @@ def fit_logs(
     msgs = [str(w.message) for w in caught]
     if not train_logs:
         raise InputError("train: no training logs given", argument="train")
-    model = options.model
-    train_logs = [_as_model_input(d, model, "train") for d in train_logs]
-    val_logs = [_as_model_input(d, model, "validate") for d in val_logs]
     for d in train_logs + val_logs:
         if d.q2 is None and d.q4 is None:
             raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
@@ -523,17 +543,27 @@ def fit_logs(
     offset_given = rig_d is not None and rig_d.pendulum.offset is not None
     # ---- prepare: the start
     wtrain = [d.window(*options.window) for d in train_logs]
+    umax = max(float(np.max(np.abs(d.input))) for d in wtrain)
     if options.start is None:
         ls = least_squares_start(wtrain)
         msgs.extend(ls.notes)
-        umax = max(float(np.max(np.abs(d.input))) for d in wtrain)
-        start_p, method, ls_details = options.starting_values(ls.params, umax), ls.method, ls.details
+        start_p, method, ls_details = ls.params, ls.method, ls.details
     else:
         start_p, method, ls_details = options.start, "given", {}
-    # ---- solve: the joint simulation-error fit
-    exps = as_experiments(train_logs, windows=tuple(options.window), offsets=() if offset_given else ("q1",))
-    r = refine(exps, Plant(start_p, model=model), free=options.free(), outputs=outputs, loss=options.loss,
-               warn=False)
+    # ---- solve: the joint simulation-error fit (of each structure of the ladder, or of the one asked for)
+    fitting = _Fitting(options, train_logs, val_logs, outputs, offset_given, umax)
+    structures = None
+    if options.select:
+        structures = fitting.ladder(start_p)
+        options = options.with_rung(structures.chosen.rung)
+        r = structures.chosen.result
+        start_p = options.starting_values(start_p, umax)
+    else:
+        start_p = options.starting_values(start_p, umax)
+        r = fitting.joint(options, start_p)
+    model = options.model
+    train_logs = [_as_model_input(d, model, "train") for d in train_logs]
+    val_logs = [_as_model_input(d, model, "validate") for d in val_logs]
     msgs.extend(r.warnings)
     # ---- report: training fits, held-out logs simulated from their measured state
     offs = [r.offsets[i].get("q1", (0.0, 0.0))[0] for i in range(len(train_logs))]
@@ -550,11 +580,73 @@ def fit_logs(
     val_fits = [_held_out(d, Plant(r.params, model=model), outputs, val_off, msgs, uncertainty) for d in val_logs]
     res = LogFitResult(params=r.params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
                        model=model, outputs=outputs, options=options.to_dict(offset_given), train=train_fits,
-                       validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0)
+                       validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0,
+                       structures=structures)
     if warn:
         for m in res.warnings:
             _warnings.warn(m, stacklevel=2)
     return res
+
+
+class _Fitting:
+    """The joint fits of one call of :func:`fit_logs`: one structure, or the ladder of them ranked on held-out data."""
+
+    def __init__(self, options: LogFitOptions, train: list[ExperimentData], held_out: list[ExperimentData],
+                 outputs: tuple[str, ...], offset_given: bool, umax: float):
+        self.options, self.train, self.held_out = options, train, held_out
+        self.outputs, self.offset_given, self.umax = outputs, offset_given, umax
+
+    def joint(self, options: LogFitOptions, start: LumpedParameters, logs=None) -> RefineResult:
+        """The joint simulation-error fit of ``options``' structure on ``logs`` (default: the training logs)."""
+        model = options.model
+        logs = [_as_model_input(d, model, "train") for d in (self.train if logs is None else logs)]
+        exps = as_experiments(logs, windows=tuple(options.window), offsets=() if self.offset_given else ("q1",))
+        return refine(exps, Plant(start, model=model), free=options.free(), outputs=self.outputs,
+                      loss=options.loss, warn=False)
+
+    def score(self, r: RefineResult, options: LogFitOptions, logs: list[ExperimentData]) -> list[LogFit]:
+        """``logs`` simulated from their measured state with the fit ``r`` (the training logs' mean offset)."""
+        model = options.model
+        offs = [o.get("q1", (0.0, 0.0))[0] for o in r.offsets]
+        off = 0.0 if self.offset_given else float(np.mean(offs))
+        plant = Plant(r.params, model=model)
+        return [_held_out(_as_model_input(d, model, "validate"), plant, self.outputs, off, [], None) for d in logs]
+
+    def ladder(self, start: LumpedParameters) -> LadderResult:
+        """Each structure of the ladder fitted (from the fit of the one it extends) and scored."""
+        raw = all(d.input_name == "v" for d in self.train + self.held_out)
+        folds = len(self.train) >= 2 and not self.held_out
+        outcomes: list[RungOutcome] = []
+        for rg in ladder(raw):
+            parents = [o for o in outcomes if o.rung.flags < rg.flags and o.success]
+            base = max(parents, key=lambda o: len(o.rung.flags)).result.params if parents else start
+            opts = self.options.with_rung(rg)
+            r = self.joint(opts, opts.starting_values(base, self.umax))
+            if self.held_out:
+                scored = self.score(r, opts, self.held_out)
+            elif folds:  # leave one training log out, refit from the joint fit, predict it
+                scored = [self.score(self.joint(opts, r.params, self.train[:k] + self.train[k + 1:]), opts,
+                                     [self.train[k].window(*opts.window)])[0] for k in range(len(self.train))]
+            else:
+                scored = []
+            scores = np.array([float(np.mean([1.0 - f.fit[o] / 100.0 for o in self.outputs])) for f in scored])
+            fr = r.fit_result
+            aic, bic = information_criteria(fr.cost, fr.dof + len(fr.free), len(fr.free))
+            outcomes.append(RungOutcome(rg, len(r.free), scores, _mean_fit(scored, self.outputs),
+                                        _mean_fit_dicts(r.fit, self.outputs), aic, bic, bool(r.success),
+                                        r.message, r))
+        scored_on = ("held-out logs" if self.held_out else
+                     "leave-one-log-out cross-validation" if folds else "training fit")
+        n = len(self.held_out) if self.held_out else (len(self.train) if folds else 0)
+        return LadderResult(outcomes, select(outcomes), scored_on, n)
+
+
+def _mean_fit_dicts(fits: list[dict[str, float]], outputs) -> dict[str, float]:
+    out = {}
+    for o in outputs:
+        vals = [f[o] for f in fits if o in f and math.isfinite(f[o])]
+        out[o] = float(np.mean(vals)) if vals else float("nan")
+    return out
 
 
 def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset: float, msgs: list[str],

@@ -481,10 +481,10 @@ class OutputError:
         out = []
         for n in names:
             info = PARAMETER_INFO[n]
-            v = self.plant.value(n)
             if n not in free:
-                out.append(Parameter(n, v, vary=False, unit=info.unit))
+                out.append(Parameter(n, self.plant.value(n), vary=False, unit=info.unit))
                 continue
+            v = self.plant.value_in_effect(n)
             lo, hi = _bounds(n, bounds.get(n), info.default_bounds(log))
             if log:
                 out.append(Parameter(n, v, min=lo, max=hi, unit=info.unit, log=True))

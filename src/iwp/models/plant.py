@@ -253,11 +253,20 @@ class Plant:
             if self.belt is None:
                 raise InputError(f"parameter {name!r} belongs to the belt (15); model {self.model!r} has none")
             return float(getattr(self.belt, name))
-        if name in ("eps_c1", "eps_c2"):  # the width in effect (0 stands for the plant's coulomb_eps)
-            return float(self.packed()[LUMPED_INDEX[name]])
         if name in LUMPED_INFO:
             return float(getattr(self.lumped, name))
         raise InputError(f"unknown parameter {name!r}; known: {', '.join([*LUMPED_INFO, *BELT_INFO])}")
+
+    def value_in_effect(self, name: str) -> float:
+        """The value the equations use for parameter ``name``.
+
+        Equal to :meth:`value` except where a stored 0 stands for the plant's
+        default: the smoothing widths ``eps_c1``/``eps_c2`` (0: ``coulomb_eps``).
+        A fit that frees such a parameter starts from this value.
+        """
+        if name in LUMPED_INDEX and not self.info.physical:
+            return float(self.packed()[LUMPED_INDEX[name]])
+        return self.value(name)
 
     def with_values(self, values) -> "Plant":
         """The same plant with the parameters in ``values`` (``{name: value}``, lumped or belt) changed."""
