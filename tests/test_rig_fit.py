@@ -411,3 +411,86 @@ def test_input_offset_shifts_the_input():
     b = simulate(Plant(p.replace(u_offset=0.0)), input=Chirp(0.3, 2.0, 10.0, offset=0.05),
                  t_end=5.0, rtol=1e-11, atol=1e-11)
     np.testing.assert_allclose(a.x, b.x, atol=1e-9)
+
+
+# --------------------------------------------------------------------------
+# the files users have (issue 21): a matrix in a MATLAB file, scales, messages with numbers
+# --------------------------------------------------------------------------
+def _matrix_log(tmp_path, rig, *, transpose=False, name="data"):
+    from scipy.io import savemat
+
+    run = DescribedRig(rig, TRUTH).run(Chirp(0.3, 2.0, 15.0), duration=16.0)
+    cols = ["t", "u", "theta", "phidot", "I"]
+    m = np.column_stack([run.columns[c] for c in cols])
+    path = tmp_path / "log.mat"
+    savemat(path, {name: m.T if transpose else m})
+    return path, run
+
+
+def test_a_matlab_matrix_is_read_by_the_columns_the_description_names(tmp_path):
+    rig = rig_of()
+    path, run = _matrix_log(tmp_path, rig)
+    # without 'matrix' the error says what the file holds
+    with pytest.raises(DataFormatError, match=r"found: a 801x5 matrix 'data'; name a matrix's columns with the "
+                                              r"key 'matrix'"):
+        read_rig_log(path, rig)
+    mrig = rig_of(matrix={"variable": "data", "columns": ["t", "u", "theta", "phidot", "I"]})
+    d = read_rig_log(path, mrig, glitches=False)
+    ref = read_rig_log(write_rig_csv(run, tmp_path / "log.csv"), rig, glitches=False)
+    np.testing.assert_allclose(d.q1, ref.q1, atol=1e-12)
+    np.testing.assert_allclose(d.q4, ref.q4, atol=1e-12)
+    np.testing.assert_allclose(d.input, ref.input, atol=1e-12)
+    # one row per signal is read too; the only matrix needs no name
+    (tmp_path / "x").mkdir()
+    path2, _ = _matrix_log(tmp_path / "x", rig, transpose=True, name="M")
+    d2 = read_rig_log(path2, rig_of(matrix={"columns": ["t", "u", "theta", "phidot", "I"]}), glitches=False)
+    np.testing.assert_allclose(d2.q1, ref.q1, atol=1e-12)
+    with pytest.raises(DataFormatError, match=r"variable 'data' is a 801x5 matrix but rig.json key "
+                                              r"'matrix.columns' names 4 columns"):
+        read_rig_log(path, rig_of(matrix={"columns": ["t", "u", "theta", "phidot"]},
+                                  current=None))
+
+
+def test_a_rig_description_refuses_two_signals_on_one_column_and_unnamed_matrix_columns():
+    with pytest.raises(InputError, match=r"'pendulum.column' and 'wheel.column' both name the column 'theta'"):
+        rig_of(wheel={"column": "theta"})
+    with pytest.raises(InputError, match=r"'current.column' names the column 'I', which 'matrix.columns' does not "
+                                         r"list"):
+        rig_of(matrix={"columns": ["t", "u", "theta", "phidot"]})
+    with pytest.raises(InputError, match=r"'pendulum.scale' must not be 0"):
+        rig_of(pendulum={"scale": 0})
+
+
+def test_a_scale_corrects_a_wrong_encoder_gain(tmp_path):
+    rig = rig_of()
+    run = DescribedRig(rig, TRUTH).run(Chirp(0.3, 2.0, 15.0), duration=10.0)
+    good = read_rig_log(write_rig_csv(run, tmp_path / "a.csv"), rig, glitches=False)
+    # a lab whose encoder logs 20 % too few counts corrects the angle by 1.25
+    cols = dict(run.columns)
+    cols["theta"] = np.round(cols["theta"] * 0.8)
+    import csv
+
+    with open(tmp_path / "b.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(list(cols))
+        w.writerows(zip(*cols.values()))
+    wrong = read_rig_log(tmp_path / "b.csv", rig, glitches=False)
+    fixed = read_rig_log(tmp_path / "b.csv", rig_of(pendulum={"scale": 1.25}), glitches=False)
+    assert np.max(np.abs(wrong.q1 - good.q1)) > 0.1 * np.max(np.abs(good.q1))
+    np.testing.assert_allclose(fixed.q1, good.q1, atol=1.25 * 2 * math.pi / 4096)
+
+
+def test_counts_with_fractions_are_named_with_a_number_not_a_repr(tmp_path):
+    rig = rig_of()
+    run = DescribedRig(rig, TRUTH).run(Chirp(0.3, 2.0, 15.0), duration=2.0)
+    cols = dict(run.columns)
+    cols["theta"] = cols["theta"] * 2 * math.pi / 4096  # radians logged under a counts description
+    import csv
+
+    with open(tmp_path / "c.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(list(cols))
+        w.writerows(zip(*cols.values()))
+    with pytest.raises(DataFormatError) as e:
+        read_rig_log(tmp_path / "c.csv", rig)
+    assert "np.float64" not in str(e.value) and "whole numbers, found" in str(e.value)
