@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -494,3 +496,47 @@ def test_counts_with_fractions_are_named_with_a_number_not_a_repr(tmp_path):
     with pytest.raises(DataFormatError) as e:
         read_rig_log(tmp_path / "c.csv", rig)
     assert "np.float64" not in str(e.value) and "whole numbers, found" in str(e.value)
+
+
+# --------------------------------------------------------------------------
+# every experiment a user has, in one fit (issue 21)
+# --------------------------------------------------------------------------
+def test_clamped_and_wheel_locked_logs_join_the_fit_through_the_cli(tmp_path):
+    rig = rig_of(sample_period=0.05, pendulum={"counts_per_rev": 20000})
+    truth = TRUTH.replace(sigma_c2=0.5, sigma_c1=0.4)
+    vr = DescribedRig(rig, truth, noise_std=0.002, seed=1)
+    chirp = write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0), tmp_path / "c.csv")
+    clamp = write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0, kind="clamped"), tmp_path / "clamp.csv")
+    swing = write_rig_csv(vr.run(None, duration=20.0, kind="wheel-locked", x0=[0.8, 0, 0, 0]), tmp_path / "wl.csv")
+    rig_path = tmp_path / "rig.json"
+    rig_path.write_text(json.dumps(rig.to_dict()))
+    out = tmp_path / "out"
+    assert main(["fit", str(chirp), "--clamped", str(clamp), "--wheel-locked", str(swing), "--rig", str(rig_path),
+                 "--model", "pendulum-coulomb", "--out", str(out)]) == 0
+    doc = json.loads((out / "fit.json").read_text())
+    kinds = {Path(f["source"]).name: (f["kind"], set(f["fit"])) for f in doc["train"]}
+    # each set-up compares what it moves: the clamped log the wheel, the locked wheel's swing the angle
+    assert kinds == {"c.csv": ("free", {"q1", "q4"}), "clamp.csv": ("clamped", {"q4"}),
+                     "wl.csv": ("wheel-locked", {"q1"})}
+    for f in doc["train"]:
+        assert min(f["fit"].values()) > 99.0
+    for name in ("p1", "p2", "p3", "rho", "sigma_c2", "sigma_c1"):
+        lo, hi = doc["parameters"][name]["ci95"]
+        assert lo <= getattr(truth, name) <= hi, name
+        assert hi - lo < 0.05 * getattr(truth, name), name
+
+
+def test_logs_of_two_set_ups_are_named_before_the_joint_fit(tmp_path):
+    from iwp.ident.logfit import disagreeing_logs
+
+    rig = rig_of()
+    a = DescribedRig(rig, TRUTH).run(Chirp(0.3, 2.0, 15.0), duration=20.0)
+    b = DescribedRig(rig, TRUTH.replace(p1=TRUTH.p1 / 7)).run(Chirp(0.3, 1.0, 15.0), duration=20.0)
+    c = DescribedRig(rig, TRUTH).run(Chirp(0.25, 3.0, 10.0), duration=20.0)
+    logs = load_logs([write_rig_csv(r, tmp_path / f"{n}.csv") for n, r in (("a", a), ("b", b), ("c", c))], rig)
+    msg = disagreeing_logs(logs)
+    assert len(msg) == 1 and "disagree on the gravity term p1" in msg[0]
+    values = {m[0]: float(m[1]) for m in re.findall(r"(\w)\.csv ([\d.]+) \+-", msg[0])}
+    assert values["a"] == pytest.approx(TRUTH.p1, rel=0.03) and values["c"] == pytest.approx(TRUTH.p1, rel=0.03)
+    assert values["b"] == pytest.approx(TRUTH.p1 / 7, rel=0.03)
+    assert disagreeing_logs([logs[0], logs[2]]) == []  # one set-up, two excitations: no warning

@@ -29,6 +29,10 @@ def register(sub) -> None:
     p.add_argument("--rig", metavar="RIG.json", help="rig description: columns, units, input, drive, sample period")
     p.add_argument("--validate", nargs="+", default=[], metavar="HELDOUT",
                    help="held-out logs, simulated from their measured initial state (not fitted)")
+    p.add_argument("--clamped", nargs="+", default=[], metavar="LOG",
+                   help="logs with the pendulum clamped and the wheel driven (section 5.1), joining the training")
+    p.add_argument("--wheel-locked", nargs="+", default=[], metavar="LOG",
+                   help="logs of free swings with the wheel locked to the arm, joining the training")
     p.add_argument("--out", "-o", required=True, metavar="DIR", help="output folder (new or empty)")
     add_force_arg(p)
     p.add_argument("--model", metavar="STRUCTURE", choices=LazyChoices("iwp.ident.structure", "RUNGS"),
@@ -67,7 +71,8 @@ def run(args) -> int:
         flags = RUNGS[args.model].options()
     options = LogFitOptions(**flags, select=args.model is None and not any(flags.values()), loss=args.loss,
                             window=(args.t_start, args.t_end))
-    res = fit_logs(args.train, rig=args.rig, validate=args.validate, options=options)
+    kinds = {k: v for k, v in (("clamped", args.clamped), ("wheel-locked", args.wheel_locked)) if v}
+    res = fit_logs(args.train, rig=args.rig, validate=args.validate, kinds=kinds, options=options)
     files = write_fit_report(res, args.out, force=args.force)
     if args.json:
         print(json.dumps(jsonable(res.to_dict()), indent=2))

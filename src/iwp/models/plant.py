@@ -50,7 +50,7 @@ from .layout import (
 )
 from .parameters import BELT_INFO, LUMPED_INFO, BeltParameters, LumpedParameters, PhysicalParameters
 
-__all__ = ["ModelInfo", "MODELS", "Plant", "model_info"]
+__all__ = ["ModelInfo", "MODELS", "Plant", "model_info", "EXPERIMENT_KINDS", "plant_for_kind"]
 
 
 @dataclass(frozen=True)
@@ -348,3 +348,23 @@ def _pack(plant: Plant, info: ModelInfo) -> np.ndarray:
             P[index] = getattr(plant.belt, name)
     return P
 
+
+#: The kinds of experiment a rig runs (and a fit joins), and how each changes the plant it simulates.
+EXPERIMENT_KINDS: dict[str, str] = {
+    "free": "the arm swings freely: the model as given",
+    "clamped": "the pendulum clamped at q1 = q3 = 0 (section 5.1)",
+    "wheel-locked": "the wheel locked to the arm: a free pendulum carrying the wheel's inertia (motor torque internal)",
+    "closed-loop": "the input was computed by a known feedback law, simulated with the plant",
+}
+
+
+def plant_for_kind(plant: Plant, kind: str) -> Plant:
+    """The plant an experiment of ``kind`` (:data:`EXPERIMENT_KINDS`) simulates, with ``plant``'s parameters."""
+    if kind not in EXPERIMENT_KINDS:
+        raise InputError(f"unknown experiment kind {kind!r}; choose among {', '.join(EXPERIMENT_KINDS)}",
+                         argument="kind")
+    if kind == "clamped" and not plant.pendulum_locked:
+        return plant.replace(locked=True)
+    if kind == "wheel-locked" and not plant.wheel_held:
+        return Plant(plant.lumped, model="free", coulomb_eps=plant.coulomb_eps)
+    return plant

@@ -123,7 +123,8 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                      + "; start: " + result.start_method)
         frows = []
         for f in result.train + result.validation:
-            frows.append([Path(f.source).name, f.role] + [fmt(f.fit.get(o), 4) for o in result.outputs]
+            role = f.role if f.kind == "free" else f"{f.role} ({f.kind})"
+            frows.append([Path(f.source).name, role] + [fmt(f.fit.get(o), 4) for o in result.outputs]
                          + [fmt(f.rms.get(o), 3) for o in result.outputs] + [fmt(f.q1_offset, 3)]
                          + [fmt(100 * f.coverage[o], 3) if o in f.coverage else "-" for o in result.outputs])
         ftab = Table("Fits per log and signal",
