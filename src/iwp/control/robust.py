@@ -134,7 +134,10 @@ def wilson_interval(successes: int, trials: int, level: float = LEVEL) -> Propor
     den = 1.0 + z * z / n
     mid = (p + z * z / (2 * n)) / den
     half = z / den * math.sqrt(p * (1.0 - p) / n + z * z / (4.0 * n * n))
-    return Proportion(k, n, p, max(0.0, mid - half), min(1.0, mid + half), float(level))
+    # at k = 0 (k = n) the lower (upper) end is 0 (1) exactly; rounding must not put it beside p
+    low = 0.0 if k == 0 else min(p, max(0.0, mid - half))
+    high = 1.0 if k == n else max(p, min(1.0, mid + half))
+    return Proportion(k, n, p, low, high, float(level))
 
 
 @dataclass(frozen=True, eq=False)
@@ -410,7 +413,7 @@ class RobustBalance:
     settling_time: Spread
     draws_params: list = field(repr=False)
     source: dict = field(repr=False)
-    tolerance: float = 0.05
+    tolerance: float = 0.01
     hold: float = 1.0
     t_end: float = 5.0
     fall: float = 0.5 * math.pi
@@ -480,7 +483,7 @@ def robust_balance(
     draws: int = 100,
     seed: int = 0,
     t_end: float = 5.0,
-    tolerance: float = 0.05,
+    tolerance: float = 0.01,
     hold: float = 1.0,
     fall: float = 0.5 * math.pi,
     Ts: float | None = 0.005,

@@ -162,8 +162,8 @@ def load_uncertainty(path, *, argument: str = "params") -> ParameterUncertainty:
     doc = read_json(path) if not str(path) == "table1" else {}
     rec = doc.get("covariance") if isinstance(doc, dict) else None
     if not isinstance(rec, dict):
-        raise InputError(f"{path}: holds no covariance of its parameters; a band needs the parameters.json that "
-                         "iwp fit writes", argument=argument)
+        raise InputError(f"{path}: holds no covariance of its parameters; bands and parameter draws need the "
+                         "parameters.json that iwp fit writes", argument=argument)
     try:
         free = tuple(str(n) for n in rec["free"])
         C = np.array(rec["matrix"], dtype=float)
