@@ -51,15 +51,18 @@ from .conditions import RigConditions
 from .design import HopfDesign, design_hopf, refined_peak
 from .swingup import swing_up
 
-__all__ = ["LEVEL", "Proportion", "Spread", "wilson_interval", "spread_of", "RobustHopf", "robust_hopf",
+__all__ = ["LEVEL", "Proportion", "Spread", "wilson_interval", "spread_of", "OrbitMeasurement", "measure_orbit",
+           "RobustHopf", "robust_hopf",
            "RobustBalance", "robust_balance", "RobustSwingUp", "robust_swingup", "check_draws"]
 
 #: Probability the intervals hold.
 LEVEL = 0.95
-#: Relative change of the amplitude between the last two windows above which an oscillation has not settled.
-SETTLE_TOLERANCE = 0.01
 #: Smallest amplitude counted as an oscillation [rad] (below it the oscillation died out).
 AMPLITUDE_FLOOR = 1e-3
+#: Largest extrapolation to the orbit, relative to the last peak (beyond it the run has not settled).
+EXTRAPOLATION_LIMIT = 0.05
+#: Successive peaks closer than this (relative) are on the orbit already.
+CONVERGED = 1e-6
 
 
 def check_draws(draws) -> int:
@@ -214,10 +217,10 @@ class RobustHopf:
     amplitudes : ndarray, shape (draws,)
         ``max q1`` per draw [rad]; NaN where there is no stable orbit.
     outcome : ndarray of str, shape (draws,)
-        Per draw: ``"orbit"``, ``"decayed"`` (the oscillation died out),
-        ``"rotating"`` (over the top), ``"unsettled"`` (the amplitude still
-        changes by more than 1 % between the last two windows) or ``"failed"``
-        (the simulation did not finish).
+        Per draw (:func:`measure_orbit`): ``"orbit"``, ``"decayed"`` (the
+        oscillation dies out), ``"rotating"`` (over the top), ``"unsettled"``
+        (the peaks do not converge to an orbit within ``t_end``) or
+        ``"failed"`` (the simulation did not finish).
     amplitude : Spread
         Median and 95 % interval of the amplitude over the draws with an orbit.
     no_orbit : Proportion
@@ -252,7 +255,7 @@ class RobustHopf:
                  f"  nominal amplitude {self.nominal_amplitude:.5g} rad",
                  f"  amplitude median {a.median:.5g} rad, {100 * a.level:g} % interval "
                  f"[{a.low:.5g}, {a.high:.5g}] rad over {a.count} draws with an orbit",
-                 f"  no stable orbit: {self.no_orbit}" + (f" -- {why}" if why else "")]
+                 f"  no stable orbit reached within {self.t_end:g} s: {self.no_orbit}" + (f" -- {why}" if why else "")]
         return "\n".join(lines + _reliability_line_of(self))
 
     def to_dict(self) -> dict[str, Any]:
@@ -277,6 +280,88 @@ def _reliability_line_of(r) -> list[str]:
             + (f" ({'; '.join(r.notes)})" if r.notes else "")]
 
 
+@dataclass(frozen=True)
+class OrbitMeasurement:
+    """The oscillation a closed-loop run approaches (:func:`measure_orbit`).
+
+    Attributes
+    ----------
+    outcome : str
+        ``"orbit"``, ``"decayed"``, ``"rotating"``, ``"unsettled"`` or ``"failed"``.
+    amplitude : float
+        ``max q1`` of the orbit the peaks converge to [rad]; NaN unless ``outcome == "orbit"``.
+    last_peak : float
+        The last peak of ``q1`` simulated [rad].
+    contraction : float
+        The peaks' return-map multiplier ``(p[k+1] - p[k]) / (p[k] - p[k-1])`` (0 when converged; NaN if unknown).
+    """
+
+    outcome: str
+    amplitude: float
+    last_peak: float
+    contraction: float
+
+
+def measure_orbit(t, q1, window: float) -> OrbitMeasurement:
+    """The amplitude of the periodic orbit a run of ``q1(t)`` approaches, from its peaks over the last ``2 window``.
+
+    The successive maxima ``p[k]`` of ``q1`` (each refined by a parabola
+    through its three samples) are the return map of the orbit: near a
+    stable orbit ``p[k] - p* ~ c lambda^k``, ``lambda`` the orbit's
+    contracting Floquet multiplier. With ``lambda`` estimated as the median
+    ratio of successive differences, ``p* = p[n] + (p[n] - p[n-1]) lambda/(1 - lambda)``
+    (Aitken's extrapolation), so that an orbit approached slowly is measured
+    where it is, not where the run stopped. The run is
+
+    * ``"rotating"`` if ``|q1| > pi`` in the window (over the top);
+    * ``"decayed"`` if its peaks go to below 1 mrad (the hanging rest is stable);
+    * ``"unsettled"`` if the peaks do not contract (``|lambda| >= 1``), there
+      are fewer than 4, or the extrapolation exceeds 5 % of the last peak;
+    * ``"orbit"`` otherwise.
+
+    Parameters
+    ----------
+    t, q1 : ndarray
+        Sample times [s] and the pendulum angle [rad] (samples well below the period).
+    window : float
+        [s].
+
+    Returns
+    -------
+    OrbitMeasurement
+    """
+    t = np.asarray(t, dtype=float)
+    q = np.asarray(q1, dtype=float)[t >= t[-1] - 2 * window]
+    nan = float("nan")
+    if q.size < 3 or not np.all(np.isfinite(q)):
+        return OrbitMeasurement("failed", nan, nan, nan)
+    if np.max(np.abs(q)) > math.pi:
+        return OrbitMeasurement("rotating", nan, nan, nan)
+    idx = np.flatnonzero((q[1:-1] > q[:-2]) & (q[1:-1] >= q[2:])) + 1
+    peaks = np.array([float(refined_peak(q[i - 1:i + 2])) for i in idx])
+    last = float(peaks[-1]) if peaks.size else float(np.max(q))
+    if last < AMPLITUDE_FLOOR:
+        return OrbitMeasurement("decayed", nan, last, nan)
+    if peaks.size < 4:
+        return OrbitMeasurement("unsettled", nan, last, nan)
+    d = np.diff(peaks)
+    if np.max(np.abs(d[-3:])) <= CONVERGED * last:
+        return OrbitMeasurement("orbit", last, last, 0.0)
+    half = d[-max(3, d.size // 2):]
+    use = np.abs(half[:-1]) > 1e-3 * CONVERGED * last
+    if np.count_nonzero(use) < 2:
+        return OrbitMeasurement("unsettled", nan, last, nan)
+    lam = float(np.median(half[1:][use] / half[:-1][use]))
+    if not abs(lam) < 1.0:
+        return OrbitMeasurement("unsettled", nan, last, lam)
+    a = last + float(d[-1]) * lam / (1.0 - lam)
+    if a < AMPLITUDE_FLOOR:
+        return OrbitMeasurement("decayed", nan, last, lam)
+    if abs(a - last) > EXTRAPOLATION_LIMIT * last:
+        return OrbitMeasurement("unsettled", nan, last, lam)
+    return OrbitMeasurement("orbit", a, last, lam)
+
+
 def robust_hopf(
     uncertainty: ParameterUncertainty,
     amplitude: float | None = None,
@@ -297,10 +382,10 @@ def robust_hopf(
     (9) is simulated for the nominal and for ``draws`` parameter draws, side
     by side (:func:`~iwp.sim.simulate.simulate_batch`), each from the
     designed orbit's initial state, for ``t_end`` seconds. Per draw the
-    amplitude ``max q1`` is measured over the final ``window`` (the largest
-    sample refined by a parabola) and compared with the window before it:
-    an orbit counts when it stays within ``|q1| <= pi``, is above 1 mrad
-    and changed by less than 1 % between the two windows.
+    amplitude ``max q1`` of the orbit the run approaches is measured from
+    its peaks over the final ``2 window`` (:func:`measure_orbit`: the peaks'
+    return map extrapolated to its fixed point); a draw has no stable orbit
+    when the run goes over the top, dies out, does not settle or fails.
 
     Parameters
     ----------
@@ -317,7 +402,7 @@ def robust_hopf(
     t_end : float
         Simulated time [s]; at least ``2 window``.
     window : float
-        The amplitude's window [s].
+        The amplitude is measured over the final ``2 window`` [s].
     Ts : float
         Output sample time [s].
 
@@ -344,26 +429,10 @@ def robust_hopf(
     plants = [base] + [base.with_params(p) for p in params]
     batch = simulate_batch(plants, x0=[float(v) for v in design.orbit.x0], t_end=t_end, Ts=Ts,
                            input=HopfController(design.k1, design.k2))
-    t = batch.t
-    last = t >= t[-1] - window
-    before = (t >= t[-1] - 2 * window) & ~last
-    amps = np.full(len(plants), np.nan)
-    outcome = np.empty(len(plants), dtype=object)
-    for i in range(len(plants)):
-        q = batch.x[i, :, 0]
-        if batch.status[i] != 0 or not np.all(np.isfinite(q)):
-            outcome[i] = "failed"
-        elif np.max(np.abs(q[last | before])) > math.pi:
-            outcome[i] = "rotating"
-        else:
-            a, a_before = float(refined_peak(q[last])), float(refined_peak(q[before]))
-            if a < AMPLITUDE_FLOOR:
-                outcome[i] = "decayed"
-            elif abs(a - a_before) > SETTLE_TOLERANCE * a:
-                outcome[i] = "unsettled" if a >= a_before else "decayed"
-            else:
-                outcome[i] = "orbit"
-                amps[i] = a
+    measured = [measure_orbit(batch.t, batch.x[i, :, 0], window) if batch.status[i] == 0 else
+                OrbitMeasurement("failed", float("nan"), float("nan"), float("nan")) for i in range(len(plants))]
+    amps = np.array([m.amplitude for m in measured])
+    outcome = np.array([m.outcome for m in measured], dtype=object)
     ok = outcome[1:] == "orbit"
     return RobustHopf(design=design, nominal_amplitude=float(amps[0]), amplitudes=amps[1:],
                       outcome=outcome[1:].astype(str), amplitude=spread_of(amps[1:][ok]),
