@@ -158,6 +158,11 @@ def test_without_uncertainty_the_balance_outcome_is_the_nominal():
     np.testing.assert_allclose(r.settling, np.tile(r.nominal_settling, (3, 1)), rtol=0, atol=1e-12)
     # the default angles straddle the capture bound: the nominal is caught inside it, not at 1.25 times it
     assert r.nominal_captured[0] and not r.nominal_captured[-1]
+    assert "UNRELIABLE" not in r.summary()
+    flagged = ParameterUncertainty(P, FREE, np.zeros((3, 3)), reliable=False, notes=("one experiment",))
+    r = robust_balance(flagged, draws=2, t_end=3.0)
+    assert "UNRELIABLE" in r.summary() and "one experiment" in r.summary()
+    assert r.to_dict()["covariance_reliable"] is False
 
 
 # --------------------------------------------------------------------------
