@@ -231,6 +231,10 @@ class RobustHopf:
         Draws, seed, the covariance's method and verdict.
     t_end, window : float
         Simulated time and the final window the amplitude is measured over [s].
+    reliable : bool
+        False when the fit flagged its covariance unreliable (the summary says so).
+    notes : tuple of str
+        The fit's verdict on its covariance.
     """
 
     design: HopfDesign
@@ -469,6 +473,10 @@ class RobustBalance:
         Median and 95 % interval of the settling time over the captured runs [s].
     tolerance, hold, t_end, fall : float
         [rad], [s], [s], [rad].
+    reliable : bool
+        False when the fit flagged its covariance unreliable (the summary says so).
+    notes : tuple of str
+        The fit's verdict on its covariance.
     """
 
     lqr: LQRBalance
@@ -523,8 +531,8 @@ class RobustBalance:
         """Capture probability per initial state, histogram and ECDF of the settling time, the nominal marked."""
         labels = [f"{wrap_angle(x0[0] - math.pi):+.3g} rad" for x0 in self.initial_states]
         nominal = float(np.nanmedian(self.nominal_settling)) if np.any(self.nominal_captured) else float("nan")
-        return plot_capture(labels, self.capture_by_state, self.nominal_captured, self.settling_time,
-                            nominal_settling=nominal,
+        return plot_capture(self.capture_by_state, labels=labels, nominal_captured=self.nominal_captured,
+                            settling=self.settling_time, nominal_settling=nominal,
                             title=f"balance LQR: capture {self.capture.p:.3f} "
                                   f"[{self.capture.low:.3f}, {self.capture.high:.3f}]", **kw)
 
@@ -674,6 +682,10 @@ class RobustSwingUp:
         Median and 95 % interval of ``t_catch`` over the successful draws [s].
     conditions : str
         ``"rig"`` or ``"ideal"``.
+    reliable : bool
+        False when the fit flagged its covariance unreliable (the summary says so).
+    notes : tuple of str
+        The fit's verdict on its covariance.
     """
 
     success: np.ndarray

@@ -84,15 +84,15 @@ def plot_distribution(spread, *, nominal=None, label="outcome", title=None, axes
     return {"figure": fig, "axes": [ax_h, ax_e], **out}
 
 
-def plot_capture(labels, proportions, nominal_captured, settling, *, nominal_settling=None, title=None, axes=None):
+def plot_capture(proportions, *, labels, nominal_captured, settling, nominal_settling=None, title=None, axes=None):
     """Probability of capture per initial state (Wilson intervals), and the settling time's distribution.
 
     Parameters
     ----------
+    proportions : list of Proportion
+        The capture probability from each initial state, with ``low``/``high``.
     labels : list of str
         The initial states.
-    proportions : list of Proportion
-        Their capture probabilities with ``low``/``high``.
     nominal_captured : sequence of bool
         Whether the nominal plant was captured from each (drawn as a black cross at 0 or 1).
     settling : Spread
