@@ -135,8 +135,12 @@ class ParameterUncertainty:
             tries += m
             accepted += int(np.count_nonzero(ok))
             if tries >= 20 * n + 256 and accepted < MIN_ACCEPTED * tries:
-                raise InputError(f"only {100 * accepted / tries:.1f} % of the parameter draws are physical (no "
-                                 "negative friction or inertia ratio): the estimates are too uncertain to draw from")
+                below = np.mean(z < lo, axis=0)
+                worst = ", ".join(f"{k} in {100 * b:.0f} %" for k, b in
+                                  sorted(zip(self.free, below), key=lambda kb: -kb[1]) if b > MIN_ACCEPTED)
+                raise InputError(f"only {100 * accepted / tries:.1f} % of the parameter draws are physical (outside "
+                                 f"the physical range: {worst}): the estimates are too uncertain to draw from; fix "
+                                 "the parameters the data do not determine and fit again")
         return [self.params.replace(**dict(zip(self.free, (float(v) for v in row)))) for row in out]
 
 
