@@ -8,7 +8,8 @@ column            unit      meaning
 status            --        0 reached ``t_end``; 1 diverged; 2 step too small; 3 step limit;
                             -1 the lane's parameters are unphysical (not simulated)
 q1_end .. q4_end  rad, rad/s  the state at ``t_end``
-max_abs_q1        rad       largest ``|q1|`` over the output samples
+max_abs_q1        rad       largest ``|q1|`` over the run: the largest sample, refined by a
+                            parabola through it and its neighbours
 amplitude         rad       Hopf: the orbit's largest ``q1`` in the final window (refined by a
                             parabola through the samples around it, as
                             :func:`iwp.control.simulated_amplitude`); NaN when rotating.
@@ -60,12 +61,19 @@ def _refined_max(sig: np.ndarray) -> np.ndarray:
     return np.where(inner & (den < 0), refined, b)
 
 
-def _period(t: np.ndarray, q: np.ndarray) -> float:
-    idx = np.flatnonzero((q[:-1] < 0) & (q[1:] >= 0))
-    if idx.size < 2:
-        return math.nan
-    tc = t[idx] - q[idx] * (t[idx + 1] - t[idx]) / (q[idx + 1] - q[idx])
-    return float(np.mean(np.diff(tc)))
+def _period(t: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Per row: mean spacing of the upward zero crossings of ``q`` (linearly interpolated) [s]; NaN with fewer than 2.
+
+    The mean of the spacings is (last - first) / (count - 1).
+    """
+    up = (q[:, :-1] < 0) & (q[:, 1:] >= 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tc = t[:-1] - q[:, :-1] * (t[1:] - t[:-1]) / (q[:, 1:] - q[:, :-1])
+    count = up.sum(axis=1)
+    first = np.where(up, tc, np.inf).min(axis=1)
+    last = np.where(up, tc, -np.inf).max(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(count >= 2, (last - first) / (count - 1), np.nan)
 
 
 def closed_loop_metrics(t: np.ndarray, x: np.ndarray, status: np.ndarray, *, law: str, window: float
@@ -97,9 +105,8 @@ def closed_loop_metrics(t: np.ndarray, x: np.ndarray, status: np.ndarray, *, law
     prev = (t >= t[-1] - 2 * window - 1e-9) & ~win
     have_prev = t[0] <= t[-1] - 2 * window + 1e-9
     out = {f"q{j + 1}_end": end[:, j] for j in range(4)}
-    with np.errstate(invalid="ignore"):
-        out["max_abs_q1"] = np.where(ok, np.max(np.abs(np.where(ok[:, None], q1, 0.0)), axis=1), np.nan)
     safe = np.where(ok[:, None], q1, 0.0)
+    out["max_abs_q1"] = np.where(ok, _refined_max(np.abs(safe)), np.nan)
     nan = np.full(m, np.nan)
     if law == "hopf":
         rotating = ok & (np.max(np.abs(safe[:, win]), axis=1) > math.pi)
@@ -110,8 +117,7 @@ def closed_loop_metrics(t: np.ndarray, x: np.ndarray, status: np.ndarray, *, law
                 change = np.where(ok & ~rotating, np.abs(amp - amp_prev) / np.abs(amp), np.nan)
         else:
             change = nan.copy()
-        period = np.array([_period(t[win], safe[i, win]) if ok[i] and not rotating[i] else math.nan
-                           for i in range(m)])
+        period = np.where(ok & ~rotating, _period(t[win], safe[:, win]), np.nan)
         captured = ok & ~rotating & (change <= CAPTURE_CHANGE)
     else:
         err = np.abs((safe[:, win] - math.pi + math.pi) % (2 * math.pi) - math.pi)

@@ -16,7 +16,11 @@ from .executors import DaskExecutor, LocalExecutor, make_executor
 from .spec import SweepSpec
 from .store import RESULT_FORMATS, SweepStore
 
-__all__ = ["run_sweep", "SweepResult", "SweepProgress"]
+__all__ = ["run_sweep", "SweepResult", "SweepProgress", "MANIFEST_EVERY"]
+
+#: The manifest's list of chunks done is brought up to date at most this often during a run [s] (and at its
+#: end, also when interrupted); the chunk files on disk are what a resumed run goes by.
+MANIFEST_EVERY = 5.0
 
 
 @dataclass(frozen=True)
@@ -186,9 +190,13 @@ def run_sweep(
             if missing:
                 describe, cores = ex.describe(), ex.cores
                 lanes_done = sum(len(spec.chunk_range(i)) for i in store.done())
+                noted = time.perf_counter()
                 for res in ex.map(spec, missing):
                     store.write_chunk(res)
                     computed.append(res.index)
+                    if time.perf_counter() - noted > MANIFEST_EVERY:
+                        store.write_manifest()
+                        noted = time.perf_counter()
                     lanes_done += res.n_rows
                     if progress is not None:
                         progress(SweepProgress(chunk=res.index, done=len(store.done()), total=spec.n_chunks,
