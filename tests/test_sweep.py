@@ -17,8 +17,6 @@ from iwp.sim import HopfController, simulate
 from iwp.sim.uncertainty import ParameterUncertainty
 from iwp.sweep import Grid, Normal, SweepSpec, Uniform, lanes_of_chunk, load_spec, read_table, run_chunk, run_sweep
 
-distributed = pytest.importorskip("distributed")
-
 
 def _hopf_spec(**kw) -> SweepSpec:
     base = dict(params=table1(), vary=(Grid("k1", (-12.0, -10.0, -8.0)), Normal("x0.q1", 0.1, 0.05)), samples=4,
@@ -182,9 +180,8 @@ def test_the_folder_of_another_sweep_is_refused_without_force(tmp_path):
 # --------------------------------------------------------------------- Dask
 @pytest.fixture(scope="module")
 def cluster():
-    from distributed import LocalCluster
-
-    c = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    distributed = pytest.importorskip("distributed")
+    c = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
     yield c
     c.close()
 
@@ -274,3 +271,13 @@ def test_the_spec_file_names_its_paths_relative_to_itself(tmp_path):
     assert spec.params.p1 == 30.0 and spec.source == {"params": "p.json"}
     with pytest.raises(InputError, match="window must be <= t_end"):
         SweepSpec(params=table1(), t_end=10.0)
+
+
+def test_the_numbers_do_not_depend_on_the_engine_threads(tmp_path):
+    import numba
+
+    spec = _hopf_spec(samples=3, chunk_size=9)
+    before = numba.get_num_threads()
+    one = run_sweep(spec, tmp_path / "one", threads=1)
+    assert numba.get_num_threads() == before and one.cores == 1
+    _same_table(one.table, run_sweep(spec, tmp_path / "all").table)

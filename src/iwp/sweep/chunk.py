@@ -89,8 +89,17 @@ def run_chunk(spec: SweepSpec, index: int, *, threads: int | None = None) -> Chu
     ChunkResult
     """
     start = time.perf_counter()
+    before = numba.get_num_threads()
     if threads is not None:
         numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    try:
+        columns = _columns(spec, index)
+    finally:
+        numba.set_num_threads(before)  # the caller's engine keeps its threads
+    return ChunkResult(index=index, columns=columns, seconds=time.perf_counter() - start)
+
+
+def _columns(spec: SweepSpec, index: int) -> dict:
     ls = lanes_of_chunk(spec, index)
     m = ls.lanes.size
     sel = np.flatnonzero(ls.physical)
@@ -117,4 +126,4 @@ def run_chunk(spec: SweepSpec, index: int, *, threads: int | None = None) -> Chu
               "rotating", "captured"):
         columns[k] = metrics[k]
     columns["nfev"] = nfev
-    return ChunkResult(index=index, columns=columns, seconds=time.perf_counter() - start)
+    return columns
