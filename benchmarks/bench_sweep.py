@@ -35,17 +35,18 @@ from iwp.sweep import DaskExecutor, Normal, SweepSpec, Uniform, lanes_of_chunk, 
 REPEATS = 2
 
 
-def baseline(spec: SweepSpec) -> float:
-    """Seconds for the spec's lanes through simulate_batch alone (the lanes drawn beforehand, not timed)."""
+def baseline(spec: SweepSpec) -> tuple[float, float]:
+    """Wall and CPU seconds for the spec's lanes through simulate_batch alone (lanes drawn beforehand, not timed)."""
     sets = [lanes_of_chunk(spec, c) for c in range(spec.n_chunks)]
     shared = not any(n in spec.params.to_dict() for n in sets[0].values)
     t0 = time.perf_counter()
+    c0 = time.process_time()
     for ls in sets:
         plant = Plant(spec.params) if shared else [Plant(p) for p in ls.params]
         simulate_batch(plant, x0=[x.tolist() for x in ls.x0],
                        input=[HopfController(float(a), float(b)) for a, b in zip(ls.k1, ls.k2)],
                        t_end=spec.t_end, Ts=spec.sample_time, rtol=spec.rtol, atol=spec.atol)
-    return time.perf_counter() - t0
+    return time.perf_counter() - t0, time.process_time() - c0
 
 
 def main() -> None:
@@ -75,7 +76,7 @@ def main() -> None:
         ex.warm_up()
         for name, spec in studies.items():
             # best of REPEATS, the three alternating (other processes on the machine disturb them alike)
-            base, loc, dsk = math.inf, None, None
+            base, loc, dsk = (math.inf, math.inf), None, None
             for r in range(REPEATS):
                 base = min(base, baseline(spec))
                 with tempfile.TemporaryDirectory() as tmp:
@@ -96,8 +97,17 @@ def main() -> None:
     for name, spec, base, loc, dsk, same, dcores in rows:
         lp = loc.throughput_per_core
         dp = dsk.throughput_per_core
-        print(f"| {name} | {spec.n_lanes} | {spec.n_chunks} | {base:.2f} | {loc.seconds:.2f} | {dsk.seconds:.2f} | "
-              f"{loc.seconds / base:.2f} | {lp:.0f} | {dp:.0f} | {dp / lp:.2f} | {'yes' if same else 'NO'} |")
+        print(f"| {name} | {spec.n_lanes} | {spec.n_chunks} | {base[0]:.2f} | {loc.seconds:.2f} | {dsk.seconds:.2f} | "
+              f"{loc.seconds / base[0]:.2f} | {lp:.0f} | {dp:.0f} | {dp / lp:.2f} | {'yes' if same else 'NO'} |")
+    print()
+    print("The same runs per CPU-second (CPU time of the processes that ran the chunks: this process for (a) and "
+          "(b), the workers for (c)); unlike wall time, it does not count time lost to other processes on the "
+          "machine:\n")
+    print("| study | (a) engine alone [loops/CPU-s] | (b) local [loops/CPU-s] | (c) cluster [loops/CPU-s] | (c)/(b) |")
+    print("|---|---:|---:|---:|---:|")
+    for name, spec, base, loc, dsk, _same, _dcores in rows:
+        lc, dc = loc.throughput_per_cpu_second, dsk.throughput_per_cpu_second
+        print(f"| {name} | {spec.n_lanes / base[1]:.0f} | {lc:.0f} | {dc:.0f} | {dc / lc:.2f} |")
     print()
     print("Extrapolated wall time of 1,000,000 closed loops of 300 s (throughput per core x cores):\n")
     print("| study | 2 cores, local | 2-worker LocalCluster | 64 cores at the cluster's per-core rate |")

@@ -70,6 +70,9 @@ class SweepResult:
         Where the chunks ran.
     cores : int
         Engine threads (local) or worker threads (Dask) used.
+    cpu_seconds : float
+        CPU time of the chunks computed by this run, where they ran
+        (:attr:`~iwp.sweep.chunk.ChunkResult.cpu_seconds`) [s].
     """
 
     spec: SweepSpec
@@ -80,11 +83,20 @@ class SweepResult:
     seconds: float
     executor: str
     cores: int
+    cpu_seconds: float = float("nan")
 
     @property
     def resumed(self) -> list[int]:
         """Chunks found on disk (from an earlier run)."""
         return [i for i in range(self.spec.n_chunks) if i not in set(self.computed)]
+
+    @property
+    def throughput_per_cpu_second(self) -> float:
+        """Closed loops of ``t_end`` per CPU-second of the processes that ran them (robust to other load)."""
+        lanes = sum(len(self.spec.chunk_range(i)) for i in self.computed)
+        if not lanes or not self.cpu_seconds > 0:
+            return math.nan
+        return lanes / self.cpu_seconds
 
     @property
     def throughput_per_core(self) -> float:
@@ -180,6 +192,7 @@ def run_sweep(
     started = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
     missing = store.missing()
     computed: list[int] = []
+    cpu_seconds = 0.0
     describe, cores = "nothing to compute", 0
     if missing and own:
         ex.__enter__()  # a scheduler that cannot be reached fails here, before the folder is touched
@@ -194,6 +207,7 @@ def run_sweep(
                 for res in ex.map(spec, missing):
                     store.write_chunk(res)
                     computed.append(res.index)
+                    cpu_seconds += res.cpu_seconds
                     if time.perf_counter() - noted > MANIFEST_EVERY:
                         store.write_manifest()
                         noted = time.perf_counter()
@@ -216,4 +230,4 @@ def run_sweep(
         store.write_results(format)
     store.write_manifest(results=results.name)
     return SweepResult(spec=spec, out=Path(out), results=results, table=store.table(), computed=computed,
-                       seconds=seconds, executor=describe, cores=cores)
+                       seconds=seconds, executor=describe, cores=cores, cpu_seconds=cpu_seconds)

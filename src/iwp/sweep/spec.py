@@ -39,6 +39,8 @@ LAWS = ("hopf", "lqr")
 STATE_NAMES = ("x0.q1", "x0.q2", "x0.q3", "x0.q4")
 #: Gains of the Hopf law ``u = k1 q3 + k2 q3^3`` that a sweep may vary.
 GAIN_NAMES = ("k1", "k2")
+#: The initial state of each law when none is given [rad, rad, rad/s, rad/s].
+DEFAULT_X0 = {"hopf": (0.1, 0.0, 0.0, 0.0), "lqr": (math.pi - 0.02, 0.0, 0.0, 0.0)}
 #: Most lanes of one sweep.
 MAX_LANES = 100_000_000
 #: Most seconds of one closed loop, and fewest output samples a lane may have.
@@ -163,8 +165,10 @@ class SweepSpec:
         Hopf law sampled every ``controller_Ts`` [s] and held; None: continuous.
     lqr_Q, lqr_R, lqr_u_max, lqr_Ts :
         The LQR design (:func:`iwp.control.lqr_balance`); ``lqr_Ts`` [s] is its sample period.
-    x0 : sequence of 4 float
-        Initial state ``q1, q2, q3, q4`` not varied [rad, rad, rad/s, rad/s].
+    x0 : sequence of 4 float, optional
+        Initial state ``q1, q2, q3, q4`` not varied [rad, rad, rad/s, rad/s]; default
+        ``(0.1, 0, 0, 0)`` (just off the hanging rest) for the Hopf law, ``(pi - 0.02, 0, 0, 0)``
+        (near the upright) for the LQR.
     t_end : float
         Length of every closed loop [s].
     sample_time : float
@@ -195,7 +199,7 @@ class SweepSpec:
     lqr_R: float = 0.1
     lqr_u_max: float = 100.0
     lqr_Ts: float = 0.005
-    x0: tuple[float, ...] = (0.1, 0.0, 0.0, 0.0)
+    x0: tuple[float, ...] | None = None
     t_end: float = 300.0
     sample_time: float = 0.05
     window: float = 20.0
@@ -241,7 +245,8 @@ class SweepSpec:
         if len(q) != 3 or min(q) < 0:
             raise InputError(f"lqr_Q must be 3 weights >= 0 on (q1 - pi, q3, q4), got {list(q)}", argument="lqr_Q")
         object.__setattr__(self, "lqr_Q", q)
-        x0 = tuple(check_finite("x0", v) for v in np.ravel(np.asarray(self.x0, dtype=object)))
+        x0 = self.x0 if self.x0 is not None else DEFAULT_X0[self.law]
+        x0 = tuple(check_finite("x0", v) for v in np.ravel(np.asarray(x0, dtype=object)))
         if len(x0) != 4:
             raise InputError(f"x0 must be 4 numbers q1, q2, q3, q4 [rad, rad, rad/s, rad/s], got {len(x0)}",
                              argument="x0")
