@@ -250,6 +250,7 @@ def _one_line_error(capsys):
     ({"uncertainty": "table1"}, [], "holds no covariance"),
     ({}, ["--workers", "0"], "--workers must be an integer >= 1"),
     ({}, ["--chunk-size", "0"], "--chunk-size must be an integer >= 1"),
+    ({"t_end": 300}, ["--chunk-size", "8000"], "need 2.1 GB at once"),
     ({}, ["--scheduler", "nonsense"], "--scheduler nonsense: cannot connect"),
 ])
 def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path, capsys, doc, flags, match):

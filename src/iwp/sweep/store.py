@@ -19,6 +19,7 @@ import csv
 import datetime
 import json
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +30,7 @@ from ..files import atomic_write, check_output_dir, jsonable, read_json
 from .chunk import ChunkResult
 from .spec import SweepSpec
 
-__all__ = ["SweepStore", "RESULT_FORMATS", "MANIFEST", "read_table"]
+__all__ = ["SweepStore", "RESULT_FORMATS", "MANIFEST", "INT_COLUMNS", "read_table"]
 
 MANIFEST = "manifest.json"
 CHUNKS = "chunks"
@@ -58,28 +59,28 @@ def _write_csv(path: Path, columns: dict) -> None:
             w.writerow([repr(v) if isinstance(v, float) else v for v in row])
 
 
+#: Columns of whole numbers in a sweep's table (the others are floats).
+INT_COLUMNS = ("lane", "status", "rotating", "captured", "nfev")
+
+
 def read_table(path) -> dict[str, np.ndarray]:
-    """A sweep's CSV table (a chunk file or ``results.csv``) as columns; integers stay integers."""
+    """A sweep's CSV table (a chunk file or ``results.csv``) as columns; lane, status, flags and counts as integers."""
     p = Path(path)
-    with open(p, newline="", encoding="utf-8") as f:
-        rows = list(csv.reader(f))
-    if not rows:
+    with open(p, encoding="utf-8") as f:
+        names = f.readline().strip().split(",")
+    if names == [""]:
         raise DataFormatError(f"{p}: empty table")
-    names, body = rows[0], rows[1:]
-    out = {}
-    for j, n in enumerate(names):
-        try:
-            vals = [r[j] for r in body]
-        except IndexError:
-            raise DataFormatError(f"{p}: a row has fewer than {len(names)} columns") from None
-        try:
-            out[n] = np.array([int(v) for v in vals], dtype=np.int64)
-        except ValueError:
-            try:
-                out[n] = np.array([float(v) for v in vals])
-            except ValueError:
-                raise DataFormatError(f"{p}: column {n!r} holds a value that is not a number") from None
-    return out
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # an empty body is a table of no rows
+            data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2, dtype=float)
+    except ValueError as exc:
+        raise DataFormatError(f"{p}: not a sweep table ({exc})") from None
+    if data.size == 0:
+        data = np.zeros((0, len(names)))
+    if data.shape[1] != len(names):
+        raise DataFormatError(f"{p}: {data.shape[1]} columns under a header of {len(names)}")
+    return {n: data[:, j].astype(np.int64) if n in INT_COLUMNS else data[:, j] for j, n in enumerate(names)}
 
 
 class SweepStore:
