@@ -282,3 +282,33 @@ def test_the_numbers_do_not_depend_on_the_engine_threads(tmp_path):
     one = run_sweep(spec, tmp_path / "one", threads=1)
     assert numba.get_num_threads() == before and one.cores == 1
     _same_table(one.table, run_sweep(spec, tmp_path / "all").table)
+
+
+def test_a_sweep_killed_with_sigkill_resumes(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps({"t_end": 120, "window": 10, "seed": 5, "chunk_size": 2, "samples": 60,
+                                "vary": {"k1": {"uniform": [-12, -8]}}}))
+    out = tmp_path / "killed"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen([sys.executable, "-m", "iwp", "sweep", str(spec), "--out", str(out), "--quiet",
+                             "--threads", "1"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    chunks = out / "chunks"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if chunks.is_dir() and len([p for p in chunks.iterdir() if p.name.startswith("chunk-")]) >= 3:
+            break
+        time.sleep(0.005)
+    assert proc.poll() is None, "the sweep ended before it could be killed"
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    done = sorted(p.name for p in chunks.iterdir() if p.name.startswith("chunk-"))
+    assert 3 <= len(done) < 30 and not (out / "results.csv").exists()
+    res = run_sweep(load_spec(spec), out)
+    assert len(res.computed) == 30 - len(done)
+    _same_table(res.table, run_sweep(load_spec(spec), tmp_path / "whole").table)

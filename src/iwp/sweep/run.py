@@ -219,7 +219,7 @@ def run_sweep(
         finally:
             # the record of what this run did, even when it was interrupted
             run = {"started": started, "executor": describe, "cores": cores, "computed": len(computed),
-                   "seconds": round(time.perf_counter() - start, 3)}
+                   "seconds": round(time.perf_counter() - start, 3), "cpu_seconds": round(cpu_seconds, 3)}
             store.write_manifest(run=run)
     finally:
         if missing and own:
