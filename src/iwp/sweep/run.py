@@ -202,7 +202,8 @@ def run_sweep(
         try:
             if missing:
                 describe, cores = ex.describe(), ex.cores
-                lanes_done = sum(len(spec.chunk_range(i)) for i in store.done())
+                on_disk = store.done()
+                lanes_done = sum(len(spec.chunk_range(i)) for i in on_disk)
                 noted = time.perf_counter()
                 for res in ex.map(spec, missing):
                     store.write_chunk(res)
@@ -213,7 +214,7 @@ def run_sweep(
                         noted = time.perf_counter()
                     lanes_done += res.n_rows
                     if progress is not None:
-                        progress(SweepProgress(chunk=res.index, done=len(store.done()), total=spec.n_chunks,
+                        progress(SweepProgress(chunk=res.index, done=len(on_disk) + len(computed), total=spec.n_chunks,
                                                computed=len(computed), lanes_done=lanes_done,
                                                seconds=time.perf_counter() - start))
         finally:
@@ -229,5 +230,5 @@ def run_sweep(
     if computed or not results.is_file():  # a finished sweep run again: its table stays as it is
         store.write_results(format)
     store.write_manifest(results=results.name)
-    return SweepResult(spec=spec, out=Path(out), results=results, table=store.table(), computed=computed,
+    return SweepResult(spec=spec, out=Path(out), results=results, table=store.read_results(format), computed=computed,
                        seconds=seconds, executor=describe, cores=cores, cpu_seconds=cpu_seconds)

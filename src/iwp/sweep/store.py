@@ -223,6 +223,16 @@ class SweepStore:
                 pq.write_table(pa.table(cols), tmp)
         return atomic_write(target, write)
 
+    def read_results(self, format: str = "csv") -> dict[str, np.ndarray]:
+        """The results table's columns (written by :meth:`write_results`)."""
+        path = self.path / f"results.{format}"
+        if format == "csv":
+            return read_table(path)
+        import pyarrow.parquet as pq  # optional dependency (write_results checked it)
+
+        tab = pq.read_table(path)
+        return {n: tab.column(n).to_numpy() for n in tab.column_names}
+
     def table(self) -> dict[str, np.ndarray]:
         """Every done chunk's rows, in lane order."""
         parts = [self.read_chunk(i) for i in sorted(self.done())]
