@@ -274,14 +274,19 @@ def test_the_spec_file_names_its_paths_relative_to_itself(tmp_path):
         SweepSpec(params=table1(), t_end=10.0)
 
 
-def test_the_numbers_do_not_depend_on_the_engine_threads(tmp_path):
+@pytest.mark.parametrize("sampled", [None, 0.005])
+def test_the_numbers_do_not_depend_on_the_engine_threads(tmp_path, sampled):
     import numba
 
-    spec = _hopf_spec(samples=3, chunk_size=9)
+    spec = _hopf_spec(samples=3, chunk_size=9, controller_Ts=sampled)
     before = numba.get_num_threads()
     one = run_sweep(spec, tmp_path / "one", threads=1)
     assert numba.get_num_threads() == before and one.cores == 1
     _same_table(one.table, run_sweep(spec, tmp_path / "all").table)
+    if sampled:  # the law held over 5 ms, as on the rig: its lanes are those of simulate() with it
+        ref = simulate(table1(), x0=[one.table["x0.q1"][4], 0, 0, 0], t_end=40.0, Ts=0.05,
+                       input=HopfController(one.table["k1"][4], 0.1, Ts=0.005), rtol=1e-8, atol=1e-8)
+        np.testing.assert_allclose(one.table["q1_end"][4], ref.q1[-1], rtol=1e-6, atol=1e-9)
 
 
 def test_a_sweep_killed_with_sigkill_resumes(tmp_path):
