@@ -175,6 +175,12 @@ def test_the_folder_of_another_sweep_is_refused_without_force(tmp_path):
         run_sweep(_hopf_spec(samples=1, t_end=20.0), other)
     res = run_sweep(_hopf_spec(samples=1, t_end=20.0, seed=8), out, force=True)
     assert res.computed == [0] and json.loads((out / "manifest.json").read_text())["spec"]["seed"] == 8
+    # --force on the same sweep starts afresh (the same numbers again); without it, it resumes (nothing to do)
+    assert run_sweep(_hopf_spec(samples=1, t_end=20.0, seed=8), out).computed == []
+    again = run_sweep(_hopf_spec(samples=1, t_end=20.0, seed=8), out, force=True)
+    assert again.computed == [0]
+    _same_table(again.table, res.table)
+    assert len(json.loads((out / "manifest.json").read_text())["runs"]) == 1
 
 
 # --------------------------------------------------------------------- Dask

@@ -33,7 +33,8 @@ def register(sub) -> None:
     p = sub.add_parser("sweep", help="sweeps and Monte Carlo studies of closed loops (local cores or Dask)",
                        description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("spec", metavar="SPEC.json", help="the sweep: law, parameters, varied names, samples, seed")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder (new, empty, or this sweep's: resume)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output folder: new, empty, or this sweep's (then it resumes; --force starts afresh)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, default=None, metavar="N",
                        help="run on a Dask LocalCluster of N worker processes (one thread each)")

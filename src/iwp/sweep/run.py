@@ -160,7 +160,8 @@ def run_sweep(
         The output folder (:class:`~iwp.sweep.store.SweepStore`): new or empty; a
         folder with the same spec's chunks resumes (only the missing chunks run).
     force : bool
-        Replace a folder holding another sweep or other files.
+        Start afresh: replace the sweep in ``out`` (this one, not resumed, or another), or write into a
+        folder holding other files.
     scheduler : str, optional
         Run on this Dask scheduler's workers (``tcp://host:8786``).
     workers : int, optional

@@ -92,8 +92,9 @@ class SweepStore:
         The folder: new, empty, or holding a sweep of the same spec (then it resumes).
     spec : SweepSpec
     force : bool
-        Start afresh in a folder that holds another sweep or other files (the
-        sweep's own files are replaced; nothing else is removed).
+        Start afresh, in a folder that holds this sweep (no resuming), another
+        sweep or other files (the sweep's own files are replaced; nothing else
+        is removed).
     """
 
     def __init__(self, out, spec: SweepSpec, *, force: bool = False):
@@ -107,8 +108,9 @@ class SweepStore:
                 old = read_json(manifest, argument="out")
             except InputError:
                 old = None
-            resumable = isinstance(old, dict) and old.get("format") == _FORMAT and old.get("spec") == record
-            if not resumable and not force:
+            same = isinstance(old, dict) and old.get("format") == _FORMAT and old.get("spec") == record
+            resumable = same and not force  # --force: start afresh, even on the same sweep
+            if not same and not force:
                 raise OutputExistsError(f"out {self.path}: holds a sweep of another spec (or an unreadable "
                                         "manifest.json); pass --force to replace it, or choose another folder")
         if not resumable:
