@@ -119,6 +119,15 @@ def test_lqr_captures_inside_its_bound_and_not_far_outside(tmp_path):
     assert tab["rotating"][2] == 1  # it fell
 
 
+def test_an_unreliable_fit_is_said_so(tmp_path):
+    u = ParameterUncertainty(table1(), ("p1",), np.array([[0.1**2]]), reliable=False,
+                             notes=("the experiments disagree beyond their noise",))
+    spec = SweepSpec(params=table1(), uncertainty=u, samples=2, t_end=10.0, window=2.0, chunk_size=2)
+    with pytest.warns(UserWarning, match="marked unreliable .the experiments disagree"):
+        res = run_sweep(spec, tmp_path / "u")
+    assert "UNRELIABLE" in res.summary()
+
+
 def test_unphysical_lanes_are_flagged_not_simulated(tmp_path):
     spec = SweepSpec(params=table1(), vary=(Grid("p1", (26.0, -1.0)),), t_end=20.0, window=5.0, chunk_size=2)
     tab = run_sweep(spec, tmp_path / "u").table

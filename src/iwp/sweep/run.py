@@ -5,6 +5,7 @@ from __future__ import annotations
 import datetime
 import math
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -123,6 +124,9 @@ class SweepResult:
         lines = [head]
         if self.computed:
             lines.append(f"throughput: {self.throughput_per_core:.3g} closed loops per second per core")
+        if s.uncertainty is not None:
+            lines.append(f"parameters drawn from the fit's covariance ({', '.join(s.uncertainty.free)}"
+                         + ("" if s.uncertainty.reliable else "; its intervals are marked UNRELIABLE") + ")")
         ok = status == 0
         what = "on a steady orbit" if s.law == "hopf" else "balanced at the end"
         lines.append(f"captured ({what}): {int(np.sum(tab['captured'][ok]))} of {n} "
@@ -186,6 +190,10 @@ def run_sweep(
         raise InputError(f"format must be one of {', '.join(RESULT_FORMATS)}, got {format!r}", argument="format")
     if executor is not None and (scheduler is not None or workers is not None or threads is not None):
         raise InputError("give executor or scheduler/workers/threads, not both", argument="executor")
+    if spec.uncertainty is not None and not spec.uncertainty.reliable:
+        notes = "; ".join(spec.uncertainty.notes) or "no reason given"
+        warnings.warn(f"the fit's intervals are marked unreliable ({notes}): the parameter draws may understate "
+                      "the spread of the real rig", UserWarning, stacklevel=2)
     own = executor is None
     ex = make_executor(scheduler=scheduler, workers=workers, threads=threads) if own else executor
     store = SweepStore(out, spec, force=force)  # checks only: nothing written yet
