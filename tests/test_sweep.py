@@ -285,6 +285,15 @@ def test_the_spec_file_names_its_paths_relative_to_itself(tmp_path):
     (d / "spec.json").write_text(json.dumps({"params": "p.json", "t_end": 10, "window": 2}))
     spec = load_spec(d / "spec.json")
     assert spec.params.p1 == 30.0 and spec.source == {"params": "p.json"}
+    # a fit's parameters.json (its covariance) as the uncertainty: draws around its estimates
+    (d / "fit.json").write_text(json.dumps({"kind": "lumped", "parameters": table1().replace(p1=27.0).to_dict(),
+                                            "covariance": {"free": ["p1"], "matrix": [[0.04]], "reliable": True}}))
+    (d / "mc.json").write_text(json.dumps({"uncertainty": "fit.json", "samples": 400, "chunk_size": 200,
+                                           "t_end": 10, "window": 2}))
+    spec = load_spec(d / "mc.json")
+    assert spec.params.p1 == 27.0 and spec.uncertainty.free == ("p1",)
+    p1 = np.concatenate([lanes_of_chunk(spec, c).values["p1"] for c in range(2)])
+    assert abs(p1.mean() - 27.0) < 4 * 0.2 / 20 and 0.85 < p1.std() / 0.2 < 1.15
     with pytest.raises(InputError, match="window must be <= t_end"):
         SweepSpec(params=table1(), t_end=10.0)
 
