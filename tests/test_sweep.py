@@ -69,6 +69,11 @@ def test_uniform_and_covariance_draws_recover_their_distribution():
     assert chunks[1].params[3].p1 == chunks[1].values["p1"][3]
     assert np.all(np.abs(z.mean(axis=0) - [p.p1, p.p3]) < 4 * np.sqrt(np.diag(cov) / z.shape[0]))
     np.testing.assert_allclose(np.cov(z.T), cov, rtol=0.15)
+    # a dimension of vary overrides the fit's draws of its name (a grid as well as a draw)
+    over = lanes_of_chunk(SweepSpec(params=p, uncertainty=u, vary=(Grid("p1", (20.0, 30.0)),), samples=3,
+                                    t_end=10.0, window=2.0, chunk_size=6), 0)
+    assert [q.p1 for q in over.params] == [20.0] * 3 + [30.0] * 3
+    assert len({q.p3 for q in over.params}) == 6
     q3 = np.concatenate([c.x0[:, 2] for c in chunks])
     assert q3.min() >= -1.0 and q3.max() < 1.0 and abs(q3.mean()) < 4 * (2 / math.sqrt(12)) / math.sqrt(q3.size)
 

@@ -360,8 +360,10 @@ def lanes_of_chunk(spec: SweepSpec, index: int) -> LaneSet:
     if spec.uncertainty is not None:
         child = np.random.SeedSequence(spec.seed, spawn_key=(index, 1))
         base = spec.uncertainty.draws(m, seed=int(child.generate_state(1, np.uint64)[0]))
+        named = {d.name for d in spec.vary}
         for n in spec.uncertainty.free:
-            values[n] = np.array([getattr(p, n) for p in base])
+            if n not in named:  # a dimension of vary overrides the fit's draws of its name
+                values[n] = np.array([getattr(p, n) for p in base])
     for d in spec.vary:
         if not isinstance(d, Grid):
             values[d.name] = d.draw(rng, m)
