@@ -21,6 +21,7 @@ import sys
 import warnings
 
 from ..errors import IwpError
+from ..threads import one_blas_thread
 
 # One module per subcommand, each defines ``register(subparsers)``.
 _COMMANDS = [
@@ -139,7 +140,8 @@ def main(argv: list[str] | None = None) -> int:
 
         compile_notices(lambda line: print(f"iwp: {line}", file=sys.stderr, flush=True))
     try:
-        status = args.func(args)
+        with one_blas_thread():  # iwp's parallel work is its own; BLAS threads only spin (iwp.threads)
+            status = args.func(args)
     except IwpError as exc:
         print(f"iwp: error: {user_message(exc, cli_parser)}", file=sys.stderr)
         return 2

@@ -36,6 +36,7 @@ import numpy as np
 from scipy import optimize
 
 from ..errors import InputError
+from ..threads import one_blas_thread
 from .covariance import (
     Reliability,
     across_and_within,
@@ -296,7 +297,14 @@ class FitProblem:
             raise InputError(f"covariance must be 'auto', 'experiments', 'hac' or 'white', got {self.covariance!r}")
 
     def solve(self, options: SolverOptions | None = None) -> FitResult:
-        """Minimise the loss of the residuals over the free parameters; their statistics at the optimum."""
+        """Minimise the loss of the residuals over the free parameters; their statistics at the optimum.
+
+        The linear algebra runs on one BLAS thread (:func:`iwp.threads.one_blas_thread`).
+        """
+        with one_blas_thread():
+            return self._solve(options)
+
+    def _solve(self, options: SolverOptions | None) -> FitResult:
         t0 = time.perf_counter()
         options = options or SolverOptions()
         params, msgs = _clipped_start(self.parameters)
