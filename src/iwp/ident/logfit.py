@@ -714,16 +714,18 @@ class _Fitting:
         self.outputs, self.offset_given, self.umax = outputs, offset_given, umax
         self.others = others
 
-    def joint(self, options: LogFitOptions, start: LumpedParameters, logs=None) -> RefineResult:
+    def joint(self, options: LogFitOptions, start: LumpedParameters, logs=None, x0=None) -> RefineResult:
         """The joint simulation-error fit of ``options``' structure on ``logs`` (default: the training logs) and
-        the logs of the other set-ups."""
+        the logs of the other set-ups; ``x0``: initial-state guesses per experiment (a simpler structure's)."""
         model = options.model
         logs = [_as_model_input(d, model, "train") for d in (self.train if logs is None else logs)]
-        exps = as_experiments(logs, windows=tuple(options.window), offsets=() if self.offset_given else ("q1",))
-        for kind, d in self.others:
+        guesses = list(x0) if x0 is not None else [None] * (len(logs) + len(self.others))
+        exps = as_experiments(logs, windows=tuple(options.window), offsets=() if self.offset_given else ("q1",),
+                              x0=guesses[:len(logs)])
+        for (kind, d), g in zip(self.others, guesses[len(logs):]):
             moves_q1 = kind != "clamped"
             exps.append(Experiment(_as_model_input(d, model, f"--{kind}"), kind=kind, window=tuple(options.window),
-                                   offsets=("q1",) if moves_q1 and not self.offset_given else ()))
+                                   x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else ()))
         return refine(exps, Plant(start, model=model), free=options.free(), outputs=self.outputs,
                       loss=options.loss, warn=False)
 
@@ -742,13 +744,16 @@ class _Fitting:
         outcomes: list[RungOutcome] = []
         for rg in ladder(raw):
             parents = [o for o in outcomes if o.rung.flags < rg.flags and o.success]
-            base = max(parents, key=lambda o: len(o.rung.flags)).result.params if parents else start
+            parent = max(parents, key=lambda o: len(o.rung.flags)).result if parents else None
             opts = self.options.with_rung(rg)
-            r = self.joint(opts, opts.starting_values(base, self.umax))
+            # the parameters of the structure this one extends; the initial states from the data again (a
+            # simpler structure's took more iterations to undo: 115 evaluations over the ladder against 87)
+            r = self.joint(opts, opts.starting_values(parent.params if parent else start, self.umax))
             if self.held_out:
                 scored = self.score(r, opts, self.held_out)
             elif folds:  # leave one training log out, refit from the joint fit, predict it
-                scored = [self.score(self.joint(opts, r.params, self.train[:k] + self.train[k + 1:]), opts,
+                scored = [self.score(self.joint(opts, r.params, self.train[:k] + self.train[k + 1:],
+                                                x0=[x[:4] for j, x in enumerate(r.x0) if j != k]), opts,
                                      [self.train[k].window(*opts.window)])[0] for k in range(len(self.train))]
             else:
                 scored = []
