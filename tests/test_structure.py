@@ -68,11 +68,17 @@ def test_an_inconsistent_improvement_is_noise():
     assert select(outs).chosen == 0
 
 
-def test_one_scoring_log_falls_back_on_the_information_criterion_and_says_so():
-    outs = [outcome("9", [0.2], bic=100.0), outcome("coulomb", [0.1], bic=50.0),
-            outcome("pendulum-coulomb", [0.09], bic=60.0)]
+def test_one_scoring_log_keeps_the_simplest_within_the_least_gain_and_none_falls_back_on_bic():
+    # a richer structure's BIC may be lower while it predicts the held-out log three times worse
+    outs = [outcome("9", [0.382], bic=100.0), outcome("coulomb", [1.256], bic=50.0),
+            outcome("pendulum-coulomb", [0.380], bic=60.0)]
     sel = select(outs)
-    assert sel.chosen == 1 and "BIC" in sel.method
+    assert sel.chosen == 0 and sel.best == 2 and sel.method.startswith("one scoring log")
+    outs = [outcome("9", [0.2]), outcome("coulomb", [0.1]), outcome("pendulum-coulomb", [0.0995])]
+    assert select(outs).chosen == 1
+    outs = [outcome("9", [], bic=100.0), outcome("coulomb", [], bic=50.0), outcome("pendulum-coulomb", [], bic=60.0)]
+    sel = select(outs)
+    assert sel.chosen == 1 and sel.method == "BIC (no scoring log)"
 
 
 def test_a_failed_fit_is_never_chosen():

@@ -85,7 +85,7 @@ class _Raw:
 
     def get(self, column: str, key: str, rig: RigDescription) -> np.ndarray:
         if column not in self.columns:
-            found = ", ".join([*(repr(c) for c in self.columns), *self.others]) or "nothing"
+            found = ", ".join([*self.columns, *self.others]) or "nothing"
             hint = ("; name a matrix's columns with the key 'matrix' of the rig description "
                     "(docs/rig-description.md)" if self.others and rig.matrix is None else "")
             raise fail(f"{self.source}: column {column!r} ({rig.source}: key {key!r}) not found; found: {found}"

@@ -36,8 +36,9 @@ well any model predicts them, by factors, and a structure that halves the
 error on every log is consistently better however the logs differ. Richer
 structures are thus kept only when they predict the logs consistently
 better, not when they fit the noise. With one scoring log there is no spread
-to judge by; the rule then falls back on the Bayesian information criterion
-of the training fit, and says so.
+to judge by: the simplest within :data:`MIN_GAIN` of the best is chosen, and
+said so; with none (one training log, none held out) the Bayesian information
+criterion of the training fit decides.
 """
 
 from __future__ import annotations
@@ -180,7 +181,7 @@ class Selection:
     critical : float
         The one-sided Student t quantile the difference is compared with.
     method : str
-        ``"paired held-out scores"`` or ``"BIC (one scoring log)"``.
+        ``"paired held-out scores"``, the one-log rule, or ``"BIC (no scoring log)"``.
     """
 
     chosen: int
@@ -208,15 +209,20 @@ def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
         usable = np.array([np.all(np.isfinite(o.scores)) for o in outcomes])
     if not usable.any():
         return Selection(0, 0, np.full(R, np.nan), np.full(R, np.nan), float("nan"), "none usable")
-    if n < 2:
+    if n == 0:
         bic = np.array([o.bic if u else np.inf for o, u in zip(outcomes, usable)])
         best = int(np.nanargmin(bic)) if np.isfinite(bic).any() else int(np.flatnonzero(usable)[0])
-        return Selection(best, best, np.full(R, np.nan), np.full(R, np.nan), float("nan"), "BIC (one scoring log)")
+        return Selection(best, best, np.full(R, np.nan), np.full(R, np.nan), float("nan"), "BIC (no scoring log)")
     mean = np.where(usable, S.mean(axis=1), np.inf)
     best = int(np.argmin(mean))
     with np.errstate(divide="ignore", invalid="ignore"):
         L = np.log(np.where(S > 0, S, np.nan))
     D = L - L[best]
+    if n == 1:  # no spread to judge by: the simplest within MIN_GAIN of the best
+        diff = D[:, 0]
+        chosen = next(i for i in range(R) if usable[i] and diff[i] <= math.log1p(MIN_GAIN))
+        return Selection(chosen, best, diff, np.full(R, np.nan), float("nan"),
+                         f"one scoring log: the simplest within {100 * MIN_GAIN:g} % of the best")
     diff = D.mean(axis=1)
     se = D.std(axis=1, ddof=1) / math.sqrt(n)
     crit = float(stats.t.ppf(0.95, n - 1))
