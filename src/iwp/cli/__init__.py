@@ -14,10 +14,13 @@ Exit status
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import re
+import signal
 import sys
+import threading
 import warnings
 
 from ..errors import IwpError
@@ -125,6 +128,27 @@ def _os_message(exc: OSError) -> str:
     return f"{name}: {what.lower() if what[:1].isupper() and what[1:2].islower() else what}"
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received: unwinds like Ctrl-C, so that every staged output is removed."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
+@contextlib.contextmanager
+def _terminate_as_interrupt():
+    """While the command runs, SIGTERM raises :class:`Terminated` (Python's default would end without cleaning up)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``iwp`` console script; returns the exit status."""
     parser = build_parser()
@@ -137,13 +161,22 @@ def main(argv: list[str] | None = None) -> int:
         from ..compiling import compile_notices
 
         compile_notices(lambda line: print(f"iwp: {line}", file=sys.stderr, flush=True))
+    from ..files import output_lock
+
     try:
-        status = args.func(args)
+        with contextlib.ExitStack() as stack:
+            stack.enter_context(_terminate_as_interrupt())
+            for dest in ("out", "plot"):  # a second run into the same output is refused, not mixed
+                target = getattr(args, dest, None)
+                if isinstance(target, str) and target.strip():
+                    stack.enter_context(output_lock(target, argument=dest))
+            status = args.func(args)
     except IwpError as exc:
         print(f"iwp: error: {user_message(exc, cli_parser)}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("iwp: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (kill): the outputs were not moved into place
+        print(f"iwp: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}; nothing was written",
+              file=sys.stderr)
         return 130
     except OSError as exc:  # a file or folder the system refuses: name it
         print(f"iwp: error: {_one_line(_os_message(exc))}", file=sys.stderr)
