@@ -76,6 +76,10 @@ def prepare_output_file(path: str | Path, force: bool = False, *, argument: str 
     return p
 
 
+#: Extensions that make a new output folder's name a file name (``--out report.html``): refused.
+_FILE_SUFFIXES = frozenset(LOG_SUFFIXES) | frozenset(FIGURE_SUFFIXES) | {".html", ".htm", ".json", ".gif", ".zip"}
+
+
 def check_output_dir(path: str | Path, *, force: bool = False, argument: str = "out") -> Path:
     """The one folder policy: an output folder must be new or empty, unless ``force``; nothing is created here."""
     p = Path(path)
@@ -83,6 +87,9 @@ def check_output_dir(path: str | Path, *, force: bool = False, argument: str = "
         raise InputError(f"{argument}: empty folder name", argument=argument)
     if p.exists() and not p.is_dir():
         raise InputError(f"{argument} {p}: exists and is not a folder", argument=argument)
+    if not p.exists() and p.suffix.lower() in _FILE_SUFFIXES:
+        raise InputError(f"{argument} {p}: names a file, but the command writes a folder of files (e.g. "
+                         f"{argument} {p.with_suffix('')})", argument=argument)
     if p.is_dir() and any(p.iterdir()) and not force:
         raise OutputExistsError(f"{argument} {p}: folder exists and is not empty; pass --force to write into it")
     _check_writable_place(p, argument)
@@ -181,6 +188,16 @@ def signals_held():
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
+def _name_output(exc: OSError, tmp: Path, final: Path) -> None:
+    """Make ``exc`` name the output ``final`` where it names the temporary ``tmp`` (or nothing)."""
+    name = exc.filename
+    if name is None:
+        exc.filename = str(final)
+        return
+    with contextlib.suppress(ValueError):
+        exc.filename = str(final / Path(name).relative_to(tmp)) if Path(name) != tmp else str(final)
+
+
 def _merge_into(src: Path, dst: Path) -> None:
     """Move every entry of folder ``src`` into folder ``dst``, entry by entry; folders are merged, not replaced."""
     for item in sorted(src.iterdir()):
@@ -213,7 +230,11 @@ def staged_dir(path: str | Path, *, force: bool = False, argument: str = "out"):
         tmp = p.parent / f".{p.name}.{os.getpid()}.{secrets.token_hex(4)}.partial"
         os.mkdir(tmp)  # mode 0o777 less the umask (tempfile.mkdtemp would make it 0700)
         try:
-            yield tmp
+            try:
+                yield tmp
+            except OSError as exc:  # a full disk: name the output, not the hidden folder
+                _name_output(exc, tmp, p)
+                raise
             with signals_held():
                 check_output_dir(p, force=force, argument=argument)  # written meanwhile by something else?
                 if not p.exists():
@@ -298,7 +319,11 @@ def write_all(writes, *, force: bool = True) -> list[Path]:
                 p.parent.mkdir(parents=True, exist_ok=True)
                 tmp = _temp_name(p)
                 temps.append(tmp)
-                write(tmp)
+                try:
+                    write(tmp)
+                except OSError as exc:  # a full disk: name the output, not the temporary file
+                    _name_output(exc, tmp, p)
+                    raise
             with signals_held():
                 if not force:
                     for p, _ in pairs:

@@ -18,12 +18,11 @@ import contextlib
 import importlib
 import os
 import re
-import signal
 import sys
-import threading
 import warnings
 
 from ..errors import IwpError
+from .interrupts import Terminated, interrupts_as_exceptions
 
 # One module per subcommand, each defines ``register(subparsers)``.
 _COMMANDS = [
@@ -128,27 +127,6 @@ def _os_message(exc: OSError) -> str:
     return f"{name}: {what.lower() if what[:1].isupper() and what[1:2].islower() else what}"
 
 
-class Terminated(KeyboardInterrupt):
-    """SIGTERM received: unwinds like Ctrl-C, so that every staged output is removed."""
-
-
-def _on_sigterm(signum, frame):
-    raise Terminated()
-
-
-@contextlib.contextmanager
-def _terminate_as_interrupt():
-    """While the command runs, SIGTERM raises :class:`Terminated` (Python's default would end without cleaning up)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    old = signal.signal(signal.SIGTERM, _on_sigterm)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, old)
-
-
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``iwp`` console script; returns the exit status."""
     parser = build_parser()
@@ -165,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         with contextlib.ExitStack() as stack:
-            stack.enter_context(_terminate_as_interrupt())
+            stack.enter_context(interrupts_as_exceptions())
             for dest in ("out", "plot"):  # a second run into the same output is refused, not mixed
                 target = getattr(args, dest, None)
                 if isinstance(target, str) and target.strip():
