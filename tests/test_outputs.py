@@ -127,7 +127,7 @@ def test_the_lock_is_reentrant_and_leaves_no_file(tmp_path):
 # interrupts
 # --------------------------------------------------------------------------
 _KERNEL_LOOP = """
-import os, signal, threading, time
+import signal
 from collections import namedtuple
 import numba
 import numba.core.serialize as serialize
@@ -141,16 +141,18 @@ def kernel(t):
     return Stats(0, t)  # boxing a namedtuple runs numba.core.serialize._numba_unpickle
 
 
+# numba's own function, wrapped (compiled under its file name) so that the interrupt arrives inside it; before the
+# first call, which keeps a reference to it
+armed = []
+wrapper = "def wrapped(address, data, hashed, _f=_f, _armed=armed):\\n    if _armed:\\n        _armed.pop()\\n        signal.raise_signal(SIGNAL)\\n    return _f(address, data, hashed)\\n"
+ns = {"_f": serialize._numba_unpickle, "signal": signal, "armed": armed}
+exec(compile(wrapper, serialize.__file__, "exec"), ns)
+serialize._numba_unpickle = ns["wrapped"]
 kernel(1.0)
-# numba's own function, slowed down (compiled under its file name) so that every interrupt lands inside it
-slow = "def slowed(address, data, hashed, _f=_f, _sleep=_sleep):\\n    _sleep(0.002)\\n    return _f(address, data, hashed)\\n"
-ns = {"_f": serialize._numba_unpickle, "_sleep": time.sleep}
-exec(compile(slow, serialize.__file__, "exec"), ns)
-serialize._numba_unpickle = ns["slowed"]
 caught = 0
 with interrupts_as_exceptions():
     for trial in range(TRIALS):
-        threading.Timer(0.03, os.kill, (os.getpid(), SIGNAL)).start()
+        armed.append(True)
         try:
             while True:
                 kernel(1.0)
@@ -166,7 +168,7 @@ def test_interrupts_while_numba_boxes_a_result_raise_and_never_crash(sig):
 
     numba calls Python code (``numba.core.serialize``) to box a named tuple and does not check it for an
     exception: a plain ``KeyboardInterrupt`` there is a segmentation fault (exit -11; ``iwp reproduce`` died so
-    in 4 of 5 tries). Here every interrupt lands there, ten times."""
+    in 4 of 5 tries). Here every interrupt is raised there, ten times."""
     code = _KERNEL_LOOP.replace("TRIALS", "10").replace("SIGNAL", f"signal.{sig.name}")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=_env(), timeout=300)
     assert done.returncode == 0, f"exit {done.returncode}: {done.stderr[-2000:]}"

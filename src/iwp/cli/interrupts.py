@@ -7,8 +7,9 @@ the next bytecode it executes; while a compiled (numba) kernel returns, numba
 runs Python code of its own (``numba.core.serialize``, unpickling the class
 of the result it boxes) and does not check it for an exception: an interrupt
 raised there crashes the process (a segmentation fault, issue 23). An
-interrupt that arrives there is therefore sent again a moment later, when
-the kernel's caller runs.
+interrupt that arrives there is therefore raised a moment later, when the
+kernel's caller runs again (at the next function call or return outside
+numba's callback).
 """
 
 from __future__ import annotations
@@ -16,12 +17,13 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 import threading
 
 #: Python code run by compiled code that must not raise (a path fragment of its file).
 _NO_RAISE = (os.sep.join(("numba", "core", "serialize.py")),)
-#: How long an interrupt that arrived inside numba's boxing waits before it is sent again [s].
-_RETRY = 0.02
+#: The signal that arrived inside numba's boxing, to be raised when it returns.
+_PENDING: list[int] = []
 
 
 class Terminated(KeyboardInterrupt):
@@ -38,11 +40,23 @@ def _inside_compiled_return(frame) -> bool:
 
 def _on_signal(signum, frame):
     if _inside_compiled_return(frame):
-        timer = threading.Timer(_RETRY, os.kill, (os.getpid(), signum))
-        timer.daemon = True
-        timer.start()
+        # raised at the next Python event outside numba's callback (a profile hook: a signal sent again could
+        # land there again and again when the caller does little else than call the kernel)
+        _PENDING[:] = [signum]
+        sys.setprofile(_raise_when_safe)
         return
+    _raise(signum)
+
+
+def _raise(signum):
     raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+def _raise_when_safe(frame, event, arg):
+    if not _PENDING or _inside_compiled_return(frame):
+        return
+    sys.setprofile(None)
+    _raise(_PENDING.pop())
 
 
 @contextlib.contextmanager
@@ -60,3 +74,6 @@ def interrupts_as_exceptions():
     finally:
         for s, h in old.items():
             signal.signal(s, h)
+        if _PENDING:
+            _PENDING.clear()
+            sys.setprofile(None)
