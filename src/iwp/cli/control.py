@@ -113,6 +113,8 @@ def run_swingup(args) -> int:
 def run_lqr(args) -> int:
     from ..control import lqr_balance
 
+    if not args.ts >= 0.0 or args.ts == float("inf"):  # NaN, negative, infinite
+        raise InputError(f"--ts must be a sample period >= 0 [s] (0: a continuous design), got {args.ts:g}")
     params = load_lumped(args.params)
     L = lqr_balance(params, u_max=args.u_max, Ts=args.ts if args.ts > 0 else None)
     d = {"K": L.K.tolist(), "poles": [[float(p.real), float(p.imag)] for p in L.poles], "Ts": L.Ts,
