@@ -108,7 +108,7 @@ def user_message(exc: BaseException, parser: argparse.ArgumentParser | None) -> 
                 names = [m.group(1)]
         for name in names:
             dest = _API_NAMES.get(name, name)
-            flag = flags.get(dest) or flags.get(dest.lower())
+            flag = flags.get(dest) or flags.get(dest.lower()) or flags.get(name)
             if flag is None:
                 continue
             word = rf"(?<![\w\-./\\']){re.escape(name)}(?![\w/\\'*])"
@@ -156,6 +156,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"iwp: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}; nothing was written",
               file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of the output stopped reading (iwp rig list | head): nothing is wrong
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except OSError as exc:  # a file or folder the system refuses: name it
         print(f"iwp: error: {_one_line(_os_message(exc))}", file=sys.stderr)
         return 2
