@@ -250,6 +250,21 @@ def staged_dir(path: str | Path, *, force: bool = False, argument: str = "out"):
 MAX_JSON_BYTES = 16 * 2**20
 
 
+#: Longest integer a JSON file of iwp may hold (a float holds at most 1.8e308).
+_MAX_INT_DIGITS = 300
+
+
+class _HugeInteger(Exception):
+    pass
+
+
+def _json_int(text: str) -> int:
+    digits = len(text.lstrip("-"))
+    if digits > _MAX_INT_DIGITS:
+        raise _HugeInteger(digits)
+    return int(text)
+
+
 def read_json(path: str | Path, *, argument: str | None = None) -> Any:
     """Parse a JSON file; raise :class:`InputError` naming the file (and ``argument``) if it cannot be.
 
@@ -266,7 +281,10 @@ def read_json(path: str | Path, *, argument: str | None = None) -> Any:
             raise InputError(f"{where}: {p.stat().st_size / 2**20:.0f} MB is too large for a JSON file of iwp "
                              f"(at most {MAX_JSON_BYTES // 2**20} MB)", argument=argument)
         text = p.read_bytes().decode("utf-8-sig")
-        return json.loads(text)
+        return json.loads(text, parse_int=_json_int)
+    except _HugeInteger as exc:
+        raise InputError(f"{where}: an integer of {exc.args[0]} digits is beyond any number iwp reads (at most "
+                         f"{_MAX_INT_DIGITS})", argument=argument) from None
     except FileNotFoundError:
         raise InputError(f"{where}: no such file", argument=argument) from None
     except OSError as exc:

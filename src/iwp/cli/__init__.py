@@ -41,6 +41,8 @@ _COMMANDS = [
 
 #: API argument names that differ from the flag's name (``Ts`` is ``--ts`` by case alone).
 _API_NAMES = {"input_name": "input", "noise_std": "noise", "from_format": "from", "to_format": "to"}
+#: numpy's repr of a scalar (``np.float64(0.5)``, ``np.int64(3)``, ``np.True_``'s kin): shown as its value.
+_NUMPY_REPR = re.compile(r"\bnp\.(?:float|int|uint|complex|bool)\w*\(([^()]*)\)")
 #: An error line longer than this is cut (a message should never echo a whole file).
 _MAX_LINE = 400
 
@@ -98,7 +100,7 @@ def _one_line(text: str) -> str:
 
 def user_message(exc: BaseException, parser: argparse.ArgumentParser | None) -> str:
     """The error's message with the API's argument names replaced by the command's flags, on one line."""
-    text = str(exc)
+    text = _NUMPY_REPR.sub(r"\1", str(exc))  # np.float64(0.5) -> 0.5: a value as the user typed it
     if parser is not None:
         flags = _flags(parser)
         names = list(getattr(exc, "argument", ()) or ())
@@ -111,11 +113,12 @@ def user_message(exc: BaseException, parser: argparse.ArgumentParser | None) -> 
             flag = flags.get(dest) or flags.get(dest.lower()) or flags.get(name)
             if flag is None:
                 continue
-            word = rf"(?<![\w\-./\\']){re.escape(name)}(?![\w/\\'*])"
+            # never inside a file name: rig.json, truth.json, x0.csv stay as typed
+            word = rf"(?<![\w\-./\\']){re.escape(name)}(?![\w/\\'*]|\.\w)"
             if not re.fullmatch(r"[a-z]+", name):
                 text = re.sub(word, flag, text)  # t_end, Ts, x0: identifiers, never prose
             else:  # amplitude, model: replaced where they name the argument, not in prose
-                text = re.sub(rf"^{re.escape(name)}\b|{word}(?= ?(?:must|=|:|\(|\[|-|$))", flag, text)
+                text = re.sub(rf"^{re.escape(name)}\b(?!\.\w)|{word}(?= ?(?:must|=|:|\(|\[|-|$))", flag, text)
     return _one_line(text)
 
 
