@@ -416,9 +416,7 @@ class RigDescription:
         if wheel is None:
             raise InputError(f"{where}: key 'wheel' is required (the wheel's angle or speed column); iwp's models "
                              "need the wheel")
-        rig = cls(pend, wheel, current, inp, drive, time, Ts, name, notes, where)
-        _check_distinct_columns(rig, where)
-        return rig
+        return cls(pend, wheel, current, inp, drive, time, Ts, name, notes, where)
 
     def columns(self) -> dict[str, str]:
         """iwp signal -> the log's column (``t``, ``q1``, ``q2`` or ``q4``, ``current``, ``input``)."""
@@ -433,21 +431,6 @@ class RigDescription:
         if self.input is not None:
             out["input"] = self.input.column
         return out
-
-
-#: the description's key of each signal (for messages)
-_KEYS = {"t": "time.column", "q1": "pendulum.column", "q2": "wheel.column", "q4": "wheel.column",
-         "current": "current.column", "input": "input.column"}
-
-
-def _check_distinct_columns(rig: RigDescription, where: str) -> None:
-    """Two signals read from one column is a slip of the description: refused, naming both keys."""
-    seen: dict[str, str] = {}
-    for signal, column in rig.columns().items():
-        if column in seen:
-            raise InputError(f"{where}: keys '{_KEYS[seen[column]]}' and '{_KEYS[signal]}' both name the column "
-                             f"{column!r}; each signal has its own column")
-        seen[column] = signal
 
 
 def _counts(where: str, part: str, d: Mapping[str, Any], required: bool) -> float | None:
