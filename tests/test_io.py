@@ -320,7 +320,7 @@ BAD_CSV = {
     "nan": (csv_lines()[:3] + ["0.02,0.0,nan"] + csv_lines(start=0.03)[1:], ("nan.csv", "line 4", "column 'q2'", "NaN or inf")),
     "inf": (csv_lines()[:10] + ["0.09,-inf,0.0"] + csv_lines(start=0.1)[1:], ("inf.csv", "line 11", "column 'q1'", "NaN or inf")),
     "nonincreasing": (csv_lines(5) + ["0.04,0,0"] + csv_lines(start=0.05)[1:], ("nonincreasing.csv", "line 7", "column 't'", "not strictly increasing")),
-    "irregular": (csv_lines(8) + csv_lines(start=0.085)[1:], ("irregular.csv", "line 10", "column 't'", "irregular sampling", "resample=True", "iwp convert --resample")),
+    "irregular": (csv_lines(8) + csv_lines(start=0.085)[1:], ("irregular.csv", "line 10", "column 't'", "irregular sampling", "iwp convert --resample", "resample=True")),
     "few": (csv_lines(5), ("few.csv", "5 sample(s)", "at least 10", "min_samples")),
     "duplicate": (["t,q1,q2,q1"] + [r + ",0" for r in csv_lines()[1:]], ("duplicate.csv", "line 1", "duplicated column name 'q1'")),
     "both_inputs": (csv_lines(cols=("t", "q1", "q2", "u", "v")), ("both_inputs.csv", "line 1", "both input columns u", "v", "at most one input")),
