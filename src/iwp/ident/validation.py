@@ -264,6 +264,7 @@ def validate(
     restart_times: Sequence[float] = (),
     controller: Input | None = None,
     estimate_x0: bool = False,
+    warn: bool = True,
 ) -> ValidationResult:
     """Simulate a model against a log and measure how well it predicts it.
 
@@ -296,6 +297,10 @@ def validate(
     estimate_x0 : bool
         Estimate the initial state by a simulation-error fit (parameters
         fixed) instead of taking the measured one.
+    warn : bool
+        Warn when the validation says nothing: every compared signal is
+        constant, or the model explains less of each than its mean (fit < 0 %);
+        ``False`` for callers that report the fits themselves.
 
     Returns
     -------
@@ -340,7 +345,8 @@ def validate(
         band = _band(model_, x0s, x0_cov, uncertainty, signals)
         coverage = band.coverage(measured, {s: np.concatenate([p.w[s] > 0 for p in model_.prepared]) for s in signals})
     fits = {s: fit_percent(measured[s], simulated[s]) for s in signals}
-    _warn_uninformative(experiment.source, measured, fits)
+    if warn:
+        _warn_uninformative(experiment.source, measured, fits)
     return ValidationResult(
         t=t, measured=measured, simulated=simulated, error={s: measured[s] - simulated[s] for s in signals},
         fit=fits, x0=np.asarray(x0s[0], dtype=float),
