@@ -278,3 +278,18 @@ def test_a_second_reproduction_into_a_file_name_is_refused_before_any_work(tmp_p
     """reproduce --out report.html made a folder of that name; now it is refused at once."""
     line = assert_refused(["reproduce", "--out", str(tmp_path / "report.html")], tmp_path, ("--out",))
     assert "--out " + str(tmp_path / "report") in line
+
+
+def test_identify_refine_says_each_warning_once_and_its_json_names_the_covariance_used(tmp_path):
+    log = tmp_path / "free.csv"
+    status, _, err = run_cli(["rig", "run", "free-pendulum", "--duration", "20", "--out", str(log)])
+    assert status == 0, err
+    status, out, err = run_cli(["identify", str(log), "--setup", "free", "--refine"])
+    assert status == 0, err
+    warned = [ln[len("iwp: warning: "):] for ln in err.splitlines() if ln.startswith("iwp: warning: ")]
+    assert warned, "the refinement of a free swing warns of its correlated frictions"
+    for w in warned:
+        assert (out + err).count(w) == 1, w  # on stderr, not again in the summary
+    status, out, err = run_cli(["identify", str(log), "--setup", "free", "--json"])
+    doc = json.loads(out)
+    assert doc["covariance"] == doc["details"]["covariance"] == "noise"  # the top said 'ols'
