@@ -156,8 +156,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"iwp: error: {user_message(exc, cli_parser)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (kill): the outputs were not moved into place
-        print(f"iwp: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}; nothing was written",
-              file=sys.stderr)
+        print(f"iwp: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}", file=sys.stderr)
         return 130
     except BrokenPipeError:  # the reader of the output stopped reading (iwp rig list | head): nothing is wrong
         with contextlib.suppress(OSError):
