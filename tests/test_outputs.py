@@ -52,6 +52,18 @@ def test_force_replaces_only_the_commands_files(tmp_path):
     assert _litter(tmp_path) == []
 
 
+def test_force_replaces_a_file_and_a_folder_in_the_way(tmp_path):
+    out = tmp_path / "D"
+    out.mkdir()
+    (out / "figures").write_text("a file where the command writes a folder")
+    (out / "report.html").mkdir()  # a folder where it writes a file
+    with staged_dir(out, force=True) as tmp:
+        (tmp / "figures").mkdir()
+        (tmp / "figures" / "a.png").write_bytes(b"a")
+        (tmp / "report.html").write_text("<html></html>")
+    assert (out / "figures" / "a.png").read_bytes() == b"a" and (out / "report.html").is_file()
+
+
 def test_a_staged_folder_has_the_permissions_of_the_umask(tmp_path):
     old = os.umask(0o022)
     try:

@@ -207,6 +207,8 @@ def _merge_into(src: Path, dst: Path) -> None:
             continue
         if target.is_dir() and not target.is_symlink():
             shutil.rmtree(target)  # a folder where the command writes a file of that name
+        elif item.is_dir() and (target.exists() or target.is_symlink()):
+            target.unlink()  # a file where the command writes a folder of that name
         os.replace(item, target)
 
 
