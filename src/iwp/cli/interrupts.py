@@ -63,12 +63,14 @@ def _raise_when_safe(frame, event, arg):
 def interrupts_as_exceptions():
     """While the block runs, SIGINT and SIGTERM raise (:class:`KeyboardInterrupt`, :class:`Terminated`) where safe.
 
-    Outside the main thread (where Python delivers no signal) it does nothing.
+    Outside the main thread (where Python delivers no signal) it does nothing; an ignored signal stays ignored.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    old = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    # a signal the process was started to ignore (nohup, a background job) stays ignored
+    old = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)
+           if signal.getsignal(s) is not signal.SIG_IGN}
     try:
         yield
     finally:
