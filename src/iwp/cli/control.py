@@ -160,6 +160,8 @@ def run_lqr(args) -> int:
     from ..checks import check_positive
     from ..control import lqr_balance
 
+    if not args.ts >= 0.0 or args.ts == float("inf"):  # NaN, negative, infinite
+        raise InputError(f"--ts must be a sample period >= 0 [s] (0: a continuous design), got {args.ts:g}")
     robust = None
     if args.draws is not None:
         from ..control.robust import check_draws

@@ -160,7 +160,7 @@ def run(args) -> int:
         else:
             print(res.summary())
             print()
-            print(r.summary())
+            print(r.summary(warnings=False))  # its warnings went to stderr
             if out_path is not None:
                 print(f"wrote {out_path}")
         return 0

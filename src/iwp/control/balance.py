@@ -128,7 +128,8 @@ def lqr_balance(
     u_max : float
         Saturation of ``u`` [input units].
     Ts : float, optional
-        Sample period [s] for a discrete design.
+        Sample period [s] for a discrete design; at most the e-folding time
+        of the upright's instability (``1/lambda``, about 0.2 s for Table 1).
     backend : str
         ``"auto"`` (python-control when installed, else scipy),
         ``"python-control"`` or ``"scipy"``.
@@ -152,6 +153,11 @@ def lqr_balance(
     A4, B4 = linearize(params, "up")
     A = A4[np.ix_(REDUCED, REDUCED)]
     B = B4[list(REDUCED)]
+    lam_max = float(np.max(np.linalg.eigvals(A).real))
+    if Ts is not None and Ts * lam_max > 1.0:
+        raise InputError(f"Ts = {Ts:g} s is too long for the upright's instability, which grows e-fold in "
+                         f"{1.0 / lam_max:.3g} s ({lam_max:.4g} 1/s); a sampled balance needs Ts <= "
+                         f"{1.0 / lam_max:.3g} s", argument="Ts")
     Rm = np.array([[R]])
     ctl = None
     if backend in ("auto", "python-control"):

@@ -255,5 +255,5 @@ def write_mat(data: ExperimentData, path: str | os.PathLike, force: bool = False
         with open(tmp, "wb") as fh:
             savemat(fh, out, oned_as="column", do_compression=True)
 
-    return atomic_write(p, write)
+    return atomic_write(p, write, force=force)
 

@@ -354,6 +354,9 @@ class RigDescription:
             zero_v = ZEROS[_choice(where, "pendulum.zero", zero, tuple(ZEROS))]
         else:
             zero_v = _num(where, "pendulum.zero", zero)
+            if abs(zero_v) > 2.0 * math.pi:
+                raise InputError(f"{_where(where, 'pendulum.zero')} = {zero_v!r} rad: the angle of the log's zero "
+                                 "lies within one turn (|zero| <= 2 pi rad), or 'down' / 'up'")
         off = pdoc.get("offset", "estimate")
         if off == "estimate":
             off_v = None

@@ -323,6 +323,14 @@ def read_rig_log(
             raise fail(f"{raw.locate(1, tname)}: the median time step is {med:.6g} s but {where} gives "
                        f"'sample_period' {rig.sample_period:g} s")
 
+    if rig.time.column is None:  # times from sample_period: a time column the log has anyway must agree
+        for name in (k for k in ("t", "time", "Time", "timestamp") if k in raw.columns):
+            d = np.diff(np.asarray(raw.columns[name], dtype=float))
+            med = float(np.median(d)) if d.size else float("nan")
+            if math.isfinite(med) and med > 0 and abs(med - rig.sample_period) > 0.01 * rig.sample_period:
+                raise fail(f"{raw.locate(1, name)}: the log's column {name!r} steps by {med:.6g} but {where} gives "
+                           f"'sample_period' {rig.sample_period:g} s and no time column; name it in 'time.column'")
+
     # ---- pendulum angle
     ps = rig.pendulum
     x = raw.get(ps.column, "pendulum.column", rig)

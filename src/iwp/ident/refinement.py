@@ -340,8 +340,9 @@ class RefineResult:
             **({"belt": self.belt.to_dict()} if self.belt is not None else {}),
         }
 
-    def summary(self) -> str:
-        """A readable table of the refined parameters and the fit."""
+    def summary(self, warnings: bool = True) -> str:
+        """A readable table of the refined parameters and the fit (and the warnings, unless ``warnings=False``:
+        for a caller that issued them already, as ``iwp identify --refine`` does on stderr)."""
         lines = [f"simulation-error refinement, model {self.model!r}, outputs {', '.join(self.outputs)}, "
                  f"loss {self.loss}"]
         lines.append(f"{'parameter':<10} {'start':>12} {'refined':>12} {'stderr':>10}")
@@ -356,7 +357,7 @@ class RefineResult:
             lines.append(self.reliability.describe())
         lines.append(f"cost {self.cost_start:.6g} -> {self.cost:.6g}, {self.nfev} simulations, "
                      f"{self.njev} with sensitivities, {self.elapsed:.3g} s; {self.message}")
-        for w in self.warnings:
+        for w in self.warnings if warnings else ():
             lines.append(f"warning: {w}")
         return "\n".join(lines)
 

@@ -576,6 +576,10 @@ def save_params(params, path: str | Path, *, force: bool = False, extra: dict[st
     return p
 
 
+#: The ``kind`` of other JSON files iwp writes, which a user may give as a parameter file by mistake.
+_OTHER_FILES = {"iwp-fit": "iwp fit's fit.json"}
+
+
 def stored_model(path_or_name: str | Path) -> str | None:
     """The model a parameter file says its parameters were fitted with (its ``"model"`` entry, or that of its
     ``"refinement"``), or None (a built-in set, no such entry, a file that does not read)."""
@@ -625,6 +629,12 @@ def load_params(path_or_name: str | Path, *, physical_check: bool = True):
         raise InputError(f"{path}: expected a JSON object of parameters")
     kind = doc.get("kind", "lumped")
     values = doc.get("parameters", doc if "kind" not in doc else None)
+    other = _OTHER_FILES.get(kind) if isinstance(kind, str) else None
+    if other is None and "kind" not in doc and {"steps", "statements"} <= set(doc):
+        other = "iwp reproduce's results.json"
+    if other is not None:
+        beside = path.parent / "parameters.json"
+        raise InputError(f"{path}: this is {other}, not a parameter file; give {beside} (written beside it)")
     if kind not in _KINDS:
         raise InputError(f"{path}: unknown kind {kind!r}; expected one of {', '.join(_KINDS)}")
     if not isinstance(values, dict):

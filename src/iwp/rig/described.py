@@ -220,4 +220,4 @@ def write_rig_csv(run: RigRun, path: str | os.PathLike, *, force: bool = False,
             fh.write(",".join(names) + "\n")
             np.savetxt(fh, data, delimiter=",", fmt="%.17g")
 
-    return atomic_write(p, write)
+    return atomic_write(p, write, force=force)
