@@ -25,7 +25,8 @@ Examples:
 
 def register(sub) -> None:
     p = sub.add_parser("control", help="swing-up and balance; the upright LQR",
-                       description="Control beyond the paper: swing-up and balance.")
+                       description="Control beyond the paper: swing-up and balance, the upright LQR, and iwp's "
+                                   "controllers on a rig in the loop.")
     csub = p.add_subparsers(dest="control_command", metavar="WHAT", parser_class=type(p))
     csub.required = True
 
@@ -44,7 +45,10 @@ def register(sub) -> None:
     add_force_arg(s)
     s.set_defaults(func=run_swingup)
 
-    q = csub.add_parser("lqr", help="the balance LQR at the upright (gains, poles, capture bound)")
+    q = csub.add_parser("lqr", help="the balance LQR at the upright (gains, poles, capture bound)",
+                        description="Design the LQR that balances the pendulum at the upright on the "
+                                    "linearised model (9), discrete at --ts or continuous, and print its gains, "
+                                    "closed-loop poles and the bound of the region it captures.")
     add_params_arg(q)
     q.add_argument("--ts", type=float, default=0.005, help="sample period of the discrete design [s]; 0: continuous")
     q.add_argument("--u-max", type=float, default=100.0, help="saturation of u (default 100)")
