@@ -2,7 +2,7 @@
 
 :func:`fit_logs` (the command ``iwp fit TRAIN... --rig RIG.json --validate
 HELDOUT... --out DIR``) takes a rig's logs as they are (read with its rig
-description, :func:`iwp.data.read_rig_log`, or iwp logs) and
+description, :func:`iwp.data.rig_log.read_rig_log`, or iwp logs) and
 
 1. finds and reports glitches (:meth:`ExperimentData.with_glitches_found`);
    replaced samples are left out of every residual and fit;

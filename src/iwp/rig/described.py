@@ -12,7 +12,7 @@ logged (a controller's output before the driver saturates it, which the
 plant sees clipped). Glitches can be injected where a real board makes
 them: a first-sample spike of the mean speed, dropouts to 0, and jumps of
 the pendulum angle. :func:`write_rig_csv` writes such a log, which
-:func:`iwp.data.read_rig_log` reads back; the tests run every path of
+:func:`iwp.data.rig_log.read_rig_log` reads back; the tests run every path of
 ``iwp fit`` this way with known truth.
 """
 
