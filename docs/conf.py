@@ -83,7 +83,6 @@ version = release = iwp.__version__
 extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
-    "sphinx.ext.intersphinx",
     "sphinx.ext.mathjax",
     "numpydoc",
     "myst_parser",
@@ -109,7 +108,7 @@ numpydoc_xref_param_type = False
 # --- the Markdown pages of the user guide (MyST)
 myst_enable_extensions = ["dollarmath", "colon_fence"]
 myst_heading_anchors = 3
-suppress_warnings = ["myst.xref_missing", "myst.header"]
+suppress_warnings = ["myst.header"]
 
 # --- the gallery: every example runs at build time, its figures captured
 sphinx_gallery_conf = {
@@ -125,12 +124,6 @@ sphinx_gallery_conf = {
     "show_memory": False,
     "min_reported_time": 1,
 }
-
-intersphinx_mapping = {
-    "python": ("https://docs.python.org/3", None),
-}
-intersphinx_disabled_reftypes = ["*"]
-intersphinx_timeout = 5
 
 html_theme = "pydata_sphinx_theme"
 html_title = f"iwp {release}"
