@@ -77,3 +77,17 @@ def test_every_test_cited_exists():
             if name and not re.search(rf"^def {name}\(", current.read_text(), re.M):
                 missing.append(f"{current.name}::{name}")
     assert missing == []
+
+
+def test_every_dotted_name_in_the_guide_exists():
+    # the README, the guide and the firmware's README name iwp's modules and functions as `iwp.a.b`
+    missing = []
+    for path in [ROOT / "README.md", ROOT / "firmware" / "README.md", *sorted((ROOT / "docs").glob("*.md"))]:
+        for name in sorted(set(re.findall(r"`(iwp(?:\.\w+)+)", path.read_text()))):
+            if name == "iwp.metadata":  # the Parquet schema key of data-format.md, not a module
+                continue
+            try:
+                resolve(name)
+            except (ImportError, AttributeError):
+                missing.append(f"{path.name}: {name}")
+    assert missing == []
