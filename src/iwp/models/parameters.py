@@ -563,6 +563,27 @@ def save_params(params, path: str | Path, *, force: bool = False, extra: dict[st
     The file is ``{"kind": "lumped"|"physical"|"belt", "parameters": {...}}``
     plus the optional ``extra`` entries (e.g. uncertainties, provenance).
     Refuses to overwrite an existing file unless ``force``.
+
+    Parameters
+    ----------
+    params : LumpedParameters or PhysicalParameters or BeltParameters
+        The set to write (its units: Table 1's, SI, or the belt's).
+    path : str or Path
+        The ``.json`` file.
+    force : bool
+        Overwrite an existing file.
+    extra : dict, optional
+        More top-level entries (JSON-serialisable).
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    OutputExistsError
+        The file exists and ``force`` is not set.
     """
     kind = next((k for k, cls in _KINDS.items() if isinstance(params, cls)), None)
     if kind is None:
@@ -607,6 +628,18 @@ def load_params(path_or_name: str | Path, *, physical_check: bool = True):
     the file says ``"unconstrained_fit": true`` (as ``iwp identify --out``
     writes for an unconstrained fit that came out unphysical, like the
     paper's eq. (16)); such a file is loaded with a warning.
+
+    Parameters
+    ----------
+    path_or_name : str or Path
+        A JSON file, or a built-in name (``"table1"``: Table 1).
+    physical_check : bool
+        Refuse a lumped set with wrong signs (see above).
+
+    Returns
+    -------
+    LumpedParameters or PhysicalParameters or BeltParameters
+        The set, in the units of Table 1 (lumped) or SI (physical).
 
     Raises
     ------
