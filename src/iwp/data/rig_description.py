@@ -232,8 +232,10 @@ class InputSpec:
 
 @dataclass(frozen=True)
 class DriveSpec:
-    """How the motor drives the wheel: ``direct``, ``gear`` or ``belt``, with the ratio ``N`` (motor turns per
-    wheel turn)."""
+    """How the motor drives the wheel: ``direct``, ``gear`` or ``belt``.
+
+    The ratio ``N`` is in motor turns per wheel turn [-].
+    """
 
     kind: str = "direct"
     ratio: float = 1.0

@@ -233,8 +233,10 @@ def _mean_fit(fits: list[LogFit], outputs) -> dict[str, float]:
 # reading
 # --------------------------------------------------------------------------
 def load_logs(items, rig: RigDescription | None, *, argument: str = "logs") -> list[ExperimentData]:
-    """Logs as :class:`ExperimentData`: paths are read with the rig description (or as iwp logs without one);
-    glitches are found and recorded."""
+    """Read logs as :class:`ExperimentData`, glitches found and recorded.
+
+    Paths are read with the rig description (or as iwp logs without one).
+    """
     if isinstance(items, (str, os.PathLike, ExperimentData)):
         items = [items]
     out = []

@@ -470,12 +470,16 @@ def simulate_batch(
     ----------
     plant : Plant or LumpedParameters, or a list of them
         The plants (one model).
+    model : str, optional
+        As :func:`simulate`.
     x0 : array_like, or a list of them, optional
         Initial states ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s].
+    t_end, t0, Ts : float
+        Final and initial time, output sample period [s].
     input : Input, or a list of one type, optional
         Inputs or laws (:mod:`iwp.sim.inputs`).
-    model, t_end, t0, Ts, feedforward, saturation, rtol, atol, max_step, max_steps, t_eval
-        As :func:`simulate` (times [s], ``saturation`` [input units]).
+    feedforward, saturation, rtol, atol, max_step, max_steps, t_eval
+        As :func:`simulate` (``saturation`` [input units], ``max_step`` [s]).
 
     Returns
     -------
