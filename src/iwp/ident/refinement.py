@@ -376,13 +376,13 @@ def refine_report(residuals: OutputError, result: FitResult, start: Plant) -> Re
     cnt = {o: 0 for o in residuals.outputs}
     for p, yh, yh0, st0, x in zip(residuals.prepared, sim, sim0, result.start.status,
                                   residuals.states(result.optimum.values)):
-        used = {o: p.w[o] > 0 for o in residuals.outputs}
-        fit.append({o: fit_percent(p.y[o][used[o]], yh[o][used[o]]) for o in residuals.outputs})
-        fit0.append({o: fit_percent(p.y[o][used[o]], yh0[o][used[o]]) if st0 == 0 else float("nan")
-                     for o in residuals.outputs})
-        rms.append({o: float(np.sqrt(np.mean((p.y[o] - yh[o])[used[o]] ** 2))) for o in residuals.outputs})
-        rms0.append({o: float(np.sqrt(np.mean((p.y[o] - yh0[o])[used[o]] ** 2))) if st0 == 0 else float("inf")
-                     for o in residuals.outputs})
+        # the outputs this experiment compares (a clamped pendulum's angle is none of them)
+        used = {o: p.w[o] > 0 for o in residuals.outputs if np.any(p.w[o] > 0)}
+        fit.append({o: fit_percent(p.y[o][m], yh[o][m]) for o, m in used.items()})
+        fit0.append({o: fit_percent(p.y[o][m], yh0[o][m]) if st0 == 0 else float("nan") for o, m in used.items()})
+        rms.append({o: float(np.sqrt(np.mean((p.y[o] - yh[o])[m] ** 2))) for o, m in used.items()})
+        rms0.append({o: float(np.sqrt(np.mean((p.y[o] - yh0[o])[m] ** 2))) if st0 == 0 else float("inf")
+                     for o, m in used.items()})
         for o in residuals.outputs:
             ssr[o] += float(np.sum(((p.y[o] - yh[o]) * p.w[o]) ** 2))
             cnt[o] += int(np.count_nonzero(p.w[o]))
