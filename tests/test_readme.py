@@ -81,6 +81,6 @@ def test_readme_sequence_runs_in_order(tmp_path, monkeypatch, capsys):
     assert k1 == pytest.approx(-10.0, abs=0.3)
     hopf = read_experiment(tmp_path / "hopf.csv")
     assert np.abs(hopf.q1[hopf.t > 150]).max() == pytest.approx(2.58, rel=0.02)
-    # the fit on chirp.csv predicts the held-out log within its band for most samples
+    # model (9) fitted on chirp.csv predicts the held-out chirp (86.6 % when written; the twin is richer than (9))
     fit = json.loads((tmp_path / "fit" / "fit.json").read_text())
     assert fit["validation"][0]["fit"]["q1"] > 80.0
