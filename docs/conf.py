@@ -35,6 +35,7 @@ API_MODULES = {
     "iwp.ident": "Identification (section 5), refinement, validation",
     "iwp.ident.logfit": "Logs to a validated model (iwp fit)",
     "iwp.control": "Hopf design and continuation, balance, swing-up",
+    "iwp.sweep": "Sweeps: many closed loops over gains, parameters, initial states",
     "iwp.rig": "The virtual rig",
     "iwp.rig.described": "The virtual rig as any rig",
     "iwp.calibration": "The calibrated twin",

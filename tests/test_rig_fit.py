@@ -540,3 +540,32 @@ def test_logs_of_two_set_ups_are_named_before_the_joint_fit(tmp_path):
     assert values["a"] == pytest.approx(TRUTH.p1, rel=0.03) and values["c"] == pytest.approx(TRUTH.p1, rel=0.03)
     assert values["b"] == pytest.approx(TRUTH.p1 / 7, rel=0.03)
     assert disagreeing_logs([logs[0], logs[2]]) == []  # one set-up, two excitations: no warning
+
+
+def test_a_fast_wheels_real_corners_are_no_glitches_but_a_garbage_first_sample_is(tmp_path):
+    # a direct drive whose wheel speed settles within a sample: at every reversal of a pseudo-random input
+    # and at its start the speed turns a sharp corner (without the input, the first one was taken for a dropout)
+    rig = rig_of(sample_period=0.05, wheel={"sampling": "instant"})
+    truth = TRUTH.replace(p2=3.0, p3=600.0)
+    run = DescribedRig(rig, truth).run(prbs(801, hold=6, amplitude=0.1, seed=3), duration=40.0)
+    d = read_rig_log(write_rig_csv(run, tmp_path / "fast.csv"), rig, glitches=False)
+    assert [g.describe() for g in find_glitches(d.t, {"q4": d.q4})] != []  # the input is what tells them apart
+    assert find_glitches(d.t, {"q1": d.q1, "q4": d.q4}, input=d.input) == []
+    q4 = d.q4.copy()
+    q4[0], q4[333] = 2345.0, q4[333] + 0.5 * np.ptp(d.q4)
+    found = find_glitches(d.t, {"q1": d.q1, "q4": q4}, input=d.input)
+    assert [(g.index, g.kind) for g in found] == [(0, "spike"), (333, "spike")]
+
+
+def test_a_poor_held_out_prediction_is_a_warning_with_what_to_try():
+    from iwp.ident.logfit import LogFit, poor_prediction_advice
+
+    def fit(q1, q4):
+        return LogFit("h.csv", "validate", {"q1": q1, "q4": q4}, {}, {}, np.zeros(2), {}, {}, {}, np.zeros(4))
+
+    assert poor_prediction_advice([fit(90.0, 95.0), fit(80.0, 97.0)], ("q1", "q4"), chose=True) == []
+    msg = poor_prediction_advice([fit(60.0, 95.0), fit(-20.0, 97.0)], ("q1", "q4"), chose=False)
+    assert len(msg) == 1 and "q1 20.0 % (below zero or failed on 1 of 2 logs)" in msg[0] and "q4" not in msg[0]
+    assert "without --model" in msg[0] and "units, signs and zero" in msg[0]
+    msg = poor_prediction_advice([fit(30.0, 95.0), fit(40.0, 97.0)], ("q1", "q4"), chose=True)
+    assert "q1 35.0 %" in msg[0] and "--clamped" in msg[0]

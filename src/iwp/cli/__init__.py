@@ -35,6 +35,7 @@ _COMMANDS = [
     "validate",
     "warmup",
     "fit",
+    "sweep",
 ]
 
 #: API argument names that differ from the flag's name (``Ts`` is ``--ts`` by case alone).

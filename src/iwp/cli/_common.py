@@ -73,3 +73,23 @@ def load_lumped(spec: str, flag: str = "--params"):
     if not isinstance(params, LumpedParameters):
         raise InputError(f"{flag} {spec}: expected a lumped or physical parameter set")
     return params
+
+
+def add_draws_args(p: argparse.ArgumentParser, what: str) -> None:
+    """``--draws N`` and ``--seed``: the outcome of ``what`` over the parameter uncertainty of ``--params``."""
+    p.add_argument("--draws", type=int, default=None, metavar="N",
+                   help=f"{what} over N parameter draws from the fit's uncertainty (--params: the parameters.json "
+                        "of iwp fit, with its covariance); writes robust.json and robust.png into --out")
+    p.add_argument("--seed", type=int, default=0, help="seed of the parameter draws (default 0)")
+
+
+def load_uncertainty_arg(spec: str, flag: str = "--params"):
+    """The fit's parameters and covariance of a ``--params`` file (for ``--draws``); errors name ``flag``."""
+    from ..sim.uncertainty import load_uncertainty
+
+    try:
+        return load_uncertainty(spec)
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(flag) else f"{flag} {msg}") from None
+

@@ -17,7 +17,9 @@ from scipy.linalg import expm, solve_continuous_are, solve_discrete_are
 from ..checks import check_positive
 from ..errors import InputError
 from ..models.analysis import linearize
+from ..models.laws import balance_law
 from ..models.parameters import LumpedParameters
+from ..sim.inputs import BalanceController
 from .closed_loop import REDUCED, lumped_parameters
 
 __all__ = ["LQRBalance", "lqr_balance", "wrap_angle"]
@@ -80,9 +82,20 @@ class LQRBalance:
         return np.array([wrap_angle(x[0] - math.pi), x[2], x[3]])
 
     def __call__(self, x) -> float:
-        """The saturated input for the state ``x = [q1, q2, q3, q4]`` [input units]."""
-        u = -float(self.K @ self.error_state(x))
+        """The saturated input for the state ``x = [q1, q2, q3, q4]`` [input units].
+
+        The law is :func:`iwp.models.laws.balance_law`, clipped to ``u_max``.
+        """
+        x = np.asarray(x, dtype=float)
+        u = float(balance_law(float(self.K[0]), float(self.K[1]), float(self.K[2]), x[0], x[2], x[3]))
         return min(max(u, -self.u_max), self.u_max)
+
+    def controller(self) -> BalanceController:
+        """This feedback as a simulator input (sampled every ``Ts`` when the design is discrete).
+
+        The saturation ``u_max`` is the simulator's ``saturation``.
+        """
+        return BalanceController(float(self.K[0]), float(self.K[1]), float(self.K[2]), self.Ts)
 
     def capture_ratio(self, x) -> float:
         """The unstable mode over the capture bound, ``abs(w @ x) / capture_bound``: below 1 the fall can be stopped."""

@@ -346,7 +346,7 @@ class ExperimentData:
         cols = {n: getattr(self, n) for n in ("q1", "q2", "q3", "q4") if getattr(self, n) is not None}
         if self.current is not None:
             cols[CURRENT_COLUMN] = self.current
-        found = find_glitches(self.t, cols)
+        found = find_glitches(self.t, cols, input=self.input)
         if not found:
             return self
         if warn:

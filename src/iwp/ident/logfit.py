@@ -605,6 +605,7 @@ def fit_logs(
     if val_logs and uncertainty is None:
         msgs.append("held-out logs: no prediction band, for the fit did not determine every free parameter")
     val_fits = [_held_out(d, Plant(r.params, model=model), outputs, val_off, msgs, uncertainty) for d in val_logs]
+    msgs.extend(poor_prediction_advice(val_fits, outputs, chose=structures is not None))
     res = LogFitResult(params=r.params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
                        model=model, outputs=outputs, options=options.to_dict(offset_given), train=train_fits,
                        validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0,
@@ -671,6 +672,38 @@ def disagreeing_logs(logs: Sequence[ExperimentData], *, window=(None, None)) -> 
     listing = ", ".join(f"{Path(src).name} {p1:.4g} +- {sd:.2g}" for src, p1, sd in est)
     return [f"the training logs disagree on the gravity term p1 [1/s^2] (each log alone: {listing}): no single "
             "parameter set explains them (a moved counterweight, another pendulum?); fit them separately"]
+
+
+#: a mean held-out fit below this [%] is a poor prediction, and said so
+POOR_FIT = 50.0
+
+
+def poor_prediction_advice(fits: Sequence[LogFit], outputs: Sequence[str], *, chose: bool) -> list[str]:
+    """A warning, with what to try, when the held-out logs are predicted poorly (mean fit below
+    :data:`POOR_FIT` % or below zero on a log), or none."""
+    if not fits:
+        return []
+    bad = []
+    for o in outputs:
+        vals = [f.fit.get(o, float("nan")) for f in fits]
+        finite = [v for v in vals if math.isfinite(v)]
+        neg = sum(1 for v in vals if not math.isfinite(v) or v < 0)
+        mean = float(np.mean(finite)) if finite else float("nan")
+        if not (mean >= POOR_FIT) or neg:
+            bad.append(f"{o} {mean:.1f} %" + (f" (below zero or failed on {neg} of {len(vals)} logs)" if neg else ""))
+    if not bad:
+        return []
+    tries = ["the rig description's units, signs and zero (docs/rig-description.md): a wrong encoder gain or sign "
+             "fits the training logs and predicts nothing",
+             "held-out logs of the same set-up as the training logs (the same pendulum and counterweights)",
+             "training logs that excite what the held-out logs do (amplitudes, frequencies, the input's range)"]
+    if not chose:
+        tries.insert(0, "letting iwp fit choose the model structure (without --model or the term flags)")
+    else:
+        tries.insert(0, "the clamped-pendulum and locked-wheel logs of the rig joining the training (--clamped, "
+                        "--wheel-locked)")
+    return ["the model predicts the held-out logs poorly (mean fit " + ", ".join(bad) + "); check or try: "
+            + "; ".join(tries)]
 
 
 class _Fitting:
