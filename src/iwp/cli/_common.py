@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 from collections.abc import Sequence
 
 from ..errors import InputError
@@ -34,6 +35,11 @@ class LazyChoices(Sequence):
 
     def __contains__(self, value) -> bool:
         return value in self._load()
+
+
+def plain(doc: str) -> str:
+    """A module docstring as a parser's description: reST literals (````iwp rig````) become plain text."""
+    return re.sub(r"``([^`]+)``", r"\1", doc)
 
 
 def float_list(text: str) -> list[float]:

@@ -41,7 +41,8 @@ and the settling time's distribution, in OUT/robust.json and OUT/robust.png:
 
 def register(sub) -> None:
     p = sub.add_parser("control", help="swing-up and balance; the upright LQR",
-                       description="Control beyond the paper: swing-up and balance.")
+                       description="Control beyond the paper: swing-up and balance, the upright LQR, and iwp's "
+                                   "controllers on a rig in the loop.")
     csub = p.add_subparsers(dest="control_command", metavar="WHAT", parser_class=type(p))
     csub.required = True
 

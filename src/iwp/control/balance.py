@@ -56,7 +56,7 @@ class LQRBalance:
         Left eigenvector ``w`` of ``lambda_u``, scaled so that ``w[0] = 1``:
         ``w . x`` is the unstable mode in radians of ``q1``.
     capture_bound : float
-        ``|w . B| u_max / lambda_u`` [rad]: beyond ``|w . x| >`` this no input
+        ``|w . B| u_max / lambda_u`` [rad]: beyond ``|w . x|`` greater than this, no input
         within ``u_max`` can stop the fall (linearised). The swing-up
         switches to the LQR well inside it.
     backend : str
@@ -98,7 +98,7 @@ class LQRBalance:
         return BalanceController(float(self.K[0]), float(self.K[1]), float(self.K[2]), self.Ts)
 
     def capture_ratio(self, x) -> float:
-        """``|w . x| / capture_bound``: below 1 the fall can still be stopped (linearised)."""
+        """The unstable mode over the capture bound, ``abs(w @ x) / capture_bound``: below 1 the fall can be stopped."""
         return abs(float(self.unstable_direction @ self.error_state(x))) / self.capture_bound
 
 

@@ -53,7 +53,7 @@ def read_csv(
     path : str or path-like
         The file.
     mapping : dict, optional
-        iwp name -> column name in the file, for files with other names,
+        The iwp name -> column name in the file, for files with other names,
         e.g. ``{"t": "time", "q1": "theta"}``. Unmapped iwp names are looked
         up under their own name.
     degrees : bool, optional

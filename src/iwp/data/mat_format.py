@@ -113,7 +113,7 @@ def read_mat(
     ----------
     path : str or path-like
     mapping : dict, optional
-        iwp name -> variable (field) name, e.g. ``{"t": "time", "q1":
+        The iwp name -> variable (field) name, e.g. ``{"t": "time", "q1":
         "theta", "q2": "phi", "u": "u"}``; unmapped iwp names are looked up
         under their own names.
     struct : str, optional

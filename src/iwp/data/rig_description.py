@@ -244,8 +244,10 @@ class InputSpec:
 
 @dataclass(frozen=True)
 class DriveSpec:
-    """How the motor drives the wheel: ``direct``, ``gear`` or ``belt``, with the ratio ``N`` (motor turns per
-    wheel turn)."""
+    """How the motor drives the wheel: ``direct``, ``gear`` or ``belt``.
+
+    The ratio ``N`` is in motor turns per wheel turn [-].
+    """
 
     kind: str = "direct"
     ratio: float = 1.0
@@ -530,6 +532,22 @@ def load_rig(path: str | os.PathLike | RigDescription, *, flag: str = "--rig") -
     """Load a rig description from JSON (a :class:`RigDescription` is returned as it is).
 
     Errors are one line naming the file (and ``flag`` when the file is missing).
+
+    Parameters
+    ----------
+    path : str or PathLike or RigDescription
+        The JSON file (``docs/rig-description.md`` lists its keys and units).
+    flag : str
+        The command-line flag named when the file is missing.
+
+    Returns
+    -------
+    RigDescription
+
+    Raises
+    ------
+    InputError
+        A missing file, bad JSON, an unknown key, or a wrong value (naming the key).
     """
     if isinstance(path, RigDescription):
         return path

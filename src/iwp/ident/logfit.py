@@ -2,7 +2,7 @@
 
 :func:`fit_logs` (the command ``iwp fit TRAIN... --rig RIG.json --validate
 HELDOUT... --out DIR``) takes a rig's logs as they are (read with its rig
-description, :func:`iwp.data.read_rig_log`, or iwp logs) and
+description, :func:`iwp.data.rig_log.read_rig_log`, or iwp logs) and
 
 1. finds and reports glitches (:meth:`ExperimentData.with_glitches_found`);
    replaced samples are left out of every residual and fit;
@@ -244,8 +244,10 @@ def _mean_fit(fits: list[LogFit], outputs) -> dict[str, float]:
 # reading
 # --------------------------------------------------------------------------
 def load_logs(items, rig: RigDescription | None, *, argument: str = "logs") -> list[ExperimentData]:
-    """Logs as :class:`ExperimentData`: paths are read with the rig description (or as iwp logs without one);
-    glitches are found and recorded."""
+    """Read logs as :class:`ExperimentData`, glitches found and recorded.
+
+    Paths are read with the rig description (or as iwp logs without one).
+    """
     if isinstance(items, (str, os.PathLike, ExperimentData)):
         items = [items]
     out = []

@@ -454,12 +454,6 @@ def refine(
     warn : bool
         Also issue the warnings with :func:`warnings.warn` (they are always in ``.warnings``).
 
-    Other rigs' sensors are read from each log: a wheel speed ``q4`` logged
-    as the mean over the preceding sample period (metadata ``q4_sampling:
-    mean``) is compared with ``(q2(t_k) - q2(t_k-1)) / Ts`` of the model,
-    and samples replaced as glitches (:attr:`ExperimentData.glitches`) are
-    left out of the residuals.
-
     Returns
     -------
     RefineResult
@@ -470,6 +464,14 @@ def refine(
         A model refine does not fit, an unknown parameter or output, a
         parameter that does not enter the model, bad bounds or windows, an
         output constant in every experiment.
+
+    Notes
+    -----
+    Other rigs' sensors are read from each log: a wheel speed ``q4`` logged
+    as the mean over the preceding sample period (metadata ``q4_sampling:
+    mean``) is compared with ``(q2(t_k) - q2(t_k-1)) / Ts`` of the model,
+    and samples replaced as glitches (:attr:`ExperimentData.glitches`) are
+    left out of the residuals.
     """
     plant = start if isinstance(start, Plant) else fit_plant(start)
     if plant.model not in REFINE_MODELS:
@@ -519,6 +521,27 @@ def refine_identification(setup: str, experiments, start: LumpedParameters, *,
     (angle logs, or metadata ``wheel: none``). ``q4`` is the differentiated
     disk angle when the log has no velocity. Initial states are estimated
     per experiment; ``window`` (t_start, t_end) [s] windows every experiment.
+
+    Parameters
+    ----------
+    setup : str
+        A set-up of section 5 (the table above).
+    experiments : ExperimentData or Experiment or sequence of them
+        The logs the model is fitted to.
+    start : LumpedParameters
+        Start values, e.g. the set-up's least squares (``identify(...).to_params()``).
+    window : (float or None, float or None)
+        Time window [s] of every experiment.
+    options : SolverOptions, optional
+        Settings of the least-squares solver.
+    warn : bool
+        Also issue the result's warnings with :func:`warnings.warn`.
+
+    Returns
+    -------
+    RefineResult
+        The refined parameters with their covariance, fit [%] per output and
+        experiment, and warnings.
     """
     spec = get_setup(setup).refine
     items = [experiments] if not isinstance(experiments, (list, tuple)) else list(experiments)

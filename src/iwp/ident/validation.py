@@ -274,7 +274,7 @@ def validate(
         The log.
     params : LumpedParameters, PhysicalParameters, Plant or ParameterUncertainty
         The parameters (with ``model``), or a plant. With a
-        :class:`~iwp.ident.uncertainty.ParameterUncertainty` (a fit's
+        :class:`~iwp.sim.uncertainty.ParameterUncertainty` (a fit's
         parameters and covariance) the result also holds the fit's 95 %
         parameter and prediction bands (linearised) and how much of the
         measured data falls inside the prediction band.

@@ -32,7 +32,7 @@ _QUICK_SETTINGS: dict[str, dict[str, float]] = {
 }
 
 def experiment_settings(quick: bool = False) -> dict[str, dict[str, float]]:
-    """Overrides of :meth:`iwp.rig.VirtualRig.run` per experiment: none for the full run, shorter ones for quick."""
+    """Return the overrides of :meth:`iwp.rig.VirtualRig.run` per experiment (shorter runs for ``quick``)."""
     return {name: dict(_QUICK_SETTINGS[name]) if quick else {} for name in _ALL_EXPERIMENTS}
 
 

@@ -12,7 +12,7 @@ logged (a controller's output before the driver saturates it, which the
 plant sees clipped). Glitches can be injected where a real board makes
 them: a first-sample spike of the mean speed, dropouts to 0, and jumps of
 the pendulum angle. :func:`write_rig_csv` writes such a log, which
-:func:`iwp.data.read_rig_log` reads back; the tests run every path of
+:func:`iwp.data.rig_log.read_rig_log` reads back; the tests run every path of
 ``iwp fit`` this way with known truth.
 """
 
@@ -198,6 +198,21 @@ def prbs(n: int, *, hold: int, amplitude: float, seed: int = 0) -> np.ndarray:
 
     (The levels come from ``numpy.random.default_rng(seed)``; the sign changes at random multiples of
     ``hold``, as a PRBS of a rig's test does.)
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    hold : int
+        Samples each level is held at least.
+    amplitude : float
+        The two levels are ``+-amplitude`` [the rig's input units].
+    seed : int
+        Seed of the random signs.
+
+    Returns
+    -------
+    ndarray, shape (n,)
     """
     if n < 1 or hold < 1:
         raise InputError("prbs: n and hold must be >= 1")
@@ -208,7 +223,24 @@ def prbs(n: int, *, hold: int, amplitude: float, seed: int = 0) -> np.ndarray:
 
 def write_rig_csv(run: RigRun, path: str | os.PathLike, *, force: bool = False,
                   metadata: dict | None = None) -> Path:
-    """Write a run's columns as the rig's CSV log (header of the rig's names, one row per sample)."""
+    """Write a run's columns as the rig's CSV log (header of the rig's names, one row per sample).
+
+    Parameters
+    ----------
+    run : RigRun
+        The run of :meth:`DescribedRig.run`, its columns in the rig's units.
+    path : str or PathLike
+        The CSV file.
+    force : bool
+        Overwrite an existing file.
+    metadata : dict, optional
+        ``# key: value`` lines written before the header.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     p = prepare_output_file(path, force=force)
     names = list(run.columns)
     data = np.column_stack([run.columns[k] for k in names])

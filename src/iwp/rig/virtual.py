@@ -157,10 +157,6 @@ class VirtualRig:
             filter_tau : float
                 Time constant of the velocity filter of the controller [s].
 
-        The experiment runs on the truth of its session
-        (:attr:`ExperimentSpec.session`, :meth:`RigTruth.for_session`); the
-        log's metadata ``truth`` is that session's truth.
-
         Returns
         -------
         ExperimentData or StaticCurve
@@ -170,6 +166,12 @@ class VirtualRig:
         InputError
             Unknown experiment (the message lists the valid names), an
             option the experiment does not take, or a bad value.
+
+        Notes
+        -----
+        The experiment runs on the truth of its session
+        (:attr:`ExperimentSpec.session`, :meth:`RigTruth.for_session`); the
+        log's metadata ``truth`` is that session's truth.
         """
         spec = experiment_spec(name)
         bad = sorted(set(overrides) - set(spec.options))

@@ -135,10 +135,18 @@ class BatchResult:
     Attributes
     ----------
     t : ndarray, shape (n_out,)
+        Output times [s].
     x : ndarray, shape (n_runs, n_out, n_states)
+        States ``q1, q2, q3, q4`` [rad, rad, rad/s, rad/s] (belt models: and
+        the belt's two states).
     u, command : ndarray, shape (n_runs, n_out)
+        The input ``u`` of (9) and the command applied after the feedforward
+        (7)-(8) and the saturation [input units].
     status : ndarray of int, shape (n_runs,)
+        0 for a run that reached ``t_end``; else why it stopped (its samples
+        after the failure are NaN).
     nfev : ndarray of int, shape (n_runs,)
+        Evaluations of the right-hand side per run.
     """
 
     t: np.ndarray

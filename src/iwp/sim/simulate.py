@@ -466,9 +466,26 @@ def simulate_batch(
     run's result equals that of :func:`simulate` up to rounding. Other
     batches run one simulation per thread at a time.
 
+    Parameters
+    ----------
+    plant : Plant or LumpedParameters, or a list of them
+        The plants (one model).
+    model : str, optional
+        As :func:`simulate`.
+    x0 : array_like, or a list of them, optional
+        Initial states ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s].
+    t_end, t0, Ts : float
+        Final and initial time, output sample period [s].
+    input : Input, or a list of one type, optional
+        Inputs or laws (:mod:`iwp.sim.inputs`).
+    feedforward, saturation, rtol, atol, max_step, max_steps, t_eval
+        As :func:`simulate` (``saturation`` [input units], ``max_step`` [s]).
+
     Returns
     -------
     BatchResult
+        Times [s], states ``(n_runs, n_out, n_states)`` and inputs per run,
+        with a status per run (0: success).
     """
     lists = [len(v) for v in (plant, x0, input) if isinstance(v, (list, tuple)) and not _is_state(v)]
     if lists and len(set(lists)) != 1:
@@ -585,6 +602,35 @@ def simulate_scipy(
     Uses the compiled right-hand side of :mod:`iwp.models` with a continuous
     input (sampled inputs are not supported here). Slower than
     :func:`simulate`; meant for cross-checks.
+
+    Parameters
+    ----------
+    plant : Plant or LumpedParameters or PhysicalParameters
+        As :func:`simulate`.
+    model : str, optional
+        As :func:`simulate`.
+    x0 : array_like, optional
+        Initial state ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s] at ``t0``.
+    t_end, t0 : float
+        Final and initial time [s].
+    Ts : float
+        Output sample period [s].
+    input : Input, optional
+        A continuous input or law (:mod:`iwp.sim.inputs`); sampled inputs are refused.
+    feedforward : bool or (float, float), optional
+        The dead-zone feedforward (7)-(8), as :func:`simulate`.
+    saturation : float, optional
+        ``|command| <= saturation`` [input units].
+    method : str
+        The :func:`scipy.integrate.solve_ivp` method (default ``"DOP853"``).
+    rtol, atol : float
+        Tolerances of ``solve_ivp`` (``atol`` in the state's units).
+    t_eval : array_like, optional
+        Output times [s] instead of the grid of ``Ts``.
+
+    Returns
+    -------
+    SimulationResult
     """
     from scipy.integrate import solve_ivp
 

@@ -157,8 +157,23 @@ def uncertainty_record(r) -> dict[str, Any]:
 def load_uncertainty(path, *, argument: str = "params") -> ParameterUncertainty:
     """The parameter set and its uncertainty from a parameter file written by ``iwp fit`` (its ``covariance``).
 
-    Raises :class:`~iwp.errors.InputError` naming the file when it holds no
-    covariance (a parameter set alone: Table 1, ``iwp identify --out``).
+    Parameters
+    ----------
+    path : str or PathLike
+        The ``parameters.json`` of ``iwp fit``.
+    argument : str
+        The argument named in errors (a flag of the command line).
+
+    Returns
+    -------
+    ParameterUncertainty
+        The parameters (Table 1's units) and their covariance.
+
+    Raises
+    ------
+    InputError
+        Naming the file when it holds no covariance (a parameter set alone:
+        Table 1, ``iwp identify --out``).
     """
     params = load_params(path)
     if not isinstance(params, LumpedParameters):
