@@ -174,6 +174,14 @@ class LogFitResult:
         """Mean fit [%] per signal over the held-out logs (NaN without held-out logs)."""
         return _mean_fit(self.validation, self.outputs)
 
+    def validation_range(self) -> dict[str, tuple[float, float]]:
+        """Per signal, the lowest and the highest fit [%] of the held-out logs (a mean hides a failed log)."""
+        out = {}
+        for o in self.outputs:
+            vals = [f.fit[o] for f in self.validation if o in f.fit and math.isfinite(f.fit[o])]
+            out[o] = (float(min(vals)), float(max(vals))) if vals else (float("nan"), float("nan"))
+        return out
+
     @property
     def training_fit(self) -> dict[str, float]:
         """Mean fit [%] per signal over the training logs."""
@@ -223,6 +231,11 @@ class LogFitResult:
                     if f.coverage else "")
             kind = "" if f.kind == "free" else f" ({f.kind})"
             lines.append(f"{f.role:>8} {f.source}{kind}: fit {fits}{band}")
+        if len(self.validation) > 1:
+            rng = self.validation_range()
+            lines.append("held-out logs: " + ", ".join(
+                f"{o} mean {m:.2f} % (from {rng[o][0]:.2f} to {rng[o][1]:.2f} % over {len(self.validation)} logs)"
+                for o, m in self.validation_fit.items()))
         for w in self.warnings if warnings else ():
             lines.append(f"warning: {w}")
         lines.append(f"{self.elapsed:.3g} s")

@@ -162,7 +162,11 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
             summary=[("rig", result.rig.name or result.rig.source if result.rig is not None else "(iwp logs)"),
                      ("training logs", ", ".join(Path(f.source).name for f in result.train)),
                      ("held-out logs", ", ".join(Path(f.source).name for f in result.validation) or "none"),
-                     ("validation fit", ", ".join(f"{k} {fmt(v, 4)} %" for k, v in result.validation_fit.items())),
+                     ("validation fit", ", ".join(
+                         f"{k} mean {fmt(v, 4)} %" + (f" (from {fmt(result.validation_range()[k][0], 4)} to "
+                                                      f"{fmt(result.validation_range()[k][1], 4)} %)"
+                                                      if len(result.validation) > 1 else "")
+                         for k, v in result.validation_fit.items())),
                      ("time", f"{result.elapsed:.3g} s")],
             sections=[Section("Parameters and fits", tables=tables, anchor="fits"),
                       Section("Warnings", paragraphs=warn_par, anchor="warnings"),
