@@ -161,6 +161,9 @@ def run_lanes(
     YT = np.zeros((n, L))
     K = np.zeros((16, n, L))
     input_params_lanes = np.zeros((4, L))
+    for l in range(L):  # idle lanes evaluate a real run's input (zeros are a chirp of no sweep time: 1/0)
+        for i in range(4):
+            input_params_lanes[i, l] = input_params_runs[r0, i]
     H = np.zeros(L)
     ERR = np.zeros(L)
     T = np.full(L, t0)
