@@ -93,3 +93,36 @@ def load_uncertainty_arg(spec: str, flag: str = "--params"):
         msg = str(exc)
         raise InputError(msg if msg.startswith(flag) else f"{flag} {msg}") from None
 
+
+
+def draws_uncertainty(args):
+    """The fit's uncertainty for ``--draws N`` (``--params`` with its covariance), after checking ``--draws``,
+    ``--out`` (the folder for robust.json and robust.png) and ``--t-end`` before any work."""
+    from ..checks import check_positive
+    from ..control.robust import check_draws
+    from ..files import check_output_dir
+
+    check_draws(args.draws)
+    if args.out is None:
+        raise InputError("--draws needs --out DIR, the folder for robust.json and robust.png")
+    check_positive("t_end", args.t_end)
+    uncertainty = load_uncertainty_arg(args.params)
+    check_output_dir(args.out, force=args.force, argument="out")
+    return uncertainty
+
+
+def write_robust(robust, args) -> dict:
+    """Write a robust design's robust.json and robust.png into ``--out`` (staged); its summary for the JSON
+    output, without the runs, with the files written."""
+    import json
+    from pathlib import Path
+
+    from ..files import staged_dir
+    from ..plotting import savefig
+
+    with staged_dir(args.out, force=args.force, argument="out") as tmp:
+        (tmp / "robust.json").write_text(json.dumps(robust.to_dict(), indent=2))
+        savefig(robust.plot()["figure"], tmp / "robust.png")
+    summary = {k: v for k, v in robust.to_dict().items() if k != "runs"}
+    summary["files"] = {"json": str(Path(args.out) / "robust.json"), "figure": str(Path(args.out) / "robust.png")}
+    return summary

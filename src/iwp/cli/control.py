@@ -7,7 +7,16 @@ import json
 import sys
 
 from ..errors import InputError
-from ._common import add_draws_args, add_force_arg, add_params_arg, float_list, load_lumped, load_uncertainty_arg
+from ._common import (
+    add_draws_args,
+    add_force_arg,
+    add_params_arg,
+    draws_uncertainty,
+    float_list,
+    load_lumped,
+    load_uncertainty_arg,
+    write_robust,
+)
 from .portargs import add_port_args, open_port_rig, port_operator, port_progress
 
 _SWINGUP_DESCRIPTION = """\
@@ -158,25 +167,16 @@ def run_swingup(args) -> int:
 
 
 def run_lqr(args) -> int:
-    from ..checks import check_positive
     from ..control import lqr_balance
 
     if not args.ts >= 0.0 or args.ts == float("inf"):  # NaN, negative, infinite
         raise InputError(f"--ts must be a sample period >= 0 [s] (0: a continuous design), got {args.ts:g}")
     robust = None
     if args.draws is not None:
-        from ..control.robust import check_draws
-        from ..files import check_output_dir
-
-        check_draws(args.draws)
-        if args.out is None:
-            raise InputError("--draws needs --out DIR, the folder for robust.json and robust.png")
-        check_positive("t_end", args.t_end)
         if args.angles is not None and len(args.angles) == 0:
             raise InputError("--angles: give at least one angle")
-        uncertainty = load_uncertainty_arg(args.params)
+        uncertainty = draws_uncertainty(args)
         params = uncertainty.params
-        check_output_dir(args.out, force=args.force, argument="out")
     elif args.out is not None or args.angles is not None:
         raise InputError("--out and --angles belong to --draws; give --draws N (or drop them)")
     else:
@@ -187,20 +187,11 @@ def run_lqr(args) -> int:
          "unstable_direction": L.unstable_direction.tolist(), "capture_bound": L.capture_bound,
          "backend": L.backend}
     if args.draws is not None:
-        from pathlib import Path
-
         from ..control.robust import robust_balance
-        from ..files import staged_dir
-        from ..plotting import savefig
 
         robust = robust_balance(uncertainty, lqr=L, angles=args.angles, draws=args.draws, seed=args.seed,
                                 t_end=args.t_end)
-        with staged_dir(args.out, force=args.force, argument="out") as tmp:
-            (tmp / "robust.json").write_text(json.dumps(robust.to_dict(), indent=2))
-            savefig(robust.plot()["figure"], tmp / "robust.png")
-        d["robust"] = {k: v for k, v in robust.to_dict().items() if k != "runs"}
-        d["robust"]["files"] = {"json": str(Path(args.out) / "robust.json"),
-                                "figure": str(Path(args.out) / "robust.png")}
+        d["robust"] = write_robust(robust, args)
     if args.json:
         print(json.dumps(d, indent=2))
         return 0

@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_draws_args, add_force_arg, add_params_arg, load_lumped, load_uncertainty_arg
+from ._common import add_draws_args, add_force_arg, add_params_arg, draws_uncertainty, load_lumped, write_robust
 
 _HOPF_DESCRIPTION = """\
 Gains of u = k1 q3 + k2 q3^3 (section 5.3) that make the pendulum oscillate
@@ -78,22 +78,14 @@ def register(sub) -> None:
 
 
 def run_hopf(args) -> int:
-    from ..checks import check_finite, check_positive
+    from ..checks import check_finite
     from ..control import design_hopf, simulated_amplitude
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
 
     robust = None
     if args.draws is not None:
-        from ..control.robust import check_draws
-        from ..files import check_output_dir
-
-        check_draws(args.draws)
-        if args.out is None:
-            raise InputError("--draws needs --out DIR, the folder for robust.json and robust.png")
-        check_positive("t_end", args.t_end)
-        uncertainty = load_uncertainty_arg(args.params)
+        uncertainty = draws_uncertainty(args)
         params = uncertainty.params
-        check_output_dir(args.out, force=args.force, argument="out")
     elif args.out is not None:
         raise InputError("--out is the folder of --draws; give --draws N (or drop --out)")
     else:
@@ -107,17 +99,10 @@ def run_hopf(args) -> int:
     out = d.to_dict()
     if args.draws is not None:
         from ..control.robust import robust_hopf
-        from ..files import staged_dir
-        from ..plotting import savefig
 
         robust = robust_hopf(uncertainty, design=d, draws=args.draws, seed=args.seed, t_end=args.t_end,
                              window=min(10.0, args.t_end / 2))
-        files = {"json": str(Path(args.out) / "robust.json"), "figure": str(Path(args.out) / "robust.png")}
-        with staged_dir(args.out, force=args.force, argument="out") as tmp:
-            (tmp / "robust.json").write_text(json.dumps(robust.to_dict(), indent=2))
-            savefig(robust.plot()["figure"], tmp / "robust.png")
-        out["robust"] = {k: v for k, v in robust.to_dict().items() if k != "runs"}
-        out["robust"]["files"] = files
+        out["robust"] = write_robust(robust, args)
     sim = None
     if args.check:
         sim = simulated_amplitude(params, d.k1, d.k2)
