@@ -172,7 +172,7 @@ class LogFitResult:
     @property
     def validation_fit(self) -> dict[str, float]:
         """Mean fit [%] per signal over the held-out logs (NaN without held-out logs)."""
-        return _mean_fit(self.validation, self.outputs)
+        return _mean_fit([f.fit for f in self.validation], self.outputs)
 
     def validation_range(self) -> dict[str, tuple[float, float]]:
         """Per signal, the lowest and the highest fit [%] of the held-out logs (a mean hides a failed log)."""
@@ -185,7 +185,7 @@ class LogFitResult:
     @property
     def training_fit(self) -> dict[str, float]:
         """Mean fit [%] per signal over the training logs."""
-        return _mean_fit(self.train, self.outputs)
+        return _mean_fit([f.fit for f in self.train], self.outputs)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able summary (NaN -> None)."""
@@ -245,10 +245,11 @@ class LogFitResult:
         return self.summary()
 
 
-def _mean_fit(fits: list[LogFit], outputs) -> dict[str, float]:
+def _mean_fit(fits: Sequence[dict[str, float]], outputs) -> dict[str, float]:
+    """Per output, the mean of the finite fits [%] of the logs that compare it (NaN if none)."""
     out = {}
     for o in outputs:
-        vals = [f.fit[o] for f in fits if o in f.fit and math.isfinite(f.fit[o])]
+        vals = [f[o] for f in fits if o in f and math.isfinite(f[o])]
         out[o] = float(np.mean(vals)) if vals else float("nan")
     return out
 
@@ -775,21 +776,13 @@ class _Fitting:
             scores = np.array([float(np.mean([1.0 - f.fit[o] / 100.0 for o in self.outputs])) for f in scored])
             fr = r.fit_result
             aic, bic = information_criteria(fr.cost, fr.dof + len(fr.free), len(fr.free))
-            outcomes.append(RungOutcome(rg, len(r.free), scores, _mean_fit(scored, self.outputs),
-                                        _mean_fit_dicts(r.fit, self.outputs), aic, bic, bool(r.success),
+            outcomes.append(RungOutcome(rg, len(r.free), scores, _mean_fit([f.fit for f in scored], self.outputs),
+                                        _mean_fit(r.fit, self.outputs), aic, bic, bool(r.success),
                                         r.message, r))
         scored_on = ("held-out logs" if self.held_out else
                      "leave-one-log-out cross-validation" if folds else "training fit")
         n = len(self.held_out) if self.held_out else (len(self.train) if folds else 0)
         return LadderResult(outcomes, select(outcomes), scored_on, n)
-
-
-def _mean_fit_dicts(fits: list[dict[str, float]], outputs) -> dict[str, float]:
-    out = {}
-    for o in outputs:
-        vals = [f[o] for f in fits if o in f and math.isfinite(f[o])]
-        out[o] = float(np.mean(vals)) if vals else float("nan")
-    return out
 
 
 def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset: float, msgs: list[str],

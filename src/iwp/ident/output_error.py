@@ -412,16 +412,16 @@ class OutputError:
     def _check_outputs(self, exps: list[Experiment]) -> None:
         # an experiment compares the outputs its kind moves (a clamped pendulum's angle is no output of it);
         # every experiment must compare one at least, and a plant that holds an output still everywhere has none
-        for i, e in enumerate(exps):
-            variant = plant_for_kind(self.plant, e.kind)
+        variants = [plant_for_kind(self.plant, e.kind) for e in exps]
+        for i, (e, variant) in enumerate(zip(exps, variants)):
             if not any(o in variant.outputs for o in self.outputs):
                 where = "" if len(exps) == 1 else f"experiment {i} ({e.data.source}, {e.kind}): "
                 why = "has no wheel motion" if variant.wheel_held else "has the pendulum locked"
                 raise InputError(f"{where}model {variant.model!r} {why}: it moves {', '.join(variant.outputs)} "
                                  f"only; the outputs {', '.join(self.outputs)} compare none of them")
-        still = [o for o in self.outputs if not any(o in plant_for_kind(self.plant, e.kind).outputs for e in exps)]
+        still = [o for o in self.outputs if not any(o in v.outputs for v in variants)]
         if still:
-            moved = sorted({o for e in exps for o in plant_for_kind(self.plant, e.kind).outputs})
+            moved = sorted({o for v in variants for o in v.outputs})
             why = ("has no wheel motion" if any(o in ("q2", "q4") for o in still) else "has the pendulum locked")
             raise InputError(f"model {self.plant.model!r} {why} in these experiments: {', '.join(still)} stay "
                              f"still; its outputs are {', '.join(moved)}")

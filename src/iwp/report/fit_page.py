@@ -92,7 +92,8 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         figures: list[FigureEntry] = []
         fig_paths: list[Path] = []
         used: set = set()
-        for f in result.train + _shown(result.validation):
+        shown = _shown(result.validation)
+        for f in result.train + shown:
             name = _safe(f"{f.role}_{Path(f.source).stem}", used)
             png, written = _log_figure(f, tmp, name)
             fig_paths += [out / w.relative_to(tmp) for w in written]
@@ -150,11 +151,11 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                 note="score: the mean over the signals of 1 - fit/100 on each scoring log, averaged; chosen: the "
                      "simplest structure whose log ratio to the best is not significantly above zero (one-sided "
                      f"t-test at 5 %, {sel.method}); BIC assumes white residuals and is shown for comparison only"))
-        shown = _shown(result.validation)
         if len(shown) < len(result.validation):
             tables[-1].note += (f"; figures are drawn for the training logs and {len(shown)} of the "
                                 f"{len(result.validation)} held-out logs (the worst and the best fits of q1)")
         warn_par = [f"Warning: {w}" for w in result.warnings] or ["No warnings."]
+        span = result.validation_range()
         rep = Report(
             title="Model fitted to a rig's logs and validated on held-out logs",
             subtitle=f"model {result.model} ({'(6) with dead zone' if result.model == 'raw' else '(9)'}), "
@@ -163,8 +164,7 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                      ("training logs", ", ".join(Path(f.source).name for f in result.train)),
                      ("held-out logs", ", ".join(Path(f.source).name for f in result.validation) or "none"),
                      ("validation fit", ", ".join(
-                         f"{k} mean {fmt(v, 4)} %" + (f" (from {fmt(result.validation_range()[k][0], 4)} to "
-                                                      f"{fmt(result.validation_range()[k][1], 4)} %)"
+                         f"{k} mean {fmt(v, 4)} %" + (f" (from {fmt(span[k][0], 4)} to {fmt(span[k][1], 4)} %)"
                                                       if len(result.validation) > 1 else "")
                          for k, v in result.validation_fit.items())),
                      ("time", f"{result.elapsed:.3g} s")],
