@@ -148,7 +148,8 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                 f"Model structures, ranked on {lad.scored_on} ({lad.n_scored} logs)",
                 ["structure", "free parameters"] + [f"fit {k} [%]" for k in outs]
                 + ["score", "ln(score / best)", "BIC (training)", "converged"], lrows,
-                note="score: the mean over the signals of 1 - fit/100 on each scoring log, averaged; chosen: the "
+                note="score: the mean over the signals of 1 - fit/100 on each scoring log, geometric mean over the "
+                     "logs; best: the lowest score; chosen: the "
                      "simplest structure whose log ratio to the best is not significantly above zero (one-sided "
                      f"t-test at 5 %, {sel.method}); BIC assumes white residuals and is shown for comparison only"))
         if len(shown) < len(result.validation):
