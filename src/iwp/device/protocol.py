@@ -257,7 +257,23 @@ PARAM_BY_ID: dict[int, Param] = {p.id: p for p in PARAMS.values()}
 
 
 def param(name: str) -> Param:
-    """The parameter ``name``; :class:`ProtocolError` listing the names for an unknown one."""
+    """The parameter ``name``; :class:`ProtocolError` listing the names for an unknown one.
+
+    Parameters
+    ----------
+    name : str
+        Device parameter name, a key of :data:`PARAMS`.
+
+    Returns
+    -------
+    Param
+        Its id, unit and limits.
+
+    Raises
+    ------
+    ProtocolError
+        Unknown name.
+    """
     if name not in PARAMS:
         raise ProtocolError(f"unknown device parameter {name!r}; known: {', '.join(PARAMS)}")
     return PARAMS[name]
@@ -279,7 +295,25 @@ class Decoded:
 
 
 def encode(name: str, **values: Any) -> bytes:
-    """The payload of message ``name`` with ``values`` (every field, nothing else)."""
+    """The payload of message ``name`` with ``values`` (every field, nothing else).
+
+    Parameters
+    ----------
+    name : str
+        Message name, a key of :data:`MESSAGES`.
+    **values
+        Every field of the message, by name, and no other.
+
+    Returns
+    -------
+    bytes
+        The payload: the message's type byte, then its fields (little-endian, the message's struct).
+
+    Raises
+    ------
+    ProtocolError
+        Unknown message, missing or extra fields, or a value its field cannot hold.
+    """
     m = MESSAGES.get(name)
     if m is None:
         raise ProtocolError(f"unknown message {name!r}")
@@ -293,7 +327,23 @@ def encode(name: str, **values: Any) -> bytes:
 
 
 def decode(payload: bytes) -> Decoded:
-    """The message in ``payload``; :class:`ProtocolError` for an unknown type or a wrong length."""
+    """The message in ``payload``; :class:`ProtocolError` for an unknown type or a wrong length.
+
+    Parameters
+    ----------
+    payload : bytes
+        Payload of one frame (type byte first).
+
+    Returns
+    -------
+    Decoded
+        The message and its field values by name.
+
+    Raises
+    ------
+    ProtocolError
+        Empty payload, unknown message type or a length other than the message's.
+    """
     if not payload:
         raise ProtocolError("empty payload")
     m = MESSAGE_BY_ID.get(payload[0])
@@ -346,12 +396,38 @@ def params_table() -> str:
 
 
 def flag_names(flags: int, table: Mapping[str, int] = FLAGS) -> list[str]:
-    """The names of the bits set in ``flags``."""
+    """The names of the bits set in ``flags``.
+
+    Parameters
+    ----------
+    flags : int
+        Bit field.
+    table : mapping of str to int, default FLAGS
+        Bit of each name.
+
+    Returns
+    -------
+    list of str
+        Names whose bits are set, in the table's order.
+    """
     return [k for k, v in table.items() if flags & v]
 
 
 def name_of(table: Mapping[str, int], value: int) -> str:
-    """The name of ``value`` in one of the tables (``STATES``, ``FAULTS``, ...), or its number."""
+    """The name of ``value`` in one of the tables (``STATES``, ``FAULTS``, ...), or its number.
+
+    Parameters
+    ----------
+    table : mapping of str to int
+        Value of each name.
+    value : int
+        Value to name.
+
+    Returns
+    -------
+    str
+        The first name with that value, else ``str(value)``.
+    """
     for k, v in table.items():
         if v == value:
             return k

@@ -124,7 +124,18 @@ class Sample:
 
 
 def params_hash(values: dict[str, float]) -> int:
-    """FNV-1a of the parameters as float32 in id order: the device's ``params_hash``."""
+    """FNV-1a of the parameters as float32 in id order: the device's ``params_hash``.
+
+    Parameters
+    ----------
+    values : dict of str to float
+        Value of every device parameter (:data:`PARAMS`), by name, in its unit.
+
+    Returns
+    -------
+    int
+        The 32-bit hash.
+    """
     h = 2166136261
     for p in sorted(PARAMS.values(), key=lambda p: p.id):
         for b in struct.pack("<f", values[p.name]):
@@ -414,7 +425,20 @@ class Rig:
 
 
 def connect(port: str, *, baudrate: int = DEFAULT_BAUD) -> Rig:
-    """Open the rig on ``port`` (see :class:`Rig`)."""
+    """Open the rig on ``port`` (see :class:`Rig`).
+
+    Parameters
+    ----------
+    port : str
+        Serial device, pseudo-terminal or pyserial URL.
+    baudrate : int, default DEFAULT_BAUD
+        Baud rate of the serial link.
+
+    Returns
+    -------
+    Rig
+        The open rig.
+    """
     return Rig(port, baudrate=baudrate)
 
 
