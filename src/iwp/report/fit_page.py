@@ -81,10 +81,25 @@ def _shown(fits: list) -> list:
 def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> dict:
     """Write the files of a :class:`~iwp.ident.logfit.LogFitResult` into the folder ``out`` (see the module).
 
+    Parameters
+    ----------
+    result : LogFitResult
+        What :func:`~iwp.ident.logfit.fit_logs` returned.
+    out : str or path-like
+        Output folder: ``report.html``, ``fit.json``, ``parameters.json`` and ``figures/``. The files are written
+        into a hidden sibling and moved into place only when all are written.
+    force : bool, default False
+        Allow writing into an existing folder that is not empty.
+
     Returns
     -------
     dict
         ``{"folder": Path, "report": Path, "json": Path, "parameters": Path, "figures": [Path]}``.
+
+    Raises
+    ------
+    InputError
+        ``out`` exists and is not empty, without ``force``.
     """
     out = Path(out)
     r = result.refinement
