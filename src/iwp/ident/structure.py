@@ -101,12 +101,41 @@ RUNGS: dict[str, Rung] = {r.name: r for r in (
 
 
 def ladder(raw_command: bool) -> tuple[Rung, ...]:
-    """The rungs for logs whose input is a raw command ``v`` (with the dead zone rung) or a compensated ``u``."""
+    """The rungs for logs whose input is a raw command ``v`` (with the dead zone rung) or a compensated ``u``.
+
+    Parameters
+    ----------
+    raw_command : bool
+        True for logs of ``v`` (all rungs), False for logs of ``u`` (the rungs without the dead zone).
+
+    Returns
+    -------
+    tuple of Rung
+        The rungs, simplest first (the order of :data:`RUNGS`).
+    """
     return tuple(r for r in RUNGS.values() if raw_command or "dead_zone" not in r.flags)
 
 
 def rung(name: str, *, argument: str = "model") -> Rung:
-    """The rung called ``name`` (a clear error naming ``argument`` otherwise)."""
+    """The rung called ``name`` (a clear error naming ``argument`` otherwise).
+
+    Parameters
+    ----------
+    name : str
+        Rung name, a key of :data:`RUNGS`.
+    argument : str, default "model"
+        Name of the argument in the error message.
+
+    Returns
+    -------
+    Rung
+        The rung.
+
+    Raises
+    ------
+    InputError
+        Unknown name (the message lists the rungs).
+    """
     if name not in RUNGS:
         raise InputError(f"{argument}: unknown model structure {name!r}; choose from {', '.join(RUNGS)}",
                          argument=argument)
@@ -121,6 +150,22 @@ def information_criteria(cost: float, n_rows: int, n_unknowns: int) -> tuple[flo
     the unknowns (initial states and offsets included). Both assume white
     residuals, which a simulation error never has; they are shown beside the
     held-out ranking, not used for it (but with one scoring log).
+
+    Parameters
+    ----------
+    cost : float
+        Half the weighted residual sum of squares at the optimum.
+    n_rows : int
+        Residuals used.
+    n_unknowns : int
+        Estimated unknowns.
+
+    Returns
+    -------
+    aic : float
+        Akaike's criterion; NaN without rows or a positive finite cost.
+    bic : float
+        The Bayesian criterion; NaN likewise.
     """
     if n_rows <= 0 or not (cost > 0) or not math.isfinite(cost):
         return float("nan"), float("nan")
