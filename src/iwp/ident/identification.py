@@ -556,6 +556,7 @@ def load_pendulum(path: str | os.PathLike) -> Any:
     Returns
     -------
     IdentificationResult or LumpedParameters
+        The identification result (with uncertainties), or lumped parameters (values only).
 
     Raises
     ------
