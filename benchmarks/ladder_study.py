@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import sys
 import tempfile
 import time
 import warnings
@@ -99,6 +100,7 @@ def main(argv=None) -> int:
         picks, inside, times = collections.Counter(), [], []
         for seed in range(args.seeds):
             chosen, ins, el = one(name, seed, args.cv, args.duration, args.held)
+            print(f"  truth {name}, seed {seed}: chose {chosen} ({el:.1f} s)", file=sys.stderr, flush=True)
             picks[chosen] += 1
             inside += ins
             times.append(el)

@@ -79,6 +79,13 @@ class ParameterInfo:
         Bounds of a fit on a log scale (the belt's parameters and the disk's
         Coulomb friction, fitted by simulation error from the disk velocity);
         None: the parameter is not fitted on a log scale.
+    floor : float
+        The lowest value a fit on a linear scale may give (default 0). The
+        Coulomb signs' smoothing widths have 1e-3 rad/s: thirty times finer
+        than the speed resolution of any logged rig (one count per sample:
+        0.03 rad/s for 4,096 counts at 50 ms), so a narrower width is not
+        told apart by data, and it makes the model stiff (a width of 3e-7
+        rad/s took a fit of 100 s instead of 2 s).
     """
 
     name: str
@@ -88,6 +95,7 @@ class ParameterInfo:
     sign: str
     description: str
     fit_range: tuple[float, float] | None = None
+    floor: float = 0.0
 
     def default_bounds(self, log: bool = False) -> tuple[float, float]:
         """Default ``(low, high)`` of a fit: ``fit_range`` on a log scale, else from the physical sign."""
@@ -98,7 +106,7 @@ class ParameterInfo:
         if self.sign == "positive":
             return (1e-12 * self.typical, math.inf)
         if self.sign == "nonnegative":
-            return (0.0, math.inf)
+            return (self.floor, math.inf)
         return (-math.inf, math.inf)
 
 
@@ -122,9 +130,9 @@ LUMPED_INFO: dict[str, ParameterInfo] = _info("lumped", (
     ("sigma_c1", "rad/s^2", 0.05, "nonnegative", "Coulomb friction of the pendulum joint over I1_hat"),
     ("u_offset", "in", 1.0, "signed", "offset of the input"),
     ("eps_c1", "rad/s", 0.01, "nonnegative", "smoothing width of the pendulum's Coulomb sign (0: the plant's)",
-     (1e-3, 2.0)),
+     (1e-3, 2.0), 1e-3),
     ("eps_c2", "rad/s", 0.01, "nonnegative", "smoothing width of the disk's Coulomb sign (0: the plant's)",
-     (1e-3, 2.0)),
+     (1e-3, 2.0), 1e-3),
 ))
 
 #: The belt (15) and figure 5, by name.
