@@ -135,18 +135,31 @@ class BatchResult:
     Attributes
     ----------
     t : ndarray, shape (n_out,)
-    x : ndarray, shape (n_runs, n_out, n_states)
-    u, command : ndarray, shape (n_runs, n_out)
+        The output times [s] (those the summary runs over with ``store="summary"``).
+    x : ndarray, shape (n_runs, n_out, n_states), or None
+        The states at the output times (``store="samples"``).
+    u, command : ndarray, shape (n_runs, n_out), or None
+        The ideal input and the command (``store="samples"``).
     status : ndarray of int, shape (n_runs,)
     nfev : ndarray of int, shape (n_runs,)
+    x_final : ndarray, shape (n_runs, n_states)
+        The state each run reached (at ``t_end`` when it succeeded) [rad, rad/s].
+    summary : dict of str to ndarray, shape (n_runs, n_states), or None
+        ``store="summary"``: ``min``, ``max``, ``mean`` and ``rms`` of each
+        state over the output times (NaN for a failed run).
+    store : str
+        What was kept: ``"samples"``, ``"final"`` or ``"summary"``.
     """
 
     t: np.ndarray
-    x: np.ndarray
-    u: np.ndarray
-    command: np.ndarray
+    x: np.ndarray | None
+    u: np.ndarray | None
+    command: np.ndarray | None
     status: np.ndarray
     nfev: np.ndarray
+    x_final: np.ndarray | None = None
+    summary: dict | None = None
+    store: str = "samples"
 
     @property
     def success(self) -> np.ndarray:
