@@ -128,7 +128,7 @@ def run_field(bt, r, held, uval, hval):
 
 
 @jit(inline=True)
-def _plain_stages(cps, T, Y, H, K, YT, IPL, PL, n, L):
+def plain_stages(cps, T, Y, H, K, YT, IPL, PL, n, L):
     """Stages 1-12 of every lane, model (9) without optional terms and the continuous Hopf law (vectorised)."""
     for s in range(1, N_STAGES + 1):
         stage_input_lanes(s, Y, H, K, YT, n, L)
@@ -140,7 +140,7 @@ def _plain_stages(cps, T, Y, H, K, YT, IPL, PL, n, L):
 
 
 @jit(inline=True)
-def _general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L):
+def general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L):
     """Stages 1-12 of every lane, any model and input: one call per lane and stage."""
     for s in range(1, N_STAGES + 1):
         stage_input_lanes(s, Y, H, K, YT, n, L)
@@ -434,9 +434,9 @@ def run_lanes(n, bt, tol, out, r0, r1):
             for l in range(L):
                 K[0, i, l] = F[i, l]
         if plain:
-            _plain_stages(cps, T, Y, H, K, YT, IPL, PL, n, L)
+            plain_stages(cps, T, Y, H, K, YT, IPL, PL, n, L)
         else:
-            _general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L)
+            general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L)
         error_norm_lanes(K, H, Y, YT, tol.rtol, tol.atol, n, L, ERR)
         # ---- 3. all lanes: accept the ordinary steps (branch-free)
         for l in range(L):
