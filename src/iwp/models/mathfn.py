@@ -1,21 +1,14 @@
-"""Elementary functions for the compiled hot loops, written out so that they vectorise.
+"""Sine and cosine for the compiled right-hand sides.
 
 :func:`sincos` is fdlibm's algorithm written out, so that it inlines into the
 integrator, overlaps with the stage arithmetic and vectorises across
 simulations run side by side (:mod:`iwp.sim.lanes`); libm's ``sin`` and
-``cos`` are two library calls that do neither. :func:`log_pos` and
-:func:`exp_small` serve the step-size controller (:mod:`iwp.sim.controller`)
-the same way: its factor is computed for every simulation of a block in one
-vector loop.
+``cos`` are two library calls that do neither.
 """
 
 from __future__ import annotations
 
 import math
-
-from llvmlite import ir
-from numba import types
-from numba.extending import intrinsic
 
 from ..jit import jit
 
@@ -65,71 +58,3 @@ def sincos(x):
     if (n + 1) & 2:
         cq = -cq
     return sq, cq
-
-
-# --------------------------------------------------------------------------
-# logarithm and exponential of the step-size controller
-# --------------------------------------------------------------------------
-_LN2 = 0.6931471805599453
-_INVLN2 = 1.4426950408889634
-_SQRT2 = 1.4142135623730951
-
-
-@intrinsic
-def _bits(typingctx, x):
-    """The IEEE bits of a float64 as an int64."""
-    if not isinstance(x, types.Float):
-        return None
-
-    def codegen(context, builder, sig, args):
-        return builder.bitcast(context.cast(builder, args[0], sig.args[0], types.float64), ir.IntType(64))
-
-    return types.int64(x), codegen
-
-
-@intrinsic
-def _from_bits(typingctx, i):
-    """The float64 whose IEEE bits are the int64 ``i``."""
-    if not isinstance(i, types.Integer):
-        return None
-
-    def codegen(context, builder, sig, args):
-        return builder.bitcast(context.cast(builder, args[0], sig.args[0], types.int64), ir.DoubleType())
-
-    return types.float64(i), codegen
-
-
-@jit(inline=True, exact=True)
-def log_pos(x):
-    """``ln x`` for a positive normal ``x``, within 1e-15 absolute of libm for ``x`` in [1e-300, 1e300].
-
-    Exponent and mantissa from the bits, ``m`` in [sqrt(1/2), sqrt(2)),
-    ``ln m = 2 atanh((m - 1)/(m + 1))`` by its series to the 15th power
-    (``|s| <= 0.172``). No branch and no library call: it vectorises.
-    """
-    b = _bits(x)
-    e = (b >> 52) - 1023
-    m = _from_bits((b & 0x000FFFFFFFFFFFFF) | 0x3FF0000000000000)
-    big = m > _SQRT2
-    m = m * 0.5 if big else m
-    e = e + 1 if big else e
-    s = (m - 1.0) / (m + 1.0)
-    z = s * s
-    p = 1.0 + z * (1.0 / 3.0 + z * (0.2 + z * (1.0 / 7.0 + z * (1.0 / 9.0 + z * (1.0 / 11.0 + z * (
-        1.0 / 13.0 + z * (1.0 / 15.0 + z * (1.0 / 17.0))))))))
-    return e * _LN2 + 2.0 * s * p
-
-
-@jit(inline=True, exact=True)
-def exp_small(x):
-    """``e^x`` for ``|x| <= 700``, within 2e-15 relative of libm (no branch, no library call).
-
-    ``x = k ln 2 + r`` with ``|r| <= ln(2)/2``; ``e^r`` by its Taylor
-    polynomial to degree 13, ``2^k`` from the bits.
-    """
-    k = math.floor(x * _INVLN2 + 0.5)
-    r = (x - k * 0.6931471803691238) - k * 1.9082149292705877e-10
-    p = 1.0 + r * (1.0 + r * (0.5 + r * (1.0 / 6.0 + r * (1.0 / 24.0 + r * (1.0 / 120.0 + r * (1.0 / 720.0 + r * (
-        1.0 / 5040.0 + r * (1.0 / 40320.0 + r * (1.0 / 362880.0 + r * (1.0 / 3628800.0 + r * (
-            1.0 / 39916800.0 + r * (1.0 / 479001600.0 + r / 6227020800.0))))))))))))
-    return p * _from_bits((int(k) + 1023) << 52)

@@ -70,7 +70,6 @@ from ..models.layout import (
     N_PACK,
     SA,
 )
-from ..models.mathfn import sincos
 from .controller import (
     LERR_FLOOR,
     accept_factor,
@@ -409,11 +408,25 @@ def switch_of(kinked, q1):
 
     The rolling friction ``sigma_a1 |cos q1| q3`` of section 3.1 has a kink
     where ``cos q1 = 0``; a Runge-Kutta step across it loses its order and its
-    error estimate. The cosine is :func:`~iwp.models.mathfn.sincos`'s, which
-    vectorises across lanes.
+    error estimate.
     """
-    c = sincos(q1)[1]
-    return c if kinked else 1.0
+    return math.cos(q1) if kinked else 1.0
+
+
+@jit(inline=True)
+def may_cross(q_a, q_b):
+    """False only if ``cos q`` surely has one sign at ``q_a`` and ``q_b`` (branch-free, vectorises).
+
+    The same half-period ``floor((q - pi/2)/pi)`` at both ends, neither within
+    1e-9 rad of a kink: then :func:`switch_of` has one sign at both, so the
+    lanes need no cosine for a step that crosses nothing.
+    """
+    m_a = (q_a - 0.5 * math.pi) / math.pi
+    m_b = (q_b - 0.5 * math.pi) / math.pi
+    f_a = math.floor(m_a)
+    f_b = math.floor(m_b)
+    near = (m_a - f_a < 1e-9) | (f_a + 1.0 - m_a < 1e-9) | (m_b - f_b < 1e-9) | (f_b + 1.0 - m_b < 1e-9)
+    return (f_a != f_b) | near | (not (abs(q_a) < 1e9)) | (not (abs(q_b) < 1e9))
 
 
 @jit
@@ -941,6 +954,7 @@ __all__ = [
     "STORE_SAMPLES",
     "STORE_SUMMARY",
     "samples_output",
+    "may_cross",
     "RunStats",
     "Segments",
     "SensView",

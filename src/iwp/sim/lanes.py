@@ -14,8 +14,8 @@ Each step of a block has four parts:
    segment, conclude a step that was not ordinary (rejected, interpolated,
    crossing a kink), plan a step near a kink (with the RK4 bridge);
 2. all lanes at once: the DOP853 stages and error norms (vectorised);
-3. all lanes at once: accept the ordinary steps (the controller's factor,
-   the new state) -- branch-free, so it vectorises too;
+3. all lanes at once: accept the ordinary steps (the new state,
+   branch-free, vectorised; the controller's factor lane by lane);
 4. all lanes at once: plan the next ordinary steps; a lane near a kink or at
    a segment end is left to part 1.
 
@@ -68,6 +68,7 @@ from .engine import (
     is_held,
     kink_possible,
     kink_step,
+    may_cross,
     min_step,
     new_work,
     plan_step,
@@ -195,7 +196,6 @@ def run_lanes(n, bt, tol, out, r0, r1):
     LERRP = np.zeros(L)  # log of the previous error (PI control)
     HLAST = np.full(L, -1.0)
     ALAST = np.zeros(L)
-    GCUR = np.ones(L)
     RUN = np.full(L, r0)
     ACTIVE = np.zeros(L, dtype=np.bool_)
     MODE = np.full(L, M_PLAN)
@@ -243,8 +243,9 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     if HN[l] < min_step(t):
                         STAT[l] = ST_STEP_TOO_SMALL
                 else:
+                    g_cur = switch_of(KINKED[l], ys[0])
                     g_new = switch_of(KINKED[l], YT[0, l])
-                    crossing = PLAN[l] & FORCED == 0 and GCUR[l] * g_new < 0.0
+                    crossing = PLAN[l] & FORCED == 0 and g_cur * g_new < 0.0
                     t_new = TB[l] if PLAN[l] & CLIPPED != 0 else t + h
                     if crossing or TNEXT[l] < t_new - tol_t:
                         wK = wk.K
@@ -257,7 +258,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         NFEV[l] += 3
                     h_force = -1.0
                     if crossing:
-                        h_force = kink_step(model, fld.P, wk.F, ys, h, t, GCUR[l], g_new, wk.yo, n)
+                        h_force = kink_step(model, fld.P, wk.F, ys, h, t, g_cur, g_new, wk.yo, n)
                     if h_force > 0.0 and h_force < h:
                         NREJ[l] += 1
                         HF[l] = h_force
@@ -281,7 +282,6 @@ def run_lanes(n, bt, tol, out, r0, r1):
                             ys[i] = YT[i, l]
                             F[i, l] = fs[i]
                             Y[i, l] = ys[i]
-                        GCUR[l] = g_new
                         T[l] = t_new
                         mode = M_POST
             if mode == M_POST:
@@ -374,7 +374,6 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     REJ[l] = False
                     HF[l] = -1.0
                     LERRP[l] = LERR_FLOOR
-                    GCUR[l] = switch_of(KINKED[l], ys[0])
                     HLAST[l] = -1.0
                     ALAST[l] = 0.0
                     BRIDGED[l] = False
@@ -407,7 +406,6 @@ def run_lanes(n, bt, tol, out, r0, r1):
                             Y[i, l] = ys[i]
                         t = t + hb
                         T[l] = t
-                        GCUR[l] = switch_of(KINKED[l], ys[0])
                         NACC[l] += 1
                         BRIDGED[l] = True
                         if beyond(ys, n, xmax):
@@ -438,26 +436,31 @@ def run_lanes(n, bt, tol, out, r0, r1):
         else:
             general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L)
         error_norm_lanes(K, H, Y, YT, tol.rtol, tol.atol, n, L, ERR)
-        # ---- 3. all lanes: accept the ordinary steps (branch-free)
+        # ---- 3. all lanes: accept the ordinary steps (branch-free but for the controller's factor)
         for l in range(L):
             err = ERR[l]
             h = H[l]
-            g_new = switch_of(KINKED[l], YT[0, l])
+            # a step that may cross a kink is concluded lane by lane (with the cosine)
+            crossless = (not KINKED[l]) | (PLAN[l] & FORCED != 0) | (not may_cross(Y[0, l], YT[0, l]))
             ok = (MODE[l] == M_READY) & (err < 1.0) & (PLAN[l] & (FORCED | CLIPPED) == 0)
-            ok = ok & (GCUR[l] * g_new >= 0.0) & (TNEXT[l] >= T[l] + h - tol_t)
-            factor = accept_factor(err, LERRP[l])
-            factor = min(1.0, factor) if REJ[l] else factor
+            ok = ok & crossless & (TNEXT[l] >= T[l] + h - tol_t)
             DONE[l] = ok
-            LERRP[l] = log_error(err) if ok else LERRP[l]
-            REJ[l] = REJ[l] and not ok
-            HN[l] = next_step_size(h, HN[l], factor, PLAN[l] == 0) if ok else HN[l]
             ALAST[l] = F[2, l] if ok else ALAST[l]
-            HLAST[l] = h if ok else HLAST[l]
-            GCUR[l] = g_new if ok else GCUR[l]
+            # t_new - t, as integrate has it (not h: they differ by rounding)
+            HLAST[l] = (T[l] + h) - T[l] if ok else HLAST[l]
             T[l] = T[l] + h if ok else T[l]
             NACC[l] += 1 if ok else 0
             NFEV[l] += N_STAGES if ok else 0
             MODE[l] = M_DECIDE if MODE[l] == M_READY and not ok else MODE[l]
+        for l in range(L):
+            # the controller (libm's log and exp: lane by lane)
+            if DONE[l]:
+                factor = accept_factor(ERR[l], LERRP[l])
+                if REJ[l]:
+                    factor = min(1.0, factor)
+                REJ[l] = False
+                LERRP[l] = log_error(ERR[l])
+                HN[l] = next_step_size(H[l], HN[l], factor, PLAN[l] == 0)
         for i in range(n):
             for l in range(L):
                 Y[i, l] = YT[i, l] if DONE[l] else Y[i, l]
