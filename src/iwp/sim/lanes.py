@@ -53,6 +53,7 @@ from .engine import (
     ST_MAX_STEPS,
     ST_OK,
     ST_STEP_TOO_SMALL,
+    STORE_SAMPLES,
     Field,
     Output,
     Segments,
@@ -65,6 +66,7 @@ from .engine import (
     held_field,
     hermite,
     hold_of,
+    input_samples,
     is_held,
     kink_possible,
     kink_step,
@@ -117,8 +119,12 @@ def _lane_input_params(IPL, l):
 
 @jit(inline=True)
 def run_output(out, r):
-    """The :class:`~iwp.sim.engine.Output` of run ``r`` of a batch."""
-    return Output(out.t, out.X[r], out.U[r], out.W[r], True, out.store, out.S[r])
+    """The :class:`~iwp.sim.engine.Output` of run ``r`` of a batch.
+
+    A continuous input is not recorded sample by sample: its columns are
+    computed from the states when the run ends (:func:`~iwp.sim.engine.input_samples`).
+    """
+    return Output(out.t, out.X[r], out.U[r], out.W[r], False, out.store, out.S[r])
 
 
 @jit(inline=True)
@@ -305,6 +311,9 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         while j < n_out and t_out[j] <= t_end + tol_t:
                             put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
                             j += 1
+                    if not held and out.store == STORE_SAMPLES:
+                        input_samples(bt.kind, fld.input_params, fld.command_params, t_out[:j], o.X[:j], o.U[:j],
+                                      o.W[:j])
                     put_unreached(o, j, n)
                     for i in range(n):
                         out.x_final[r, i] = ys[i]
