@@ -308,3 +308,7 @@ def main():
     print(f"| `prediction_band(..., method='monte-carlo', draws=1000)` | {w_mc:.2f} | {c_mc:.2f} | "
           f"{w_mc / w_one:.0f} |")
     print(f"\n{band.n_draws} draws simulated; target (issue 20): the band in <= 2 s on 2 cores.")
+
+
+if __name__ == "__main__":
+    main()
