@@ -736,6 +736,9 @@ def integrate(n, system, seg, tol, sens, span, out):
     wk = new_work(n)
     K = wk.K
     y_new = wk.y_new
+    F_dense = wk.F
+    X_out = out.X
+    rows_only = out.store == STORE_SAMPLES and not held and not out.record_u
     tol_t = 1e-9 * max(1.0, abs(t_end))
     t = span.t0
     j = 0
@@ -854,7 +857,13 @@ def integrate(n, system, seg, tol, sens, span, out):
             rejected = False
             h_nat = next_step_size(h, h_nat, factor, plan.flags == 0)
             nacc += 1
-            # dense output strictly inside (t, t_new)
+            # dense output strictly inside (t, t_new); states only: straight into
+            # their rows (put_dense's first case, without a call per sample)
+            if rows_only:
+                rh = 1.0 / h
+                while j < n_out and t_out[j] < t_new - tol_t:
+                    dense_eval_row(F_dense, y, (t_out[j] - t) * rh, X_out, j, n)
+                    j += 1
             while j < n_out and t_out[j] < t_new - tol_t:
                 put_dense(out, j, t_out[j], t, h, y, n, fld, wk)
                 j += 1
