@@ -307,7 +307,7 @@ def main():
     print(f"| `simulate_batch` of the 1,000 plants (samples kept) | {w_b1:.2f} | {c_b1:.2f} | {w_b1 / w_one:.0f} |")
     print(f"| `prediction_band(..., method='monte-carlo', draws=1000)` | {w_mc:.2f} | {c_mc:.2f} | "
           f"{w_mc / w_one:.0f} |")
-    print(f"\n{band.n_draws} draws simulated; target (issue 20): the band in <= 2 s on 2 cores.")
+    print(f"\n{band.draws} draws simulated; target (issue 20): the band in <= 2 s on 2 cores.")
 
 
 if __name__ == "__main__":
