@@ -330,6 +330,77 @@ def cases() -> list[Case]:
                     ("--force",)))
     out.append(Case("free/wrong-setup-on-free-log", ("identify", "{d}/log.csv", "--setup", "full"),
                     {"log.csv": good_free}, ("log.csv",)))
+    out += _issue23_cases(good)
+    return out
+
+
+#: a rig description of the good log (columns t, q1, q2, u)
+_RIG = {"kind": "iwp-rig", "name": "test rig", "sample_period": 0.005, "time": {"column": "t", "unit": "s"},
+        "pendulum": {"column": "q1", "unit": "rad"}, "wheel": {"column": "q2", "quantity": "angle", "unit": "rad"},
+        "input": {"column": "u", "kind": "duty"}}
+
+
+def _rig(**changes) -> bytes:
+    doc = json.loads(json.dumps(_RIG))
+    for key, val in changes.items():
+        part, _, sub = key.partition("__")
+        if sub:
+            doc[part][sub] = val
+        else:
+            doc[part] = val
+    return json.dumps(doc).encode()
+
+
+def _issue23_cases(good: bytes) -> list[Case]:
+    """The hostile findings of issue 23, each a case that failed before."""
+    params = {"p1": 26.0, "p2": 0.01, "p3": 0.03, "rho": 247.0, "sigma_a1": 0.005, "sigma_v1": 0.008,
+              "sigma_b1": 0.0005}
+    out = [
+        # output folders named like files
+        Case("issue23/reproduce-out-html", ("reproduce", "--out", "{d}/report.html"), {}, ("--out", "report.html")),
+        Case("issue23/report-out-html", ("report", "{d}/log.csv", "--out", "{d}/rep.html"), {"log.csv": good},
+             ("--out", "rep.html")),
+        Case("issue23/swingup-out-json", ("control", "swingup", "--out", "{d}/s.json"), {}, ("--out", "s.json")),
+        # control lqr --ts
+        *[Case(f"issue23/lqr-ts-{name}", ("control", "lqr", "--ts", ts), {}, ("--ts",))
+          for name, ts in (("nan", "nan"), ("negative", "-0.01"), ("inf", "inf"), ("1e308", "1e308"), ("10", "10"))],
+        # the virtual rig's options beyond any rig
+        Case("issue23/rig-noise-1e300", ("rig", "run", "free-pendulum", "--noise", "1e300", "--out", "{d}/r.csv"), {},
+             ("--noise",)),
+        Case("issue23/rig-amplitude-1e308", ("rig", "run", "sine-40", "--amplitude", "1e308", "--out", "{d}/r.csv"),
+             {}, ("--amplitude",)),
+        # convert: the extension contradicts --to
+        Case("issue23/convert-parquet-into-mat", ("convert", "{d}/log.csv", "--to", "parquet", "--out", "{d}/o.mat"),
+             {"log.csv": good}, ("--out", "--to", "o.parquet")),
+        # parameter files
+        Case("issue23/params-fit-json", ("validate", "{d}/log.csv", "--params", "{d}/fit.json"),
+             {"log.csv": good, "fit.json": json.dumps({"kind": "iwp-fit", "train": []}).encode()},
+             ("--params", "fit.json", "parameters.json")),
+        Case("issue23/params-unknown-model", ("validate", "{d}/log.csv", "--params", "{d}/P.json"),
+             {"log.csv": good, "P.json": json.dumps({"kind": "lumped", "model": "nonsense",
+                                                     "parameters": params}).encode()},
+             ("--params", "P.json", "nonsense")),
+        Case("issue23/params-401-digits", ("simulate", "--params", "{d}/P.json", "--t-end", "1", "--out", "{d}/s.csv"),
+             {"P.json": json.dumps(params).replace("247.0", "1" + "0" * 400).encode()}, ("P.json", "401 digits")),
+        # a log without a header row
+        Case("issue23/log-without-header", ("validate", "{d}/log.csv", "--params", "table1"),
+             {"log.csv": good.split(b"\n", 1)[1]}, ("log.csv", "no header")),
+        # rig descriptions
+        Case("issue23/rig-absurd-zero", ("fit", "{d}/log.csv", "--rig", "{d}/rig.json", "--out", "{d}/F"),
+             {"log.csv": good, "rig.json": _rig(pendulum__zero=1e6)}, ("rig.json", "pendulum.zero")),
+        Case("issue23/rig-absurd-offset", ("fit", "{d}/log.csv", "--rig", "{d}/rig.json", "--out", "{d}/F"),
+             {"log.csv": good, "rig.json": _rig(pendulum__offset=1e6)}, ("rig.json", "pendulum.offset")),
+        Case("issue23/rig-sample-period-contradicts-time", ("fit", "{d}/log.csv", "--rig", "{d}/rig.json", "--out",
+                                                            "{d}/F"),
+             {"log.csv": good, "rig.json": _rig(sample_period=0.01)}, ("sample_period",)),
+        Case("issue23/rig-sample-period-contradicts-t-without-time-column",
+             ("fit", "{d}/log.csv", "--rig", "{d}/rig.json", "--out", "{d}/F"),
+             {"log.csv": good, "rig.json": _rig(sample_period=0.01, time={"column": None})}, ("sample_period",)),
+        Case("issue23/rig-401-digits", ("fit", "{d}/log.csv", "--rig", "{d}/rig.json", "--out", "{d}/F"),
+             {"log.csv": good, "rig.json": _rig(pendulum__unit="counts").replace(
+                 b'"unit": "counts"', b'"unit": "counts", "counts_per_rev": 1' + b"0" * 400)},
+             ("rig.json", "401 digits")),
+    ]
     return out
 
 

@@ -296,11 +296,16 @@ def test_sigkill_of_the_host_stops_the_motor_within_the_watchdog(emulator, tmp_p
 
 
 def test_ctrl_c_leaves_a_complete_readable_log_marked_interrupted(emulator, tmp_path):
-    port, _ = emulator
+    port, err = emulator
     out = tmp_path / "c.csv"
+    seen = err.read_text().count("device ARMED")
     p = subprocess.Popen([sys.executable, "-m", "iwp", "rig", "run", "full-chirp", "--port", port, "--out", str(out)],
                          env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(4.0)
+    deadline = time.monotonic() + 60.0  # the host's start-up takes long on a loaded machine: wait for the arming
+    while err.read_text().count("device ARMED") == seen and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    assert err.read_text().count("device ARMED") > seen, "the run never armed the device"
+    time.sleep(2.0)
     p.send_signal(signal.SIGINT)
     _, stderr = p.communicate(timeout=30)
     assert p.returncode == 130, stderr

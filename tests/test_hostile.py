@@ -219,3 +219,77 @@ def test_negative_release_angle_needs_no_equals_sign(tmp_path):
     from iwp.data import read_experiment
 
     assert read_experiment(tmp_path / "s.csv").q1[0] == -0.1
+
+
+# --------------------------------------------------------------------------
+# issue 23: messages and warnings
+# --------------------------------------------------------------------------
+def test_file_names_are_never_turned_into_flags(tmp_path):
+    """--rig rig.json and --truth truth.json: the file is named as typed, not as '--rig.json'."""
+    (tmp_path / "log.csv").write_bytes(good_log_text())
+    (tmp_path / "rig.json").write_text(json.dumps({
+        "kind": "iwp-rig", "sample_period": 0.005, "time": {"column": "t"},
+        "pendulum": {"column": "q1", "sign": 2}, "wheel": {"column": "q2", "quantity": "angle"}}))
+    (tmp_path / "truth.json").write_text(json.dumps({"p1": "x"}))
+    line = assert_refused(["fit", str(tmp_path / "log.csv"), "--rig", str(tmp_path / "rig.json"), "--out",
+                           str(tmp_path / "F")], tmp_path, ("rig.json", "pendulum.sign"))
+    assert "--rig.json" not in line
+    line = assert_refused(["rig", "run", "free-pendulum", "--truth", str(tmp_path / "truth.json"), "--out",
+                           str(tmp_path / "r.csv")], tmp_path, ("truth.json",))
+    assert "--truth.json" not in line
+
+
+def test_numpy_reprs_never_reach_a_message():
+    from iwp.cli import user_message
+
+    exc = ValueError(f"x must be > 0, got {np.float64(0.5)!r}; n = {np.int64(3)!r}; {[np.float64(1.5)]}")
+    assert user_message(exc, None) == "x must be > 0, got 0.5; n = 3; [1.5]"
+
+
+@pytest.mark.parametrize("kind", ["noise", "zeros"])
+def test_validate_warns_on_a_log_that_says_nothing(tmp_path, kind):
+    """Pure noise (the model explains less than the mean) and a log of zeros: exit 0, with a warning that says so."""
+    rng = np.random.default_rng(0)
+    t = 0.005 * np.arange(2000)
+    if kind == "noise":
+        cols = [t, rng.normal(0, 0.3, t.size), rng.normal(0, 5, t.size), rng.normal(0, 20, t.size)]
+    else:
+        cols = [t, np.zeros_like(t), np.zeros_like(t), np.zeros_like(t)]
+    np.savetxt(tmp_path / "log.csv", np.column_stack(cols), delimiter=",", header="t,q1,q2,u", comments="")
+    status, out, err = run_cli(["validate", str(tmp_path / "log.csv"), "--params", "table1"])
+    warnings = [ln for ln in err.splitlines() if ln.startswith("iwp: warning:")]
+    assert status == 0, err
+    expect = "less of the log than the log's mean" if kind == "noise" else "constant (no motion in the log)"
+    assert len(warnings) == 1 and expect in warnings[0] and "log.csv" in warnings[0], err
+    # a log the model explains gets no such warning
+    status, _, err = run_cli(["validate", str(_simulated_log(tmp_path)), "--params", "table1"])
+    assert status == 0 and "iwp: warning:" not in err, err
+
+
+def _simulated_log(folder: Path) -> Path:
+    out = folder / "sim.csv"
+    status, _, err = run_cli(["simulate", "--input", "sine", "--amplitude", "40", "--t-end", "5", "--x0",
+                              "0.3,0,0,0", "--out", str(out)])
+    assert status == 0, err
+    return out
+
+
+def test_a_second_reproduction_into_a_file_name_is_refused_before_any_work(tmp_path):
+    """reproduce --out report.html made a folder of that name; now it is refused at once."""
+    line = assert_refused(["reproduce", "--out", str(tmp_path / "report.html")], tmp_path, ("--out",))
+    assert "--out " + str(tmp_path / "report") in line
+
+
+def test_identify_refine_says_each_warning_once_and_its_json_names_the_covariance_used(tmp_path):
+    log = tmp_path / "free.csv"
+    status, _, err = run_cli(["rig", "run", "free-pendulum", "--duration", "20", "--out", str(log)])
+    assert status == 0, err
+    status, out, err = run_cli(["identify", str(log), "--setup", "free", "--refine"])
+    assert status == 0, err
+    warned = [ln[len("iwp: warning: "):] for ln in err.splitlines() if ln.startswith("iwp: warning: ")]
+    assert warned, "the refinement of a free swing warns of its correlated frictions"
+    for w in warned:
+        assert (out + err).count(w) == 1, w  # on stderr, not again in the summary
+    status, out, err = run_cli(["identify", str(log), "--setup", "free", "--json"])
+    doc = json.loads(out)
+    assert doc["covariance"] == doc["details"]["covariance"] == "noise"  # the top said 'ols'

@@ -320,7 +320,7 @@ BAD_CSV = {
     "nan": (csv_lines()[:3] + ["0.02,0.0,nan"] + csv_lines(start=0.03)[1:], ("nan.csv", "line 4", "column 'q2'", "NaN or inf")),
     "inf": (csv_lines()[:10] + ["0.09,-inf,0.0"] + csv_lines(start=0.1)[1:], ("inf.csv", "line 11", "column 'q1'", "NaN or inf")),
     "nonincreasing": (csv_lines(5) + ["0.04,0,0"] + csv_lines(start=0.05)[1:], ("nonincreasing.csv", "line 7", "column 't'", "not strictly increasing")),
-    "irregular": (csv_lines(8) + csv_lines(start=0.085)[1:], ("irregular.csv", "line 10", "column 't'", "irregular sampling", "resample=True", "--resample")),
+    "irregular": (csv_lines(8) + csv_lines(start=0.085)[1:], ("irregular.csv", "line 10", "column 't'", "irregular sampling", "iwp convert --resample", "resample=True")),
     "few": (csv_lines(5), ("few.csv", "5 sample(s)", "at least 10", "min_samples")),
     "duplicate": (["t,q1,q2,q1"] + [r + ",0" for r in csv_lines()[1:]], ("duplicate.csv", "line 1", "duplicated column name 'q1'")),
     "both_inputs": (csv_lines(cols=("t", "q1", "q2", "u", "v")), ("both_inputs.csv", "line 1", "both input columns u", "v", "at most one input")),
@@ -441,7 +441,7 @@ def test_degrees_warning_and_conversion(tmp_path):
     t, q1 = _swing()
     deg = io.ExperimentData(t=t, q1=np.rad2deg(q1), q2=np.rad2deg(3 * t), q3=np.rad2deg(-6 * np.sin(5 * t)))
     rad = io.ExperimentData(t=t, q1=q1, q2=3 * t)
-    with pytest.warns(UserWarning, match=m("deg.csv", "'q1'", "looks like degrees", "--degrees / degrees=True")):
+    with pytest.warns(UserWarning, match=m("deg.csv", "'q1'", "looks like degrees", "iwp convert --degrees (degrees=True in Python)")):
         io.read_csv(write_experiment(deg, tmp_path / "deg.csv"))
     with warnings.catch_warnings():
         warnings.simplefilter("error")

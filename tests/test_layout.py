@@ -142,7 +142,7 @@ def test_the_package_exports_its_api():
 
 
 @pytest.mark.parametrize("sub", ["models", "sim", "data", "ident", "control", "rig", "calibration", "device",
-                                 "reproduce", "report", "plotting"])
+                                 "reproduce", "report", "plotting", "sweep"])
 def test_every_subpackage_lists_what_it_exports(sub):
     m = importlib.import_module(f"iwp.{sub}")
     assert m.__doc__ and len(m.__all__) > 0

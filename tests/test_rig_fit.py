@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -363,6 +365,12 @@ def test_iwp_fit_command_writes_the_report_and_refuses_bad_input(tmp_path, capsy
     assert status == 0
     doc = json.loads((out / "fit.json").read_text())
     assert doc["validation"][0]["fit"]["q1"] > 90 and doc["parameters"]["p1"]["stderr"] > 0
+    # by default the ladder of structures, ranked on the one held-out log, in the JSON and the report
+    lad = doc["structures"]
+    assert [r["name"] for r in lad["rungs"]] == ["9", "coulomb", "pendulum-coulomb", "widths", "offset", "dead-zone"]
+    assert lad["method"].startswith("one scoring log") and lad["n_scored"] == 1
+    assert lad["chosen"] == "9"  # the truth is model (9): richer structures predict no better
+    assert "Model structures, ranked on held-out logs" in (out / "report.html").read_text()
     assert (out / "report.html").read_text().count("<img") == 4  # correlation, 2 training logs, 1 held out
     assert json.loads((out / "parameters.json").read_text())["parameters"]["p1"] == pytest.approx(40, rel=0.01)
     err = capsys.readouterr().err
@@ -411,3 +419,159 @@ def test_input_offset_shifts_the_input():
     b = simulate(Plant(p.replace(u_offset=0.0)), input=Chirp(0.3, 2.0, 10.0, offset=0.05),
                  t_end=5.0, rtol=1e-11, atol=1e-11)
     np.testing.assert_allclose(a.x, b.x, atol=1e-9)
+
+
+# --------------------------------------------------------------------------
+# the files users have (issue 21): a matrix in a MATLAB file, scales, messages with numbers
+# --------------------------------------------------------------------------
+def _matrix_log(tmp_path, rig, *, transpose=False, name="data"):
+    from scipy.io import savemat
+
+    run = DescribedRig(rig, TRUTH).run(Chirp(0.3, 2.0, 15.0), duration=16.0)
+    cols = ["t", "u", "theta", "phidot", "I"]
+    m = np.column_stack([run.columns[c] for c in cols])
+    path = tmp_path / "log.mat"
+    savemat(path, {name: m.T if transpose else m})
+    return path, run
+
+
+def test_a_matlab_matrix_is_read_by_the_columns_the_description_names(tmp_path):
+    rig = rig_of()
+    path, run = _matrix_log(tmp_path, rig)
+    # without 'matrix' the error says what the file holds
+    with pytest.raises(DataFormatError, match=r"found: a 801x5 matrix 'data'; name a matrix's columns with the "
+                                              r"key 'matrix'"):
+        read_rig_log(path, rig)
+    mrig = rig_of(matrix={"variable": "data", "columns": ["t", "u", "theta", "phidot", "I"]})
+    d = read_rig_log(path, mrig, glitches=False)
+    ref = read_rig_log(write_rig_csv(run, tmp_path / "log.csv"), rig, glitches=False)
+    np.testing.assert_allclose(d.q1, ref.q1, atol=1e-12)
+    np.testing.assert_allclose(d.q4, ref.q4, atol=1e-12)
+    np.testing.assert_allclose(d.input, ref.input, atol=1e-12)
+    # one row per signal is read too; the only matrix needs no name
+    (tmp_path / "x").mkdir()
+    path2, _ = _matrix_log(tmp_path / "x", rig, transpose=True, name="M")
+    d2 = read_rig_log(path2, rig_of(matrix={"columns": ["t", "u", "theta", "phidot", "I"]}), glitches=False)
+    np.testing.assert_allclose(d2.q1, ref.q1, atol=1e-12)
+    with pytest.raises(DataFormatError, match=r"variable 'data' is a 801x5 matrix but rig.json key "
+                                              r"'matrix.columns' names 4 columns"):
+        read_rig_log(path, rig_of(matrix={"columns": ["t", "u", "theta", "phidot"]},
+                                  current=None))
+
+
+def test_a_rig_description_refuses_two_signals_on_one_column_and_unnamed_matrix_columns():
+    with pytest.raises(InputError, match=r"'pendulum.column' and 'wheel.column' both name the column 'theta'"):
+        rig_of(wheel={"column": "theta"})
+    with pytest.raises(InputError, match=r"'current.column' names the column 'I', which 'matrix.columns' does not "
+                                         r"list"):
+        rig_of(matrix={"columns": ["t", "u", "theta", "phidot"]})
+    with pytest.raises(InputError, match=r"'pendulum.scale' must not be 0"):
+        rig_of(pendulum={"scale": 0})
+
+
+def test_a_scale_corrects_a_wrong_encoder_gain(tmp_path):
+    rig = rig_of()
+    run = DescribedRig(rig, TRUTH).run(Chirp(0.3, 2.0, 15.0), duration=10.0)
+    good = read_rig_log(write_rig_csv(run, tmp_path / "a.csv"), rig, glitches=False)
+    # a lab whose encoder logs 20 % too few counts corrects the angle by 1.25
+    cols = dict(run.columns)
+    cols["theta"] = np.round(cols["theta"] * 0.8)
+    import csv
+
+    with open(tmp_path / "b.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(list(cols))
+        w.writerows(zip(*cols.values()))
+    wrong = read_rig_log(tmp_path / "b.csv", rig, glitches=False)
+    fixed = read_rig_log(tmp_path / "b.csv", rig_of(pendulum={"scale": 1.25}), glitches=False)
+    assert np.max(np.abs(wrong.q1 - good.q1)) > 0.1 * np.max(np.abs(good.q1))
+    np.testing.assert_allclose(fixed.q1, good.q1, atol=1.25 * 2 * math.pi / 4096)
+
+
+def test_counts_with_fractions_are_named_with_a_number_not_a_repr(tmp_path):
+    rig = rig_of()
+    run = DescribedRig(rig, TRUTH).run(Chirp(0.3, 2.0, 15.0), duration=2.0)
+    cols = dict(run.columns)
+    cols["theta"] = cols["theta"] * 2 * math.pi / 4096  # radians logged under a counts description
+    import csv
+
+    with open(tmp_path / "c.csv", "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(list(cols))
+        w.writerows(zip(*cols.values()))
+    with pytest.raises(DataFormatError) as e:
+        read_rig_log(tmp_path / "c.csv", rig)
+    assert "np.float64" not in str(e.value) and "whole numbers, found" in str(e.value)
+
+
+# --------------------------------------------------------------------------
+# every experiment a user has, in one fit (issue 21)
+# --------------------------------------------------------------------------
+def test_clamped_and_wheel_locked_logs_join_the_fit_through_the_cli(tmp_path):
+    rig = rig_of(sample_period=0.05, pendulum={"counts_per_rev": 20000})
+    truth = TRUTH.replace(sigma_c2=0.5, sigma_c1=0.4)
+    vr = DescribedRig(rig, truth, noise_std=0.002, seed=1)
+    chirp = write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0), tmp_path / "c.csv")
+    clamp = write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0, kind="clamped"), tmp_path / "clamp.csv")
+    swing = write_rig_csv(vr.run(None, duration=20.0, kind="wheel-locked", x0=[0.8, 0, 0, 0]), tmp_path / "wl.csv")
+    rig_path = tmp_path / "rig.json"
+    rig_path.write_text(json.dumps(rig.to_dict()))
+    out = tmp_path / "out"
+    assert main(["fit", str(chirp), "--clamped", str(clamp), "--wheel-locked", str(swing), "--rig", str(rig_path),
+                 "--model", "pendulum-coulomb", "--out", str(out)]) == 0
+    doc = json.loads((out / "fit.json").read_text())
+    kinds = {Path(f["source"]).name: (f["kind"], set(f["fit"])) for f in doc["train"]}
+    # each set-up compares what it moves: the clamped log the wheel, the locked wheel's swing the angle
+    assert kinds == {"c.csv": ("free", {"q1", "q4"}), "clamp.csv": ("clamped", {"q4"}),
+                     "wl.csv": ("wheel-locked", {"q1"})}
+    for f in doc["train"]:
+        assert min(f["fit"].values()) > 99.0
+    for name in ("p1", "p2", "p3", "rho", "sigma_c2", "sigma_c1"):  # one realisation: accuracy, not coverage
+        p = doc["parameters"][name]
+        assert p["value"] == pytest.approx(getattr(truth, name), rel=0.01), name
+        assert p["ci95"][1] - p["ci95"][0] < 0.05 * getattr(truth, name), name
+
+
+def test_logs_of_two_set_ups_are_named_before_the_joint_fit(tmp_path):
+    from iwp.ident.logfit import disagreeing_logs
+
+    rig = rig_of()
+    a = DescribedRig(rig, TRUTH).run(Chirp(0.3, 2.0, 15.0), duration=20.0)
+    b = DescribedRig(rig, TRUTH.replace(p1=TRUTH.p1 / 7)).run(Chirp(0.3, 1.0, 15.0), duration=20.0)
+    c = DescribedRig(rig, TRUTH).run(Chirp(0.25, 3.0, 10.0), duration=20.0)
+    logs = load_logs([write_rig_csv(r, tmp_path / f"{n}.csv") for n, r in (("a", a), ("b", b), ("c", c))], rig)
+    msg = disagreeing_logs(logs)
+    assert len(msg) == 1 and "disagree on the gravity term p1" in msg[0]
+    values = {m[0]: float(m[1]) for m in re.findall(r"(\w)\.csv ([\d.]+) \+-", msg[0])}
+    assert values["a"] == pytest.approx(TRUTH.p1, rel=0.03) and values["c"] == pytest.approx(TRUTH.p1, rel=0.03)
+    assert values["b"] == pytest.approx(TRUTH.p1 / 7, rel=0.03)
+    assert disagreeing_logs([logs[0], logs[2]]) == []  # one set-up, two excitations: no warning
+
+
+def test_a_fast_wheels_real_corners_are_no_glitches_but_a_garbage_first_sample_is(tmp_path):
+    # a direct drive whose wheel speed settles within a sample: at every reversal of a pseudo-random input
+    # and at its start the speed turns a sharp corner (without the input, the first one was taken for a dropout)
+    rig = rig_of(sample_period=0.05, wheel={"sampling": "instant"})
+    truth = TRUTH.replace(p2=3.0, p3=600.0)
+    run = DescribedRig(rig, truth).run(prbs(801, hold=6, amplitude=0.1, seed=3), duration=40.0)
+    d = read_rig_log(write_rig_csv(run, tmp_path / "fast.csv"), rig, glitches=False)
+    assert [g.describe() for g in find_glitches(d.t, {"q4": d.q4})] != []  # the input is what tells them apart
+    assert find_glitches(d.t, {"q1": d.q1, "q4": d.q4}, input=d.input) == []
+    q4 = d.q4.copy()
+    q4[0], q4[333] = 2345.0, q4[333] + 0.5 * np.ptp(d.q4)
+    found = find_glitches(d.t, {"q1": d.q1, "q4": q4}, input=d.input)
+    assert [(g.index, g.kind) for g in found] == [(0, "spike"), (333, "spike")]
+
+
+def test_a_poor_held_out_prediction_is_a_warning_with_what_to_try():
+    from iwp.ident.logfit import LogFit, poor_prediction_advice
+
+    def fit(q1, q4):
+        return LogFit("h.csv", "validate", {"q1": q1, "q4": q4}, {}, {}, np.zeros(2), {}, {}, {}, np.zeros(4))
+
+    assert poor_prediction_advice([fit(90.0, 95.0), fit(80.0, 97.0)], ("q1", "q4"), chose=True) == []
+    msg = poor_prediction_advice([fit(60.0, 95.0), fit(-20.0, 97.0)], ("q1", "q4"), chose=False)
+    assert len(msg) == 1 and "q1 20.0 % (below zero or failed on 1 of 2 logs)" in msg[0] and "q4" not in msg[0]
+    assert "without --model" in msg[0] and "units, signs and zero" in msg[0]
+    msg = poor_prediction_advice([fit(30.0, 95.0), fit(40.0, 97.0)], ("q1", "q4"), chose=True)
+    assert "q1 35.0 %" in msg[0] and "--clamped" in msg[0]

@@ -325,3 +325,11 @@ def test_generated_dop853_module_is_current():
     import iwp.sim.dop853
 
     assert Path(iwp.sim.dop853.__file__).read_text() == mod.source()
+
+
+def test_a_batch_of_one_run_equals_the_single_run():
+    # idle lanes once evaluated a chirp of zero sweep time (ZeroDivisionError inside the kernel)
+    r = simulate_batch([Plant(table1())], input=Chirp(60.0, 3.0, 100.0), t_end=5.0)
+    s = simulate(Plant(table1()), input=Chirp(60.0, 3.0, 100.0), t_end=5.0)
+    assert r.x.shape == (1, s.t.size, 4)
+    np.testing.assert_allclose(r.x[0], s.x, rtol=1e-9, atol=1e-9)

@@ -46,7 +46,7 @@ _EXPORTS: dict[str, str] = {
     "simulate": "iwp.sim", "simulate_batch": "iwp.sim", "simulate_scipy": "iwp.sim",
     "simulate_sensitivities": "iwp.sim.sensitivity", "SimulationResult": "iwp.sim", "BatchResult": "iwp.sim",
     "Constant": "iwp.sim", "Sine": "iwp.sim", "Chirp": "iwp.sim", "Step": "iwp.sim", "Sampled": "iwp.sim",
-    "HopfController": "iwp.sim", "CallableController": "iwp.sim",
+    "HopfController": "iwp.sim", "CallableController": "iwp.sim", "BalanceController": "iwp.sim",
     # data
     "ExperimentData": "iwp.data", "StaticCurve": "iwp.data", "read_experiment": "iwp.data",
     "write_experiment": "iwp.data", "read_static_curve": "iwp.data", "convert": "iwp.data",
@@ -59,6 +59,7 @@ _EXPORTS: dict[str, str] = {
     # control
     "hopf_point": "iwp.control", "continue_hopf": "iwp.control", "design_hopf": "iwp.control",
     "find_orbit": "iwp.control", "lqr_balance": "iwp.control", "swing_up": "iwp.control",
+    "robust_hopf": "iwp.control", "robust_balance": "iwp.control", "robust_swingup": "iwp.control",
     # the virtual rig (the reproduction is iwp.reproduce.reproduce)
     "VirtualRig": "iwp.rig", "RigTruth": "iwp.rig", "default_truth": "iwp.rig",
     # the rig in the loop

@@ -6,8 +6,10 @@ import contextlib
 import json
 import math
 import os
+import secrets
 import shutil
-import tempfile
+import signal
+import threading
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Callable
@@ -15,6 +17,11 @@ from typing import Any, Callable
 import numpy as np
 
 from .errors import InputError, OutputExistsError
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: no output lock
+    fcntl = None
 
 #: Extensions of the logs iwp writes, and their format.
 LOG_SUFFIXES = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet", ".mat": "mat"}
@@ -69,6 +76,10 @@ def prepare_output_file(path: str | Path, force: bool = False, *, argument: str 
     return p
 
 
+#: Extensions that make a new output folder's name a file name (``--out report.html``): refused.
+_FILE_SUFFIXES = frozenset(LOG_SUFFIXES) | frozenset(FIGURE_SUFFIXES) | {".html", ".htm", ".json", ".gif", ".zip"}
+
+
 def check_output_dir(path: str | Path, *, force: bool = False, argument: str = "out") -> Path:
     """The one folder policy: an output folder must be new or empty, unless ``force``; nothing is created here."""
     p = Path(path)
@@ -76,6 +87,9 @@ def check_output_dir(path: str | Path, *, force: bool = False, argument: str = "
         raise InputError(f"{argument}: empty folder name", argument=argument)
     if p.exists() and not p.is_dir():
         raise InputError(f"{argument} {p}: exists and is not a folder", argument=argument)
+    if not p.exists() and p.suffix.lower() in _FILE_SUFFIXES:
+        raise InputError(f"{argument} {p}: names a file, but the command writes a folder of files (e.g. "
+                         f"{argument} {p.with_suffix('')})", argument=argument)
     if p.is_dir() and any(p.iterdir()) and not force:
         raise OutputExistsError(f"{argument} {p}: folder exists and is not empty; pass --force to write into it")
     _check_writable_place(p, argument)
@@ -89,35 +103,168 @@ def prepare_output_dir(path: str | Path, *, force: bool = False, argument: str =
     return p
 
 
+#: Output paths this process holds the lock of, with the depth of nesting (the lock is re-entrant).
+_HELD_LOCKS: dict[str, tuple[int, int]] = {}
+
+
+def _lock_name(p: Path) -> Path:
+    return p.parent / f".{p.name}.iwp-lock"
+
+
+@contextlib.contextmanager
+def output_lock(path: str | Path, *, argument: str = "out"):
+    """Hold the lock of the output ``path`` (a file or a folder) for the duration of the block.
+
+    A second run (another process) that asks for the same output while the
+    block runs is refused with an :class:`InputError` naming ``argument``,
+    so that two runs never mix or lose each other's files. The lock is a
+    hidden file ``.NAME.iwp-lock`` beside ``path``, locked with ``flock``
+    (released by the system if the process dies) and removed at the end.
+    Re-entrant within one process; a no-op where ``fcntl`` does not exist
+    or the parent folder does not exist yet and cannot be created.
+    """
+    p = Path(path)
+    if fcntl is None or str(path).strip() == "":
+        yield p
+        return
+    key = os.path.abspath(p)
+    if key in _HELD_LOCKS:
+        fd, depth = _HELD_LOCKS[key]
+        _HELD_LOCKS[key] = (fd, depth + 1)
+        try:
+            yield p
+        finally:
+            fd, depth = _HELD_LOCKS[key]
+            _HELD_LOCKS[key] = (fd, depth - 1)
+        return
+    lock = _lock_name(Path(key))
+    fd = _acquire(lock, p, argument) if lock.parent.is_dir() else None
+    if fd is None:  # no folder yet (nothing to mix), or a read-only one (the output checks refuse it)
+        yield p
+        return
+    _HELD_LOCKS[key] = (fd, 1)
+    try:
+        yield p
+    finally:
+        del _HELD_LOCKS[key]
+        with contextlib.suppress(OSError):
+            lock.unlink()
+        os.close(fd)
+
+
+def _acquire(lock: Path, p: Path, argument: str) -> int | None:
+    """Lock the file ``lock`` (created if missing); None where it cannot be created; refuse if another holds it."""
+    while True:
+        try:
+            fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o666)
+        except OSError:
+            return None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            os.close(fd)
+            raise InputError(f"{argument} {p}: another iwp run is writing it; wait for it to end or choose "
+                             "another output", argument=argument) from None
+        try:
+            same = os.fstat(fd).st_ino == os.stat(lock).st_ino
+        except FileNotFoundError:
+            same = False
+        if same:
+            return fd
+        os.close(fd)  # the holder removed it between our open and our lock: take the new one
+
+
+@contextlib.contextmanager
+def signals_held():
+    """Delay SIGINT and SIGTERM until the block has run (a rename of several files is not cut in two)."""
+    sigs = {signal.SIGINT, signal.SIGTERM}
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _name_output(exc: OSError, tmp: Path, final: Path) -> None:
+    """Make ``exc`` name the output ``final`` where it names the temporary ``tmp`` (or nothing)."""
+    name = exc.filename
+    if name is None:
+        exc.filename = str(final)
+        return
+    with contextlib.suppress(ValueError):
+        exc.filename = str(final / Path(name).relative_to(tmp)) if Path(name) != tmp else str(final)
+
+
+def _merge_into(src: Path, dst: Path) -> None:
+    """Move every entry of folder ``src`` into folder ``dst``, entry by entry; folders are merged, not replaced."""
+    for item in sorted(src.iterdir()):
+        target = dst / item.name
+        if item.is_dir() and not item.is_symlink() and target.is_dir() and not target.is_symlink():
+            _merge_into(item, target)
+            continue
+        if target.is_dir() and not target.is_symlink():
+            shutil.rmtree(target)  # a folder where the command writes a file of that name
+        elif item.is_dir() and (target.exists() or target.is_symlink()):
+            target.unlink()  # a file where the command writes a folder of that name
+        os.replace(item, target)
+
+
 @contextlib.contextmanager
 def staged_dir(path: str | Path, *, force: bool = False, argument: str = "out"):
     """Write a folder's files into a hidden sibling, and move them into ``path`` only when all are written.
 
     ``with staged_dir(out, force=...) as tmp: ...write into tmp...``: on an
-    error inside the block nothing of the output appears and the hidden
-    folder is removed; on success every file of ``tmp`` replaces its namesake
-    in ``path`` (the folder policy of :func:`check_output_dir` holds).
+    error or an interrupt inside the block nothing of the output appears and
+    the hidden folder is removed; on success every file of ``tmp`` replaces
+    its namesake in ``path`` (the folder policy of :func:`check_output_dir`
+    holds): ``force`` replaces the files the command writes and leaves the
+    others in ``path`` as they were. The folder gets the permissions of the
+    user's umask, as any folder the user makes. The output is locked
+    (:func:`output_lock`) from the start to the end.
     """
     p = check_output_dir(path, force=force, argument=argument)
     p.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{p.name}.", suffix=".partial", dir=p.parent))
-    try:
-        yield tmp
-        if not p.exists():
-            os.replace(tmp, p)
-        else:
-            for item in sorted(tmp.iterdir()):
-                dst = p / item.name
-                if dst.is_dir() and not dst.is_symlink():
-                    shutil.rmtree(dst)
-                os.replace(item, dst)
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
+    with output_lock(p, argument=argument):
+        check_output_dir(p, force=force, argument=argument)
+        tmp = p.parent / f".{p.name}.{os.getpid()}.{secrets.token_hex(4)}.partial"
+        os.mkdir(tmp)  # mode 0o777 less the umask (tempfile.mkdtemp would make it 0700)
+        try:
+            try:
+                yield tmp
+            except OSError as exc:  # a full disk: name the output, not the hidden folder
+                _name_output(exc, tmp, p)
+                raise
+            with signals_held():
+                check_output_dir(p, force=force, argument=argument)  # written meanwhile by something else?
+                if not p.exists():
+                    os.replace(tmp, p)
+                else:
+                    _merge_into(tmp, p)
+        finally:
+            if tmp.exists():
+                shutil.rmtree(tmp, ignore_errors=True)
 
 
 #: Largest JSON file iwp reads (parameter, truth and rig files are a few kB).
 MAX_JSON_BYTES = 16 * 2**20
+
+
+#: Longest integer a JSON file of iwp may hold (a float holds at most 1.8e308).
+_MAX_INT_DIGITS = 300
+
+
+class _HugeInteger(Exception):
+    pass
+
+
+def _json_int(text: str) -> int:
+    digits = len(text.lstrip("-"))
+    if digits > _MAX_INT_DIGITS:
+        raise _HugeInteger(digits)
+    return int(text)
 
 
 def read_json(path: str | Path, *, argument: str | None = None) -> Any:
@@ -136,7 +283,10 @@ def read_json(path: str | Path, *, argument: str | None = None) -> Any:
             raise InputError(f"{where}: {p.stat().st_size / 2**20:.0f} MB is too large for a JSON file of iwp "
                              f"(at most {MAX_JSON_BYTES // 2**20} MB)", argument=argument)
         text = p.read_bytes().decode("utf-8-sig")
-        return json.loads(text)
+        return json.loads(text, parse_int=_json_int)
+    except _HugeInteger as exc:
+        raise InputError(f"{where}: an integer of {exc.args[0]} digits is beyond any number iwp reads (at most "
+                         f"{_MAX_INT_DIGITS})", argument=argument) from None
     except FileNotFoundError:
         raise InputError(f"{where}: no such file", argument=argument) from None
     except OSError as exc:
@@ -157,38 +307,55 @@ def _temp_name(path: Path) -> Path:
     return path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
 
 
-def atomic_write(path: Path, write: Callable[[Path], None]) -> Path:
+def atomic_write(path: Path, write: Callable[[Path], None], *, force: bool = True) -> Path:
     """Write through a temporary file in the same folder, then rename: never a half-written ``path``."""
-    return write_all([(Path(path), write)])[0]
+    return write_all([(Path(path), write)], force=force)[0]
 
 
-def write_all(writes) -> list[Path]:
+def write_all(writes, *, force: bool = True) -> list[Path]:
     """Write several files as one: each through a temporary file; all renamed only when every one is written.
 
     Parameters
     ----------
     writes : sequence of (path, write)
         ``write(tmp_path)`` writes one file; missing parent folders are created.
+    force : bool
+        Replace a file that exists. ``False``: a file that appeared since the
+        command's checks (another run's) is not replaced: :class:`OutputExistsError`.
 
     Returns
     -------
     list of Path
-        The paths written. On an error no target is touched and the temporary files are removed.
+        The paths written. On an error or an interrupt no target is touched and the temporary files are
+        removed; each path is locked (:func:`output_lock`) while it is written.
     """
     pairs = [(Path(p), w) for p, w in writes]
     temps: list[Path] = []
-    try:
-        for p, write in pairs:
-            p.parent.mkdir(parents=True, exist_ok=True)
-            tmp = _temp_name(p)
-            temps.append(tmp)
-            write(tmp)
-        for (p, _), tmp in zip(pairs, temps):
-            os.replace(tmp, p)
-    finally:
-        for tmp in temps:
-            if tmp.exists():
-                tmp.unlink()
+    with contextlib.ExitStack() as locks:
+        for p, _ in pairs:
+            locks.enter_context(output_lock(p))
+        try:
+            for p, write in pairs:
+                p.parent.mkdir(parents=True, exist_ok=True)
+                tmp = _temp_name(p)
+                temps.append(tmp)
+                try:
+                    write(tmp)
+                except OSError as exc:  # a full disk: name the output, not the temporary file
+                    _name_output(exc, tmp, p)
+                    raise
+            with signals_held():
+                if not force:
+                    for p, _ in pairs:
+                        if p.exists():
+                            raise OutputExistsError(f"{p}: file exists (written meanwhile by another run); "
+                                                    "pass --force to overwrite it")
+                for (p, _), tmp in zip(pairs, temps):
+                    os.replace(tmp, p)
+        finally:
+            for tmp in temps:
+                if tmp.exists():
+                    tmp.unlink()
     return [p for p, _ in pairs]
 
 

@@ -357,7 +357,7 @@ class CalibrationResult:
         doc = {**self.truth.to_dict(), "provenance": self.provenance(start_provenance),
                "calibration": self.to_dict(), "notes": list(notes)}
         text = json.dumps(jsonable(doc), indent=1) + "\n"
-        return atomic_write(p, lambda tmp: tmp.write_text(text))
+        return atomic_write(p, lambda tmp: tmp.write_text(text), force=force)
 
 
 # --------------------------------------------------------------------------

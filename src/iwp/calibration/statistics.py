@@ -157,7 +157,8 @@ def closed_loop_model(log: ExperimentData, params: LumpedParameters, *, k1: floa
     """
     k1 = float(log.metadata.get("k1", -10.0)) if k1 is None else float(k1)
     k2 = float(log.metadata.get("k2", 0.1)) if k2 is None else float(k2)
-    r = validate(log, params, model="compensated", signals=("q1",), controller=HopfController(k1, k2, Ts=log.Ts))
+    r = validate(log, params, model="compensated", signals=("q1",), controller=HopfController(k1, k2, Ts=log.Ts),
+                 warn=False)
     t = np.asarray(r.t, dtype=float)
     meas = np.asarray(r.measured["q1"], dtype=float)
     sim = np.asarray(r.simulated["q1"], dtype=float)
@@ -258,7 +259,8 @@ STATISTICS: dict[str, Callable[[PaperNumbers], float]] = {
 def chirp_fit(numbers: PaperNumbers) -> float:
     """Figure 9(a): fit [%] of model (9) with the least-squares parameters to the full chirp's ``q1``."""
     if "full-chirp.fit_q1" not in numbers.cache:
-        r = validate(numbers.logs["full-chirp"], numbers.least_squares, model="compensated", signals=("q1",))
+        r = validate(numbers.logs["full-chirp"], numbers.least_squares, model="compensated", signals=("q1",),
+                     warn=False)
         numbers.cache["full-chirp.fit_q1"] = float(r.fit["q1"])
     return numbers.cache["full-chirp.fit_q1"]
 

@@ -14,6 +14,7 @@ Exit status
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
 import re
@@ -21,6 +22,8 @@ import sys
 import warnings
 
 from ..errors import IwpError
+from ..threads import one_blas_thread
+from .interrupts import Terminated, interrupts_as_exceptions
 
 # One module per subcommand, each defines ``register(subparsers)``.
 _COMMANDS = [
@@ -35,10 +38,13 @@ _COMMANDS = [
     "validate",
     "warmup",
     "fit",
+    "sweep",
 ]
 
 #: API argument names that differ from the flag's name (``Ts`` is ``--ts`` by case alone).
 _API_NAMES = {"input_name": "input", "noise_std": "noise", "from_format": "from", "to_format": "to"}
+#: numpy's repr of a scalar (``np.float64(0.5)``, ``np.int64(3)``, ``np.True_``'s kin): shown as its value.
+_NUMPY_REPR = re.compile(r"\bnp\.(?:float|int|uint|complex|bool)\w*\(([^()]*)\)")
 #: An error line longer than this is cut (a message should never echo a whole file).
 _MAX_LINE = 400
 
@@ -96,7 +102,7 @@ def _one_line(text: str) -> str:
 
 def user_message(exc: BaseException, parser: argparse.ArgumentParser | None) -> str:
     """The error's message with the API's argument names replaced by the command's flags, on one line."""
-    text = str(exc)
+    text = _NUMPY_REPR.sub(r"\1", str(exc))  # np.float64(0.5) -> 0.5: a value as the user typed it
     if parser is not None:
         flags = _flags(parser)
         names = list(getattr(exc, "argument", ()) or ())
@@ -106,14 +112,15 @@ def user_message(exc: BaseException, parser: argparse.ArgumentParser | None) -> 
                 names = [m.group(1)]
         for name in names:
             dest = _API_NAMES.get(name, name)
-            flag = flags.get(dest) or flags.get(dest.lower())
+            flag = flags.get(dest) or flags.get(dest.lower()) or flags.get(name)
             if flag is None:
                 continue
-            word = rf"(?<![\w\-./\\']){re.escape(name)}(?![\w/\\'*])"
+            # never inside a file name: rig.json, truth.json, x0.csv stay as typed
+            word = rf"(?<![\w\-./\\']){re.escape(name)}(?![\w/\\'*]|\.\w)"
             if not re.fullmatch(r"[a-z]+", name):
                 text = re.sub(word, flag, text)  # t_end, Ts, x0: identifiers, never prose
             else:  # amplitude, model: replaced where they name the argument, not in prose
-                text = re.sub(rf"^{re.escape(name)}\b|{word}(?= ?(?:must|=|:|\(|\[|-|$))", flag, text)
+                text = re.sub(rf"^{re.escape(name)}\b(?!\.\w)|{word}(?= ?(?:must|=|:|\(|\[|-|$))", flag, text)
     return _one_line(text)
 
 
@@ -137,14 +144,27 @@ def main(argv: list[str] | None = None) -> int:
         from ..compiling import compile_notices
 
         compile_notices(lambda line: print(f"iwp: {line}", file=sys.stderr, flush=True))
+    from ..files import output_lock
+
     try:
-        status = args.func(args)
+        with contextlib.ExitStack() as stack:
+            stack.enter_context(interrupts_as_exceptions())
+            stack.enter_context(one_blas_thread())  # iwp's parallel work is its own; BLAS threads only spin
+            for dest in ("out", "plot"):  # a second run into the same output is refused, not mixed
+                target = getattr(args, dest, None)
+                if isinstance(target, str) and target.strip():
+                    stack.enter_context(output_lock(target, argument=dest))
+            status = args.func(args)
     except IwpError as exc:
         print(f"iwp: error: {user_message(exc, cli_parser)}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("iwp: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (kill): the outputs were not moved into place
+        print(f"iwp: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of the output stopped reading (iwp rig list | head): nothing is wrong
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except OSError as exc:  # a file or folder the system refuses: name it
         print(f"iwp: error: {_one_line(_os_message(exc))}", file=sys.stderr)
         return 2

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 from collections.abc import Sequence
 
 from ..errors import InputError
@@ -34,6 +35,11 @@ class LazyChoices(Sequence):
 
     def __contains__(self, value) -> bool:
         return value in self._load()
+
+
+def plain(doc: str) -> str:
+    """A module docstring as a parser's description: reST literals (````iwp rig````) become plain text."""
+    return re.sub(r"``([^`]+)``", r"\1", doc)
 
 
 def float_list(text: str) -> list[float]:
@@ -67,3 +73,56 @@ def load_lumped(spec: str, flag: str = "--params"):
     if not isinstance(params, LumpedParameters):
         raise InputError(f"{flag} {spec}: expected a lumped or physical parameter set")
     return params
+
+
+def add_draws_args(p: argparse.ArgumentParser, what: str) -> None:
+    """``--draws N`` and ``--seed``: the outcome of ``what`` over the parameter uncertainty of ``--params``."""
+    p.add_argument("--draws", type=int, default=None, metavar="N",
+                   help=f"{what} over N parameter draws from the fit's uncertainty (--params: the parameters.json "
+                        "of iwp fit, with its covariance); writes robust.json and robust.png into --out")
+    p.add_argument("--seed", type=int, default=0, help="seed of the parameter draws (default 0)")
+
+
+def load_uncertainty_arg(spec: str, flag: str = "--params"):
+    """The fit's parameters and covariance of a ``--params`` file (for ``--draws``); errors name ``flag``."""
+    from ..sim.uncertainty import load_uncertainty
+
+    try:
+        return load_uncertainty(spec)
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(flag) else f"{flag} {msg}") from None
+
+
+
+def draws_uncertainty(args):
+    """The fit's uncertainty for ``--draws N`` (``--params`` with its covariance), after checking ``--draws``,
+    ``--out`` (the folder for robust.json and robust.png) and ``--t-end`` before any work."""
+    from ..checks import check_positive
+    from ..control.robust import check_draws
+    from ..files import check_output_dir
+
+    check_draws(args.draws)
+    if args.out is None:
+        raise InputError("--draws needs --out DIR, the folder for robust.json and robust.png")
+    check_positive("t_end", args.t_end)
+    uncertainty = load_uncertainty_arg(args.params)
+    check_output_dir(args.out, force=args.force, argument="out")
+    return uncertainty
+
+
+def write_robust(robust, args) -> dict:
+    """Write a robust design's robust.json and robust.png into ``--out`` (staged); its summary for the JSON
+    output, without the runs, with the files written."""
+    import json
+    from pathlib import Path
+
+    from ..files import staged_dir
+    from ..plotting import savefig
+
+    with staged_dir(args.out, force=args.force, argument="out") as tmp:
+        (tmp / "robust.json").write_text(json.dumps(robust.to_dict(), indent=2))
+        savefig(robust.plot()["figure"], tmp / "robust.png")
+    summary = {k: v for k, v in robust.to_dict().items() if k != "runs"}
+    summary["files"] = {"json": str(Path(args.out) / "robust.json"), "figure": str(Path(args.out) / "robust.png")}
+    return summary

@@ -7,7 +7,16 @@ import json
 import sys
 
 from ..errors import InputError
-from ._common import add_force_arg, add_params_arg, float_list, load_lumped
+from ._common import (
+    add_draws_args,
+    add_force_arg,
+    add_params_arg,
+    draws_uncertainty,
+    float_list,
+    load_lumped,
+    load_uncertainty_arg,
+    write_robust,
+)
 from .portargs import add_port_args, open_port_rig, port_operator, port_progress
 
 _SWINGUP_DESCRIPTION = """\
@@ -20,12 +29,29 @@ and swingup.json.
 Examples:
   iwp control swingup --out runs/swingup
   iwp control swingup --out runs/ideal --ideal --x0 0.5,0,0,0 --t-end 15
+With --draws N and --params FILE (the parameters.json of iwp fit, with its
+covariance) the controller, built on the fit's estimates, also swings up N
+plants drawn from the fit's uncertainty: the probability of success (Wilson
+interval) and the time to capture, in OUT/robust.json and OUT/robust.png:
+  iwp control swingup --out runs/robust --params fit/parameters.json --draws 50
+"""
+
+_LQR_DESCRIPTION = """\
+The balance LQR at the upright on (q1 - pi, q3, q4): gains, poles, capture
+bound. With --draws N and --params FILE (the parameters.json of iwp fit, with
+its covariance) the LQR, designed on the fit's estimates, is simulated on N
+parameter draws from its uncertainty, from rest at each of --angles from the
+upright: the probability of capture (Wilson interval) per angle and overall,
+and the settling time's distribution, in OUT/robust.json and OUT/robust.png:
+  iwp control lqr --params fit/parameters.json --draws 200 --out runs/lqr
+  iwp control lqr --params fit/parameters.json --draws 200 --angles 0.02,0.05 --out runs/lqr
 """
 
 
 def register(sub) -> None:
     p = sub.add_parser("control", help="swing-up and balance; the upright LQR",
-                       description="Control beyond the paper: swing-up and balance.")
+                       description="Control beyond the paper: swing-up and balance, the upright LQR, and iwp's "
+                                   "controllers on a rig in the loop.")
     csub = p.add_subparsers(dest="control_command", metavar="WHAT", parser_class=type(p))
     csub.required = True
 
@@ -41,14 +67,23 @@ def register(sub) -> None:
     s.add_argument("--frames", type=int, default=100, help="frames of the GIF (default 100)")
     s.add_argument("--no-animation", action="store_true", help="skip the GIF")
     s.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_draws_args(s, "the probability of success")
     add_force_arg(s)
     s.set_defaults(func=run_swingup)
 
-    q = csub.add_parser("lqr", help="the balance LQR at the upright (gains, poles, capture bound)")
+    q = csub.add_parser("lqr", help="the balance LQR at the upright (gains, poles, capture bound)",
+                        description=_LQR_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_params_arg(q)
     q.add_argument("--ts", type=float, default=0.005, help="sample period of the discrete design [s]; 0: continuous")
     q.add_argument("--u-max", type=float, default=100.0, help="saturation of u (default 100)")
     q.add_argument("--json", action="store_true", help="print as JSON")
+    add_draws_args(q, "the probability of capture")
+    q.add_argument("--angles", type=float_list, default=None, metavar="A1,A2,...",
+                   help="initial angles from the upright, at rest [rad] (--draws; default 0.25 to 1.25 times "
+                        "the capture bound)")
+    q.add_argument("--t-end", type=float, default=5.0, help="simulated time of each closed loop [s] (default 5)")
+    q.add_argument("--out", default=None, metavar="DIR", help="output folder of --draws")
+    add_force_arg(q)
     q.set_defaults(func=run_lqr)
 
     r = csub.add_parser("run", help="run a controller on a rig in the loop (--port) and write its log",
@@ -76,7 +111,14 @@ def run_swingup(args) -> int:
     from ..files import check_output_dir, staged_dir
     from ..plotting import savefig
 
-    params = load_lumped(args.params)
+    if args.draws is not None:
+        from ..control.robust import check_draws
+
+        check_draws(args.draws)
+        uncertainty = load_uncertainty_arg(args.params)
+        params = uncertainty.params
+    else:
+        params = load_lumped(args.params)
     if len(args.x0) != 4:
         raise InputError(f"--x0 must have 4 values q1,q2,q3,q4, got {len(args.x0)}")
     check_positive("t_end", args.t_end)
@@ -88,12 +130,24 @@ def run_swingup(args) -> int:
     if not args.no_animation:
         names["gif"] = "swingup.gif"
     rig = None if args.ideal else RigConditions(u_max=args.u_max)
-    res = swing_up(params, x0=args.x0, t_end=args.t_end, rig=rig, u_max=args.u_max) if rig is None else \
-        swing_up(params, x0=args.x0, t_end=args.t_end, rig=rig)
+    kw = {"u_max": args.u_max} if rig is None else {}
+    res = swing_up(params, x0=args.x0, t_end=args.t_end, rig=rig, **kw)
+    robust = None
+    if args.draws is not None:
+        from ..control.robust import robust_swingup
+
+        robust = robust_swingup(uncertainty, draws=args.draws, seed=args.seed, x0=args.x0, t_end=args.t_end,
+                                rig=rig, **kw)
+        names.update({"robust_json": "robust.json", "robust_figure": "robust.png"})
     summary = res.summary()
     summary["x0"] = list(args.x0)
     summary["files"] = {k: str(out / v) for k, v in names.items()}
+    if robust is not None:
+        summary["robust"] = {k: v for k, v in robust.to_dict().items() if k != "runs"}
     with staged_dir(out, force=args.force, argument="out") as tmp:
+        if robust is not None:
+            (tmp / names["robust_json"]).write_text(json.dumps(robust.to_dict(), indent=2))
+            savefig(robust.plot()["figure"], tmp / names["robust_figure"])
         res.result.to_csv(tmp / names["csv"], force=True)
         savefig(res.plot()["figure"], tmp / names["png"])
         if "gif" in names:
@@ -106,6 +160,8 @@ def run_swingup(args) -> int:
         print(f"swing-up ({res.conditions}): {state}; catch at t = {res.t_catch:.3f} s, within "
               f"{res.tolerance:g} rad from t = {res.t_balanced:.3f} s; max |u| = {res.u_max:.4g}, "
               f"max |q4| = {res.q4_max:.4g} rad/s")
+        if robust is not None:
+            print(robust.summary())
         print("wrote " + ", ".join(summary["files"].values()))
     return 0 if res.success else 1
 
@@ -113,12 +169,29 @@ def run_swingup(args) -> int:
 def run_lqr(args) -> int:
     from ..control import lqr_balance
 
-    params = load_lumped(args.params)
+    if not args.ts >= 0.0 or args.ts == float("inf"):  # NaN, negative, infinite
+        raise InputError(f"--ts must be a sample period >= 0 [s] (0: a continuous design), got {args.ts:g}")
+    robust = None
+    if args.draws is not None:
+        if args.angles is not None and len(args.angles) == 0:
+            raise InputError("--angles: give at least one angle")
+        uncertainty = draws_uncertainty(args)
+        params = uncertainty.params
+    elif args.out is not None or args.angles is not None:
+        raise InputError("--out and --angles belong to --draws; give --draws N (or drop them)")
+    else:
+        params = load_lumped(args.params)
     L = lqr_balance(params, u_max=args.u_max, Ts=args.ts if args.ts > 0 else None)
     d = {"K": L.K.tolist(), "poles": [[float(p.real), float(p.imag)] for p in L.poles], "Ts": L.Ts,
          "u_max": L.u_max, "unstable_eigenvalue": L.unstable_eigenvalue,
          "unstable_direction": L.unstable_direction.tolist(), "capture_bound": L.capture_bound,
          "backend": L.backend}
+    if args.draws is not None:
+        from ..control.robust import robust_balance
+
+        robust = robust_balance(uncertainty, lqr=L, angles=args.angles, draws=args.draws, seed=args.seed,
+                                t_end=args.t_end)
+        d["robust"] = write_robust(robust, args)
     if args.json:
         print(json.dumps(d, indent=2))
         return 0
@@ -128,6 +201,9 @@ def run_lqr(args) -> int:
     print("  closed-loop poles: " + ", ".join(f"{p:.4g}" for p in L.poles))
     print(f"  open-loop unstable eigenvalue {L.unstable_eigenvalue:.4g} 1/s; capture bound |w.x| < "
           f"{L.capture_bound:.4g} rad with |u| <= {L.u_max:g}")
+    if robust is not None:
+        print(robust.summary())
+        print("  wrote " + ", ".join(d["robust"]["files"].values()))
     return 0
 
 

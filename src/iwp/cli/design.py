@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_force_arg, add_params_arg, load_lumped
+from ._common import add_draws_args, add_force_arg, add_params_arg, draws_uncertainty, load_lumped, write_robust
 
 _HOPF_DESCRIPTION = """\
 Gains of u = k1 q3 + k2 q3^3 (section 5.3) that make the pendulum oscillate
@@ -21,6 +21,12 @@ Examples:
   iwp design hopf --amplitude 1.5 --k2 0.2 --check --json
   iwp design hopf --amplitude 2.58 --k1 -10
   iwp design hopf --amplitude 2 --plot bifurcation.png
+With --draws N and --params FILE (the parameters.json of iwp fit, which
+carries the fit's covariance) the design, made on the fit's estimates, is
+simulated on N parameter draws from its uncertainty: the amplitude's median
+and 95 % interval and the share of draws with no stable orbit, written as
+OUT/robust.json and OUT/robust.png (histogram and ECDF, the nominal marked):
+  iwp design hopf --amplitude 1.5 --params fit/parameters.json --draws 200 --out robust-hopf
 """
 
 _BRANCH_DESCRIPTION = """\
@@ -51,6 +57,10 @@ def register(sub) -> None:
                    help="check by a long simulation (300 s) and report the simulated amplitude")
     h.add_argument("--allow-unstable", action="store_true", help="return an unstable orbit instead of an error")
     h.add_argument("--plot", default=None, metavar="FIG", help="write the bifurcation diagram with the design")
+    add_draws_args(h, "the amplitude reached")
+    h.add_argument("--t-end", type=float, default=60.0,
+                   help="simulated time of each draw's closed loop [s] (default 60; --draws)")
+    h.add_argument("--out", default=None, metavar="DIR", help="output folder of --draws")
     add_force_arg(h)
     h.set_defaults(func=run_hopf)
 
@@ -72,7 +82,14 @@ def run_hopf(args) -> int:
     from ..control import design_hopf, simulated_amplitude
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
 
-    params = load_lumped(args.params)
+    robust = None
+    if args.draws is not None:
+        uncertainty = draws_uncertainty(args)
+        params = uncertainty.params
+    elif args.out is not None:
+        raise InputError("--out is the folder of --draws; give --draws N (or drop --out)")
+    else:
+        params = load_lumped(args.params)
     for name in ("amplitude", "k1", "k2"):
         if getattr(args, name, None) is not None:
             check_finite(name, getattr(args, name))
@@ -80,6 +97,12 @@ def run_hopf(args) -> int:
         check_output_file(args.plot, force=args.force, argument="plot", suffixes=FIGURE_SUFFIXES)
     d = design_hopf(params, args.amplitude, k2=args.k2, k1=args.k1, require_stable=not args.allow_unstable)
     out = d.to_dict()
+    if args.draws is not None:
+        from ..control.robust import robust_hopf
+
+        robust = robust_hopf(uncertainty, design=d, draws=args.draws, seed=args.seed, t_end=args.t_end,
+                             window=min(10.0, args.t_end / 2))
+        out["robust"] = write_robust(robust, args)
     sim = None
     if args.check:
         sim = simulated_amplitude(params, d.k1, d.k2)
@@ -110,6 +133,9 @@ def run_hopf(args) -> int:
               f"({100 * (sim.amplitude - d.amplitude) / d.amplitude:+.3f} %), period {sim.period:.5g} s")
     if args.plot is not None:
         print(f"  figure: {args.plot}")
+    if robust is not None:
+        print(robust.summary())
+        print("  wrote " + ", ".join(out["robust"]["files"].values()))
     return 0
 
 

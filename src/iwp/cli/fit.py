@@ -1,8 +1,12 @@
 """``iwp fit TRAIN... --rig RIG.json --validate HELDOUT... --out DIR``: logs to a validated model.
 
 Reads the logs with the rig description (docs/rig-description.md), finds and
-reports glitches, starts from least squares, fits model (9) (or (6) with
---dead-zone) by simulation error on all training logs jointly, with initial
+reports glitches, starts from least squares, fits a ladder of model
+structures (model (9), + wheel Coulomb, + pendulum Coulomb, + their widths,
++ input offset or dead zone) by simulation error on all training logs
+jointly, ranks them on the held-out logs (or by leaving one training log out)
+and keeps the simplest within noise of the best (--model, or the term flags,
+fit one structure), with initial
 states and the pendulum angle's zero offset estimated per log, then
 simulates each held-out log from its measured initial state without
 re-fitting. Writes DIR/fit.json, DIR/parameters.json (for --params),
@@ -15,23 +19,32 @@ import argparse
 import json
 import sys
 
-from ._common import add_force_arg
+from ._common import LazyChoices, add_force_arg, plain
 
 
 def register(sub) -> None:
     p = sub.add_parser("fit", help="fit a model to a rig's logs and validate it on held-out logs",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=plain(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("train", nargs="+", metavar="TRAIN", help="training logs (CSV or .mat), fitted jointly")
     p.add_argument("--rig", metavar="RIG.json", help="rig description: columns, units, input, drive, sample period")
     p.add_argument("--validate", nargs="+", default=[], metavar="HELDOUT",
                    help="held-out logs, simulated from their measured initial state (not fitted)")
+    p.add_argument("--clamped", nargs="+", default=[], metavar="LOG",
+                   help="logs with the pendulum clamped and the wheel driven (section 5.1), joining the training")
+    p.add_argument("--wheel-locked", nargs="+", default=[], metavar="LOG",
+                   help="logs of free swings with the wheel locked to the arm, joining the training")
     p.add_argument("--out", "-o", required=True, metavar="DIR", help="output folder (new or empty)")
     add_force_arg(p)
+    p.add_argument("--model", metavar="STRUCTURE", choices=LazyChoices("iwp.ident.structure", "RUNGS"),
+                   help="fit this structure of the ladder only: %(choices)s (default: fit them all and keep the "
+                   "simplest within noise of the best on held-out data; see docs/fit.md)")
     p.add_argument("--dead-zone", action="store_true", help="model (6) with the dead zone (5) (raw input v)")
     p.add_argument("--coulomb", action="store_true", help="fit Coulomb friction of the wheel (sigma_c2)")
     p.add_argument("--pendulum-coulomb", action="store_true",
                    help="fit Coulomb friction of the pendulum joint (sigma_c1)")
     p.add_argument("--input-offset", action="store_true", help="fit an offset of the input (u_offset)")
+    p.add_argument("--widths", action="store_true",
+                   help="fit the smoothing widths of the Coulomb terms that are on (eps_c2, eps_c1)")
     p.add_argument("--loss", default="linear", choices=["linear", "soft_l1", "huber", "cauchy", "arctan"],
                    help="loss of the simulation-error fit (default linear)")
     p.add_argument("--t-start", type=float, metavar="S", help="window start of every training log [s]")
@@ -41,14 +54,25 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from ..errors import InputError
     from ..files import check_output_dir, jsonable
     from ..ident.logfit import LogFitOptions, fit_logs
+    from ..ident.structure import RUNGS
     from ..report.fit_page import write_fit_report
 
     check_output_dir(args.out, force=args.force)  # refuse before the work, not after
-    options = LogFitOptions(dead_zone=args.dead_zone, coulomb=args.coulomb, pendulum_coulomb=args.pendulum_coulomb,
-                            input_offset=args.input_offset, loss=args.loss, window=(args.t_start, args.t_end))
-    res = fit_logs(args.train, rig=args.rig, validate=args.validate, options=options)
+    flags = {"dead_zone": args.dead_zone, "coulomb": args.coulomb, "pendulum_coulomb": args.pendulum_coulomb,
+             "input_offset": args.input_offset, "widths": args.widths}
+    if args.model is not None and any(flags.values()):
+        given = next(k for k, v in flags.items() if v).replace("_", "-")
+        raise InputError(f"--model {args.model} and --{given} both set the structure; give one of them",
+                         argument="--model")
+    if args.model is not None:
+        flags = RUNGS[args.model].options()
+    options = LogFitOptions(**flags, select=args.model is None and not any(flags.values()), loss=args.loss,
+                            window=(args.t_start, args.t_end))
+    kinds = {k: v for k, v in (("clamped", args.clamped), ("wheel-locked", args.wheel_locked)) if v}
+    res = fit_logs(args.train, rig=args.rig, validate=args.validate, kinds=kinds, options=options)
     files = write_fit_report(res, args.out, force=args.force)
     if args.json:
         print(json.dumps(jsonable(res.to_dict()), indent=2))

@@ -19,13 +19,13 @@ import json
 import sys
 
 from ..errors import InputError
-from ._common import LazyChoices, add_force_arg
+from ._common import LazyChoices, add_force_arg, plain
 
 
 def register(sub) -> None:
     p = sub.add_parser(
         "identify", help="identify parameters from logs (least squares of section 5, with uncertainty)",
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+        description=plain(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("files", nargs="+", metavar="FILE",
                    help="log(s) of one set-up (stacked); a static curve for dead-zone")
     p.add_argument("--setup", required=True, choices=LazyChoices("iwp.ident.setups", "SETUPS"), metavar="SETUP",
@@ -160,7 +160,7 @@ def run(args) -> int:
         else:
             print(res.summary())
             print()
-            print(r.summary())
+            print(r.summary(warnings=False))  # its warnings went to stderr
             if out_path is not None:
                 print(f"wrote {out_path}")
         return 0

@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import argparse
 
-from ._common import add_force_arg, add_params_arg, load_lumped
+from ._common import add_force_arg, add_params_arg, load_lumped, plain
 
 
 def register(sub) -> None:
     p = sub.add_parser("report", help="compare your own logs with a model in a self-contained HTML page",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=plain(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("files", nargs="+", metavar="FILE", help="experiment logs or static curves")
     add_params_arg(p)
     p.add_argument("--out", "-o", required=True, metavar="DIR", help="output folder")

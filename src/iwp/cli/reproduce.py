@@ -16,12 +16,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ._common import add_force_arg
+from ._common import add_force_arg, plain
 
 
 def register(sub) -> None:
     p = sub.add_parser("reproduce", help="run the paper end to end on the virtual rig and write a report",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=plain(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", "-o", required=True, metavar="DIR", help="output folder")
     p.add_argument("--quick", action="store_true", help="shorter experiments and refinement (a reduced run)")
     p.add_argument("--seed", type=int, default=0,

@@ -22,7 +22,7 @@ import sys
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_force_arg, float_list
+from ._common import add_force_arg, float_list, plain
 from .portargs import add_port_args, open_port_rig, port_operator, port_progress
 
 
@@ -50,11 +50,13 @@ def _v_dz(text: str):
 
 def register(sub) -> None:
     p = sub.add_parser("rig", help="the virtual rig: run the paper's experiments on a truth plant",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=plain(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
     rs = p.add_subparsers(dest="rig_command", metavar="{list,run,emulate,truth,calibrate}", parser_class=type(p))
     rs.required = True
 
-    pl = rs.add_parser("list", help="name the paper's experiments with their settings")
+    pl = rs.add_parser("list", help="name the paper's experiments with their settings",
+                       description="Name the paper's experiments that iwp rig run NAME runs, one a line, with "
+                                   "where the paper uses them and their settings.")
     pl.set_defaults(func=run_list)
 
     pr = rs.add_parser("run", help="run one experiment and write its log",
@@ -105,7 +107,9 @@ def register(sub) -> None:
     pe.add_argument("--link", metavar="PATH", help="also make the port reachable as PATH (a symbolic link)")
     pe.set_defaults(func=run_emulate)
 
-    pt = rs.add_parser("truth", help="write the default truth plant as JSON (for editing)")
+    pt = rs.add_parser("truth", help="write the default truth plant as JSON (for editing)",
+                       description="Write the virtual rig's default truth plant (the calibrated twin) as JSON, "
+                                   "for editing; iwp rig run --truth FILE reads it back, field by field.")
     pt.add_argument("--out", "-o", required=True, metavar="TRUTH.json", help="output file")
     pt.add_argument("--truth", metavar="BASE.json", help="start from these overrides of the default")
     add_force_arg(pt)

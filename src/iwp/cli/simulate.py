@@ -31,8 +31,10 @@ def register(sub) -> None:
     p.add_argument("--ts", type=float, default=0.005, help="output sample time [s] (default 0.005)")
     p.add_argument("--feedforward", action="store_true", help="apply the dead-zone feedforward (7)-(8)")
     p.add_argument("--saturation", type=float, default=None, help="clip the command to +-VALUE")
-    p.add_argument("--rtol", type=float, default=1e-10)
-    p.add_argument("--atol", type=float, default=1e-10)
+    p.add_argument("--rtol", type=float, default=1e-10,
+                   help="relative error tolerance of the DOP853 integrator (default 1e-10)")
+    p.add_argument("--atol", type=float, default=1e-10,
+                   help="absolute error tolerance of the integrator, per state [rad, rad/s] (default 1e-10)")
     p.add_argument("--band", choices=["linear", "monte-carlo"], default=None,
                    help="also write the 95 %% parameter and prediction bands (columns q1_lo, q1_hi, q1_plo, q1_phi, "
                         "...) from the covariance in --params (the parameters.json of iwp fit)")

@@ -6,7 +6,8 @@ model (9) with the anticontrol law ``u = k1 q3 + k2 q3^3``
 ``k1`` and ``k2``; the paper chose them "based on a bifurcation analysis and
 numerical continuation". **Swing-up and balance** (beyond the paper): an
 LQR at the upright, energy pumping from the bottom, on the rig's conditions
-with an observer on quantised encoder angles.
+with an observer on quantised encoder angles. **Robust designs**: the
+outcome of each over a fit's parameter uncertainty (:mod:`.robust`).
 
 =====================  ==============================================================
 module                 what
@@ -20,6 +21,7 @@ module                 what
 :mod:`.conditions`     the rig's conditions (dead zone, encoders, sampling, saturation)
 :mod:`.observer`       observer on the quantised encoder angles
 :mod:`.swingup`        swing-up by energy pumping, then balance
+:mod:`.robust`         the designs over a fit's parameter uncertainty (robust designs)
 =====================  ==============================================================
 
 Every integration goes through iwp's one engine (:mod:`iwp.sim`): the
@@ -38,6 +40,17 @@ from .design import HopfDesign, SimulatedOscillation, design_hopf, simulated_amp
 from .hopf import HopfPoint, closed_loop_matrix, hopf_point
 from .observer import EncoderObserver
 from .orbits import PeriodicOrbit
+from .robust import (
+    Proportion,
+    RobustBalance,
+    RobustHopf,
+    RobustSwingUp,
+    Spread,
+    robust_balance,
+    robust_hopf,
+    robust_swingup,
+    wilson_interval,
+)
 from .swingup import SwingUpController, SwingUpResult, swing_up
 
 __all__ = [
@@ -60,4 +73,13 @@ __all__ = [
     "SwingUpController",
     "SwingUpResult",
     "swing_up",
+    "Proportion",
+    "Spread",
+    "wilson_interval",
+    "RobustHopf",
+    "robust_hopf",
+    "RobustBalance",
+    "robust_balance",
+    "RobustSwingUp",
+    "robust_swingup",
 ]

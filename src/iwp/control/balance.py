@@ -17,7 +17,9 @@ from scipy.linalg import expm, solve_continuous_are, solve_discrete_are
 from ..checks import check_positive
 from ..errors import InputError
 from ..models.analysis import linearize
+from ..models.laws import balance_law
 from ..models.parameters import LumpedParameters
+from ..sim.inputs import BalanceController
 from .closed_loop import REDUCED, lumped_parameters
 
 __all__ = ["LQRBalance", "lqr_balance", "wrap_angle"]
@@ -54,7 +56,7 @@ class LQRBalance:
         Left eigenvector ``w`` of ``lambda_u``, scaled so that ``w[0] = 1``:
         ``w . x`` is the unstable mode in radians of ``q1``.
     capture_bound : float
-        ``|w . B| u_max / lambda_u`` [rad]: beyond ``|w . x| >`` this no input
+        ``|w . B| u_max / lambda_u`` [rad]: beyond ``|w . x|`` greater than this, no input
         within ``u_max`` can stop the fall (linearised). The swing-up
         switches to the LQR well inside it.
     backend : str
@@ -80,12 +82,23 @@ class LQRBalance:
         return np.array([wrap_angle(x[0] - math.pi), x[2], x[3]])
 
     def __call__(self, x) -> float:
-        """The saturated input for the state ``x = [q1, q2, q3, q4]`` [input units]."""
-        u = -float(self.K @ self.error_state(x))
+        """The saturated input for the state ``x = [q1, q2, q3, q4]`` [input units].
+
+        The law is :func:`iwp.models.laws.balance_law`, clipped to ``u_max``.
+        """
+        x = np.asarray(x, dtype=float)
+        u = float(balance_law(float(self.K[0]), float(self.K[1]), float(self.K[2]), x[0], x[2], x[3]))
         return min(max(u, -self.u_max), self.u_max)
 
+    def controller(self) -> BalanceController:
+        """This feedback as a simulator input (sampled every ``Ts`` when the design is discrete).
+
+        The saturation ``u_max`` is the simulator's ``saturation``.
+        """
+        return BalanceController(float(self.K[0]), float(self.K[1]), float(self.K[2]), self.Ts)
+
     def capture_ratio(self, x) -> float:
-        """``|w . x| / capture_bound``: below 1 the fall can still be stopped (linearised)."""
+        """The unstable mode over the capture bound, ``abs(w @ x) / capture_bound``: below 1 the fall can be stopped."""
         return abs(float(self.unstable_direction @ self.error_state(x))) / self.capture_bound
 
 
@@ -115,7 +128,8 @@ def lqr_balance(
     u_max : float
         Saturation of ``u`` [input units].
     Ts : float, optional
-        Sample period [s] for a discrete design.
+        Sample period [s] for a discrete design; at most the e-folding time
+        of the upright's instability (``1/lambda``, about 0.2 s for Table 1).
     backend : str
         ``"auto"`` (python-control when installed, else scipy),
         ``"python-control"`` or ``"scipy"``.
@@ -139,6 +153,11 @@ def lqr_balance(
     A4, B4 = linearize(params, "up")
     A = A4[np.ix_(REDUCED, REDUCED)]
     B = B4[list(REDUCED)]
+    lam_max = float(np.max(np.linalg.eigvals(A).real))
+    if Ts is not None and Ts * lam_max > 1.0:
+        raise InputError(f"Ts = {Ts:g} s is too long for the upright's instability, which grows e-fold in "
+                         f"{1.0 / lam_max:.3g} s ({lam_max:.4g} 1/s); a sampled balance needs Ts <= "
+                         f"{1.0 / lam_max:.3g} s", argument="Ts")
     Rm = np.array([[R]])
     ctl = None
     if backend in ("auto", "python-control"):

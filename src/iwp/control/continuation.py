@@ -357,6 +357,23 @@ def find_orbit(params: LumpedParameters, k1: float, k2: float = 0.1, **continuat
     keywords of :func:`continue_branch` (``ds``, ``ds_min``, ``ds_max``,
     ``a_max``, ``T_max``, ``k_min``, ``k_max``, ``max_points``).
 
+    Parameters
+    ----------
+    params : LumpedParameters
+        The parameters of model (9).
+    k1 : float
+        Linear gain of the Hopf law ``u = k1 q3 + k2 q3^3`` (section 5.3)
+        [input units per rad/s].
+    k2 : float
+        Cubic gain [input units per (rad/s)^3].
+    **continuation
+        Keywords of :func:`continue_branch` (above).
+
+    Returns
+    -------
+    PeriodicOrbit
+        The orbit: amplitude [rad], period [s], Floquet multipliers, stability.
+
     Raises
     ------
     InputError

@@ -26,7 +26,7 @@ from .continuation import continue_branch, correct_at, find_orbit, hopf_start
 from .hopf import HopfPoint, hopf_point
 from .orbits import OrbitShooter, PeriodicOrbit, nontrivial_multipliers
 
-__all__ = ["HopfDesign", "design_hopf", "SimulatedOscillation", "simulated_amplitude"]
+__all__ = ["HopfDesign", "design_hopf", "SimulatedOscillation", "simulated_amplitude", "refined_peak"]
 
 #: Amplitude at which the continuation for a design gives up [rad] (the upright is pi).
 A_MAX_DESIGN = 3.135
@@ -247,8 +247,8 @@ class SimulatedOscillation:
     result: object = field(repr=False)
 
 
-def _refined_peak(sig: np.ndarray) -> float:
-    """Largest sample, refined by a parabola through the three samples around it."""
+def refined_peak(sig: np.ndarray) -> float:
+    """Largest sample of ``sig``, refined by a parabola through the three samples around it (units of ``sig``)."""
     i = int(np.argmax(sig))
     if 0 < i < sig.size - 1:
         a, b, c = sig[i - 1], sig[i], sig[i + 1]
@@ -307,8 +307,8 @@ def simulated_amplitude(
     sel = r.t >= r.t[-1] - window
     t, q = r.t[sel], r.q1[sel]
     rotating = bool(np.max(np.abs(q)) > math.pi)
-    amp = float("nan") if rotating else float(_refined_peak(q))
-    amp_min = float("nan") if rotating else float(_refined_peak(-q))
+    amp = float("nan") if rotating else float(refined_peak(q))
+    amp_min = float("nan") if rotating else float(refined_peak(-q))
     idx = np.flatnonzero((q[:-1] < 0) & (q[1:] >= 0))
     if idx.size >= 2 and not rotating:
         tc = t[idx] - q[idx] * (t[idx + 1] - t[idx]) / (q[idx + 1] - q[idx])

@@ -123,7 +123,7 @@ def read_angle_log(
         raise fail(f"{src}: {angles.size} sample(s), at least {min_samples} are needed (min_samples)")
     q1 = np.deg2rad(angles) if angle_unit == "deg" else angles
     if angle_unit == "rad":
-        warn_if_degrees(q1, src, "angle", hint="angle_unit='deg' (--angle-unit deg)")
+        warn_if_degrees(q1, src, "angle", hint="iwp convert --angle-unit deg (angle_unit='deg' in Python)")
     if zero == "up":
         q1 = q1 + math.pi
     metadata = dict(header)

@@ -53,7 +53,7 @@ def read_csv(
     path : str or path-like
         The file.
     mapping : dict, optional
-        iwp name -> column name in the file, for files with other names,
+        The iwp name -> column name in the file, for files with other names,
         e.g. ``{"t": "time", "q1": "theta"}``. Unmapped iwp names are looked
         up under their own name.
     degrees : bool, optional
@@ -146,7 +146,7 @@ def write_csv(data: ExperimentData, path: str | os.PathLike, force: bool = False
         raise InputError(f"data must be an ExperimentData, got {type(data).__name__}")
     p = prepare_output_file(path, force)
     text = _csv_text(data.metadata, data.as_columns())
-    return atomic_write(p, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    return atomic_write(p, lambda tmp: tmp.write_text(text, encoding="utf-8"), force=force)
 
 
 # --------------------------------------------------------------------------
@@ -237,5 +237,5 @@ def write_static_curve(curve: StaticCurve, path: str | os.PathLike, force: bool 
         raise InputError(f"curve must be a StaticCurve, got {type(curve).__name__}")
     p = prepare_output_file(path, force)
     text = _csv_text(curve.metadata, {curve.input_name: curve.input, "q4": curve.q4})
-    return atomic_write(p, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+    return atomic_write(p, lambda tmp: tmp.write_text(text, encoding="utf-8"), force=force)
 

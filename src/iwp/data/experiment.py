@@ -181,17 +181,19 @@ class ExperimentData:
         metadata as JSON under ``glitches`` so that they survive a round trip
         through a file. Default: those of the metadata, if any.
 
-    Metadata that iwp reads: ``q4_sampling: mean`` (the wheel speed is the
-    mean over the preceding sample period, as a board's backward difference
-    of an encoder gives it; default ``instant``), ``q1_offset`` (the zero
-    offset already removed from ``q1`` [rad], informative), ``glitches``.
-
     Raises
     ------
     InputError
         On a wrong shape or length (naming the field), a non-finite value,
         a time that does not strictly increase, both ``u`` and ``v`` given,
         neither ``q2`` nor ``q4``, fewer than 2 samples, or bad metadata.
+
+    Notes
+    -----
+    Metadata that iwp reads: ``q4_sampling: mean`` (the wheel speed is the
+    mean over the preceding sample period, as a board's backward difference
+    of an encoder gives it; default ``instant``), ``q1_offset`` (the zero
+    offset already removed from ``q1`` [rad], informative), ``glitches``.
     """
 
     t: np.ndarray
@@ -344,7 +346,7 @@ class ExperimentData:
         cols = {n: getattr(self, n) for n in ("q1", "q2", "q3", "q4") if getattr(self, n) is not None}
         if self.current is not None:
             cols[CURRENT_COLUMN] = self.current
-        found = find_glitches(self.t, cols)
+        found = find_glitches(self.t, cols, input=self.input)
         if not found:
             return self
         if warn:

@@ -170,6 +170,10 @@ def convert(
         check_output_file(dst, force=force, argument="out", suffixes=LOG_SUFFIXES)
     else:
         check_output_file(dst, force=force, argument="out")  # fail before reading if dst exists
+        says = LOG_SUFFIXES.get(Path(dst).suffix.lower())
+        if says is not None and says != to_format:
+            raise InputError(f"out {dst}: its extension says {says}, not {to_format} (to_format = {to_format!r}); "
+                             f"name it {Path(dst).with_suffix('.' + to_format).name}", argument=("out", "to_format"))
     try:
         same = Path(dst).exists() and Path(src).exists() and Path(dst).samefile(src)
     except OSError:

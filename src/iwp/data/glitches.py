@@ -22,7 +22,9 @@ Criteria
 For a sample ``y[k]`` with neighbours, the deviation from the neighbours'
 mean is ``e[k] = y[k] - (y[k-1] + y[k+1]) / 2`` (at the first sample: from the
 linear extrapolation of the two next samples; the last sample is not
-checked, a step there looks the same). ``s`` is 1.4826 times the
+checked, a step there looks the same). With the logged input, the part of
+``e`` its steps explain is removed first (a driven speed's real corner where
+the input reverses, :func:`find_glitches`). ``s`` is 1.4826 times the
 median absolute ``e`` over the signal (the spread of a smooth signal's
 curvature plus its noise). A spike is a sample with
 
@@ -132,11 +134,45 @@ def _deviation(y: np.ndarray) -> np.ndarray:
     return e
 
 
-def _spikes(y: np.ndarray) -> list[int]:
+def _input_explained(e: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``e`` less the part of it the input's steps explain (fitted, robustly, over the log).
+
+    The deviation of a sample from its neighbours' mean is the signal's
+    curvature; where the input steps (a pseudo-random input reversing) the
+    acceleration of a driven signal changes at once, a real corner that is
+    no glitch. Its size is linear in the step: ``e[k] ~ sum_j c_j (u[k+j] -
+    u[k+j-1])`` for ``j = -1, 0, 1`` (the hold and a mean-sampled speed shift
+    it by a sample), with ``c`` fitted by least squares, once again without
+    the samples beyond 5 robust spreads (the glitches themselves).
+    """
+    n = e.size
+    du = np.zeros(n + 2)
+    du[2:n + 1] = np.diff(u)  # du[k + 1] = u[k] - u[k-1]
+    X = np.column_stack([du[j:j + n] for j in (0, 1, 2)])  # steps at k-1, k, k+1
+    inner = np.arange(1, n - 1)
+    if not np.any(X[inner]):
+        return e
+    keep = inner
+    c = np.zeros(3)
+    for _ in range(2):
+        c, *_ = np.linalg.lstsq(X[keep], e[keep], rcond=None)
+        r = e[inner] - X[inner] @ c
+        s = _robust_spread(r)
+        keep = inner[np.abs(r) <= 5.0 * s] if s > 0 else inner
+        if keep.size < 4:
+            break
+    out = e.copy()
+    out[inner] = e[inner] - X[inner] @ c
+    return out
+
+
+def _spikes(y: np.ndarray, u: np.ndarray | None = None) -> list[int]:
     n = y.size
     if n < 5:
         return []
     e = _deviation(y)
+    if u is not None:
+        e = _input_explained(e, u)
     s = _robust_spread(e[1:-1])
     lo, hi = np.percentile(y, [1.0, 99.0])
     floor = SPIKE_FLOOR * float(hi - lo)
@@ -147,6 +183,8 @@ def _spikes(y: np.ndarray) -> list[int]:
         if k == n - 1:  # a step at the last sample looks the same: not told apart, not reported
             continue
         spread = abs(y[k + 1] - y[k - 1]) if k > 0 else abs(y[2] - y[1])
+        if k == 0 and u is not None and abs(y[1] - y[0]) <= np.max(np.abs(np.diff(y[1:]))):
+            continue  # the input started at t0: a change no faster than the log's own is motion
         if abs(e[k]) > 2.0 * spread:
             out.append(k)
     # a spike makes its neighbours look odd at the ends: keep the largest of adjacent candidates
@@ -186,7 +224,7 @@ def _jumps(y: np.ndarray, floor: float, skip: set[int]) -> list[tuple[int, float
 
 
 def find_glitches(t, columns: Mapping[str, Any], *, angles: Sequence[str] = ("q1",),
-                  jump_floor: float = JUMP_FLOOR) -> list[Glitch]:
+                  jump_floor: float = JUMP_FLOOR, input=None) -> list[Glitch]:
     """Find spikes, dropouts and (for ``angles``) jumps in logged signals.
 
     Parameters
@@ -200,6 +238,11 @@ def find_glitches(t, columns: Mapping[str, Any], *, angles: Sequence[str] = ("q1
         Columns that are angles [rad], checked for jumps too.
     jump_floor : float
         Smallest jump reported [rad].
+    input : array_like, optional
+        The logged input: a sample whose deviation its steps explain (a
+        speed's corner where a pseudo-random input reverses) is no spike,
+        nor is a first sample that changes no faster than the log does
+        elsewhere while the input starts.
 
     Returns
     -------
@@ -208,6 +251,13 @@ def find_glitches(t, columns: Mapping[str, Any], *, angles: Sequence[str] = ("q1
         of the neighbours, or the extrapolation at the ends).
     """
     t = np.asarray(t, dtype=float)
+    u = None
+    if input is not None:
+        u = np.asarray(input, dtype=float)
+        if u.shape != t.shape:
+            raise InputError(f"find_glitches: input has {u.size} samples but t has {t.size}")
+        if not np.all(np.isfinite(u)) or np.ptp(u) == 0:
+            u = None
     out: list[Glitch] = []
     for name, col in columns.items():
         if col is None:
@@ -215,7 +265,7 @@ def find_glitches(t, columns: Mapping[str, Any], *, angles: Sequence[str] = ("q1
         y = np.asarray(col, dtype=float)
         if y.size != t.size:
             raise InputError(f"find_glitches: column {name!r} has {y.size} samples but t has {t.size}")
-        spikes = _spikes(y)
+        spikes = _spikes(y, u)
         for k in spikes:
             rep = _neighbour_value(y, k)
             kind = "dropout" if y[k] == 0.0 and rep != 0.0 else "spike"

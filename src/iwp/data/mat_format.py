@@ -113,7 +113,7 @@ def read_mat(
     ----------
     path : str or path-like
     mapping : dict, optional
-        iwp name -> variable (field) name, e.g. ``{"t": "time", "q1":
+        The iwp name -> variable (field) name, e.g. ``{"t": "time", "q1":
         "theta", "q2": "phi", "u": "u"}``; unmapped iwp names are looked up
         under their own names.
     struct : str, optional
@@ -255,5 +255,5 @@ def write_mat(data: ExperimentData, path: str | os.PathLike, force: bool = False
         with open(tmp, "wb") as fh:
             savemat(fh, out, oned_as="column", do_compression=True)
 
-    return atomic_write(p, write)
+    return atomic_write(p, write, force=force)
 

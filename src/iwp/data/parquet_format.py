@@ -151,5 +151,5 @@ def write_parquet(data: ExperimentData, path: str | os.PathLike, force: bool = F
     table = table.replace_schema_metadata(
         {_PARQUET_METADATA_KEY: json.dumps(data.metadata).encode("utf-8")}
     )
-    return atomic_write(p, lambda tmp: pq.write_table(table, str(tmp)))
+    return atomic_write(p, lambda tmp: pq.write_table(table, str(tmp)), force=force)
 

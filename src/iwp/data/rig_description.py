@@ -32,6 +32,7 @@ from ..files import read_json
 
 __all__ = [
     "RigDescription",
+    "MatrixSpec",
     "TimeSpec",
     "PendulumSpec",
     "WheelSpec",
@@ -126,6 +127,9 @@ class PendulumSpec:
         subtracted from ``q1``; None (``"estimate"``): estimated per log by the fit.
     sign : float
         1, or -1 if the log counts the other way round.
+    scale : float
+        A correction factor on the angle in its unit (e.g. a lab's factor for an encoder whose gain is
+        known to be off); default 1. The angle is ``sign * scale * x * unit + zero - offset``.
     """
 
     column: str
@@ -134,12 +138,13 @@ class PendulumSpec:
     zero: float = 0.0
     offset: float | None = None
     sign: float = 1.0
+    scale: float = 1.0
 
     @property
     def factor(self) -> float:
-        """Log unit -> rad."""
+        """Log unit -> rad (with ``scale``)."""
         f = ANGLE_UNITS[self.unit]
-        return 2.0 * math.pi / self.counts_per_rev if f is None else f
+        return self.scale * (2.0 * math.pi / self.counts_per_rev if f is None else f)
 
 
 @dataclass(frozen=True)
@@ -161,6 +166,8 @@ class WheelSpec:
         Angle in counts (required then); for a speed, the encoder behind it (informative,
         and the virtual rig's quantisation).
     sign : float
+    scale, bias : float
+        An affine correction of the reading in its unit, ``scale * (x - bias)`` (default 1 and 0).
     """
 
     column: str
@@ -170,23 +177,28 @@ class WheelSpec:
     at: str = "wheel"
     counts_per_rev: float | None = None
     sign: float = 1.0
+    scale: float = 1.0
+    bias: float = 0.0
 
     def factor(self, ratio: float) -> float:
-        """Log unit -> rad (or rad/s) of the wheel relative to the arm."""
+        """Log unit -> rad (or rad/s) of the wheel relative to the arm (with ``scale``)."""
         if self.quantity == "speed":
             f = SPEED_UNITS[self.unit]
         else:
             f = ANGLE_UNITS[self.unit]
             f = 2.0 * math.pi / self.counts_per_rev if f is None else f
+        f = self.scale * f
         return f / ratio if self.at == "motor" else f
 
 
 @dataclass(frozen=True)
 class CurrentSpec:
-    """The motor current: column and unit (``A``, ``mA``)."""
+    """The motor current: column, unit (``A``, ``mA``) and an affine correction ``scale * (x - bias)`` in that unit."""
 
     column: str
     unit: str = "A"
+    scale: float = 1.0
+    bias: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -232,14 +244,33 @@ class InputSpec:
 
 @dataclass(frozen=True)
 class DriveSpec:
-    """How the motor drives the wheel: ``direct``, ``gear`` or ``belt``, with the ratio ``N`` (motor turns per
-    wheel turn)."""
+    """How the motor drives the wheel: ``direct``, ``gear`` or ``belt``.
+
+    The ratio ``N`` is in motor turns per wheel turn [-].
+    """
 
     kind: str = "direct"
     ratio: float = 1.0
 
 
-_TOP = ("kind", "name", "notes", "sample_period", "time", "pendulum", "wheel", "current", "input", "drive")
+@dataclass(frozen=True)
+class MatrixSpec:
+    """A MATLAB log holding one numeric matrix, one column per signal (or one row per signal).
+
+    Attributes
+    ----------
+    columns : tuple of str
+        The names of its columns, in order (the names the other keys use).
+    variable : str or None
+        The matrix variable's name; None: the file's only two-dimensional numeric variable.
+    """
+
+    columns: tuple[str, ...]
+    variable: str | None = None
+
+
+_TOP = ("kind", "name", "notes", "sample_period", "time", "pendulum", "wheel", "current", "input", "drive",
+        "matrix")
 
 
 @dataclass(frozen=True)
@@ -259,6 +290,7 @@ class RigDescription:
     name: str = ""
     notes: str = ""
     source: str = "<memory>"
+    matrix: MatrixSpec | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The description as JSON-ready dict (the format :meth:`from_dict` reads)."""
@@ -281,6 +313,8 @@ class RigDescription:
                 d[key] = _drop_none(dd) if key != "input" else {k: v for k, v in dd.items()
                                                                   if v is not None or k == "column"}
         d["drive"] = asdict(self.drive)
+        if self.matrix is not None:
+            d["matrix"] = _drop_none({"variable": self.matrix.variable, "columns": list(self.matrix.columns)})
         return d
 
     @classmethod
@@ -312,7 +346,7 @@ class RigDescription:
         if "pendulum" not in doc:
             raise InputError(f"{where}: key 'pendulum' is required (the pendulum angle's column and unit)")
         pdoc = _obj(where, "pendulum", doc["pendulum"],
-                    ("column", "unit", "counts_per_rev", "zero", "offset", "sign"))
+                    ("column", "unit", "counts_per_rev", "zero", "offset", "sign", "scale"))
         if "column" not in pdoc:
             raise InputError(f"{where}: key 'pendulum.column' is required")
         unit = _choice(where, "pendulum.unit", pdoc.get("unit", "rad"), tuple(ANGLE_UNITS))
@@ -322,6 +356,9 @@ class RigDescription:
             zero_v = ZEROS[_choice(where, "pendulum.zero", zero, tuple(ZEROS))]
         else:
             zero_v = _num(where, "pendulum.zero", zero)
+            if abs(zero_v) > 2.0 * math.pi:
+                raise InputError(f"{_where(where, 'pendulum.zero')} = {zero_v!r} rad: the angle of the log's zero "
+                                 "lies within one turn (|zero| <= 2 pi rad), or 'down' / 'up'")
         off = pdoc.get("offset", "estimate")
         if off == "estimate":
             off_v = None
@@ -336,7 +373,7 @@ class RigDescription:
                                  "correction (|offset| <= 0.5 rad); put the angle of the log's zero in "
                                  "'pendulum.zero'")
         pend = PendulumSpec(_column(where, "pendulum.column", pdoc["column"]), unit, cpr, zero_v, off_v,
-                            _sign(where, "pendulum.sign", pdoc.get("sign", 1)))
+                            _sign(where, "pendulum.sign", pdoc.get("sign", 1)), _scale(where, "pendulum", pdoc))
         # drive
         ddoc = _obj(where, "drive", doc.get("drive", {}), ("kind", "ratio"))
         dkind = _choice(where, "drive.kind", ddoc.get("kind", "direct"), DRIVE_KINDS)
@@ -351,7 +388,7 @@ class RigDescription:
         wheel = None
         if doc.get("wheel") is not None:
             wdoc = _obj(where, "wheel", doc["wheel"],
-                        ("column", "quantity", "unit", "sampling", "at", "counts_per_rev", "sign"))
+                        ("column", "quantity", "unit", "sampling", "at", "counts_per_rev", "sign", "scale", "bias"))
             if "column" not in wdoc:
                 raise InputError(f"{where}: key 'wheel.column' is required")
             qty = _choice(where, "wheel.quantity", wdoc.get("quantity", "speed"), ("speed", "angle"))
@@ -364,14 +401,16 @@ class RigDescription:
             at = _choice(where, "wheel.at", wdoc.get("at", "wheel"), ("wheel", "motor"))
             wcpr = _counts(where, "wheel", wdoc, wunit == "counts")
             wheel = WheelSpec(_column(where, "wheel.column", wdoc["column"]), qty, wunit, sampling, at, wcpr,
-                              _sign(where, "wheel.sign", wdoc.get("sign", 1)))
+                              _sign(where, "wheel.sign", wdoc.get("sign", 1)), _scale(where, "wheel", wdoc),
+                              _num(where, "wheel.bias", wdoc.get("bias", 0.0)))
         current = None
         if doc.get("current") is not None:
-            cdoc = _obj(where, "current", doc["current"], ("column", "unit"))
+            cdoc = _obj(where, "current", doc["current"], ("column", "unit", "scale", "bias"))
             if "column" not in cdoc:
                 raise InputError(f"{where}: key 'current.column' is required")
             current = CurrentSpec(_column(where, "current.column", cdoc["column"]),
-                                  _choice(where, "current.unit", cdoc.get("unit", "A"), tuple(CURRENT_UNITS)))
+                                  _choice(where, "current.unit", cdoc.get("unit", "A"), tuple(CURRENT_UNITS)),
+                                  _scale(where, "current", cdoc), _num(where, "current.bias", cdoc.get("bias", 0.0)))
         inp = None
         if doc.get("input") is not None:
             idoc = _obj(where, "input", doc["input"],
@@ -413,7 +452,24 @@ class RigDescription:
         if wheel is None:
             raise InputError(f"{where}: key 'wheel' is required (the wheel's angle or speed column); iwp's models "
                              "need the wheel")
-        return cls(pend, wheel, current, inp, drive, time, Ts, name, notes, where)
+        matrix = None
+        if doc.get("matrix") is not None:
+            mdoc = _obj(where, "matrix", doc["matrix"], ("variable", "columns"))
+            names = mdoc.get("columns")
+            if (not isinstance(names, (list, tuple)) or len(names) < 2
+                    or not all(isinstance(c, str) and c.strip() for c in names)):
+                raise InputError(f"{_where(where, 'matrix.columns')} must list the names of the matrix's columns "
+                                 f"in order (at least two), got {names!r}")
+            if len(set(names)) != len(names):
+                dup = next(c for c in names if names.count(c) > 1)
+                raise InputError(f"{_where(where, 'matrix.columns')} names {dup!r} twice")
+            var = mdoc.get("variable")
+            if var is not None and (not isinstance(var, str) or not var.strip()):
+                raise InputError(f"{_where(where, 'matrix.variable')} must be a variable's name, got {var!r}")
+            matrix = MatrixSpec(tuple(names), var)
+        rig = cls(pend, wheel, current, inp, drive, time, Ts, name, notes, where, matrix)
+        _check_distinct_columns(rig)
+        return rig
 
     def columns(self) -> dict[str, str]:
         """iwp signal -> the log's column (``t``, ``q1``, ``q2`` or ``q4``, ``current``, ``input``)."""
@@ -439,6 +495,35 @@ def _counts(where: str, part: str, d: Mapping[str, Any], required: bool) -> floa
     return _num(where, f"{part}.counts_per_rev", v, positive=True)
 
 
+def _scale(where: str, part: str, d: Mapping[str, Any]) -> float:
+    """A signal's correction factor ``part.scale``: finite and not 0."""
+    v = _num(where, f"{part}.scale", d.get("scale", 1.0))
+    if v == 0:
+        raise InputError(f"{_where(where, part + '.scale')} must not be 0 (it multiplies the reading)")
+    return v
+
+
+def _check_distinct_columns(rig: RigDescription) -> None:
+    """Refuse a description that maps two signals onto one column."""
+    seen: dict[str, str] = {}
+    for key, col in (("time.column", rig.time.column), ("pendulum.column", rig.pendulum.column),
+                     ("wheel.column", rig.wheel.column if rig.wheel else None),
+                     ("current.column", rig.current.column if rig.current else None),
+                     ("input.column", rig.input.column if rig.input else None)):
+        if col is None:
+            continue
+        if col in seen:
+            raise InputError(f"{rig.source}: keys '{seen[col]}' and '{key}' both name the column {col!r}; each "
+                             "signal needs its own column")
+        seen[col] = key
+    if rig.matrix is not None:
+        missing = [c for c in seen if c not in rig.matrix.columns]
+        if missing:
+            key = next(k for c, k in seen.items() if c == missing[0])
+            raise InputError(f"{rig.source}: key '{key}' names the column {missing[0]!r}, which 'matrix.columns' "
+                             f"does not list ({', '.join(rig.matrix.columns)})")
+
+
 def _drop_none(d: dict) -> dict:
     return {k: v for k, v in d.items() if v is not None}
 
@@ -447,6 +532,22 @@ def load_rig(path: str | os.PathLike | RigDescription, *, flag: str = "--rig") -
     """Load a rig description from JSON (a :class:`RigDescription` is returned as it is).
 
     Errors are one line naming the file (and ``flag`` when the file is missing).
+
+    Parameters
+    ----------
+    path : str or PathLike or RigDescription
+        The JSON file (``docs/rig-description.md`` lists its keys and units).
+    flag : str
+        The command-line flag named when the file is missing.
+
+    Returns
+    -------
+    RigDescription
+
+    Raises
+    ------
+    InputError
+        A missing file, bad JSON, an unknown key, or a wrong value (naming the key).
     """
     if isinstance(path, RigDescription):
         return path

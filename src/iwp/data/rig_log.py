@@ -68,29 +68,33 @@ def _check_counts(raw: "_Raw", column: str, x: np.ndarray, fix: str) -> None:
     bad = np.flatnonzero(np.abs(x - np.round(x)) > 1e-6)
     if bad.size:
         i = int(bad[0])
-        raise fail(f"{raw.locate(i, column)}: encoder counts must be whole numbers, found {x[i]!r}; {fix}")
+        raise fail(f"{raw.locate(i, column)}: encoder counts must be whole numbers, found {float(x[i]):.10g}; {fix}")
 
 
 class _Raw:
     """The named numeric columns of a log, and where each sample is (for messages)."""
 
     def __init__(self, source: str, columns: dict[str, np.ndarray], locate: Callable[[int, str], str],
-                 metadata: dict[str, str], fmt: str):
+                 metadata: dict[str, str], fmt: str, others: tuple[str, ...] = ()):
         self.source = source
         self.columns = columns
         self.locate = locate
         self.metadata = metadata
         self.format = fmt
+        self.others = others  # what else the file holds, described (a MAT file's matrices)
 
     def get(self, column: str, key: str, rig: RigDescription) -> np.ndarray:
         if column not in self.columns:
-            found = ", ".join(self.columns) or "nothing"
-            raise fail(f"{self.source}: column {column!r} ({rig.source}: key {key!r}) not found; found: {found}")
+            found = ", ".join([*self.columns, *self.others]) or "nothing"
+            hint = ("; name a matrix's columns with the key 'matrix' of the rig description "
+                    "(docs/rig-description.md)" if self.others and rig.matrix is None else "")
+            raise fail(f"{self.source}: column {column!r} ({rig.source}: key {key!r}) not found; found: {found}"
+                       f"{hint}")
         arr = self.columns[column]
         bad = np.flatnonzero(~np.isfinite(arr))
         if bad.size:
             i = int(bad[0])
-            raise fail(f"{self.locate(i, column)}: {float(arr[i])!r} is not a finite number (NaN or inf)")
+            raise fail(f"{self.locate(i, column)}: {float(arr[i])} is not a finite number (NaN or inf)")
         return arr
 
 
@@ -142,7 +146,10 @@ def _read_mat_raw(path: str | os.PathLike, rig: RigDescription, struct: str | No
                 f"any reader on PyPI; export it in MATLAB: s.t = {name}.Time; s.{name} = {name}.Data; "
                 "save('log.mat','-struct','s','-v7')")
     container = flatten_simulink(container)
+    if rig.matrix is not None:
+        return _matrix_raw(src, container, prefix, rig)
     cols: dict[str, np.ndarray] = {}
+    others: list[str] = []
     for name, value in container.items():
         if is_mat_struct(value) or isinstance(value, MatlabOpaque):
             continue
@@ -156,6 +163,8 @@ def _read_mat_raw(path: str | os.PathLike, rig: RigDescription, struct: str | No
             if name in wanted:
                 raise fail(f"{src}, variable {prefix + name!r}: a {'x'.join(map(str, arr.shape))} array; "
                            "expected a vector")
+            others.append(f"a {'x'.join(map(str, arr.shape))} {'matrix' if arr.ndim == 2 else 'array'} "
+                          f"{prefix + name!r}")
             continue
         cols[name] = arr.astype(np.float64)
     if "time" in cols and rig.time.column == "t" and "t" not in cols:
@@ -169,6 +178,50 @@ def _read_mat_raw(path: str | os.PathLike, rig: RigDescription, struct: str | No
 
     def locate(i: int, name: str) -> str:
         return f"{src}, variable {prefix + name!r}, sample {i + 1}"
+
+    return _Raw(src, cols, locate, {}, "mat", tuple(others))
+
+
+def _matrix_raw(src: str, container: dict, prefix: str, rig: RigDescription) -> _Raw:
+    """The columns of the numeric matrix the rig description's ``matrix`` names (one column per signal, or one
+    row per signal when only that orientation fits)."""
+    spec = rig.matrix
+    k = len(spec.columns)
+    mats = {}
+    for name, value in container.items():
+        arr = np.asarray(value) if not is_mat_struct(value) else None
+        if arr is not None and arr.dtype.kind in "biuf" and np.squeeze(arr).ndim == 2:
+            mats[name] = np.squeeze(arr)
+    held = ", ".join(f"a {'x'.join(map(str, m.shape))} matrix {prefix + n!r}" for n, m in mats.items()) or \
+        "no two-dimensional numeric variable"
+    if spec.variable is not None:
+        if spec.variable not in container:
+            raise fail(f"{src}: no variable {prefix + spec.variable!r} ({rig.source}: key 'matrix.variable'); "
+                       f"found: {held}")
+        if spec.variable not in mats:
+            arr = np.asarray(container[spec.variable])
+            raise fail(f"{src}: variable {prefix + spec.variable!r} is not a numeric matrix (a "
+                       f"{'x'.join(map(str, arr.shape)) or 'scalar'} {arr.dtype.kind} array)")
+        name = spec.variable
+    else:
+        if len(mats) != 1:
+            raise fail(f"{src}: {rig.source} key 'matrix' gives no 'variable' and the file holds {held}; name the "
+                       "matrix with 'matrix.variable'")
+        name = next(iter(mats))
+    m = mats[name]
+    if m.shape[1] == k:
+        data = m
+    elif m.shape[0] == k:
+        data = m.T
+    else:
+        raise fail(f"{src}: variable {prefix + name!r} is a {m.shape[0]}x{m.shape[1]} matrix but {rig.source} "
+                   f"key 'matrix.columns' names {k} columns ({', '.join(spec.columns)})")
+    data = data.astype(np.float64)
+    cols = {c: data[:, j].copy() for j, c in enumerate(spec.columns)}
+
+    def locate(i: int, col: str) -> str:
+        j = spec.columns.index(col) + 1 if col in spec.columns else 0
+        return f"{src}, matrix {prefix + name!r}, row {i + 1}, column {j} ({col!r})"
 
     return _Raw(src, cols, locate, {}, "mat")
 
@@ -238,6 +291,9 @@ def read_rig_log(
         raise InputError(f"format must be 'csv' or 'mat' for a log read with a rig description, got {fmt!r}")
     if struct is not None and fmt != "mat":
         raise InputError("struct applies to .mat logs only")
+    if rig.matrix is not None and fmt != "mat":
+        raise InputError(f"{path}: {rig.source} key 'matrix' names the columns of a MATLAB matrix; this log is "
+                         f"{fmt.upper()} (its header names its columns): drop 'matrix' or read the .mat log")
     raw = _read_csv_raw(path) if fmt == "csv" else _read_mat_raw(path, rig, struct)
     src = raw.source
     where = rig.source
@@ -266,6 +322,14 @@ def read_rig_log(
         if rig.sample_period is not None and med > 0 and abs(med - rig.sample_period) > 0.01 * rig.sample_period:
             raise fail(f"{raw.locate(1, tname)}: the median time step is {med:.6g} s but {where} gives "
                        f"'sample_period' {rig.sample_period:g} s")
+
+    if rig.time.column is None:  # times from sample_period: a time column the log has anyway must agree
+        for name in (k for k in ("t", "time", "Time", "timestamp") if k in raw.columns):
+            d = np.diff(np.asarray(raw.columns[name], dtype=float))
+            med = float(np.median(d)) if d.size else float("nan")
+            if math.isfinite(med) and med > 0 and abs(med - rig.sample_period) > 0.01 * rig.sample_period:
+                raise fail(f"{raw.locate(1, name)}: the log's column {name!r} steps by {med:.6g} but {where} gives "
+                           f"'sample_period' {rig.sample_period:g} s and no time column; name it in 'time.column'")
 
     # ---- pendulum angle
     ps = rig.pendulum
@@ -302,17 +366,17 @@ def read_rig_log(
         _check_counts(raw, ws.column, w, f"set 'wheel.unit' in {where}")
     f = ws.factor(rig.drive.ratio)
     if ws.quantity == "speed":
-        at_sensor = np.abs(w) * ws.factor(1.0) * (rig.drive.ratio if ws.at == "motor" else 1.0)
+        at_sensor = np.abs(w - ws.bias) * ws.factor(1.0) * (rig.drive.ratio if ws.at == "motor" else 1.0)
         typical = float(np.percentile(at_sensor, 99.0)) if at_sensor.size else 0.0
         if typical > MAX_WHEEL_SPEED:
             raise fail(f"{raw.locate(int(np.argmax(at_sensor)), ws.column)}: a {ws.at} speed of {typical:.4g} "
                        f"rad/s (99th percentile) cannot be right; is it in rpm or deg/s? set 'wheel.unit' in "
                        f"{where}")
-        cols[ws.column] = ws.sign * w * f
+        cols[ws.column] = ws.sign * (w - ws.bias) * f
         used["q4"] = ws.column
         meta[Q4_SAMPLING_KEY] = ws.sampling
     else:
-        cols[ws.column] = ws.sign * w * f
+        cols[ws.column] = ws.sign * (w - ws.bias) * f
         used["q2"] = ws.column
     meta["wheel_sensor"] = f"{ws.quantity} at the {ws.at} ({ws.unit}, {ws.sampling})"
     meta["drive"] = f"{rig.drive.kind}, ratio {rig.drive.ratio:g}"
@@ -321,7 +385,7 @@ def read_rig_log(
     extras: list[str] = []
     if rig.current is not None:
         cs = rig.current
-        c = raw.get(cs.column, "current.column", rig) * CURRENT_UNITS[cs.unit]
+        c = cs.scale * (raw.get(cs.column, "current.column", rig) - cs.bias) * CURRENT_UNITS[cs.unit]
         peak = float(np.percentile(np.abs(c), 99.0)) if c.size else 0.0
         if peak > MAX_CURRENT:
             raise fail(f"{raw.locate(int(np.argmax(np.abs(c))), cs.column)}: a motor current of {peak:.4g} A (99th "
@@ -345,7 +409,7 @@ def read_rig_log(
             bad = np.flatnonzero((xin < 0) | (xin > hi))
             if bad.size:
                 i = int(bad[0])
-                raise fail(f"{raw.locate(i, ins.column)}: {xin[i]!r} is not a count of a {ins.bits}-bit DAC "
+                raise fail(f"{raw.locate(i, ins.column)}: {float(xin[i]):.10g} is not a count of a {ins.bits}-bit DAC "
                            f"(0 to {hi}); check 'input.bits' in {where}")
         xc = xin
         if ins.limits is not None:

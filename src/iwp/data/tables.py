@@ -96,6 +96,14 @@ def split_fields(line: str, delim: str | None) -> list[str]:
     return line.split(delim) if delim else line.split()
 
 
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 class Table:
     """Header, numeric rows and line numbers of a delimited text file."""
 
@@ -123,6 +131,9 @@ class Table:
                 self.header = [
                     f.strip().strip('"').strip() for f in split_fields(stripped, self.delim)
                 ]
+                if all(_is_number(name) for name in self.header):
+                    raise fail(f"{src}, line {lineno}: no header row: the first row holds numbers; add a header "
+                               "line naming the columns, e.g. t,q1,q2,u")
                 for i, name in enumerate(self.header):
                     if not name:
                         raise fail(f"{src}, line {lineno}: header column {i + 1} has no name")
@@ -227,7 +238,7 @@ def resolve_columns(
         plural = "s" if len(missing) > 1 else ""
         raise fail(
             f"{where}: missing required {kind}{plural} {', '.join(missing)}; found: {listing} "
-            f"(map other names with mapping= / --map, e.g. t=time,q1=theta,q2=phi)"
+            f"(rename them with iwp convert --map t=time,q1=theta,q2=phi, or mapping= in Python)"
         )
     if "u" in used and "v" in used:
         raise fail(
@@ -301,8 +312,8 @@ def finish_log(
             raise fail(
                 f"{locate(i, tname)}: irregular sampling: step {float(dt[i - 1])!r} s differs from the "
                 f"median step {med!r} s by {100 * dev[i - 1]:.3g}% (tolerance "
-                f"{100 * sampling_tol:.3g}%); pass resample=True (--resample) to interpolate "
-                "onto a uniform grid"
+                f"{100 * sampling_tol:.3g}%); interpolate it onto a uniform grid with iwp convert --resample "
+                "(resample=True in Python)"
             )
     fields: dict[str, np.ndarray] = {canon: cols[name] for canon, name in used.items()}
     check_log_values(fields, source=source, locate=locate, names=used)
@@ -338,7 +349,7 @@ def warn_if_degrees(q1: np.ndarray, source: str, column: str, hint: str | None =
     crossings = int(np.count_nonzero(np.diff(np.signbit(q1[q1 != 0.0]))))
     what = (f"{source}: column {column!r}{'' if column == 'q1' else ' (q1)'} looks like degrees "
             f"(peak |q1| = {peak:.4g} > 3*pi rad")
-    fix = f"convert with {hint or '--degrees / degrees=True'}"
+    fix = f"convert it with {hint or 'iwp convert --degrees (degrees=True in Python)'}"
     if crossings >= DEGREES_CROSSINGS and peak <= 400.0:
         raise fail(f"{what} while it swings across zero {crossings} times); {fix}")
     warnings.warn(f"{what}); {fix}", UserWarning, stacklevel=4)

@@ -63,7 +63,7 @@ def run_control(rig: Rig, what: str, *, where: str = "device", params: LumpedPar
     params : LumpedParameters
         The model the LQR and the swing-up are designed on (e.g. Table 1).
     duration : float
-        [s]
+        Length of the run [s].
     k1, k2 : float
         Hopf gains.
     x0 : float or sequence, optional

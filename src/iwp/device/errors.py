@@ -8,8 +8,11 @@ __all__ = ["DeviceError", "LinkLost"]
 
 
 class DeviceError(InputError):
-    """The device cannot be used: no such port, no answer, another protocol, a refused request (exit status 2
-    on the command line)."""
+    """The device cannot be used.
+
+    No such port, no answer, another protocol, a refused request (exit
+    status 2 on the command line).
+    """
 
 
 class LinkLost(DeviceError):

@@ -73,8 +73,26 @@ TWIN_PORT = "twin"
 
 
 def open_rig(port: str, *, baudrate: int | None = None, truth: RigTruth | None = None, fast: bool = False) -> Rig:
-    """The rig on ``port``: :data:`TWIN_PORT` for the in-process twin (:class:`TwinRig`), else a device
-    (:class:`~iwp.device.rig.Rig`)."""
+    """The rig on ``port``: :data:`TWIN_PORT` for the in-process twin, else a device.
+
+    Parameters
+    ----------
+    port : str
+        A serial device (``/dev/ttyACM0``), a pseudo-terminal of ``iwp rig
+        emulate``, or :data:`TWIN_PORT` (``"twin"``).
+    baudrate : int, optional
+        Baud rate of a serial port (default: the protocol's).
+    truth : RigTruth, optional
+        The twin's truth plant (the twin only; default: the calibrated twin).
+    fast : bool
+        Run the twin by the host's clock, faster than real time.
+
+    Returns
+    -------
+    Rig
+        A :class:`TwinRig` or a :class:`~iwp.device.rig.Rig`, to be closed
+        (a context manager).
+    """
     if port == TWIN_PORT:
         return TwinRig(truth, fast=fast)
     return Rig(port) if baudrate is None else Rig(port, baudrate=baudrate)

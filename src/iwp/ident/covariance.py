@@ -502,14 +502,19 @@ def across_and_within(across: Covariance, within: Covariance) -> Covariance:
     ``G - 1``: with fewer experiments than unknowns it determines no joint
     distribution (a draw of the parameters would move along ``G - 1``
     directions only). The sandwich within experiments (:func:`hac_sandwich`)
-    has full rank but misses what lasts longer than an experiment. This one
-    scales the second to the first where the first is larger:
-    ``C = D C_within D`` with ``D_jj = sqrt(max(1, C_across,jj / C_within,jj))``,
-    and keeps the Student t quantile of the spread across experiments.
+    has full rank but misses what lasts longer than an experiment and, in
+    short experiments, what lasts longer than its bandwidth. This one takes
+    the variances of the first and the correlations of the second:
+    ``C = D C_within D`` with ``D_jj = sqrt(C_across,jj / C_within,jj)``, and
+    the Student t quantile of the spread across experiments -- the
+    t-interval of ``G`` independent estimates, whose coverage does not depend
+    on how the residuals are correlated within an experiment (measured: 95 %
+    with three 8 s experiments where the sandwich within them gave 81 %,
+    tests/test_uncertainty.py).
     """
     a, w = np.diag(across.matrix), np.diag(within.matrix)
     with np.errstate(invalid="ignore", divide="ignore"):
-        d = np.sqrt(np.where(np.isfinite(a / w) & (w > 0), np.maximum(a / w, 1.0), 1.0))
+        d = np.sqrt(np.where(np.isfinite(a / w) & (w > 0), a / w, 1.0))
     cov = within.matrix * np.outer(d, d)
     return Covariance(cov, "experiments", across.critical, within.bandwidth, within.inflation * d * d,
                       within.messages)

@@ -147,6 +147,8 @@ class Differentiator:
         forward-backward pass doubles the effective order and squares the
         magnitude response (-6 dB at ``cutoff``), with zero phase.
 
+    Notes
+    -----
     Settings that belong to another method must be left at ``None``; the
     ones left at ``None`` get the defaults of :data:`METHOD_DEFAULTS`.
 

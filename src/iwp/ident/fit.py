@@ -17,6 +17,18 @@ def fit_percent(y, y_hat) -> float:
     100 for a perfect match, 0 for a prediction no better than the mean of
     ``y``, negative when worse. NaN when ``y`` is constant (the fit is not
     defined).
+
+    Parameters
+    ----------
+    y : array_like
+        The measured signal (any unit).
+    y_hat : array_like
+        The simulated signal, same unit and length.
+
+    Returns
+    -------
+    float
+        The fit [%].
     """
     y = np.asarray(y, dtype=float).ravel()
     y_hat = np.asarray(y_hat, dtype=float).ravel()

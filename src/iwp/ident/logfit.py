@@ -2,7 +2,7 @@
 
 :func:`fit_logs` (the command ``iwp fit TRAIN... --rig RIG.json --validate
 HELDOUT... --out DIR``) takes a rig's logs as they are (read with its rig
-description, :func:`iwp.data.read_rig_log`, or iwp logs) and
+description, :func:`iwp.data.rig_log.read_rig_log`, or iwp logs) and
 
 1. finds and reports glitches (:meth:`ExperimentData.with_glitches_found`);
    replaced samples are left out of every residual and fit;
@@ -44,12 +44,12 @@ import time
 import warnings as _warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 from scipy import optimize
 
-from ..data import ExperimentData, read_experiment
+from ..data import ExperimentData, check_distinct, read_experiment
 from ..data.rig_description import RigDescription, load_rig
 from ..data.rig_log import read_rig_log
 from ..errors import InputError
@@ -59,10 +59,11 @@ from ..models.plant import Plant
 from ..sim.uncertainty import ParameterUncertainty, prediction_band
 from .differentiate import Differentiator
 from .fit import fit_percent
-from .output_error import Experiment, OutputError, measured_state_covariance
+from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_state_covariance
 from .problem import Loss
 from .refinement import RefineResult, as_experiments, refine
 from .regressors import columns, q3_row, row_sum
+from .structure import LadderResult, Rung, RungOutcome, information_criteria, ladder, select
 
 __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresStart", "least_squares_start",
            "load_logs", "measured_initial_state", "MIN_SAMPLES_PER_PERIOD"]
@@ -111,6 +112,8 @@ class LogFit:
     glitches: list[str] = field(default_factory=list)
     #: held-out logs: per signal, the share of the samples inside the fit's 95 % prediction band
     coverage: dict[str, float] = field(default_factory=dict)
+    #: the set-up (:data:`~iwp.ident.output_error.EXPERIMENT_KINDS`)
+    kind: str = "free"
 
     def to_dict(self) -> dict[str, Any]:
         return {"source": self.source, "role": self.role,
@@ -119,7 +122,8 @@ class LogFit:
                 "max_abs_error": {k: json_float(v) for k, v in self.max_abs_error.items()},
                 "samples": int(self.t.size), "t_start": float(self.t[0]), "t_end": float(self.t[-1]),
                 "x0": [json_float(v) for v in self.x0], "q1_offset": json_float(self.q1_offset),
-                "glitches": list(self.glitches), "band_coverage": {k: json_float(v) for k, v in self.coverage.items()}}
+                "glitches": list(self.glitches), "band_coverage": {k: json_float(v) for k, v in self.coverage.items()},
+                "kind": self.kind}
 
 
 @dataclass(eq=False)
@@ -140,12 +144,14 @@ class LogFitResult:
         ``"compensated"`` (9) or ``"raw"`` (6).
     outputs : tuple of str
     options : dict
-        The model options used (dead zone, Coulomb terms, input offset).
+        The model options used (dead zone, Coulomb terms, widths, input offset).
     train, validation : list of LogFit
     warnings : list of str
     rig : RigDescription or None
     elapsed : float
         Wall time [s].
+    structures : LadderResult or None
+        The ladder of structures fitted and ranked (``select``), or None.
     """
 
     params: LumpedParameters
@@ -161,16 +167,25 @@ class LogFitResult:
     warnings: list[str]
     rig: RigDescription | None = None
     elapsed: float = 0.0
+    structures: LadderResult | None = None
 
     @property
     def validation_fit(self) -> dict[str, float]:
         """Mean fit [%] per signal over the held-out logs (NaN without held-out logs)."""
-        return _mean_fit(self.validation, self.outputs)
+        return _mean_fit([f.fit for f in self.validation], self.outputs)
+
+    def validation_range(self) -> dict[str, tuple[float, float]]:
+        """Per signal, the lowest and the highest fit [%] of the held-out logs (a mean hides a failed log)."""
+        out = {}
+        for o in self.outputs:
+            vals = [f.fit[o] for f in self.validation if o in f.fit and math.isfinite(f.fit[o])]
+            out[o] = (float(min(vals)), float(max(vals))) if vals else (float("nan"), float("nan"))
+        return out
 
     @property
     def training_fit(self) -> dict[str, float]:
         """Mean fit [%] per signal over the training logs."""
-        return _mean_fit(self.train, self.outputs)
+        return _mean_fit([f.fit for f in self.train], self.outputs)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able summary (NaN -> None)."""
@@ -193,6 +208,7 @@ class LogFitResult:
             "refinement": {k: r.to_dict()[k] for k in ("cost_start", "cost", "success", "message", "nfev", "njev",
                                                         "n_samples", "residual_std")},
             "uncertainty": None if r.reliability is None else r.reliability.to_dict(),
+            "structures": None if self.structures is None else self.structures.to_dict(),
             "warnings": list(self.warnings),
             "elapsed_s": json_float(self.elapsed),
             "lumped": self.params.to_dict(),
@@ -200,8 +216,10 @@ class LogFitResult:
 
     def summary(self, warnings: bool = True) -> str:
         """Readable lines: parameters, fits per log and signal, (with ``warnings``) the warnings."""
-        lines = [f"model {self.model} ({'(6) with dead zone' if self.model == 'raw' else '(9)'}), outputs "
-                 f"{', '.join(self.outputs)}, start: {self.start_method}"]
+        lines = [self.structures.table()] if self.structures is not None else []
+        lines.append(f"model {self.model} ({'(6) with dead zone' if self.model == 'raw' else '(9)'}), free: "
+                     f"{', '.join(self.refinement.free)}; outputs {', '.join(self.outputs)}, start: "
+                     f"{self.start_method}")
         for n in self.refinement.free:
             pe = self.refinement.parameters[n]
             lines.append(f"  {n:<9} {pe.value:>12.6g} +- {pe.stderr:.2g}  [{pe.ci95_low:.6g}, {pe.ci95_high:.6g}]")
@@ -211,7 +229,13 @@ class LogFitResult:
             fits = ", ".join(f"{k} {v:.2f} %" for k, v in f.fit.items())
             band = (", in the 95 % prediction band: " + ", ".join(f"{k} {100 * v:.0f} %" for k, v in f.coverage.items())
                     if f.coverage else "")
-            lines.append(f"{f.role:>8} {f.source}: fit {fits}{band}")
+            kind = "" if f.kind == "free" else f" ({f.kind})"
+            lines.append(f"{f.role:>8} {f.source}{kind}: fit {fits}{band}")
+        if len(self.validation) > 1:
+            rng = self.validation_range()
+            lines.append("held-out logs: " + ", ".join(
+                f"{o} mean {m:.2f} % (from {rng[o][0]:.2f} to {rng[o][1]:.2f} % over {len(self.validation)} logs)"
+                for o, m in self.validation_fit.items()))
         for w in self.warnings if warnings else ():
             lines.append(f"warning: {w}")
         lines.append(f"{self.elapsed:.3g} s")
@@ -221,10 +245,11 @@ class LogFitResult:
         return self.summary()
 
 
-def _mean_fit(fits: list[LogFit], outputs) -> dict[str, float]:
+def _mean_fit(fits: Sequence[dict[str, float]], outputs) -> dict[str, float]:
+    """Per output, the mean of the finite fits [%] of the logs that compare it (NaN if none)."""
     out = {}
     for o in outputs:
-        vals = [f.fit[o] for f in fits if o in f.fit and math.isfinite(f.fit[o])]
+        vals = [f[o] for f in fits if o in f and math.isfinite(f[o])]
         out[o] = float(np.mean(vals)) if vals else float("nan")
     return out
 
@@ -233,8 +258,10 @@ def _mean_fit(fits: list[LogFit], outputs) -> dict[str, float]:
 # reading
 # --------------------------------------------------------------------------
 def load_logs(items, rig: RigDescription | None, *, argument: str = "logs") -> list[ExperimentData]:
-    """Logs as :class:`ExperimentData`: paths are read with the rig description (or as iwp logs without one);
-    glitches are found and recorded."""
+    """Read logs as :class:`ExperimentData`, glitches found and recorded.
+
+    Paths are read with the rig description (or as iwp logs without one).
+    """
     if isinstance(items, (str, os.PathLike, ExperimentData)):
         items = [items]
     out = []
@@ -428,6 +455,13 @@ class LogFitOptions:
     coulomb, pendulum_coulomb, input_offset : bool
         Also fit Coulomb friction of the wheel (``sigma_c2``), of the pendulum
         (``sigma_c1``), and an offset of the input (``u_offset``).
+    widths : bool
+        Also fit the smoothing widths of the Coulomb signs that are on
+        (``eps_c2`` with ``coulomb``, ``eps_c1`` with ``pendulum_coulomb``).
+    select : bool
+        Fit the ladder of structures (:mod:`iwp.ident.structure`) and keep the
+        simplest within noise of the best on held-out data (``iwp fit``'s
+        default); the flags above are then ignored.
     loss : str
         ``"linear"`` or a robust loss (:class:`~iwp.ident.problem.Loss`).
     start : LumpedParameters, optional
@@ -440,6 +474,8 @@ class LogFitOptions:
     coulomb: bool = False
     pendulum_coulomb: bool = False
     input_offset: bool = False
+    widths: bool = False
+    select: bool = False
     loss: str = "linear"
     start: LumpedParameters | None = None
     window: tuple[float | None, float | None] = (None, None)
@@ -457,23 +493,30 @@ class LogFitOptions:
     def free(self) -> tuple[str, ...]:
         """The parameters fitted: model (9)'s and the options' terms."""
         extra = [(self.dead_zone, ("v_dz_pos", "v_dz_neg")), (self.coulomb, ("sigma_c2",)),
-                 (self.pendulum_coulomb, ("sigma_c1",)), (self.input_offset, ("u_offset",))]
+                 (self.pendulum_coulomb, ("sigma_c1",)), (self.input_offset, ("u_offset",)),
+                 (self.widths and self.coulomb, ("eps_c2",)), (self.widths and self.pendulum_coulomb, ("eps_c1",))]
         return BASE_FREE + tuple(n for on, names in extra if on for n in names)
 
+    def with_rung(self, rung: Rung) -> "LogFitOptions":
+        """These options with the structure of ``rung`` (and no ladder)."""
+        return replace(self, select=False, **rung.options())
+
     def starting_values(self, start: LumpedParameters, umax: float) -> LumpedParameters:
-        """The options' terms started at a fraction of what the logs' input and ``start`` allow."""
-        if self.dead_zone:
+        """The options' terms that are 0 in ``start`` started at a fraction of what the logs' input and ``start``
+        allow (terms a simpler structure fitted keep their values)."""
+        if self.dead_zone and start.v_dz_pos == 0 and start.v_dz_neg == 0:
             start = start.replace(v_dz_pos=0.05 * umax, v_dz_neg=0.05 * umax)
-        if self.coulomb:
+        if self.coulomb and start.sigma_c2 == 0:
             start = start.replace(sigma_c2=0.02 * start.p3 * umax)
-        if self.pendulum_coulomb:
+        if self.pendulum_coulomb and start.sigma_c1 == 0:
             start = start.replace(sigma_c1=0.01 * start.p1)
         return start
 
     def to_dict(self, offset_given: bool) -> dict[str, Any]:
         return {"dead_zone": bool(self.dead_zone), "coulomb": bool(self.coulomb),
                 "pendulum_coulomb": bool(self.pendulum_coulomb), "input_offset": bool(self.input_offset),
-                "loss": self.loss, "q1_offset": "given by the rig" if offset_given else "estimated per log"}
+                "widths": bool(self.widths), "loss": self.loss,
+                "q1_offset": "given by the rig" if offset_given else "estimated per log"}
 
 
 def fit_logs(
@@ -481,6 +524,7 @@ def fit_logs(
     *,
     rig: RigDescription | str | os.PathLike | None = None,
     validate=(),
+    kinds: Mapping[str, Any] | None = None,
     options: LogFitOptions | None = None,
     warn: bool = True,
 ) -> LogFitResult:
@@ -494,6 +538,13 @@ def fit_logs(
         How the logs map onto iwp's signals (``--rig``); without it they must be iwp logs.
     validate : path, ExperimentData or sequence of them
         Held-out logs (e.g. pseudo-random inputs), simulated from their measured state, not fitted.
+    kinds : dict of str to logs, optional
+        Logs of the rig's other set-ups that join the training, by kind
+        (:data:`~iwp.ident.output_error.EXPERIMENT_KINDS`): ``"clamped"``
+        (the pendulum clamped, the wheel driven: section 5.1) and
+        ``"wheel-locked"`` (the wheel locked to the arm, a free swing), e.g.
+        ``{"clamped": ["clamp1.csv"]}``; each compares the signals its set-up
+        moves, with the same parameters (``iwp fit --clamped/--wheel-locked``).
     options : LogFitOptions, optional
         The model and its options, the loss, the start, the window.
     warn : bool
@@ -510,12 +561,19 @@ def fit_logs(
         _warnings.simplefilter("always")
         train_logs = load_logs(train, rig_d, argument="train")
         val_logs = load_logs(validate, rig_d, argument="validate") if validate else []
+        others = _other_kinds(kinds, rig_d)
     msgs = [str(w.message) for w in caught]
     if not train_logs:
         raise InputError("train: no training logs given", argument="train")
-    model = options.model
-    train_logs = [_as_model_input(d, model, "train") for d in train_logs]
-    val_logs = [_as_model_input(d, model, "validate") for d in val_logs]
+    check_distinct([*train_logs, *(d for _, d in others)], "training logs")
+    check_distinct(val_logs, "held-out logs")
+    for v in val_logs:
+        try:
+            check_distinct([*train_logs, *(d for _, d in others), v])
+        except InputError:
+            raise InputError(f"validate: {v.source} is also a training log; a held-out log must be one the fit has "
+                             "not seen, or its fit says nothing about prediction", argument="validate") from None
+    msgs.extend(disagreeing_logs(train_logs, window=options.window))
     for d in train_logs + val_logs:
         if d.q2 is None and d.q4 is None:
             raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
@@ -523,22 +581,35 @@ def fit_logs(
     offset_given = rig_d is not None and rig_d.pendulum.offset is not None
     # ---- prepare: the start
     wtrain = [d.window(*options.window) for d in train_logs]
+    umax = max(float(np.max(np.abs(d.input))) for d in wtrain)
     if options.start is None:
         ls = least_squares_start(wtrain)
         msgs.extend(ls.notes)
-        umax = max(float(np.max(np.abs(d.input))) for d in wtrain)
-        start_p, method, ls_details = options.starting_values(ls.params, umax), ls.method, ls.details
+        start_p, method, ls_details = ls.params, ls.method, ls.details
     else:
         start_p, method, ls_details = options.start, "given", {}
-    # ---- solve: the joint simulation-error fit
-    exps = as_experiments(train_logs, windows=tuple(options.window), offsets=() if offset_given else ("q1",))
-    r = refine(exps, Plant(start_p, model=model), free=options.free(), outputs=outputs, loss=options.loss,
-               warn=False)
+    # ---- solve: the joint simulation-error fit (of each structure of the ladder, or of the one asked for)
+    fitting = _Fitting(options, train_logs, val_logs, outputs, offset_given, umax, others)
+    structures = None
+    if options.select:
+        structures = fitting.ladder(start_p)
+        options = options.with_rung(structures.chosen.rung)
+        r = structures.chosen.result
+        start_p = options.starting_values(start_p, umax)
+    else:
+        start_p = options.starting_values(start_p, umax)
+        r = fitting.joint(options, start_p)
+    model = options.model
+    train_logs = [_as_model_input(d, model, "train") for d in train_logs]
+    val_logs = [_as_model_input(d, model, "validate") for d in val_logs]
     msgs.extend(r.warnings)
     # ---- report: training fits, held-out logs simulated from their measured state
     offs = [r.offsets[i].get("q1", (0.0, 0.0))[0] for i in range(len(train_logs))]
     train_fits = [_log_fit(d, "train", r.times[i], r.measured[i], r.simulated[i], r.weights[i], r.x0[i], offs[i])
                   for i, d in enumerate(train_logs)]
+    for j, (kind, d) in enumerate(others, start=len(train_logs)):
+        train_fits.append(_log_fit(d, "train", r.times[j], r.measured[j], r.simulated[j], r.weights[j], r.x0[j],
+                                   r.offsets[j].get("q1", (0.0, 0.0))[0], kind=kind))
     val_off = 0.0 if offset_given else float(np.mean(offs))
     if val_logs and not offset_given:
         msgs.append(f"held-out logs: the pendulum zero offset is taken as the training logs' mean, "
@@ -548,13 +619,170 @@ def fit_logs(
     if val_logs and uncertainty is None:
         msgs.append("held-out logs: no prediction band, for the fit did not determine every free parameter")
     val_fits = [_held_out(d, Plant(r.params, model=model), outputs, val_off, msgs, uncertainty) for d in val_logs]
+    msgs.extend(poor_prediction_advice(val_fits, outputs, chose=structures is not None))
     res = LogFitResult(params=r.params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
                        model=model, outputs=outputs, options=options.to_dict(offset_given), train=train_fits,
-                       validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0)
+                       validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0,
+                       structures=structures)
     if warn:
         for m in res.warnings:
             _warnings.warn(m, stacklevel=2)
     return res
+
+
+#: the kinds of log that join ``iwp fit``'s training besides the free ones (``--clamped``, ``--wheel-locked``)
+OTHER_KINDS = ("clamped", "wheel-locked")
+
+
+def _other_kinds(kinds: Mapping[str, Any] | None, rig: RigDescription | None) -> list[tuple[str, ExperimentData]]:
+    """The logs of ``kinds``, read, as (kind, log) pairs."""
+    if not kinds:
+        return []
+    if not isinstance(kinds, Mapping):
+        raise InputError(f"kinds must map a kind to logs, e.g. {{'clamped': ['c.csv']}}, got {type(kinds).__name__}",
+                         argument="kinds")
+    out = []
+    for kind, items in kinds.items():
+        if kind not in OTHER_KINDS:
+            what = "; ".join(f"{k}: {EXPERIMENT_KINDS[k]}" for k in OTHER_KINDS)
+            raise InputError(f"kinds: {kind!r} is not a kind of log that joins the fit; choose among "
+                             f"{', '.join(OTHER_KINDS)} ({what})", argument="kinds")
+        out += [(kind, d) for d in load_logs(items, rig, argument=f"--{kind}")]
+    return out
+
+
+#: logs whose gravity terms differ by more than this factor (and beyond their spread) cannot share one model
+P1_RATIO = 1.2
+
+
+def disagreeing_logs(logs: Sequence[ExperimentData], *, window=(None, None)) -> list[str]:
+    """A warning naming logs that no single parameter set explains, or none.
+
+    Each log's gravity term ``p1`` (:func:`least_squares_start` on it alone)
+    with a spread from its two halves, ``|p1(first) - p1(second)| / 2``. Two
+    logs disagree when their ``p1`` differ by more than three combined spreads
+    and by more than the factor :data:`P1_RATIO` (a moved counterweight, a
+    different pendulum): a joint fit of them fits neither.
+    """
+    if len(logs) < 2:
+        return []
+    est = []
+    for d in logs:
+        w = d.window(*window)
+        try:
+            with _warnings.catch_warnings():
+                _warnings.simplefilter("ignore")
+                p1 = least_squares_start([w]).params.p1
+                h = w.n_samples // 2
+                halves = [least_squares_start([w.window(*span)]).params.p1
+                          for span in ((None, float(w.t[h])), (float(w.t[h]), None))]
+        except InputError:
+            return []  # too short to judge
+        est.append((d.source, p1, abs(halves[0] - halves[1]) / 2.0))
+    lo = min(est, key=lambda e: e[1])
+    hi = max(est, key=lambda e: e[1])
+    if not (lo[1] > 0 and hi[1] / lo[1] > P1_RATIO and hi[1] - lo[1] > 3.0 * math.hypot(lo[2], hi[2])):
+        return []
+    listing = ", ".join(f"{Path(src).name} {p1:.4g} +- {sd:.2g}" for src, p1, sd in est)
+    return [f"the training logs disagree on the gravity term p1 [1/s^2] (each log alone: {listing}): no single "
+            "parameter set explains them (a moved counterweight, another pendulum?); fit them separately"]
+
+
+#: a mean held-out fit below this [%] is a poor prediction, and said so
+POOR_FIT = 50.0
+
+
+def poor_prediction_advice(fits: Sequence[LogFit], outputs: Sequence[str], *, chose: bool) -> list[str]:
+    """A warning, with what to try, when the held-out logs are predicted poorly (mean fit below
+    :data:`POOR_FIT` % or below zero on a log), or none."""
+    if not fits:
+        return []
+    bad = []
+    for o in outputs:
+        vals = [f.fit.get(o, float("nan")) for f in fits]
+        finite = [v for v in vals if math.isfinite(v)]
+        neg = sum(1 for v in vals if not math.isfinite(v) or v < 0)
+        mean = float(np.mean(finite)) if finite else float("nan")
+        if not (mean >= POOR_FIT) or neg:
+            bad.append(f"{o} {mean:.1f} %" + (f" (below zero or failed on {neg} of {len(vals)} logs)" if neg else ""))
+    if not bad:
+        return []
+    tries = ["the rig description's units, signs and zero (docs/rig-description.md): a wrong encoder gain or sign "
+             "fits the training logs and predicts nothing",
+             "held-out logs of the same set-up as the training logs (the same pendulum and counterweights)",
+             "training logs that excite what the held-out logs do (amplitudes, frequencies, the input's range)"]
+    if not chose:
+        tries.insert(0, "letting iwp fit choose the model structure (without --model or the term flags)")
+    else:
+        tries.insert(0, "the clamped-pendulum and locked-wheel logs of the rig joining the training (--clamped, "
+                        "--wheel-locked)")
+    return ["the model predicts the held-out logs poorly (mean fit " + ", ".join(bad) + "); check or try: "
+            + "; ".join(tries)]
+
+
+class _Fitting:
+    """The joint fits of one call of :func:`fit_logs`: one structure, or the ladder of them ranked on held-out data."""
+
+    def __init__(self, options: LogFitOptions, train: list[ExperimentData], held_out: list[ExperimentData],
+                 outputs: tuple[str, ...], offset_given: bool, umax: float,
+                 others: list[tuple[str, ExperimentData]]):
+        self.options, self.train, self.held_out = options, train, held_out
+        self.outputs, self.offset_given, self.umax = outputs, offset_given, umax
+        self.others = others
+
+    def joint(self, options: LogFitOptions, start: LumpedParameters, logs=None, x0=None) -> RefineResult:
+        """The joint simulation-error fit of ``options``' structure on ``logs`` (default: the training logs) and
+        the logs of the other set-ups; ``x0``: initial-state guesses per experiment (a simpler structure's)."""
+        model = options.model
+        logs = [_as_model_input(d, model, "train") for d in (self.train if logs is None else logs)]
+        guesses = list(x0) if x0 is not None else [None] * (len(logs) + len(self.others))
+        exps = as_experiments(logs, windows=tuple(options.window), offsets=() if self.offset_given else ("q1",),
+                              x0=guesses[:len(logs)])
+        for (kind, d), g in zip(self.others, guesses[len(logs):]):
+            moves_q1 = kind != "clamped"
+            exps.append(Experiment(_as_model_input(d, model, f"--{kind}"), kind=kind, window=tuple(options.window),
+                                   x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else ()))
+        return refine(exps, Plant(start, model=model), free=options.free(), outputs=self.outputs,
+                      loss=options.loss, warn=False)
+
+    def score(self, r: RefineResult, options: LogFitOptions, logs: list[ExperimentData]) -> list[LogFit]:
+        """``logs`` simulated from their measured state with the fit ``r`` (the training logs' mean offset)."""
+        model = options.model
+        offs = [o.get("q1", (0.0, 0.0))[0] for o in r.offsets[:len(r.offsets) - len(self.others)]]
+        off = 0.0 if self.offset_given else float(np.mean(offs))
+        plant = Plant(r.params, model=model)
+        return [_held_out(_as_model_input(d, model, "validate"), plant, self.outputs, off, [], None) for d in logs]
+
+    def ladder(self, start: LumpedParameters) -> LadderResult:
+        """Each structure of the ladder fitted (from the fit of the one it extends) and scored."""
+        raw = all(d.input_name == "v" for d in self.train + self.held_out)
+        folds = len(self.train) >= 2 and not self.held_out
+        outcomes: list[RungOutcome] = []
+        for rg in ladder(raw):
+            parents = [o for o in outcomes if o.rung.flags < rg.flags and o.success]
+            parent = max(parents, key=lambda o: len(o.rung.flags)).result if parents else None
+            opts = self.options.with_rung(rg)
+            # the parameters of the structure this one extends; the initial states from the data again (a
+            # simpler structure's took more iterations to undo: 115 evaluations over the ladder against 87)
+            r = self.joint(opts, opts.starting_values(parent.params if parent else start, self.umax))
+            if self.held_out:
+                scored = self.score(r, opts, self.held_out)
+            elif folds:  # leave one training log out, refit from the joint fit, predict it
+                scored = [self.score(self.joint(opts, r.params, self.train[:k] + self.train[k + 1:],
+                                                x0=[x[:4] for j, x in enumerate(r.x0) if j != k]), opts,
+                                     [self.train[k].window(*opts.window)])[0] for k in range(len(self.train))]
+            else:
+                scored = []
+            scores = np.array([float(np.mean([1.0 - f.fit[o] / 100.0 for o in self.outputs])) for f in scored])
+            fr = r.fit_result
+            aic, bic = information_criteria(fr.cost, fr.dof + len(fr.free), len(fr.free))
+            outcomes.append(RungOutcome(rg, len(r.free), scores, _mean_fit([f.fit for f in scored], self.outputs),
+                                        _mean_fit(r.fit, self.outputs), aic, bic, bool(r.success),
+                                        r.message, r))
+        scored_on = ("held-out logs" if self.held_out else
+                     "leave-one-log-out cross-validation" if folds else "training fit")
+        n = len(self.held_out) if self.held_out else (len(self.train) if folds else 0)
+        return LadderResult(outcomes, select(outcomes), scored_on, n)
 
 
 def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset: float, msgs: list[str],
@@ -634,14 +862,17 @@ def _as_model_input(d: ExperimentData, model: str, argument: str) -> ExperimentD
     return d
 
 
-def _log_fit(d: ExperimentData, role: str, t, measured, simulated, weights, x0, off) -> LogFit:
+def _log_fit(d: ExperimentData, role: str, t, measured, simulated, weights, x0, off, kind: str = "free") -> LogFit:
     fit, rms, mx, used = {}, {}, {}, {}
     for o, y in measured.items():
         m = weights[o] > 0
+        if not m.any():  # a signal this set-up holds still (the clamped pendulum's angle)
+            continue
         used[o] = m
         fit[o] = fit_percent(y[m], simulated[o][m])
         e = (y - simulated[o])[m]
         rms[o] = float(np.sqrt(np.mean(e ** 2)))
         mx[o] = float(np.max(np.abs(e)))
-    return LogFit(d.source, role, fit, rms, mx, np.asarray(t), dict(measured), dict(simulated), used,
-                  np.asarray(x0, dtype=float), float(off), [g.describe() for g in d.glitches])
+    return LogFit(d.source, role, fit, rms, mx, np.asarray(t), {o: measured[o] for o in used},
+                  {o: simulated[o] for o in used}, used, np.asarray(x0, dtype=float), float(off),
+                  [g.describe() for g in d.glitches], kind=kind)

@@ -36,7 +36,7 @@ import numpy as np
 from ..data import ExperimentData, check_distinct
 from ..errors import InputError
 from ..models.parameters import PARAMETER_INFO
-from ..models.plant import Plant
+from ..models.plant import EXPERIMENT_KINDS, Plant, plant_for_kind
 from ..sim.inputs import Input, Sampled
 from ..sim.sensitivity import simulate_sensitivities
 from .differentiate import Differentiator
@@ -58,13 +58,6 @@ __all__ = [
     "offset_name",
 ]
 
-#: The kinds of experiment a fit joins, and how each changes the plant it simulates.
-EXPERIMENT_KINDS: dict[str, str] = {
-    "free": "the arm swings freely: the model as given",
-    "clamped": "the pendulum clamped at q1 = q3 = 0 (section 5.1)",
-    "wheel-locked": "the wheel locked to the arm: a free pendulum carrying the wheel's inertia (motor torque internal)",
-    "closed-loop": "the input was computed by a known feedback law, simulated with the plant",
-}
 STATE_NAMES = ("q1", "q2", "q3", "q4")
 OUTPUT_INDEX = {"q1": 0, "q2": 1, "q3": 2, "q4": 3}
 #: residual of a sample a failed simulation did not reach (the trust region then shrinks)
@@ -209,18 +202,6 @@ def initial_state(data: ExperimentData, index: int, plant: Plant,
     return x
 
 
-def plant_for_kind(plant: Plant, kind: str) -> Plant:
-    """The plant an experiment of ``kind`` (:data:`EXPERIMENT_KINDS`) simulates, with ``plant``'s parameters."""
-    if kind not in EXPERIMENT_KINDS:
-        raise InputError(f"unknown experiment kind {kind!r}; choose among {', '.join(EXPERIMENT_KINDS)}",
-                         argument="kind")
-    if kind == "clamped" and not plant.pendulum_locked:
-        return plant.replace(locked=True)
-    if kind == "wheel-locked" and not plant.wheel_held:
-        return Plant(plant.lumped, model="free", coulomb_eps=plant.coulomb_eps)
-    return plant
-
-
 # --------------------------------------------------------------------------
 # experiments
 # --------------------------------------------------------------------------
@@ -339,6 +320,9 @@ def prepare(spec: Experiment, index: int, plant: Plant, outputs: Sequence[str],
     mean = tuple(o for o in outputs if o == "q4" and data.q4 is not None and data.q4_sampling == "mean")
     weights = {}
     for o in outputs:
+        if o not in variant.outputs:  # a signal this kind holds still (the clamped pendulum's angle): no residual
+            weights[o] = np.zeros(n)
+            continue
         wt = np.ones(n)
         col = "q2" if o == "q4" and data.q4 is None else ("q1" if o == "q3" and data.q3 is None else o)
         wt[data.glitch_mask(col)[i0:i0 + n]] = 0.0
@@ -419,18 +403,28 @@ class OutputError:
         self.prepared = [prepare(e, i, self.plant, self.outputs, n_min) for i, e in enumerate(exps)]
         self.scale = {}
         for o in self.outputs:
-            v = np.mean([np.var(p.y[o][p.w[o] > 0]) for p in self.prepared])
+            spreads = [np.var(p.y[o][p.w[o] > 0]) for p in self.prepared if np.any(p.w[o] > 0)]
+            v = float(np.mean(spreads)) if spreads else 0.0
             if not v > 0 and self.fitting:
                 raise InputError(f"output {o} is constant in every experiment (nothing to fit); choose other outputs")
             self.scale[o] = math.sqrt(v) if v > 0 else 1.0
 
     def _check_outputs(self, exps: list[Experiment]) -> None:
-        for e in exps:
-            variant = plant_for_kind(self.plant, e.kind)
-            if variant.wheel_held and any(o in ("q2", "q4") for o in self.outputs):
-                raise InputError(f"model {variant.model!r} has no wheel motion; its outputs are q1 and q3")
-            if variant.pendulum_locked and any(o in ("q1", "q3") for o in self.outputs):
-                raise InputError("the pendulum is locked in this model; its outputs are q2 and q4")
+        # an experiment compares the outputs its kind moves (a clamped pendulum's angle is no output of it);
+        # every experiment must compare one at least, and a plant that holds an output still everywhere has none
+        variants = [plant_for_kind(self.plant, e.kind) for e in exps]
+        for i, (e, variant) in enumerate(zip(exps, variants)):
+            if not any(o in variant.outputs for o in self.outputs):
+                where = "" if len(exps) == 1 else f"experiment {i} ({e.data.source}, {e.kind}): "
+                why = "has no wheel motion" if variant.wheel_held else "has the pendulum locked"
+                raise InputError(f"{where}model {variant.model!r} {why}: it moves {', '.join(variant.outputs)} "
+                                 f"only; the outputs {', '.join(self.outputs)} compare none of them")
+        still = [o for o in self.outputs if not any(o in v.outputs for v in variants)]
+        if still:
+            moved = sorted({o for v in variants for o in v.outputs})
+            why = ("has no wheel motion" if any(o in ("q2", "q4") for o in still) else "has the pendulum locked")
+            raise InputError(f"model {self.plant.model!r} {why} in these experiments: {', '.join(still)} stay "
+                             f"still; its outputs are {', '.join(moved)}")
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -481,10 +475,10 @@ class OutputError:
         out = []
         for n in names:
             info = PARAMETER_INFO[n]
-            v = self.plant.value(n)
             if n not in free:
-                out.append(Parameter(n, v, vary=False, unit=info.unit))
+                out.append(Parameter(n, self.plant.value(n), vary=False, unit=info.unit))
                 continue
+            v = self.plant.value_in_effect(n)
             lo, hi = _bounds(n, bounds.get(n), info.default_bounds(log))
             if log:
                 out.append(Parameter(n, v, min=lo, max=hi, unit=info.unit, log=True))

@@ -36,9 +36,8 @@ import numpy as np
 from scipy import optimize
 
 from ..errors import InputError
+from ..threads import one_blas_thread
 from .covariance import (
-    SPREAD_WARN,
-    Covariance,
     Reliability,
     across_and_within,
     block_sigmas,
@@ -298,7 +297,14 @@ class FitProblem:
             raise InputError(f"covariance must be 'auto', 'experiments', 'hac' or 'white', got {self.covariance!r}")
 
     def solve(self, options: SolverOptions | None = None) -> FitResult:
-        """Minimise the loss of the residuals over the free parameters; their statistics at the optimum."""
+        """Minimise the loss of the residuals over the free parameters; their statistics at the optimum.
+
+        The linear algebra runs on one BLAS thread (:func:`iwp.threads.one_blas_thread`).
+        """
+        with one_blas_thread():
+            return self._solve(options)
+
+    def _solve(self, options: SolverOptions | None) -> FitResult:
         t0 = time.perf_counter()
         options = options or SolverOptions()
         params, msgs = _clipped_start(self.parameters)
@@ -407,9 +413,6 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     if method == "experiments" and n_exp >= 2:
         across = cluster_covariance(Jw, rw, groups, free, dof)
         cov_z = across_and_within(across, within) if within is not None else across
-        if problem.covariance == "auto" and within is not None and not _disagree(across, within, kinds):
-            # the experiments agree within their noise: the sandwich within them holds, with its many samples
-            cov_z = within
     elif within is not None:
         cov_z = within
     else:
@@ -431,14 +434,6 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     return dict(parameters=estimates, free=free, covariance=cov, correlation=corr, dof=dof, critical=cov_z.critical,
                 block_sigma=sig, warnings=msgs, covariance_method=cov_z.method, bandwidth=cov_z.bandwidth,
                 inflation=dict(zip(free, (float(x) for x in cov_z.inflation))), reliability=verdict)
-
-
-def _disagree(across: Covariance, within: Covariance, columns: Sequence[int]) -> bool:
-    """True if the experiments disagree beyond their noise (:data:`~iwp.ident.covariance.SPREAD_WARN`)."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.diag(across.matrix)[list(columns)] / np.diag(within.matrix)[list(columns)]
-    ratio = ratio[np.isfinite(ratio)]
-    return bool(ratio.size) and float(np.max(ratio)) > SPREAD_WARN
 
 
 def _no_statistics(params: Parameters, z: np.ndarray) -> dict[str, Any]:

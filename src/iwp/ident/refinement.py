@@ -340,8 +340,9 @@ class RefineResult:
             **({"belt": self.belt.to_dict()} if self.belt is not None else {}),
         }
 
-    def summary(self) -> str:
-        """A readable table of the refined parameters and the fit."""
+    def summary(self, warnings: bool = True) -> str:
+        """A readable table of the refined parameters and the fit (and the warnings, unless ``warnings=False``:
+        for a caller that issued them already, as ``iwp identify --refine`` does on stderr)."""
         lines = [f"simulation-error refinement, model {self.model!r}, outputs {', '.join(self.outputs)}, "
                  f"loss {self.loss}"]
         lines.append(f"{'parameter':<10} {'start':>12} {'refined':>12} {'stderr':>10}")
@@ -356,7 +357,7 @@ class RefineResult:
             lines.append(self.reliability.describe())
         lines.append(f"cost {self.cost_start:.6g} -> {self.cost:.6g}, {self.nfev} simulations, "
                      f"{self.njev} with sensitivities, {self.elapsed:.3g} s; {self.message}")
-        for w in self.warnings:
+        for w in self.warnings if warnings else ():
             lines.append(f"warning: {w}")
         return "\n".join(lines)
 
@@ -376,13 +377,13 @@ def refine_report(residuals: OutputError, result: FitResult, start: Plant) -> Re
     cnt = {o: 0 for o in residuals.outputs}
     for p, yh, yh0, st0, x in zip(residuals.prepared, sim, sim0, result.start.status,
                                   residuals.states(result.optimum.values)):
-        used = {o: p.w[o] > 0 for o in residuals.outputs}
-        fit.append({o: fit_percent(p.y[o][used[o]], yh[o][used[o]]) for o in residuals.outputs})
-        fit0.append({o: fit_percent(p.y[o][used[o]], yh0[o][used[o]]) if st0 == 0 else float("nan")
-                     for o in residuals.outputs})
-        rms.append({o: float(np.sqrt(np.mean((p.y[o] - yh[o])[used[o]] ** 2))) for o in residuals.outputs})
-        rms0.append({o: float(np.sqrt(np.mean((p.y[o] - yh0[o])[used[o]] ** 2))) if st0 == 0 else float("inf")
-                     for o in residuals.outputs})
+        # the outputs this experiment compares (a clamped pendulum's angle is none of them)
+        used = {o: p.w[o] > 0 for o in residuals.outputs if np.any(p.w[o] > 0)}
+        fit.append({o: fit_percent(p.y[o][m], yh[o][m]) for o, m in used.items()})
+        fit0.append({o: fit_percent(p.y[o][m], yh0[o][m]) if st0 == 0 else float("nan") for o, m in used.items()})
+        rms.append({o: float(np.sqrt(np.mean((p.y[o] - yh[o])[m] ** 2))) for o, m in used.items()})
+        rms0.append({o: float(np.sqrt(np.mean((p.y[o] - yh0[o])[m] ** 2))) if st0 == 0 else float("inf")
+                     for o, m in used.items()})
         for o in residuals.outputs:
             ssr[o] += float(np.sum(((p.y[o] - yh[o]) * p.w[o]) ** 2))
             cnt[o] += int(np.count_nonzero(p.w[o]))
@@ -453,12 +454,6 @@ def refine(
     warn : bool
         Also issue the warnings with :func:`warnings.warn` (they are always in ``.warnings``).
 
-    Other rigs' sensors are read from each log: a wheel speed ``q4`` logged
-    as the mean over the preceding sample period (metadata ``q4_sampling:
-    mean``) is compared with ``(q2(t_k) - q2(t_k-1)) / Ts`` of the model,
-    and samples replaced as glitches (:attr:`ExperimentData.glitches`) are
-    left out of the residuals.
-
     Returns
     -------
     RefineResult
@@ -469,6 +464,14 @@ def refine(
         A model refine does not fit, an unknown parameter or output, a
         parameter that does not enter the model, bad bounds or windows, an
         output constant in every experiment.
+
+    Notes
+    -----
+    Other rigs' sensors are read from each log: a wheel speed ``q4`` logged
+    as the mean over the preceding sample period (metadata ``q4_sampling:
+    mean``) is compared with ``(q2(t_k) - q2(t_k-1)) / Ts`` of the model,
+    and samples replaced as glitches (:attr:`ExperimentData.glitches`) are
+    left out of the residuals.
     """
     plant = start if isinstance(start, Plant) else fit_plant(start)
     if plant.model not in REFINE_MODELS:
@@ -518,6 +521,27 @@ def refine_identification(setup: str, experiments, start: LumpedParameters, *,
     (angle logs, or metadata ``wheel: none``). ``q4`` is the differentiated
     disk angle when the log has no velocity. Initial states are estimated
     per experiment; ``window`` (t_start, t_end) [s] windows every experiment.
+
+    Parameters
+    ----------
+    setup : str
+        A set-up of section 5 (the table above).
+    experiments : ExperimentData or Experiment or sequence of them
+        The logs the model is fitted to.
+    start : LumpedParameters
+        Start values, e.g. the set-up's least squares (``identify(...).to_params()``).
+    window : (float or None, float or None)
+        Time window [s] of every experiment.
+    options : SolverOptions, optional
+        Settings of the least-squares solver.
+    warn : bool
+        Also issue the result's warnings with :func:`warnings.warn`.
+
+    Returns
+    -------
+    RefineResult
+        The refined parameters with their covariance, fit [%] per output and
+        experiment, and warnings.
     """
     spec = get_setup(setup).refine
     items = [experiments] if not isinstance(experiments, (list, tuple)) else list(experiments)

@@ -162,7 +162,8 @@ class IdentificationResult:
         })
         if self.lsq is not None:
             out["equations"] = int(self.lsq.n_equations)
-            out["covariance"] = self.lsq.covariance_method
+            # the covariance the standard errors come from (the solver's own, unless the set-up replaced it)
+            out["covariance"] = (self.details or {}).get("covariance", self.lsq.covariance_method)
             out["bandwidth"] = self.lsq.bandwidth
             out["critical_value"] = json_float(self.lsq.critical_value)
         if self.details:

@@ -181,6 +181,9 @@ def choose_model(data: ExperimentData, model: str = "auto", *, stored: str | Non
     ``source``. A model given explicitly must take the log's input (none,
     ``u`` or ``v``), unless the loop is closed by a simulated controller.
     """
+    if stored is not None and stored not in MODELS:
+        raise InputError(f"params {source}: its model {stored!r} is not one of iwp's models ({', '.join(MODELS)})",
+                         argument="params")
     if model == "auto":
         chosen = auto_model(data)
         if stored is not None and MODELS.get(stored) is not None and MODELS[stored].input == data.input_name:
@@ -261,6 +264,7 @@ def validate(
     restart_times: Sequence[float] = (),
     controller: Input | None = None,
     estimate_x0: bool = False,
+    warn: bool = True,
 ) -> ValidationResult:
     """Simulate a model against a log and measure how well it predicts it.
 
@@ -270,7 +274,7 @@ def validate(
         The log.
     params : LumpedParameters, PhysicalParameters, Plant or ParameterUncertainty
         The parameters (with ``model``), or a plant. With a
-        :class:`~iwp.ident.uncertainty.ParameterUncertainty` (a fit's
+        :class:`~iwp.sim.uncertainty.ParameterUncertainty` (a fit's
         parameters and covariance) the result also holds the fit's 95 %
         parameter and prediction bands (linearised) and how much of the
         measured data falls inside the prediction band.
@@ -293,6 +297,10 @@ def validate(
     estimate_x0 : bool
         Estimate the initial state by a simulation-error fit (parameters
         fixed) instead of taking the measured one.
+    warn : bool
+        Warn when the validation says nothing: every compared signal is
+        constant, or the model explains less of each than its mean (fit < 0 %);
+        ``False`` for callers that report the fits themselves.
 
     Returns
     -------
@@ -336,14 +344,30 @@ def validate(
     if uncertainty is not None:
         band = _band(model_, x0s, x0_cov, uncertainty, signals)
         coverage = band.coverage(measured, {s: np.concatenate([p.w[s] > 0 for p in model_.prepared]) for s in signals})
+    fits = {s: fit_percent(measured[s], simulated[s]) for s in signals}
+    if warn:
+        _warn_uninformative(experiment.source, measured, fits)
     return ValidationResult(
         t=t, measured=measured, simulated=simulated, error={s: measured[s] - simulated[s] for s in signals},
-        fit={s: fit_percent(measured[s], simulated[s]) for s in signals}, x0=np.asarray(x0s[0], dtype=float),
+        fit=fits, x0=np.asarray(x0s[0], dtype=float),
         restart_times=tuple(float(t[k]) for k in starts[1:]), model=plant.model, params=plant.lumped,
         source=experiment.source, estimate_x0=bool(estimate_x0), closed_loop=controller is not None,
         locked=bool(plant.locked), restart_states=[np.asarray(x, dtype=float) for x in x0s[1:]], band=band,
         coverage=coverage,
     )
+
+
+def _warn_uninformative(source: str, measured: dict[str, np.ndarray], fits: dict[str, float]) -> None:
+    """Warn when a validation says nothing: a log without motion, or a model that explains less than the mean."""
+    flat = [s for s, y in measured.items() if y.size and float(np.ptp(y)) == 0.0]
+    if flat and len(flat) == len(measured):  # one constant signal is a locked pendulum or a held wheel
+        warnings.warn(f"{source}: {', '.join(flat)} {'is' if len(flat) == 1 else 'are'} constant (no motion in the "
+                      "log): the validation says nothing about the model", UserWarning, stacklevel=3)
+    defined = {s: f for s, f in fits.items() if math.isfinite(f)}
+    if defined and all(f < 0.0 for f in defined.values()):
+        listing = ", ".join(f"{s} {f:.1f} %" for s, f in defined.items())
+        warnings.warn(f"{source}: the model explains less of the log than the log's mean does (fit {listing}): "
+                      "is it a log of this rig, with these parameters and this model?", UserWarning, stacklevel=3)
 
 
 def _moving(plant: Plant, C: np.ndarray) -> np.ndarray:

@@ -26,13 +26,16 @@ def energy(params, x) -> dict[str, np.ndarray]:
 
     Parameters
     ----------
+    params : PhysicalParameters or LumpedParameters
+        The parameter set; its kind sets the unit of the result.
     x : array_like, shape (4,) or (n, 4)
-        States.
+        States ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s].
 
     Returns
     -------
     dict
-        ``{"kinetic": T, "potential": V, "total": T + V}``.
+        ``{"kinetic": T, "potential": V, "total": T + V}`` [J, or s^-2 per
+        unit ``I1_hat`` for lumped parameters].
     """
     x = np.asarray(x, dtype=float)
     q1, q3, q4 = x[..., 0], x[..., 2], x[..., 3]
@@ -49,6 +52,18 @@ def pendulum_energy(params: LumpedParameters, x) -> np.ndarray:
     """Energy of the pendulum alone per unit ``I1_hat`` [s^-2]: ``q3^2/2 + p1 (1 - cos q1)``.
 
     Zero hanging at rest, ``2 p1`` upright at rest (the swing-up's target).
+
+    Parameters
+    ----------
+    params : LumpedParameters
+        Its ``p1`` [1/s^2] (eq. (9)).
+    x : array_like, shape (4,) or (n, 4)
+        States ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s].
+
+    Returns
+    -------
+    ndarray
+        The energy [1/s^2], one per state.
     """
     x = np.asarray(x, dtype=float)
     return 0.5 * x[..., 2] ** 2 + params.p1 * (1.0 - np.cos(x[..., 0]))
@@ -68,10 +83,19 @@ def linearize(params: LumpedParameters, equilibrium: str = "down") -> tuple[np.n
     ``s = sigma~_a1 + sigma~_v1`` (the ``q3^3`` term has zero slope). The
     Coulomb term is not part of (9) and is ignored.
 
+    Parameters
+    ----------
+    params : LumpedParameters
+        The parameters of model (9).
+    equilibrium : {"down", "up"}
+        The hanging (``q1* = 0``) or the upright (``q1* = pi``) equilibrium.
+
     Returns
     -------
     A : ndarray, shape (4, 4)
+        State matrix [1/s, 1/s^2] of the state ``[q1, q2, q3, q4]``.
     B : ndarray, shape (4, 1)
+        Input matrix [rad/(s^2 input unit)].
     """
     if equilibrium not in EQUILIBRIA:
         raise InputError(f"equilibrium must be one of {', '.join(EQUILIBRIA)}, got {equilibrium!r}")
@@ -95,6 +119,19 @@ def to_statespace(params: LumpedParameters, equilibrium: str = "down"):
     """The linearisation as a python-control ``StateSpace`` (outputs: the full state).
 
     Needs the optional extra: ``pip install iwp[control]``.
+
+    Parameters
+    ----------
+    params : LumpedParameters
+        The parameters of model (9).
+    equilibrium : {"down", "up"}
+        The equilibrium of :func:`linearize`.
+
+    Returns
+    -------
+    control.StateSpace
+        ``(A, B, I, 0)`` of :func:`linearize`: input ``u`` [input units],
+        outputs ``q1, q2, q3, q4`` [rad, rad, rad/s, rad/s].
     """
     try:
         import control

@@ -518,6 +518,15 @@ def table1() -> LumpedParameters:
     Table 1 rounds ``sigma~_b1`` to 0.0005 (the free-pendulum identification
     gave 0.00047, ERRATA item 5); this set keeps Table 1's printed value.
     Coulomb friction is not part of the final model (``sigma_c2 = 0``).
+
+    Returns
+    -------
+    LumpedParameters
+        ``p1 = 26.095`` [1/s^2], ``p2 = 0.0106`` [1/s], ``p3 = 0.0286``
+        [rad/(s^2 input unit)], ``rho = 247.24`` [-], ``sigma~_a1 = 0.003``,
+        ``sigma~_v1 = 0.01`` [1/s], ``sigma~_b1 = 0.0005`` [s/rad^2] of
+        model (9), and the dead-zone thresholds ``v_dz_pos = v_dz_neg = 31``
+        [input units] of (5).
     """
     return LumpedParameters(
         p1=26.0950,
@@ -534,8 +543,15 @@ def table1() -> LumpedParameters:
 
 
 def paper_belt() -> BeltParameters:
-    """The belt values of section 5.1 (figure 4b): ``k/I2 = 60``, ``d = 2``, ``N = 13.5``,
-    ``b2/I2 = 10``, ``k/gamma = 780``, ``kT beta/(R gamma) = 26``."""
+    """The belt values of section 5.1 (figure 4b) for model (15).
+
+    Returns
+    -------
+    BeltParameters
+        ``k/I2 = 60`` [1/s^2], ``d = 2`` [-], ``N = 13.5`` [-],
+        ``b2/I2 = 10`` [1/s], ``k/gamma = 780`` [1/s^2], ``kT beta/(R gamma) = 26``
+        [rad/(s^2 input unit)].
+    """
     return BeltParameters()
 
 
@@ -563,6 +579,27 @@ def save_params(params, path: str | Path, *, force: bool = False, extra: dict[st
     The file is ``{"kind": "lumped"|"physical"|"belt", "parameters": {...}}``
     plus the optional ``extra`` entries (e.g. uncertainties, provenance).
     Refuses to overwrite an existing file unless ``force``.
+
+    Parameters
+    ----------
+    params : LumpedParameters or PhysicalParameters or BeltParameters
+        The set to write (its units: Table 1's, SI, or the belt's).
+    path : str or Path
+        The ``.json`` file.
+    force : bool
+        Overwrite an existing file.
+    extra : dict, optional
+        More top-level entries (JSON-serialisable).
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    OutputExistsError
+        The file exists and ``force`` is not set.
     """
     kind = next((k for k, cls in _KINDS.items() if isinstance(params, cls)), None)
     if kind is None:
@@ -574,6 +611,10 @@ def save_params(params, path: str | Path, *, force: bool = False, extra: dict[st
         doc.update(extra)
     p.write_text(json.dumps(doc, indent=2, sort_keys=False) + "\n")
     return p
+
+
+#: The ``kind`` of other JSON files iwp writes, which a user may give as a parameter file by mistake.
+_OTHER_FILES = {"iwp-fit": "iwp fit's fit.json"}
 
 
 def stored_model(path_or_name: str | Path) -> str | None:
@@ -608,6 +649,18 @@ def load_params(path_or_name: str | Path, *, physical_check: bool = True):
     writes for an unconstrained fit that came out unphysical, like the
     paper's eq. (16)); such a file is loaded with a warning.
 
+    Parameters
+    ----------
+    path_or_name : str or Path
+        A JSON file, or a built-in name (``"table1"``: Table 1).
+    physical_check : bool
+        Refuse a lumped set with wrong signs (see above).
+
+    Returns
+    -------
+    LumpedParameters or PhysicalParameters or BeltParameters
+        The set, in the units of Table 1 (lumped) or SI (physical).
+
     Raises
     ------
     InputError
@@ -625,6 +678,12 @@ def load_params(path_or_name: str | Path, *, physical_check: bool = True):
         raise InputError(f"{path}: expected a JSON object of parameters")
     kind = doc.get("kind", "lumped")
     values = doc.get("parameters", doc if "kind" not in doc else None)
+    other = _OTHER_FILES.get(kind) if isinstance(kind, str) else None
+    if other is None and "kind" not in doc and {"steps", "statements"} <= set(doc):
+        other = "iwp reproduce's results.json"
+    if other is not None:
+        beside = path.parent / "parameters.json"
+        raise InputError(f"{path}: this is {other}, not a parameter file; give {beside} (written beside it)")
     if kind not in _KINDS:
         raise InputError(f"{path}: unknown kind {kind!r}; expected one of {', '.join(_KINDS)}")
     if not isinstance(values, dict):

@@ -50,7 +50,7 @@ from .layout import (
 )
 from .parameters import BELT_INFO, LUMPED_INFO, BeltParameters, LumpedParameters, PhysicalParameters
 
-__all__ = ["ModelInfo", "MODELS", "Plant", "model_info"]
+__all__ = ["ModelInfo", "MODELS", "Plant", "model_info", "EXPERIMENT_KINDS", "plant_for_kind"]
 
 
 @dataclass(frozen=True)
@@ -253,11 +253,20 @@ class Plant:
             if self.belt is None:
                 raise InputError(f"parameter {name!r} belongs to the belt (15); model {self.model!r} has none")
             return float(getattr(self.belt, name))
-        if name in ("eps_c1", "eps_c2"):  # the width in effect (0 stands for the plant's coulomb_eps)
-            return float(self.packed()[LUMPED_INDEX[name]])
         if name in LUMPED_INFO:
             return float(getattr(self.lumped, name))
         raise InputError(f"unknown parameter {name!r}; known: {', '.join([*LUMPED_INFO, *BELT_INFO])}")
+
+    def value_in_effect(self, name: str) -> float:
+        """The value the equations use for parameter ``name``.
+
+        Equal to :meth:`value` except where a stored 0 stands for the plant's
+        default: the smoothing widths ``eps_c1``/``eps_c2`` (0: ``coulomb_eps``).
+        A fit that frees such a parameter starts from this value.
+        """
+        if name in LUMPED_INDEX and not self.info.physical:
+            return float(self.packed()[LUMPED_INDEX[name]])
+        return self.value(name)
 
     def with_values(self, values) -> "Plant":
         """The same plant with the parameters in ``values`` (``{name: value}``, lumped or belt) changed."""
@@ -339,3 +348,23 @@ def _pack(plant: Plant, info: ModelInfo) -> np.ndarray:
             P[index] = getattr(plant.belt, name)
     return P
 
+
+#: The kinds of experiment a rig runs (and a fit joins), and how each changes the plant it simulates.
+EXPERIMENT_KINDS: dict[str, str] = {
+    "free": "the arm swings freely: the model as given",
+    "clamped": "the pendulum clamped at q1 = q3 = 0 (section 5.1)",
+    "wheel-locked": "the wheel locked to the arm: a free pendulum carrying the wheel's inertia (motor torque internal)",
+    "closed-loop": "the input was computed by a known feedback law, simulated with the plant",
+}
+
+
+def plant_for_kind(plant: Plant, kind: str) -> Plant:
+    """The plant an experiment of ``kind`` (:data:`EXPERIMENT_KINDS`) simulates, with ``plant``'s parameters."""
+    if kind not in EXPERIMENT_KINDS:
+        raise InputError(f"unknown experiment kind {kind!r}; choose among {', '.join(EXPERIMENT_KINDS)}",
+                         argument="kind")
+    if kind == "clamped" and not plant.pendulum_locked:
+        return plant.replace(locked=True)
+    if kind == "wheel-locked" and not plant.wheel_held:
+        return Plant(plant.lumped, model="free", coulomb_eps=plant.coulomb_eps)
+    return plant

@@ -11,6 +11,7 @@ module                 figures
 :mod:`.report`         the paper's figures: static curves, comparison panels, errors
 :mod:`.validation`     validation of a model on a log; correlation of estimates
 :mod:`.control`        bifurcation diagram, swing-up, animation
+:mod:`.robust`         an outcome over parameter draws; capture probabilities
 :mod:`.base`           labels, stacked panels, saving
 =====================  =====================================================
 """
@@ -20,6 +21,7 @@ from __future__ import annotations
 from .base import SIGNAL_LABELS, savefig, stacked_axes
 from .control import animate_pendulum, plot_bifurcation, plot_branch_details, plot_swingup
 from .report import plot_comparison_panel, plot_comparisons, plot_dead_zone, plot_errors, plot_static_curve
+from .robust import plot_capture, plot_distribution
 from .simulation import plot_comparison, plot_simulation
 from .validation import plot_correlation, plot_validation
 
@@ -28,11 +30,13 @@ __all__ = [
     "animate_pendulum",
     "plot_bifurcation",
     "plot_branch_details",
+    "plot_capture",
     "plot_comparison",
     "plot_comparison_panel",
     "plot_comparisons",
     "plot_correlation",
     "plot_dead_zone",
+    "plot_distribution",
     "plot_errors",
     "plot_simulation",
     "plot_static_curve",

@@ -56,7 +56,7 @@ def plot_comparison(t, measured, simulated, *, name="q4", ax=None, error_ax=None
     """Measured against simulated signal, with the error below (the paper's figures 3-10).
 
     ``band``: optional ``(lower, upper, pred_lower, pred_upper)`` arrays of the
-    95 % parameter and prediction bands (:class:`iwp.ident.uncertainty.PredictionBand`),
+    95 % parameter and prediction bands (:class:`iwp.sim.uncertainty.PredictionBand`),
     shaded around the simulation.
 
     Returns

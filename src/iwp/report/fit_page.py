@@ -20,6 +20,7 @@ The figures are drawn by :mod:`iwp.plotting` from series prepared here
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 
@@ -59,6 +60,24 @@ def _log_figure(f, out_dir: Path, name: str) -> tuple[bytes, list[Path]]:
     return save_figure(res["figure"], out_dir, name)
 
 
+#: held-out logs drawn at most (the worst and the best half each); fit.json and the table hold every log
+MAX_HELD_OUT_FIGURES = 4
+
+
+def _shown(fits: list) -> list:
+    """The held-out logs drawn: all of them, or the worst and the best fits of ``q1``."""
+    if len(fits) <= MAX_HELD_OUT_FIGURES:
+        return list(fits)
+    def q1_fit(i: int) -> float:  # a failed simulation (NaN) counts as the worst
+        v = fits[i].fit.get("q1", float("nan"))
+        return v if math.isfinite(v) else -math.inf
+
+    order = sorted(range(len(fits)), key=lambda i: (q1_fit(i), i))
+    half = MAX_HELD_OUT_FIGURES // 2
+    keep = set(order[:half]) | set(order[-half:])
+    return [f for i, f in enumerate(fits) if i in keep]
+
+
 def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> dict:
     """Write the files of a :class:`~iwp.ident.logfit.LogFitResult` into the folder ``out`` (see the module).
 
@@ -73,7 +92,8 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         figures: list[FigureEntry] = []
         fig_paths: list[Path] = []
         used: set = set()
-        for f in result.train + result.validation:
+        shown = _shown(result.validation)
+        for f in result.train + shown:
             name = _safe(f"{f.role}_{Path(f.source).stem}", used)
             png, written = _log_figure(f, tmp, name)
             fig_paths += [out / w.relative_to(tmp) for w in written]
@@ -104,7 +124,8 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                      + "; start: " + result.start_method)
         frows = []
         for f in result.train + result.validation:
-            frows.append([Path(f.source).name, f.role] + [fmt(f.fit.get(o), 4) for o in result.outputs]
+            role = f.role if f.kind == "free" else f"{f.role} ({f.kind})"
+            frows.append([Path(f.source).name, role] + [fmt(f.fit.get(o), 4) for o in result.outputs]
                          + [fmt(f.rms.get(o), 3) for o in result.outputs] + [fmt(f.q1_offset, 3)]
                          + [fmt(100 * f.coverage[o], 3) if o in f.coverage else "-" for o in result.outputs])
         ftab = Table("Fits per log and signal",
@@ -114,7 +135,27 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                      note="fit = 100 (1 - |y - y_sim| / |y - mean y|); replaced glitch samples left out; in band: the "
                           "share of a held-out log's samples inside the fit's 95 % prediction band (parameters, "
                           "measured initial state and the residuals' spread)")
+        tables = [ptab, ftab]
+        if result.structures is not None:
+            lad = result.structures
+            sel = lad.selection
+            outs = list(result.outputs)
+            lrows = [[("chosen: " if i == sel.chosen else "best: " if i == sel.best else "") + o.rung.label,
+                      str(o.n_params)] + [fmt(o.fit.get(k), 4) for k in outs] + [fmt(o.score, 4),
+                      fmt(sel.difference[i], 3), fmt(o.bic, 6), "yes" if o.success else "no"]
+                     for i, o in enumerate(lad.outcomes)]
+            tables.insert(0, Table(
+                f"Model structures, ranked on {lad.scored_on} ({lad.n_scored} logs)",
+                ["structure", "free parameters"] + [f"fit {k} [%]" for k in outs]
+                + ["score", "ln(score / best)", "BIC (training)", "converged"], lrows,
+                note="score: the mean over the signals of 1 - fit/100 on each scoring log, averaged; chosen: the "
+                     "simplest structure whose log ratio to the best is not significantly above zero (one-sided "
+                     f"t-test at 5 %, {sel.method}); BIC assumes white residuals and is shown for comparison only"))
+        if len(shown) < len(result.validation):
+            tables[-1].note += (f"; figures are drawn for the training logs and {len(shown)} of the "
+                                f"{len(result.validation)} held-out logs (the worst and the best fits of q1)")
         warn_par = [f"Warning: {w}" for w in result.warnings] or ["No warnings."]
+        span = result.validation_range()
         rep = Report(
             title="Model fitted to a rig's logs and validated on held-out logs",
             subtitle=f"model {result.model} ({'(6) with dead zone' if result.model == 'raw' else '(9)'}), "
@@ -122,9 +163,12 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
             summary=[("rig", result.rig.name or result.rig.source if result.rig is not None else "(iwp logs)"),
                      ("training logs", ", ".join(Path(f.source).name for f in result.train)),
                      ("held-out logs", ", ".join(Path(f.source).name for f in result.validation) or "none"),
-                     ("validation fit", ", ".join(f"{k} {fmt(v, 4)} %" for k, v in result.validation_fit.items())),
+                     ("validation fit", ", ".join(
+                         f"{k} mean {fmt(v, 4)} %" + (f" (from {fmt(span[k][0], 4)} to {fmt(span[k][1], 4)} %)"
+                                                      if len(result.validation) > 1 else "")
+                         for k, v in result.validation_fit.items())),
                      ("time", f"{result.elapsed:.3g} s")],
-            sections=[Section("Parameters and fits", tables=[ptab, ftab], anchor="fits"),
+            sections=[Section("Parameters and fits", tables=tables, anchor="fits"),
                       Section("Warnings", paragraphs=warn_par, anchor="warnings"),
                       Section("Figures", figures=corr_fig + figures, anchor="figures")],
         )

@@ -32,7 +32,7 @@ free-pendulum   the free pendulum                                            fig
 two-step        the two-step set-up, ``rho_1``, ``rho_2``                    Table 1
 full-chirp      the full chirp without and with the restart at t = 200 s     fig. 9
 closed-loop     Hopf anticontrol ``k1 = -10``, ``k2 = 0.1``                  fig. 10
-paper-numbers   every published number against this run's (iwp.calibration.targets)  sec. 5
+paper-numbers   every published number against this run's (calibration)      sec. 5
 refine          refinement by simulation error, what it changes              --
 report          checked statements, parameters.json, report.html             --
 ==============  ==========================================================  ===========

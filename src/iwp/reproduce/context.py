@@ -32,7 +32,7 @@ _QUICK_SETTINGS: dict[str, dict[str, float]] = {
 }
 
 def experiment_settings(quick: bool = False) -> dict[str, dict[str, float]]:
-    """Overrides of :meth:`iwp.rig.VirtualRig.run` per experiment: none for the full run, shorter ones for quick."""
+    """Return the overrides of :meth:`iwp.rig.VirtualRig.run` per experiment (shorter runs for ``quick``)."""
     return {name: dict(_QUICK_SETTINGS[name]) if quick else {} for name in _ALL_EXPERIMENTS}
 
 
@@ -262,7 +262,7 @@ def series(t, y, label: str | None = None):
 def compare(data, params, *, model: str, signals, restart_times=(), controller=None):
     """Run :func:`iwp.ident.validation.validate` and return ``(t, measured, simulated, fit)`` as plain arrays."""
     r = validate(data, params, model=model, signals=tuple(signals), restart_times=tuple(restart_times),
-                 controller=controller)
+                 controller=controller, warn=False)  # the report tabulates every fit
     t = np.asarray(r.t, dtype=float)
     meas = {s: np.asarray(r.measured[s], dtype=float) for s in signals}
     sim = {s: np.asarray(r.simulated[s], dtype=float) for s in signals}

@@ -2,19 +2,20 @@
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import time
 import traceback
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
 from ..errors import InputError, IwpError
-from ..files import atomic_write
+from ..files import atomic_write, check_output_dir, staged_dir
 from ..models.parameters import table1
-from ..report import prepare_output_dir
 from ..rig import RigTruth, VirtualRig, default_truth
 from .context import ProgressEvent, ReproduceResult, StepRecord
 from .output import step_report
@@ -117,12 +118,39 @@ def reproduce(
         truth = default_truth()
     if not isinstance(truth, RigTruth):
         raise InputError(f"truth must be a RigTruth, got {type(truth).__name__}")
-    out_dir = prepare_output_dir(out, force=force)
-    ctx = ReproduceResult(out=out_dir, quick=bool(quick), seed=int(seed), truth=truth)
-    ctx._rig = VirtualRig(truth, seed=int(seed))
+    final = check_output_dir(out, force=force)  # refuse before the work, not after
+    # every file is written into a hidden sibling folder and moved into place whole at the end: an interrupt, a
+    # kill or a full disk leaves the previous content (or nothing), never a half-written folder
+    with staged_dir(final, force=force) as tmp:
+        ctx = ReproduceResult(out=tmp, quick=bool(quick), seed=int(seed), truth=truth)
+        _run_steps(ctx, progress, keep_going)
+        report = ctx.step("report")
+        if report.status != "ok":  # no page: nothing of the run is kept
+            err = ctx.extra.get("output-error")
+            if isinstance(err, OSError):
+                raise OSError(err.errno, f"{err.strerror or err}; nothing was written", str(final))
+            raise RuntimeError(f"step 'report' {report.status}: {report.message}")
+    _moved(ctx, final)
+    return ctx
+
+
+def _moved(ctx: ReproduceResult, final: Path) -> None:
+    """Point the result's paths at the folder the staged one was moved to."""
+    def move(p: Path) -> Path:
+        return final / p.relative_to(ctx.out)
+
+    ctx.files = [move(p) for p in ctx.files]
+    for f in ctx.figures:
+        f.files = [move(p) for p in f.files]
+    ctx.out = final
+
+
+def _run_steps(ctx: ReproduceResult, progress, keep_going: bool) -> None:
+    """Run every step into ``ctx.out``; a failed step is recorded (an interrupt or a full disk is raised)."""
+    ctx._rig = VirtualRig(ctx.truth, seed=ctx.seed)
     ctx._progress = progress
     ctx.extra["t_start"] = time.perf_counter()
-    ctx.params["truth"] = truth.lumped
+    ctx.params["truth"] = ctx.truth.lumped
     ctx.params["table1"] = table1()
     ctx.steps = [StepRecord(s.name, s.title, s.reference) for s in STEPS]
     total = len(STEPS)
@@ -146,19 +174,31 @@ def reproduce(
             rec.message = msg or ""
         except KeyboardInterrupt:
             raise
+        except OSError as exc:
+            if exc.errno in _OUTPUT_ERRNOS:  # a full disk or a folder that became read-only: nothing is kept
+                raise
+            ctx.extra["output-error"] = exc
+            _failed(rec, exc, keep_going)
+            stop = stop or not keep_going
         except Exception as exc:  # noqa: BLE001 - every failure is recorded with the step's name
-            rec.status = "failed"
-            rec.message = f"{type(exc).__name__}: {exc}" if not isinstance(exc, IwpError) else str(exc)
-            rec.detail = traceback.format_exc()
-            if not keep_going:
-                stop = True
+            _failed(rec, exc, keep_going)
+            stop = stop or not keep_going
         rec.seconds = time.perf_counter() - t0
         _emit(progress, ProgressEvent("done" if rec.status == "ok" else "failed", name, i, total, title,
                                       rec.message, rec.seconds))
     ctx.elapsed = time.perf_counter() - ctx.extra["t_start"]
     if ctx.step("report").status == "ok":
         write_results(ctx, progress)  # the elapsed time in results.json includes the report
-    return ctx
+
+
+#: errno values that say the output cannot be written (the run stops; nothing of it is kept).
+_OUTPUT_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EIO, errno.EFBIG}
+
+
+def _failed(rec: StepRecord, exc: BaseException, keep_going: bool) -> None:
+    rec.status = "failed"
+    rec.message = f"{type(exc).__name__}: {exc}" if not isinstance(exc, IwpError) else str(exc)
+    rec.detail = traceback.format_exc()
 
 
 def write_results(ctx: ReproduceResult, progress: Callable[[ProgressEvent], None] | None = None) -> bool:
@@ -173,6 +213,7 @@ def write_results(ctx: ReproduceResult, progress: Callable[[ProgressEvent], None
     try:
         atomic_write(path, lambda tmp: tmp.write_text(text))
     except OSError as exc:
+        ctx.extra["output-error"] = exc
         rec = ctx.step("report")
         rec.status = "failed"
         rec.message = f"could not write {path}: {exc.strerror or exc}"

@@ -98,9 +98,8 @@ def st_linear_after_compensation(ctx, st):
                 "accuracy for |u| > 20.")
     st.reference = "section 5.1, figure 2(b)"
     st.criterion = (f"a straight line fitted for |u| > 20 leaves residuals below {100 * LINEAR_RESIDUAL:.0f} % of "
-                    "the largest |q4| there, and the curve lies below it at u = 15 (the dead zone not completely "
-                    "cancelled); the size of that error, 25 rad/s in the paper, is compared in the table of the "
-                    "paper's numbers")
+                    "the largest |q4| there, and the curve lies below it at u = 15 by 25 rad/s, within "
+                    f"{_tol('compensated_error_u15')} (the dead zone not completely cancelled)")
     _need(ctx, "dead-zone")
     n = ctx.numbers["dead-zone"]
     a, b = n["line"]
@@ -109,7 +108,8 @@ def st_linear_after_compensation(ctx, st):
                 f"{'within' if _within('compensated_error_u15', n['error_at_u15']) else 'not within'} "
                 f"{_tol('compensated_error_u15')})")
     st.values = {"line": n["line"], "linearity": n["linearity"], "error_at_u15": n["error_at_u15"]}
-    st.passed = n["linearity"] <= LINEAR_RESIDUAL and n["error_at_u15"] > 0.0
+    st.passed = (n["linearity"] <= LINEAR_RESIDUAL and n["error_at_u15"] > 0.0
+                 and _within("compensated_error_u15", n["error_at_u15"]))
 
 
 def st_motor_disk(ctx, st):
@@ -317,21 +317,26 @@ def st_amplitude(ctx, st):
     st.claim = "With k1 = -10 and k2 = 0.1 the system oscillates with an amplitude q1max ~ 2.58 rad, and the model " \
                "matches closely."
     st.reference = "section 5.3, figure 10"
-    st.criterion = (f"the rig's amplitude within {_tol('cl_amplitude_rig')} of 2.58 rad, and the identified model's "
-                    f"within {_tol('cl_model_over_rig')} of the rig's")
+    st.criterion = (f"the rig's amplitude within {_tol('cl_amplitude_rig')} of 2.58 rad, the identified model's "
+                    f"within {_tol('cl_model_over_rig')} of the rig's, and the model's q1 close to the rig's "
+                    f"(fit above {FIT_CLOSE:g} %, as for 'very close' in section 5.2)")
     _need(ctx, "closed-loop")
     n = ctx.numbers["closed-loop"]
-    a, m = n["amplitude_rig"], n["amplitude_model"]
-    st.found = f"rig {a:.3f} rad, identified model {m:.3f} rad (q1 fit {n['fit_q1']:.1f} %)"
+    a, m, fit = n["amplitude_rig"], n["amplitude_model"], n["fit_q1"]
+    st.found = f"rig {a:.3f} rad, identified model {m:.3f} rad; q1 fit {fit:.1f} %"
+    if not fit > FIT_CLOSE:
+        st.found += (" (the amplitudes agree but the simulated oscillation drifts from the rig's in phase: the model "
+                     "does not match closely)" if _within("cl_model_over_rig", m / a) else "")
     st.values = n
-    st.passed = _within("cl_amplitude_rig", a) and _within("cl_model_over_rig", m / a)
+    st.passed = _within("cl_amplitude_rig", a) and _within("cl_model_over_rig", m / a) and fit > FIT_CLOSE
 
 
 def st_refinement(ctx, st):
     st.claim = "(Beyond the paper) Refining the least-squares parameters by simulation error lowers the simulation " \
                "error."
     st.reference = "iwp.refine"
-    st.criterion = "the refinement's cost decreases and the full-chirp q1 fit does not get worse"
+    st.criterion = ("the refinement's cost decreases and no simulation fit gets worse (q1 of the full chirp, of the "
+                    "free pendulum and of the closed loop, where they were simulated)")
     _need(ctx, "refine")
     n = ctx.numbers["refine"]
     before = ctx.numbers.get("full-chirp", {}).get("fit_q1", float("nan"))
@@ -341,8 +346,16 @@ def st_refinement(ctx, st):
         cl = ctx.numbers.get("closed-loop", {})
         st.found += (f"; closed-loop fit {cl.get('fit_q1', float('nan')):.1f} % -> {n['fit_closed_loop_q1']:.1f} %, "
                      f"amplitude {cl.get('amplitude_model', float('nan')):.3f} -> {n['amplitude_model']:.3f} rad")
+    pairs = [(before, n["fit_full_chirp_q1"])]
+    if "fit_free_q1" in n:
+        pairs.append((n.get("fit_free_q1_before", float("nan")), n["fit_free_q1"]))
+    if "fit_closed_loop_q1" in n:
+        pairs.append((ctx.numbers.get("closed-loop", {}).get("fit_q1", float("nan")), n["fit_closed_loop_q1"]))
+    worse = [(a, b) for a, b in pairs if math.isfinite(a) and not b >= a - 1e-9]
+    if worse:
+        st.found += "; " + ", ".join(f"a fit falls from {a:.1f} to {b:.1f} %" for a, b in worse)
     st.values = n
-    st.passed = n["cost"] < n["cost_start"] and not (n["fit_full_chirp_q1"] < before - 1e-9)
+    st.passed = n["cost"] < n["cost_start"] and not worse
 
 
 #: The statements, in the paper's order.

@@ -472,7 +472,10 @@ def step_paper_numbers(ctx: ReproduceResult) -> str:
     """
     targets = load_targets()
     dz = ctx.numbers.get("dead-zone", {})
-    numbers = PaperNumbers(identifications=dict(ctx.ident), compensated=dz,
+    idents = dict(ctx.ident)
+    if ctx.extra.get("full-unweighted") is not None:  # set-up 'full' as the paper's (13) is printed: rows full13_*
+        idents["full-13"] = ctx.extra["full-unweighted"]
+    numbers = PaperNumbers(identifications=idents, compensated=dz,
                            closed_loop=ctx.numbers.get("closed-loop", {}),
                            least_squares=ctx.params.get("least-squares"), logs=ctx.data)
     rows = []

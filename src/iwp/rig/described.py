@@ -12,7 +12,7 @@ logged (a controller's output before the driver saturates it, which the
 plant sees clipped). Glitches can be injected where a real board makes
 them: a first-sample spike of the mean speed, dropouts to 0, and jumps of
 the pendulum angle. :func:`write_rig_csv` writes such a log, which
-:func:`iwp.data.read_rig_log` reads back; the tests run every path of
+:func:`iwp.data.rig_log.read_rig_log` reads back; the tests run every path of
 ``iwp fit`` this way with known truth.
 """
 
@@ -30,7 +30,7 @@ from ..data.rig_description import RigDescription, load_rig
 from ..errors import InputError
 from ..files import atomic_write, prepare_output_file
 from ..models.parameters import LumpedParameters
-from ..models.plant import Plant
+from ..models.plant import Plant, plant_for_kind
 from ..sim.inputs import Input, Sampled
 from ..sim.simulate import simulate
 from .sensors import motor_current, pendulum_reading, time_reading, wheel_reading
@@ -121,7 +121,7 @@ class DescribedRig:
         dz = p.v_dz_pos > 0 or p.v_dz_neg > 0
         return Plant(p, model="raw", dead_zone=dz)
 
-    def run(self, logged_input=None, *, duration: float, x0=None) -> RigRun:
+    def run(self, logged_input=None, *, duration: float, x0=None, kind: str = "free") -> RigRun:
         """Run the rig and log as it logs.
 
         Parameters
@@ -134,6 +134,10 @@ class DescribedRig:
             Length [s]; ``floor(duration / Ts) + 1`` samples.
         x0 : sequence of 4 floats, optional
             True initial state (default rest hanging down).
+        kind : str
+            The set-up (:data:`~iwp.models.plant.EXPERIMENT_KINDS`): ``"free"``,
+            ``"clamped"`` (the pendulum clamped at 0) or ``"wheel-locked"``
+            (the wheel locked to the arm: the motor's input does nothing).
         """
         Ts = self.Ts
         duration = check_positive("duration", duration)
@@ -156,8 +160,14 @@ class DescribedRig:
             xc = np.clip(x_log, *ins.limits) if ins.limits is not None else x_log
             w = ins.scale * (xc - ins.offset)
         x0a = np.zeros(4) if x0 is None else np.asarray(x0, dtype=float)
-        res = simulate(self.plant(), x0=x0a, t_end=(n - 1) * Ts, Ts=Ts, input=Sampled(w, Ts, 0.0),
-                       rtol=self.rtol, atol=self.rtol)
+        if kind == "closed-loop":
+            raise InputError("DescribedRig.run: kind 'closed-loop' needs a controller; run a free, clamped or "
+                             "wheel-locked experiment", argument="kind")
+        plant = plant_for_kind(self.plant(), kind)
+        if plant.wheel_held:
+            x0a[1] = x0a[3] = 0.0
+        res = simulate(plant, x0=x0a, t_end=(n - 1) * Ts, Ts=Ts,
+                       input=None if plant.wheel_held else Sampled(w, Ts, 0.0), rtol=self.rtol, atol=self.rtol)
         X = np.asarray(res.x, dtype=float)[:n]
         rng = np.random.default_rng(self.seed)
         noise = rng.normal(0.0, self.noise_std, n) if self.noise_std > 0 else None
@@ -188,6 +198,21 @@ def prbs(n: int, *, hold: int, amplitude: float, seed: int = 0) -> np.ndarray:
 
     (The levels come from ``numpy.random.default_rng(seed)``; the sign changes at random multiples of
     ``hold``, as a PRBS of a rig's test does.)
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    hold : int
+        Samples each level is held at least.
+    amplitude : float
+        The two levels are ``+-amplitude`` [the rig's input units].
+    seed : int
+        Seed of the random signs.
+
+    Returns
+    -------
+    ndarray, shape (n,)
     """
     if n < 1 or hold < 1:
         raise InputError("prbs: n and hold must be >= 1")
@@ -198,7 +223,24 @@ def prbs(n: int, *, hold: int, amplitude: float, seed: int = 0) -> np.ndarray:
 
 def write_rig_csv(run: RigRun, path: str | os.PathLike, *, force: bool = False,
                   metadata: dict | None = None) -> Path:
-    """Write a run's columns as the rig's CSV log (header of the rig's names, one row per sample)."""
+    """Write a run's columns as the rig's CSV log (header of the rig's names, one row per sample).
+
+    Parameters
+    ----------
+    run : RigRun
+        The run of :meth:`DescribedRig.run`, its columns in the rig's units.
+    path : str or PathLike
+        The CSV file.
+    force : bool
+        Overwrite an existing file.
+    metadata : dict, optional
+        ``# key: value`` lines written before the header.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     p = prepare_output_file(path, force=force)
     names = list(run.columns)
     data = np.column_stack([run.columns[k] for k in names])
@@ -210,4 +252,4 @@ def write_rig_csv(run: RigRun, path: str | os.PathLike, *, force: bool = False,
             fh.write(",".join(names) + "\n")
             np.savetxt(fh, data, delimiter=",", fmt="%.17g")
 
-    return atomic_write(p, write)
+    return atomic_write(p, write, force=force)

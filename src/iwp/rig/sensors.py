@@ -2,7 +2,7 @@
 
 Each function maps the true states sampled at the log's instants to the
 values the rig writes, in the rig's units and conventions; the reader
-:func:`iwp.data.read_rig_log` maps them back. Together they let the
+:func:`iwp.data.rig_log.read_rig_log` maps them back. Together they let the
 virtual rig (:mod:`iwp.rig.described`) be any such rig, with known truth.
 
 * :func:`pendulum_reading`: ``x = (q1 + offset - zero) / (sign * unit)``,

@@ -459,6 +459,10 @@ def default_truth() -> RigTruth:
 
 
 def truth_record() -> dict[str, Any]:
-    """The record of the default truth: ``provenance`` (where each value came from), ``calibration``
-    (settings, residual table published against reproduced, sensitivity, outcome) and ``notes``."""
+    """The record of the default truth.
+
+    ``provenance`` (where each value came from), ``calibration`` (settings,
+    residual table published against reproduced, sensitivity, outcome) and
+    ``notes``.
+    """
     return copy.deepcopy(_shipped_truth()[1])

@@ -49,6 +49,7 @@ import numpy as np
 
 from ..checks import check_finite, check_nonnegative, check_positive, check_samples
 from ..data import ExperimentData, StaticCurve
+from ..data.plausibility import MAX_INPUT
 from ..errors import InputError
 from ..models.encoder import quantize
 from ..sim.inputs import CallableController, Constant, Input
@@ -73,6 +74,19 @@ RIG_RTOL = 1e-8
 RIG_ATOL = 1e-8
 #: Window over which the static curves fit the disk velocity [s].
 STATIC_WINDOW = 1.0
+
+
+#: Largest measurement noise of the virtual rig's angles [rad] (an encoder's is a few thousandths).
+MAX_NOISE = 1.0
+
+
+def check_noise(noise_std: float) -> float:
+    """The standard deviation of the position noise [rad]: finite, from 0 to :data:`MAX_NOISE`."""
+    x = check_nonnegative("noise_std", noise_std)
+    if x > MAX_NOISE:
+        raise InputError(f"noise_std = {x:g} rad: a measurement noise beyond {MAX_NOISE:g} rad is no measurement "
+                         "of an angle", argument="noise_std")
+    return x
 
 
 class VirtualRig:
@@ -143,10 +157,6 @@ class VirtualRig:
             filter_tau : float
                 Time constant of the velocity filter of the controller [s].
 
-        The experiment runs on the truth of its session
-        (:attr:`ExperimentSpec.session`, :meth:`RigTruth.for_session`); the
-        log's metadata ``truth`` is that session's truth.
-
         Returns
         -------
         ExperimentData or StaticCurve
@@ -156,6 +166,12 @@ class VirtualRig:
         InputError
             Unknown experiment (the message lists the valid names), an
             option the experiment does not take, or a bad value.
+
+        Notes
+        -----
+        The experiment runs on the truth of its session
+        (:attr:`ExperimentSpec.session`, :meth:`RigTruth.for_session`); the
+        log's metadata ``truth`` is that session's truth.
         """
         spec = experiment_spec(name)
         bad = sorted(set(overrides) - set(spec.options))
@@ -168,8 +184,12 @@ class VirtualRig:
         s = dict(spec.settings)
         s.update({k: v for k, v in overrides.items()})
         seed = self.seed if overrides.get("seed") is None else check_seed(overrides["seed"])
-        noise = self.truth.noise_std if overrides.get("noise_std") is None else check_nonnegative(
-            "noise_std", overrides["noise_std"])
+        noise = self.truth.noise_std if overrides.get("noise_std") is None else check_noise(overrides["noise_std"])
+        if "amplitude" in s and s["amplitude"] is not None:
+            a = check_finite("amplitude", s["amplitude"])
+            if abs(a) > MAX_INPUT:
+                raise InputError(f"amplitude = {a:g}: beyond any rig's input (|amplitude| <= {MAX_INPUT:g}); the "
+                                 "driver saturates far below", argument="amplitude")
         if name.startswith("static-curve"):
             return self._static_curve(spec, s, seed, noise)
         duration = check_positive("duration", s["duration"])
@@ -251,7 +271,7 @@ class VirtualRig:
         if duration < 10 * truth.Ts:
             raise InputError(f"duration must be at least 10 samples ({10 * truth.Ts:g} s), got {duration!r} s")
         seed = self.seed if seed is None else check_seed(seed)
-        noise = truth.noise_std if noise_std is None else check_nonnegative("noise_std", noise_std)
+        noise = truth.noise_std if noise_std is None else check_noise(noise_std)
         pair = compensation_thresholds(v_dz)
         if input is not None and controller is not None:
             raise InputError("give either input or controller, not both")

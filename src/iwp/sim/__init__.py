@@ -15,11 +15,23 @@ module                      what
 
 from __future__ import annotations
 
-from .inputs import CallableController, Chirp, Constant, HopfController, Input, Sampled, Sine, Step, make_input
+from .inputs import (
+    BalanceController,
+    CallableController,
+    Chirp,
+    Constant,
+    HopfController,
+    Input,
+    Sampled,
+    Sine,
+    Step,
+    make_input,
+)
 from .result import BatchResult, SimulationResult
 from .simulate import simulate, simulate_batch, simulate_scipy
 
 __all__ = [
+    "BalanceController",
     "BatchResult",
     "CallableController",
     "Chirp",

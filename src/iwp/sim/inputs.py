@@ -9,7 +9,8 @@ Open-loop signals: :class:`Constant`, :class:`Sine`, :class:`Chirp` (the
 paper's ``u = A sin(w(t) t)``, ``w(t) = w0 + t/tau``), :class:`Step`,
 :class:`Sampled` (an array held over each sample, zero-order hold).
 State feedback: :class:`HopfController` (``u = k1 q3 + k2 q3^3``, section
-5.3) and :class:`CallableController` (any Python function of ``(t, x)``).
+5.3), :class:`BalanceController` (the linear feedback at the upright) and
+:class:`CallableController` (any Python function of ``(t, x)``).
 Feedback laws are evaluated continuously or, with ``Ts``, sampled every
 ``Ts`` and held, as a digital controller on the rig is.
 """
@@ -25,10 +26,10 @@ import numpy as np
 from ..checks import check_finite, check_positive
 from ..errors import InputError
 from ..jit import jit
-from ..models.laws import hopf_law
+from ..models.laws import balance_law, hopf_law
 
-__all__ = ["Input", "Constant", "Sine", "Chirp", "Step", "Sampled", "HopfController", "CallableController",
-           "make_input", "input_value"]
+__all__ = ["Input", "Constant", "Sine", "Chirp", "Step", "Sampled", "HopfController", "BalanceController",
+           "CallableController", "make_input", "input_value"]
 
 # input kinds (what the compiled code evaluates)
 I_ZERO = 0
@@ -39,6 +40,7 @@ I_STEP = 4
 I_SAMPLES = 5
 I_HOPF = 6
 I_EXTERNAL = 7  # held values supplied one segment at a time by Python
+I_BALANCE = 8
 #: length of an input's parameter vector
 N_INPUT_PARAMS = 4
 
@@ -61,6 +63,8 @@ def input_value(kind, input_params, t, x):
         return input_params[2] + input_params[1]
     if kind == I_HOPF:
         return hopf_law(input_params[0], input_params[1], x[2])
+    if kind == I_BALANCE:
+        return balance_law(input_params[0], input_params[1], input_params[2], x[0], x[2], x[3])
     return 0.0
 
 
@@ -269,6 +273,49 @@ class HopfController(Input):
 
     def parameters(self):
         return np.array([self.k1, self.k2, 0.0, 0.0])
+
+
+@dataclass(frozen=True)
+class BalanceController(Input):
+    """Linear state feedback at the upright ``u = -(k_angle wrap(q1 - pi) + k_q3 q3 + k_q4 q4)``.
+
+    The balance LQR of :class:`iwp.control.balance.LQRBalance` as an input
+    the compiled simulator evaluates (:func:`iwp.models.laws.balance_law`),
+    so that many closed loops run side by side in
+    :func:`~iwp.sim.simulate.simulate_batch`; its saturation is the
+    simulator's ``saturation``.
+
+    Parameters
+    ----------
+    k_angle : float
+        Gain on the angle from the upright [input units/rad].
+    k_q3, k_q4 : float
+        Gains on the pendulum and disk velocities [input units s/rad].
+    Ts : float or None
+        ``None``: evaluated continuously; otherwise sampled every ``Ts`` [s] and held.
+    """
+
+    k_angle: float
+    k_q3: float
+    k_q4: float
+    Ts: float | None = None
+
+    kind = I_BALANCE
+    parameter_names = ("k_angle", "k_q3", "k_q4")
+
+    def __post_init__(self):
+        check_finite("k_angle", self.k_angle)
+        check_finite("k_q3", self.k_q3)
+        check_finite("k_q4", self.k_q4)
+        if self.Ts is not None:
+            check_positive("Ts", self.Ts)
+
+    @property
+    def sampled_period(self):  # type: ignore[override]
+        return self.Ts
+
+    def parameters(self):
+        return np.array([self.k_angle, self.k_q3, self.k_q4, 0.0])
 
 
 @dataclass(frozen=True, eq=False)

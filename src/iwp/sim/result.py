@@ -137,11 +137,16 @@ class BatchResult:
     t : ndarray, shape (n_out,)
         The output times [s] (those the summary runs over with ``store="summary"``).
     x : ndarray, shape (n_runs, n_out, n_states), or None
-        The states at the output times (``store="samples"``).
+        States ``q1, q2, q3, q4`` [rad, rad, rad/s, rad/s] (belt models: and
+        the belt's two states) at the output times (``store="samples"``).
     u, command : ndarray, shape (n_runs, n_out), or None
-        The ideal input and the command (``store="samples"``).
+        The input ``u`` of (9) and the command applied after the feedforward
+        (7)-(8) and the saturation [input units] (``store="samples"``).
     status : ndarray of int, shape (n_runs,)
+        0 for a run that reached ``t_end``; else why it stopped (its samples
+        after the failure are NaN).
     nfev : ndarray of int, shape (n_runs,)
+        Evaluations of the right-hand side per run.
     x_final : ndarray, shape (n_runs, n_states)
         The state each run reached (at ``t_end`` when it succeeded) [rad, rad/s].
     summary : dict of str to ndarray, shape (n_runs, n_states), or None

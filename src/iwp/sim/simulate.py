@@ -461,15 +461,6 @@ def simulate_batch(
     :class:`~iwp.sim.inputs.Sampled` arrays on one sample grid); Python
     callables are not supported here.
 
-    The other arguments are those of :func:`simulate`, and
-
-    store : {"samples", "final", "summary"}
-        What to keep of each run: the samples at the output times (``x``,
-        ``u``, ``command``); only the final state (``x_final``, always
-        kept); or per state the minimum, maximum, mean and RMS over the
-        output times (``summary``), so that a sweep of many long runs does
-        not hold every sample.
-
     Failed runs are reported per run in ``status`` (no exception); their
     samples after the failure are NaN, their summaries NaN.
 
@@ -478,9 +469,33 @@ def simulate_batch(
     with the Hopf law the compiler vectorises them. A run's result equals
     that of :func:`simulate` up to rounding.
 
+    Parameters
+    ----------
+    plant : Plant or LumpedParameters, or a list of them
+        The plants (one model).
+    model : str, optional
+        As :func:`simulate`.
+    x0 : array_like, or a list of them, optional
+        Initial states ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s].
+    t_end, t0, Ts : float
+        Final and initial time, output sample period [s].
+    input : Input, or a list of one type, optional
+        Inputs or laws (:mod:`iwp.sim.inputs`).
+    feedforward, saturation, rtol, atol, max_step, max_steps, t_eval
+        As :func:`simulate` (``saturation`` [input units], ``max_step`` [s]).
+    store : {"samples", "final", "summary"}
+        What to keep of each run: the samples at the output times (``x``,
+        ``u``, ``command``); only the final state (``x_final``, always
+        kept); or per state the minimum, maximum, mean and RMS over the
+        output times (``summary``), so that a sweep of many long runs does
+        not hold every sample.
+
     Returns
     -------
     BatchResult
+        Times [s], states ``(n_runs, n_out, n_states)`` and inputs per run
+        (with ``store="samples"``), the final states, and a status per run
+        (0: success).
     """
     if store not in BATCH_STORES:
         raise InputError(f"store must be one of {', '.join(BATCH_STORES)}, got {store!r}", argument="store")
@@ -601,6 +616,35 @@ def simulate_scipy(
     Uses the compiled right-hand side of :mod:`iwp.models` with a continuous
     input (sampled inputs are not supported here). Slower than
     :func:`simulate`; meant for cross-checks.
+
+    Parameters
+    ----------
+    plant : Plant or LumpedParameters or PhysicalParameters
+        As :func:`simulate`.
+    model : str, optional
+        As :func:`simulate`.
+    x0 : array_like, optional
+        Initial state ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s] at ``t0``.
+    t_end, t0 : float
+        Final and initial time [s].
+    Ts : float
+        Output sample period [s].
+    input : Input, optional
+        A continuous input or law (:mod:`iwp.sim.inputs`); sampled inputs are refused.
+    feedforward : bool or (float, float), optional
+        The dead-zone feedforward (7)-(8), as :func:`simulate`.
+    saturation : float, optional
+        ``|command| <= saturation`` [input units].
+    method : str
+        The :func:`scipy.integrate.solve_ivp` method (default ``"DOP853"``).
+    rtol, atol : float
+        Tolerances of ``solve_ivp`` (``atol`` in the state's units).
+    t_eval : array_like, optional
+        Output times [s] instead of the grid of ``Ts``.
+
+    Returns
+    -------
+    SimulationResult
     """
     from scipy.integrate import solve_ivp
 

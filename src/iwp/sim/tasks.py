@@ -141,5 +141,5 @@ def write_simulation(task: SimulationTask, out, *, plot=None, force: bool = Fals
         fig = plot_simulation(res, band=band)["figure"]
         writes.append((plot, lambda tmp: savefig(fig, tmp)))
         msg += f"; figure {plot}"
-    write_all(writes)
+    write_all(writes, force=force)
     return msg

@@ -135,8 +135,12 @@ class ParameterUncertainty:
             tries += m
             accepted += int(np.count_nonzero(ok))
             if tries >= 20 * n + 256 and accepted < MIN_ACCEPTED * tries:
-                raise InputError(f"only {100 * accepted / tries:.1f} % of the parameter draws are physical (no "
-                                 "negative friction or inertia ratio): the estimates are too uncertain to draw from")
+                below = np.mean(z < lo, axis=0)
+                worst = ", ".join(f"{k} in {100 * b:.0f} %" for k, b in
+                                  sorted(zip(self.free, below), key=lambda kb: -kb[1]) if b > MIN_ACCEPTED)
+                raise InputError(f"only {100 * accepted / tries:.1f} % of the parameter draws are physical (outside "
+                                 f"the physical range: {worst}): the estimates are too uncertain to draw from; fix "
+                                 "the parameters the data do not determine and fit again")
         return [self.params.replace(**dict(zip(self.free, (float(v) for v in row)))) for row in out]
 
 
@@ -153,8 +157,23 @@ def uncertainty_record(r) -> dict[str, Any]:
 def load_uncertainty(path, *, argument: str = "params") -> ParameterUncertainty:
     """The parameter set and its uncertainty from a parameter file written by ``iwp fit`` (its ``covariance``).
 
-    Raises :class:`~iwp.errors.InputError` naming the file when it holds no
-    covariance (a parameter set alone: Table 1, ``iwp identify --out``).
+    Parameters
+    ----------
+    path : str or PathLike
+        The ``parameters.json`` of ``iwp fit``.
+    argument : str
+        The argument named in errors (a flag of the command line).
+
+    Returns
+    -------
+    ParameterUncertainty
+        The parameters (Table 1's units) and their covariance.
+
+    Raises
+    ------
+    InputError
+        Naming the file when it holds no covariance (a parameter set alone:
+        Table 1, ``iwp identify --out``).
     """
     params = load_params(path)
     if not isinstance(params, LumpedParameters):
@@ -162,8 +181,8 @@ def load_uncertainty(path, *, argument: str = "params") -> ParameterUncertainty:
     doc = read_json(path) if not str(path) == "table1" else {}
     rec = doc.get("covariance") if isinstance(doc, dict) else None
     if not isinstance(rec, dict):
-        raise InputError(f"{path}: holds no covariance of its parameters; a band needs the parameters.json that "
-                         "iwp fit writes", argument=argument)
+        raise InputError(f"{path}: holds no covariance of its parameters; bands and parameter draws need the "
+                         "parameters.json that iwp fit writes", argument=argument)
     try:
         free = tuple(str(n) for n in rec["free"])
         C = np.array(rec["matrix"], dtype=float)

@@ -1,0 +1,74 @@
+"""Speed of ``iwp fit``'s ladder of structures (issue 21) and of two fits at once (issue 23).
+
+The virtual direct-drive rig of ``benchmarks/ladder_study.py`` (50 ms, PWM duty, pendulum Coulomb
+friction as the truth): three 40 s chirps to train and nineteen 40 s pseudo-random runs held out, as
+the issue's user has. Timed as whole commands (a new process each):
+
+(a) ``iwp fit`` with one structure (``--model pendulum-coulomb``): the baseline;
+(b) ``iwp fit`` with the ladder (the default): six structures fitted and ranked on the held-out logs;
+(c) two of (b) at once on the same machine (their thread pools must not fight: issue 23).
+
+Run: python benchmarks/bench_ladder.py
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from ladder_study import RIG, TRUTHS, logs  # noqa: E402
+
+
+def fit(folder: Path, out: str, *extra: str) -> subprocess.Popen:
+    train = sorted(str(p) for p in folder.glob("chirp*.csv"))
+    held = sorted(str(p) for p in folder.glob("prbs*.csv"))
+    return subprocess.Popen([sys.executable, "-m", "iwp", "fit", *train, "--rig", str(folder / "rig.json"),
+                             "--validate", *held, "--out", str(folder / out), *extra],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+def timed(*procs: subprocess.Popen) -> list[float]:
+    t0 = time.perf_counter()
+    out = [0.0] * len(procs)
+    pending = set(range(len(procs)))
+    while pending:
+        for i in list(pending):
+            if procs[i].poll() is not None:
+                if procs[i].returncode != 0:
+                    raise SystemExit(f"iwp fit failed (exit {procs[i].returncode})")
+                out[i] = time.perf_counter() - t0
+                pending.discard(i)
+        time.sleep(0.02)
+    return out
+
+
+def main() -> int:
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        logs(TRUTHS["pendulum-coulomb"], 5, folder, duration=40.0, n_train=3, n_held=19)
+        (folder / "rig.json").write_text(json.dumps(RIG))
+        timed(fit(folder, "warm", "--model", "9"))  # kernels compiled
+        (one,) = timed(fit(folder, "one", "--model", "pendulum-coulomb"))
+        (lad,) = timed(fit(folder, "ladder"))
+        doc = json.loads((folder / "ladder" / "fit.json").read_text())
+        a, b = timed(fit(folder, "twin_a"), fit(folder, "twin_b"))
+    print("## `iwp fit`'s ladder of structures (issue 21) and two fits at once (issue 23)\n")
+    print("Three chirps of 40 s to train, 19 pseudo-random runs of 40 s held out (50 ms), the virtual direct-drive "
+          "rig with pendulum Coulomb friction; whole commands, kernels compiled.\n")
+    print("| command | wall time | / one structure |")
+    print("|---|---:|---:|")
+    print(f"| (a) `iwp fit --model pendulum-coulomb` | {one:.1f} s | 1 |")
+    print(f"| (b) `iwp fit` (the ladder: 6 structures) | {lad:.1f} s | {lad / one:.2f} |")
+    print(f"| (c) two of (b) at once | {a:.1f} s and {b:.1f} s | {max(a, b) / one:.2f} |")
+    print(f"\n(b): the fit itself {doc['elapsed_s']:.1f} s; chosen {doc['structures']['chosen']}; issue 21's target: "
+          "30 s or less on 2 cores.")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

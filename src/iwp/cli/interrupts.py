@@ -1,0 +1,81 @@
+"""Ctrl-C and ``kill``: one exception at a point where Python can take it, never a signal death.
+
+SIGINT raises :class:`KeyboardInterrupt` and SIGTERM :class:`Terminated`
+(a ``KeyboardInterrupt``), so that every staged output is removed on the way
+out and the CLI exits 130 with one line. Python runs a signal's handler at
+the next bytecode it executes; while a compiled (numba) kernel returns, numba
+runs Python code of its own (``numba.core.serialize``, unpickling the class
+of the result it boxes) and does not check it for an exception: an interrupt
+raised there crashes the process (a segmentation fault, issue 23). An
+interrupt that arrives there is therefore raised a moment later, when the
+kernel's caller runs again (at the next function call or return outside
+numba's callback).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import sys
+import threading
+
+#: Python code run by compiled code that must not raise (a path fragment of its file).
+_NO_RAISE = (os.sep.join(("numba", "core", "serialize.py")),)
+#: The signal that arrived inside numba's boxing, to be raised when it returns.
+_PENDING: list[int] = []
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM received: unwinds like Ctrl-C, so that every staged output is removed."""
+
+
+def _inside_compiled_return(frame) -> bool:
+    while frame is not None:
+        if frame.f_code.co_filename.endswith(_NO_RAISE):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _on_signal(signum, frame):
+    if _inside_compiled_return(frame):
+        # raised at the next Python event outside numba's callback (a profile hook: a signal sent again could
+        # land there again and again when the caller does little else than call the kernel)
+        _PENDING[:] = [signum]
+        sys.setprofile(_raise_when_safe)
+        return
+    _raise(signum)
+
+
+def _raise(signum):
+    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+
+
+def _raise_when_safe(frame, event, arg):
+    if not _PENDING or _inside_compiled_return(frame):
+        return
+    sys.setprofile(None)
+    _raise(_PENDING.pop())
+
+
+@contextlib.contextmanager
+def interrupts_as_exceptions():
+    """While the block runs, SIGINT and SIGTERM raise (:class:`KeyboardInterrupt`, :class:`Terminated`) where safe.
+
+    Outside the main thread (where Python delivers no signal) it does nothing; an ignored signal stays ignored.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    # a signal the process was started to ignore (nohup, a background job) stays ignored
+    old = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)
+           if signal.getsignal(s) is not signal.SIG_IGN}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        if _PENDING:
+            _PENDING.clear()
+            sys.setprofile(None)

@@ -1,0 +1,293 @@
+"""The ladder of model structures ``iwp fit`` chooses from, and the rule that chooses.
+
+A rig's logs rarely say in advance which friction terms matter. ``iwp fit``
+therefore fits a ladder of nested structures, each the one before with more
+terms, and ranks them on data they were not fitted to:
+
+======================  =====================================================
+rung                    terms freed on top of the rung before
+======================  =====================================================
+``9``                   model (9): p1, p2, p3, rho and the pendulum friction
+                        sigma_a1, sigma_v1, sigma_b1 (section 3.1)
+``coulomb``             Coulomb friction of the wheel, sigma_c2 (3.2)
+``pendulum-coulomb``    Coulomb friction of the pendulum joint, sigma_c1
+``widths``              the smoothing widths of both Coulomb signs,
+                        eps_c2 and eps_c1 (``sgn q ~ tanh(q / eps)``)
+``offset``              an offset of the input, u_offset
+``dead-zone``           model (6) with the dead zone (5), v_dz_pos and v_dz_neg
+                        (for a raw command only)
+======================  =====================================================
+
+``offset`` and ``dead-zone`` both build on ``widths``. A belt drive's belt
+(15) is not a rung: it needs the motor's angle, which such logs do not hold
+(:func:`iwp.ident.belt_fit.refine_belt` fits it from the paper's set-ups).
+
+The rule (:func:`select`): each rung's score per scoring log is its
+simulation error there, the mean over the outputs of ``1 - fit/100`` (the
+normalised RMS error of :func:`iwp.ident.fit.fit_percent`). The best rung has
+the lowest mean score; the chosen one is the simplest whose paired log
+ratio to the best, ``d = ln(score / best score)`` over the scoring logs, is
+not significantly above zero: ``mean(d) <= t(0.95, n - 1) se(d)`` (a
+one-sided test at 5 %), or is below ``ln(1 + MIN_GAIN)``: a structure must cut
+the prediction error by at least :data:`MIN_GAIN` (1 %) to be worth its terms,
+however consistently (on noise-free virtual logs a richer structure can be
+better by 0.01 % on every log). The ratio, not the difference: logs differ in how
+well any model predicts them, by factors, and a structure that halves the
+error on every log is consistently better however the logs differ. Richer
+structures are thus kept only when they predict the logs consistently
+better, not when they fit the noise. With one scoring log there is no spread
+to judge by: the simplest within :data:`MIN_GAIN` of the best is chosen, and
+said so; with none (one training log, none held out) the Bayesian information
+criterion of the training fit decides.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from ..errors import InputError
+
+__all__ = ["Rung", "RUNGS", "MIN_GAIN", "ladder", "rung", "RungOutcome", "LadderResult", "Selection", "select",
+           "information_criteria"]
+
+
+#: the least mean relative cut of the held-out error for which a richer structure is kept
+MIN_GAIN = 0.01
+
+
+@dataclass(frozen=True)
+class Rung:
+    """One model structure of the ladder.
+
+    Attributes
+    ----------
+    name : str
+        What ``iwp fit --model`` takes (``"9"``, ``"coulomb"``, ...).
+    label : str
+        What the summary's table prints.
+    flags : frozenset of str
+        The terms on (the fields of :class:`~iwp.ident.logfit.LogFitOptions`):
+        ``coulomb``, ``pendulum_coulomb``, ``widths``, ``input_offset``, ``dead_zone``.
+    """
+
+    name: str
+    label: str
+    flags: frozenset[str]
+
+    def options(self) -> dict[str, bool]:
+        """The flags as keyword arguments of :class:`~iwp.ident.logfit.LogFitOptions`."""
+        return {f: f in self.flags for f in ("coulomb", "pendulum_coulomb", "widths", "input_offset", "dead_zone")}
+
+
+_C2 = frozenset({"coulomb"})
+_C12 = _C2 | {"pendulum_coulomb"}
+_W = _C12 | {"widths"}
+#: The rungs, simplest first.
+RUNGS: dict[str, Rung] = {r.name: r for r in (
+    Rung("9", "model (9)", frozenset()),
+    Rung("coulomb", "+ wheel Coulomb (sigma_c2)", _C2),
+    Rung("pendulum-coulomb", "+ pendulum Coulomb (sigma_c1)", _C12),
+    Rung("widths", "+ Coulomb widths (eps_c1, eps_c2)", _W),
+    Rung("offset", "+ input offset (u_offset)", _W | {"input_offset"}),
+    Rung("dead-zone", "+ dead zone (v_dz_pos, v_dz_neg), model (6)", _W | {"dead_zone"}),
+)}
+
+
+def ladder(raw_command: bool) -> tuple[Rung, ...]:
+    """The rungs for logs whose input is a raw command ``v`` (with the dead zone rung) or a compensated ``u``."""
+    return tuple(r for r in RUNGS.values() if raw_command or "dead_zone" not in r.flags)
+
+
+def rung(name: str, *, argument: str = "model") -> Rung:
+    """The rung called ``name`` (a clear error naming ``argument`` otherwise)."""
+    if name not in RUNGS:
+        raise InputError(f"{argument}: unknown model structure {name!r}; choose from {', '.join(RUNGS)}",
+                         argument=argument)
+    return RUNGS[name]
+
+
+def information_criteria(cost: float, n_rows: int, n_unknowns: int) -> tuple[float, float]:
+    """Akaike's and the Bayesian information criterion of a least-squares fit.
+
+    ``AIC = n ln(RSS/n) + 2k``, ``BIC = n ln(RSS/n) + k ln n`` with ``RSS = 2 cost``
+    the weighted residual sum of squares, ``n`` the residuals used and ``k``
+    the unknowns (initial states and offsets included). Both assume white
+    residuals, which a simulation error never has; they are shown beside the
+    held-out ranking, not used for it (but with one scoring log).
+    """
+    if n_rows <= 0 or not (cost > 0) or not math.isfinite(cost):
+        return float("nan"), float("nan")
+    base = n_rows * math.log(2.0 * cost / n_rows)
+    return base + 2.0 * n_unknowns, base + n_unknowns * math.log(n_rows)
+
+
+@dataclass
+class RungOutcome:
+    """One rung fitted and scored.
+
+    Attributes
+    ----------
+    rung : Rung
+    n_params : int
+        Free model parameters.
+    scores : ndarray
+        Per scoring log, the mean over outputs of ``1 - fit/100`` (NaN: its simulation failed).
+    fit : dict of str to float
+        Mean fit [%] per output over the scoring logs.
+    training_fit : dict of str to float
+        Mean fit [%] per output over the training logs (the joint fit).
+    aic, bic : float
+        Of the joint training fit (:func:`information_criteria`).
+    success : bool
+        The joint fit converged.
+    message : str
+    result : object
+        The joint fit (:class:`~iwp.ident.refinement.RefineResult`).
+    """
+
+    rung: Rung
+    n_params: int
+    scores: np.ndarray
+    fit: dict[str, float]
+    training_fit: dict[str, float]
+    aic: float
+    bic: float
+    success: bool
+    message: str
+    result: Any = field(repr=False, default=None)
+
+    @property
+    def score(self) -> float:
+        """The mean score over the scoring logs (inf if any failed)."""
+        s = np.asarray(self.scores, dtype=float)
+        return float(np.mean(s)) if s.size and np.all(np.isfinite(s)) else float("inf")
+
+
+@dataclass(frozen=True)
+class Selection:
+    """What :func:`select` decided.
+
+    Attributes
+    ----------
+    chosen, best : int
+        Indices of the chosen (simplest within noise of the best) and the best rung.
+    difference, stderr : ndarray
+        Per rung, the mean paired log ratio of its score to the best's and its standard error.
+    critical : float
+        The one-sided Student t quantile the difference is compared with.
+    method : str
+        ``"paired held-out scores"``, the one-log rule, or ``"BIC (no scoring log)"``.
+    """
+
+    chosen: int
+    best: int
+    difference: np.ndarray
+    stderr: np.ndarray
+    critical: float
+    method: str
+
+
+def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
+    """The simplest rung within noise of the best (the module's rule).
+
+    Parameters
+    ----------
+    outcomes : sequence of RungOutcome
+        Simplest first, all scored on the same logs.
+    """
+    if not outcomes:
+        raise InputError("no model structure was fitted")
+    S = np.array([o.scores for o in outcomes], dtype=float)
+    R, n = S.shape
+    usable = np.array([o.success and np.all(np.isfinite(o.scores)) for o in outcomes])
+    if not usable.any():
+        usable = np.array([np.all(np.isfinite(o.scores)) for o in outcomes])
+    if not usable.any():
+        return Selection(0, 0, np.full(R, np.nan), np.full(R, np.nan), float("nan"), "none usable")
+    if n == 0:
+        bic = np.array([o.bic if u else np.inf for o, u in zip(outcomes, usable)])
+        best = int(np.nanargmin(bic)) if np.isfinite(bic).any() else int(np.flatnonzero(usable)[0])
+        return Selection(best, best, np.full(R, np.nan), np.full(R, np.nan), float("nan"), "BIC (no scoring log)")
+    mean = np.where(usable, S.mean(axis=1), np.inf)
+    best = int(np.argmin(mean))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        L = np.log(np.where(S > 0, S, np.nan))
+    D = L - L[best]
+    if n == 1:  # no spread to judge by: the simplest within MIN_GAIN of the best
+        diff = D[:, 0]
+        chosen = next(i for i in range(R) if usable[i] and diff[i] <= math.log1p(MIN_GAIN))
+        return Selection(chosen, best, diff, np.full(R, np.nan), float("nan"),
+                         f"one scoring log: the simplest within {100 * MIN_GAIN:g} % of the best")
+    diff = D.mean(axis=1)
+    se = D.std(axis=1, ddof=1) / math.sqrt(n)
+    crit = float(stats.t.ppf(0.95, n - 1))
+    chosen = best
+    for i in range(R):
+        if usable[i] and diff[i] <= max(crit * se[i], math.log1p(MIN_GAIN)):
+            chosen = i
+            break
+    return Selection(chosen, best, diff, se, crit, "paired held-out scores")
+
+
+@dataclass
+class LadderResult:
+    """The ladder fitted and ranked (``iwp fit`` without ``--model``).
+
+    Attributes
+    ----------
+    outcomes : list of RungOutcome
+        Simplest first.
+    selection : Selection
+    scored_on : str
+        ``"held-out logs"`` or ``"leave-one-log-out cross-validation"`` (no held-out logs given),
+        or ``"training fit"`` (one training log and none held out).
+    n_scored : int
+        Logs scored (held out, or folds).
+    """
+
+    outcomes: list[RungOutcome]
+    selection: Selection
+    scored_on: str
+    n_scored: int
+
+    @property
+    def chosen(self) -> RungOutcome:
+        return self.outcomes[self.selection.chosen]
+
+    def table(self) -> str:
+        """The ladder as a text table (the summary's)."""
+        outs = sorted({o for r in self.outcomes for o in r.fit})
+        head = f"{'structure':<46} {'k':>3} " + " ".join(f"{'fit ' + o:>9}" for o in outs) + \
+            f" {'score':>8} {'ln/best':>9} {'BIC':>11}"
+        lines = [f"model structures, ranked on {self.scored_on} ({self.n_scored} logs; "
+                 f"{self.selection.method}):", head]
+        sel = self.selection
+        for i, r in enumerate(self.outcomes):
+            mark = "*" if i == sel.chosen else ("b" if i == sel.best else " ")
+            fits = " ".join(f"{r.fit.get(o, float('nan')):>8.2f}%" for o in outs)
+            d = sel.difference[i]
+            dtxt = f"{d:+.2e}" if math.isfinite(d) else "-"
+            lines.append(f"{mark} {r.rung.label:<44} {r.n_params:>3} {fits} {r.score:>8.4f} {dtxt:>9} "
+                         f"{r.bic:>11.4g}" + ("" if r.success else "  (did not converge)"))
+        lines.append(f"* chosen: {self.chosen.rung.label} (the simplest not significantly worse than the best"
+                     + (f", {self.outcomes[sel.best].rung.label}" if sel.best != sel.chosen else "") + ")")
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        sel = self.selection
+        return {
+            "scored_on": self.scored_on, "n_scored": self.n_scored, "method": sel.method,
+            "chosen": self.chosen.rung.name, "best": self.outcomes[sel.best].rung.name,
+            "critical_t": sel.critical,
+            "rungs": [{"name": r.rung.name, "label": r.rung.label, "n_params": r.n_params,
+                       "scores": [float(s) for s in r.scores], "score": r.score, "fit": r.fit,
+                       "training_fit": r.training_fit, "log_ratio_to_best": float(sel.difference[i]),
+                       "stderr_of_log_ratio": float(sel.stderr[i]), "aic": r.aic, "bic": r.bic,
+                       "success": r.success, "message": r.message}
+                      for i, r in enumerate(self.outcomes)],
+        }

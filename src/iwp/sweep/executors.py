@@ -1,0 +1,151 @@
+"""Where a sweep's chunks run: this process on all cores (:class:`LocalExecutor`) or Dask (:class:`DaskExecutor`).
+
+Both call :func:`~iwp.sweep.chunk.run_chunk` with the same spec and chunk
+index, so they give the same numbers for the same seed. Locally one chunk
+at a time runs on all cores (the batch engine's threads); on Dask every
+worker thread runs one chunk at a time with one engine thread.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from collections.abc import Iterator, Sequence
+
+import numba
+
+from ..errors import InputError
+from ..models.parameters import table1
+from .chunk import ChunkResult, run_chunk
+from .spec import Grid, SweepSpec
+
+__all__ = ["LocalExecutor", "DaskExecutor", "make_executor", "warm_up_worker"]
+
+
+def warm_up_worker() -> None:
+    """One short closed loop in this process (loads the compiled engine from numba's cache)."""
+    spec = SweepSpec(params=table1(), t_end=1.0, window=0.5, sample_time=0.05, chunk_size=2,
+                     vary=(Grid("k1", (-10.0, -9.0)),))
+    run_chunk(spec, 0, threads=1)
+
+
+class LocalExecutor:
+    """The chunks one after another in this process, each on all cores (or ``threads``)."""
+
+    def __init__(self, threads: int | None = None):
+        self.threads = threads
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> None:
+        return None
+
+    @property
+    def cores(self) -> int:
+        return self.threads or numba.get_num_threads()
+
+    def describe(self) -> str:
+        return f"local, {self.cores} threads"
+
+    def map(self, spec: SweepSpec, indices: Sequence[int]) -> Iterator[ChunkResult]:
+        """Run the chunks ``indices`` and yield their results as they finish."""
+        for i in indices:
+            yield run_chunk(spec, i, threads=self.threads)
+
+
+class DaskExecutor:
+    """The chunks on a Dask distributed cluster: an existing scheduler, or a ``LocalCluster`` started here.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        Address of a running scheduler (``tcp://host:8786``); its workers need iwp installed.
+    workers : int, optional
+        Without ``scheduler``: start a ``LocalCluster`` of this many worker
+        processes, one thread each (default: one per core).
+    """
+
+    def __init__(self, scheduler: str | None = None, workers: int | None = None):
+        if scheduler is not None and workers is not None:
+            raise InputError("give scheduler (an existing cluster) or workers (a local one), not both",
+                             argument=("scheduler", "workers"))
+        if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+            raise InputError(f"workers must be a positive integer, got {workers!r}", argument="workers")
+        if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
+            raise InputError(f"scheduler must be an address such as tcp://host:8786, got {scheduler!r}",
+                             argument="scheduler")
+        self.scheduler = scheduler
+        self.workers = workers
+        self.client = None
+        self.cluster = None
+
+    def __enter__(self):
+        try:
+            from distributed import Client, LocalCluster  # optional dependency
+        except ImportError:
+            raise InputError("a Dask run needs dask distributed: pip install 'iwp[dask]'",
+                             argument="scheduler" if self.scheduler else "workers") from None
+        if self.scheduler is not None:
+            try:
+                self.client = Client(self.scheduler, timeout="10s")
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise InputError(f"scheduler {self.scheduler}: cannot connect ({exc})", argument="scheduler") from None
+        else:
+            n = self.workers or numba.config.NUMBA_NUM_THREADS
+            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
+            self.client = Client(self.cluster)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+        self.client = self.cluster = None
+
+    def warm_up(self) -> None:
+        """Import iwp and load the compiled engine on every worker (the first chunk then runs at full speed)."""
+        if self.client is None:
+            raise RuntimeError("DaskExecutor.warm_up outside its 'with' block")
+        self.client.run(warm_up_worker)
+
+    @property
+    def cores(self) -> int:
+        """Worker threads of the cluster."""
+        return sum(self.client.nthreads().values()) if self.client is not None else 0
+
+    def describe(self) -> str:
+        where = self.scheduler or "LocalCluster"
+        n = len(self.client.nthreads()) if self.client is not None else 0
+        return f"dask {where}, {n} workers, {self.cores} threads"
+
+    def map(self, spec: SweepSpec, indices: Sequence[int]) -> Iterator[ChunkResult]:
+        """Submit the chunks ``indices`` and yield their results as they finish (any order)."""
+        from distributed import as_completed  # optional dependency, imported in __enter__ already
+
+        if self.client is None:
+            raise RuntimeError("DaskExecutor.map outside its 'with' block")
+        futures = [self.client.submit(run_chunk, spec, i, threads=1, pure=False)
+                   for i in indices]
+        try:
+            for fut in as_completed(futures):
+                yield fut.result()
+                fut.release()
+        finally:
+            for fut in futures:
+                fut.cancel()
+
+
+def make_executor(*, scheduler: str | None = None, workers: int | None = None, threads: int | None = None):
+    """:class:`DaskExecutor` when ``scheduler`` or ``workers`` is given, else :class:`LocalExecutor`."""
+    if scheduler is not None or workers is not None:
+        if threads is not None:
+            raise InputError("threads is for a local run; a Dask worker runs one engine thread per worker thread",
+                             argument="threads")
+        if importlib.util.find_spec("distributed") is None:
+            raise InputError("a Dask run needs dask distributed: pip install 'iwp[dask]'",
+                             argument="scheduler" if scheduler is not None else "workers")
+        return DaskExecutor(scheduler=scheduler, workers=workers)
+    if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+        raise InputError(f"threads must be a positive integer, got {threads!r}", argument="threads")
+    return LocalExecutor(threads)

@@ -1,0 +1,511 @@
+"""What a sweep runs: :class:`SweepSpec`, its varied dimensions, and the lanes of one chunk.
+
+A sweep is a set of closed loops of model (9) ("lanes"), each with its own
+plant parameters, controller gains and initial state. The lanes are the
+Cartesian product of the :class:`Grid` dimensions, times ``samples`` draws of
+the random ones (:class:`Normal`, :class:`Uniform`, and the joint normal of a
+fit's covariance, :class:`~iwp.sim.uncertainty.ParameterUncertainty`). Lane
+``i`` is grid point ``i // samples``, draw ``i % samples``; the first grid
+dimension varies slowest.
+
+Lanes are cut into chunks of ``chunk_size``. The random values of chunk ``c``
+come from ``numpy.random.SeedSequence(seed, spawn_key=(c,))`` (the ``c``-th
+child of ``SeedSequence(seed).spawn``): a chunk's numbers depend on the seed,
+the chunk size and the chunk's index only, not on where or in which order the
+chunks run.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..checks import check_finite, check_positive
+from ..errors import InputError
+from ..files import read_json
+from ..models.parameters import LUMPED_INFO, LumpedParameters, load_params
+from ..sim.uncertainty import ParameterUncertainty, load_uncertainty
+
+__all__ = ["Grid", "Normal", "Uniform", "SweepSpec", "LaneSet", "LAWS", "STATE_NAMES", "GAIN_NAMES",
+           "lanes_of_chunk", "load_spec", "spec_from_dict", "MAX_LANES"]
+
+#: The closed loops a sweep runs: the Hopf law (section 5.3) and the LQR balance at the upright.
+LAWS = ("hopf", "lqr")
+#: Names of the initial state's components in ``vary`` [rad, rad, rad/s, rad/s].
+STATE_NAMES = ("x0.q1", "x0.q2", "x0.q3", "x0.q4")
+#: Gains of the Hopf law ``u = k1 q3 + k2 q3^3`` that a sweep may vary.
+GAIN_NAMES = ("k1", "k2")
+#: The initial state of each law when none is given [rad, rad, rad/s, rad/s].
+DEFAULT_X0 = {"hopf": (0.1, 0.0, 0.0, 0.0), "lqr": (math.pi - 0.02, 0.0, 0.0, 0.0)}
+#: Most memory one chunk's trajectories may take (they are reduced to metrics as soon as they are computed).
+MAX_CHUNK_BYTES = 2 * 2**30
+#: Most lanes of one sweep.
+MAX_LANES = 100_000_000
+#: Most seconds of one closed loop, and fewest output samples a lane may have.
+MAX_SAMPLES_PER_LANE = 1_000_000
+
+
+def _name_ok(name: str, law: str) -> None:
+    if name in STATE_NAMES or name in LUMPED_INFO:
+        return
+    if name in GAIN_NAMES:
+        if law != "hopf":
+            raise InputError(f"vary {name!r}: the gains k1, k2 are the Hopf law's; law is {law!r}", argument="vary")
+        return
+    raise InputError(f"vary {name!r}: unknown name; use a lumped parameter ({', '.join(LUMPED_INFO)}), "
+                     f"{', '.join(GAIN_NAMES)} or {', '.join(STATE_NAMES)}", argument="vary")
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A dimension over given values (all lanes of the product take each value in turn).
+
+    Parameters
+    ----------
+    name : str
+        A lumped parameter (``p1`` ...), a gain (``k1``, ``k2``) or an initial state (``x0.q1`` ...).
+    values : sequence of float
+        In the name's unit.
+    """
+
+    name: str
+    values: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        vals = tuple(check_finite(f"vary {self.name!r} value", v) for v in np.ravel(np.asarray(self.values, object)))
+        if not vals:
+            raise InputError(f"vary {self.name!r}: the grid has no values", argument="vary")
+        object.__setattr__(self, "values", vals)
+
+    def to_dict(self) -> dict:
+        return {"grid": list(self.values)}
+
+
+@dataclass(frozen=True)
+class Normal:
+    """A dimension drawn from ``N(mean, std^2)`` independently for every lane.
+
+    Parameters
+    ----------
+    name : str
+    mean, std : float
+        In the name's unit; ``std >= 0``.
+    """
+
+    name: str
+    mean: float
+    std: float
+
+    def __post_init__(self) -> None:
+        check_finite(f"vary {self.name!r} mean", self.mean)
+        if check_finite(f"vary {self.name!r} std", self.std) < 0:
+            raise InputError(f"vary {self.name!r}: std must be >= 0, got {self.std!r}", argument="vary")
+
+    def draw(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        return rng.normal(self.mean, self.std, size=n)
+
+    def to_dict(self) -> dict:
+        return {"normal": [self.mean, self.std]}
+
+
+@dataclass(frozen=True)
+class Uniform:
+    """A dimension drawn uniformly from ``[low, high)`` independently for every lane."""
+
+    name: str
+    low: float
+    high: float
+
+    def __post_init__(self) -> None:
+        lo = check_finite(f"vary {self.name!r} low", self.low)
+        hi = check_finite(f"vary {self.name!r} high", self.high)
+        if not hi > lo:
+            raise InputError(f"vary {self.name!r}: uniform needs low < high, got [{lo:g}, {hi:g}]", argument="vary")
+
+    def draw(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        return rng.uniform(self.low, self.high, size=n)
+
+    def to_dict(self) -> dict:
+        return {"uniform": [self.low, self.high]}
+
+
+Dimension = Grid | Normal | Uniform
+
+
+def _check_int(name: str, value, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+        raise InputError(f"{name} must be an integer from {low} to {high}, got {value!r}", argument=name)
+    return int(value)
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """A sweep or Monte Carlo study of closed loops of model (9).
+
+    Parameters
+    ----------
+    params : LumpedParameters
+        The nominal plant (and the one the LQR is designed on).
+    law : {"hopf", "lqr"}
+        The closed loop: the Hopf law ``u = k1 q3 + k2 q3^3`` (section 5.3), or the
+        LQR balance at the upright (:func:`iwp.control.lqr_balance`, designed on
+        ``params``, sampled every ``lqr_Ts`` with zero-order hold).
+    vary : sequence of Grid, Normal, Uniform
+        The varied names; at most one dimension per name.
+    samples : int
+        Draws per grid point (1 without random dimensions or uncertainty).
+    uncertainty : ParameterUncertainty, optional
+        A fit's estimates and covariance: every lane's free parameters are drawn
+        jointly from it (truncated to the physical range); ``vary`` overrides a name.
+    k1, k2 : float
+        Hopf gains not varied [input units s/rad, input units s^3/rad^3] (the paper's -10, 0.1).
+    controller_Ts : float, optional
+        Hopf law sampled every ``controller_Ts`` [s] and held; None: continuous.
+    lqr_Q, lqr_R, lqr_u_max, lqr_Ts :
+        The LQR design (:func:`iwp.control.lqr_balance`); ``lqr_Ts`` [s] is its sample period.
+    x0 : sequence of 4 float, optional
+        Initial state ``q1, q2, q3, q4`` not varied [rad, rad, rad/s, rad/s]; default
+        ``(0.1, 0, 0, 0)`` (just off the hanging rest) for the Hopf law, ``(pi - 0.02, 0, 0, 0)``
+        (near the upright) for the LQR.
+    t_end : float
+        Length of every closed loop [s].
+    sample_time : float
+        Output sample time the metrics are measured on [s]. The default 50 ms keeps the
+        engine's output cost small (at 10 ms the output costs more than the integration);
+        the maxima are refined by a parabola through the samples around them.
+    window : float
+        Final window of the orbit metrics [s] (:mod:`iwp.sweep.metrics`).
+    rtol, atol : float
+        Integration tolerances.
+    seed : int
+        Root of the chunks' seeds.
+    chunk_size : int
+        Lanes per chunk (part of the numbers: a chunk's draws depend on it).
+    source : dict
+        Where the parameters came from (file names), for the manifest.
+    """
+
+    params: LumpedParameters
+    law: str = "hopf"
+    vary: tuple = ()
+    samples: int = 1
+    uncertainty: ParameterUncertainty | None = None
+    k1: float = -10.0
+    k2: float = 0.1
+    controller_Ts: float | None = None
+    lqr_Q: tuple[float, float, float] = (1.0, 0.01, 1e-4)
+    lqr_R: float = 0.1
+    lqr_u_max: float = 100.0
+    lqr_Ts: float = 0.005
+    x0: tuple[float, ...] | None = None
+    t_end: float = 300.0
+    sample_time: float = 0.05
+    window: float = 20.0
+    rtol: float = 1e-8
+    atol: float = 1e-8
+    seed: int = 0
+    chunk_size: int = 100
+    source: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.params, LumpedParameters):
+            raise InputError(f"params must be LumpedParameters, got {type(self.params).__name__}", argument="params")
+        if self.law not in LAWS:
+            raise InputError(f"law must be one of {', '.join(LAWS)}, got {self.law!r}", argument="law")
+        vary = tuple(self.vary)
+        seen = set()
+        for d in vary:
+            if not isinstance(d, (Grid, Normal, Uniform)):
+                raise InputError(f"vary must hold Grid, Normal or Uniform dimensions, got {type(d).__name__}",
+                                 argument="vary")
+            _name_ok(d.name, self.law)
+            if d.name in seen:
+                raise InputError(f"vary {d.name!r}: given twice", argument="vary")
+            seen.add(d.name)
+        object.__setattr__(self, "vary", vary)
+        if self.uncertainty is not None and not isinstance(self.uncertainty, ParameterUncertainty):
+            raise InputError("uncertainty must be a ParameterUncertainty (iwp.sim.uncertainty.load_uncertainty)",
+                             argument="uncertainty")
+        random = self.uncertainty is not None or any(not isinstance(d, Grid) for d in vary)
+        samples = _check_int("samples", self.samples, 1, MAX_LANES)
+        if samples > 1 and not random:
+            raise InputError(f"samples = {samples} repeats identical lanes: nothing is random (add a normal or "
+                             "uniform dimension or an uncertainty)", argument="samples")
+        object.__setattr__(self, "samples", samples)
+        for name in ("k1", "k2", "lqr_R", "lqr_u_max", "lqr_Ts", "t_end", "sample_time", "window", "rtol", "atol"):
+            val = check_finite(name, getattr(self, name))
+            if name not in ("k1", "k2"):
+                val = check_positive(name, val)
+            object.__setattr__(self, name, val)
+        if self.controller_Ts is not None:
+            object.__setattr__(self, "controller_Ts", check_positive("controller_Ts", self.controller_Ts))
+        q = tuple(check_finite("lqr_Q", v) for v in np.ravel(np.asarray(self.lqr_Q, dtype=object)))
+        if len(q) != 3 or min(q) < 0:
+            raise InputError(f"lqr_Q must be 3 weights >= 0 on (q1 - pi, q3, q4), got {list(q)}", argument="lqr_Q")
+        object.__setattr__(self, "lqr_Q", q)
+        x0 = self.x0 if self.x0 is not None else DEFAULT_X0[self.law]
+        x0 = tuple(check_finite("x0", v) for v in np.ravel(np.asarray(x0, dtype=object)))
+        if len(x0) != 4:
+            raise InputError(f"x0 must be 4 numbers q1, q2, q3, q4 [rad, rad, rad/s, rad/s], got {len(x0)}",
+                             argument="x0")
+        object.__setattr__(self, "x0", x0)
+        if self.window > self.t_end:
+            raise InputError(f"window must be <= t_end = {self.t_end:g} s, got {self.window:g} s", argument="window")
+        if self.t_end / self.sample_time > MAX_SAMPLES_PER_LANE:
+            raise InputError(f"t_end / sample_time = {self.t_end / self.sample_time:.3g} samples per lane; at most "
+                             f"{MAX_SAMPLES_PER_LANE} (lengthen sample_time)", argument="sample_time")
+        if self.window < 4 * self.sample_time:
+            raise InputError(f"window must hold at least 4 samples of sample_time = {self.sample_time:g} s",
+                             argument="window")
+        object.__setattr__(self, "seed", _check_int("seed", self.seed, 0, 2**63 - 1))
+        object.__setattr__(self, "chunk_size", _check_int("chunk_size", self.chunk_size, 1, 1_000_000))
+        chunk_bytes = self.chunk_size * (self.t_end / self.sample_time + 1) * 6 * 8  # states, u, command
+        if chunk_bytes > MAX_CHUNK_BYTES:
+            raise InputError(f"chunk_size = {self.chunk_size} lanes of {self.t_end / self.sample_time + 1:.0f} "
+                             f"samples need {chunk_bytes / 2**30:.1f} GB at once; at most "
+                             f"{MAX_CHUNK_BYTES / 2**30:.0f} GB (smaller chunks or a longer sample_time)",
+                             argument="chunk_size")
+        if self.n_lanes > MAX_LANES:
+            raise InputError(f"the sweep has {self.n_lanes} lanes; at most {MAX_LANES}", argument="vary")
+
+    # ----------------------------------------------------------------- sizes
+    @property
+    def grids(self) -> tuple[Grid, ...]:
+        return tuple(d for d in self.vary if isinstance(d, Grid))
+
+    @property
+    def grid_shape(self) -> tuple[int, ...]:
+        return tuple(len(g.values) for g in self.grids)
+
+    @property
+    def n_lanes(self) -> int:
+        """Number of closed loops: the grid's size times ``samples``."""
+        return math.prod(self.grid_shape) * self.samples
+
+    @property
+    def n_chunks(self) -> int:
+        return -(-self.n_lanes // self.chunk_size)
+
+    def chunk_range(self, index: int) -> range:
+        """The lanes of chunk ``index``."""
+        if not 0 <= index < self.n_chunks:
+            raise InputError(f"chunk index must be in 0..{self.n_chunks - 1}, got {index}")
+        return range(index * self.chunk_size, min((index + 1) * self.chunk_size, self.n_lanes))
+
+    # ------------------------------------------------------------------ JSON
+    def to_dict(self) -> dict:
+        """The spec as JSON (the manifest's record; a resumed run must have the same one)."""
+        out = {
+            "law": self.law, "params": self.params.to_dict(), "source": dict(self.source),
+            "vary": {d.name: d.to_dict() for d in self.vary}, "samples": self.samples,
+            "x0": list(self.x0), "t_end": self.t_end, "sample_time": self.sample_time, "window": self.window,
+            "rtol": self.rtol, "atol": self.atol, "seed": self.seed, "chunk_size": self.chunk_size,
+        }
+        if self.law == "hopf":
+            out.update(k1=self.k1, k2=self.k2, controller_Ts=self.controller_Ts)
+        else:
+            out.update(lqr={"Q": list(self.lqr_Q), "R": self.lqr_R, "u_max": self.lqr_u_max, "Ts": self.lqr_Ts})
+        if self.uncertainty is not None:
+            u = self.uncertainty
+            out["uncertainty"] = {"free": list(u.free), "matrix": np.asarray(u.covariance).tolist(),
+                                  "mean": {n: float(getattr(u.params, n)) for n in u.free}}
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class LaneSet:
+    """The lanes of one chunk: their indices and everything that differs between them.
+
+    Attributes
+    ----------
+    lanes : ndarray of int, shape (m,)
+        Global lane indices.
+    values : dict of str to ndarray
+        Each varied name's value per lane (and each free parameter of an uncertainty).
+    params : list of LumpedParameters
+        The plant of every lane.
+    x0 : ndarray, shape (m, 4)
+    k1, k2 : ndarray, shape (m,)
+        Hopf gains per lane.
+    physical : ndarray of bool, shape (m,)
+        False where a lane's parameters leave the physical range (that lane is not simulated).
+    """
+
+    lanes: np.ndarray
+    values: dict
+    params: list
+    x0: np.ndarray
+    k1: np.ndarray
+    k2: np.ndarray
+    physical: np.ndarray
+
+
+def lanes_of_chunk(spec: SweepSpec, index: int) -> LaneSet:
+    """The lanes of chunk ``index`` with their grid values and draws (seeded by the chunk's index)."""
+    lanes = np.arange(spec.chunk_range(index).start, spec.chunk_range(index).stop)
+    m = lanes.size
+    values: dict[str, np.ndarray] = {}
+    point = lanes // spec.samples
+    if spec.grids:
+        idx = np.unravel_index(point, spec.grid_shape)
+        for g, ix in zip(spec.grids, idx):
+            values[g.name] = np.asarray(g.values)[ix]
+    # the chunk's draws: one generator per chunk, the dimensions in their order
+    rng = np.random.default_rng(np.random.SeedSequence(spec.seed, spawn_key=(index,)))
+    base = [spec.params] * m
+    if spec.uncertainty is not None:
+        child = np.random.SeedSequence(spec.seed, spawn_key=(index, 1))
+        base = spec.uncertainty.draws(m, seed=int(child.generate_state(1, np.uint64)[0]))
+        named = {d.name for d in spec.vary}
+        for n in spec.uncertainty.free:
+            if n not in named:  # a dimension of vary overrides the fit's draws of its name
+                values[n] = np.array([getattr(p, n) for p in base])
+    for d in spec.vary:
+        if not isinstance(d, Grid):
+            values[d.name] = d.draw(rng, m)
+    x0 = np.tile(np.asarray(spec.x0, dtype=float), (m, 1))
+    for j, s in enumerate(STATE_NAMES):
+        if s in values:
+            x0[:, j] = values[s]
+    k1 = values.get("k1", np.full(m, spec.k1))
+    k2 = values.get("k2", np.full(m, spec.k2))
+    pnames = [d.name for d in spec.vary if d.name in LUMPED_INFO]
+    if spec.uncertainty is None and not pnames:  # one plant for all lanes
+        try:
+            spec.params.check_physical()
+        except InputError:
+            return LaneSet(lanes=lanes, values=values, params=base, x0=x0, k1=np.asarray(k1, float),
+                           k2=np.asarray(k2, float), physical=np.zeros(m, dtype=bool))
+        return LaneSet(lanes=lanes, values=values, params=base, x0=x0, k1=np.asarray(k1, float),
+                       k2=np.asarray(k2, float), physical=np.ones(m, dtype=bool))
+    physical = np.ones(m, dtype=bool)
+    params = []
+    for i, p in enumerate(base):
+        if pnames:
+            try:
+                p = p.replace(**{n: float(values[n][i]) for n in pnames})
+            except InputError:
+                p = None
+        if p is not None:
+            try:
+                p.check_physical()
+            except InputError:
+                p = None
+        physical[i] = p is not None
+        params.append(p if p is not None else spec.params)
+    return LaneSet(lanes=lanes, values=values, params=params, x0=x0, k1=np.asarray(k1, float),
+                   k2=np.asarray(k2, float), physical=physical)
+
+
+# ---------------------------------------------------------------------- JSON
+_KEYS = {"law", "params", "uncertainty", "vary", "samples", "k1", "k2", "controller_Ts", "lqr", "x0", "t_end",
+         "sample_time", "window", "rtol", "atol", "seed", "chunk_size"}
+_LQR_KEYS = {"Q": "lqr_Q", "R": "lqr_R", "u_max": "lqr_u_max", "Ts": "lqr_Ts"}
+
+
+def _dimension(name: str, rec, where: str) -> Dimension:
+    if isinstance(rec, list):
+        return Grid(name, tuple(rec))
+    if not isinstance(rec, dict) or len(rec) != 1:
+        raise InputError(f"{where}: 'vary.{name}' must be a list of values or one of {{\"grid\": [...]}}, "
+                         "{\"linspace\": [start, stop, n]}, {\"normal\": [mean, std]}, {\"uniform\": [low, high]}")
+    (kind, arg), = rec.items()
+    if kind not in ("grid", "linspace", "normal", "uniform"):
+        raise InputError(f"{where}: 'vary.{name}': unknown kind {kind!r} (grid, linspace, normal, uniform)")
+    if not isinstance(arg, list):
+        raise InputError(f"{where}: 'vary.{name}.{kind}' must be a list")
+    if kind == "grid":
+        return Grid(name, tuple(arg))
+    want = 3 if kind == "linspace" else 2
+    if len(arg) != want:
+        raise InputError(f"{where}: 'vary.{name}.{kind}' needs {want} numbers, got {len(arg)}")
+    if kind == "linspace":
+        n = arg[2]
+        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_LANES:
+            raise InputError(f"{where}: 'vary.{name}.linspace' count must be a positive integer, got {n!r}")
+        a = check_finite(f"vary {name!r} start", arg[0])
+        b = check_finite(f"vary {name!r} stop", arg[1])
+        return Grid(name, tuple(np.linspace(a, b, n).tolist()))
+    if kind == "normal":
+        return Normal(name, arg[0], arg[1])
+    return Uniform(name, arg[0], arg[1])
+
+
+def spec_from_dict(doc, *, where: str = "spec", base: Path | None = None, **overrides) -> SweepSpec:
+    """A :class:`SweepSpec` from its JSON form (see docs/sweeps.md); errors name ``where`` and the key.
+
+    ``params`` and ``uncertainty`` are built-in names or file paths, relative to
+    ``base`` (the spec file's folder). ``overrides`` replace keys of ``doc``
+    (``chunk_size=...``).
+    """
+    if not isinstance(doc, dict):
+        raise InputError(f"{where}: expected a JSON object")
+    doc = {**doc, **{k: v for k, v in overrides.items() if v is not None}}
+    unknown = sorted(set(doc) - _KEYS)
+    if unknown:
+        raise InputError(f"{where}: unknown key {unknown[0]!r} (keys: {', '.join(sorted(_KEYS))})")
+    kw: dict = {}
+    source: dict[str, str] = {}
+
+    def path_of(key: str) -> str:
+        val = doc[key]
+        if not isinstance(val, str) or not val.strip():
+            raise InputError(f"{where}: '{key}' must be a file name or a built-in name")
+        p = Path(val)
+        if base is not None and not p.is_absolute() and val != "table1":
+            p = base / p
+        source[key] = val
+        return str(p) if val != "table1" else val
+
+    try:
+        if "uncertainty" in doc:
+            unc = load_uncertainty(path_of("uncertainty"), argument="uncertainty")
+            kw["uncertainty"] = unc
+        if "params" in doc:
+            params = load_params(path_of("params"))
+            if not isinstance(params, LumpedParameters):
+                params = params.to_lumped()
+            kw["params"] = params
+        elif "uncertainty" in kw:
+            kw["params"] = kw["uncertainty"].params
+        else:
+            kw["params"] = load_params("table1")
+            source["params"] = "table1"
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+    vary = doc.get("vary", {})
+    if not isinstance(vary, dict):
+        raise InputError(f"{where}: 'vary' must be an object of name: dimension")
+    law = doc.get("law", "hopf")
+    try:
+        kw["vary"] = tuple(_dimension(str(n), r, where) for n, r in vary.items())
+        lqr = doc.get("lqr", {})
+        if not isinstance(lqr, dict):
+            raise InputError("'lqr' must be an object with Q, R, u_max, Ts")
+        bad = sorted(set(lqr) - set(_LQR_KEYS))
+        if bad:
+            raise InputError(f"'lqr' has an unknown key {bad[0]!r} ({', '.join(_LQR_KEYS)})")
+        for k, v in lqr.items():
+            kw[_LQR_KEYS[k]] = v
+        for k in ("law", "samples", "k1", "k2", "controller_Ts", "x0", "t_end", "sample_time", "window", "rtol",
+                  "atol", "seed", "chunk_size"):
+            if k in doc:
+                kw[k] = doc[k]
+        if law != "hopf" and any(k in doc for k in ("k1", "k2", "controller_Ts")):
+            raise InputError(f"k1, k2 and controller_Ts are the Hopf law's; law is {law!r}")
+        return SweepSpec(**kw, source=source)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
+
+
+def load_spec(path, *, argument: str = "spec", **overrides) -> SweepSpec:
+    """The :class:`SweepSpec` of a JSON file (paths inside it are relative to the file's folder)."""
+    p = Path(path)
+    doc = read_json(p, argument=argument)
+    return spec_from_dict(doc, where=f"{argument} {p}", base=p.parent, **overrides)
+

@@ -1,0 +1,98 @@
+"""The ladder of model structures and the rule that chooses among them (issue 21)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from iwp.errors import InputError
+from iwp.ident.logfit import LogFitOptions
+from iwp.ident.structure import MIN_GAIN, RUNGS, RungOutcome, information_criteria, ladder, rung, select
+
+
+def outcome(name, scores, *, bic=0.0, success=True):
+    return RungOutcome(RUNGS[name], len(RUNGS[name].flags) + 7, np.asarray(scores, dtype=float), {}, {},
+                       float("nan"), bic, success, "")
+
+
+def test_the_ladder_is_nested_and_the_dead_zone_only_for_a_raw_command():
+    raw, comp = ladder(True), ladder(False)
+    assert [r.name for r in comp] == ["9", "coulomb", "pendulum-coulomb", "widths", "offset"]
+    assert [r.name for r in raw] == [r.name for r in comp] + ["dead-zone"]
+    for a, b in zip(raw[:4], raw[1:4]):
+        assert a.flags < b.flags  # each rung extends the one before
+    assert raw[3].flags < raw[4].flags and raw[3].flags < raw[5].flags
+    # the flags free exactly the rung's terms on top of model (9)
+    free = LogFitOptions(**RUNGS["widths"].options()).free()
+    assert set(free) - set(LogFitOptions().free()) == {"sigma_c2", "sigma_c1", "eps_c1", "eps_c2"}
+    assert set(LogFitOptions(**RUNGS["dead-zone"].options()).free()) - set(free) == {"v_dz_pos", "v_dz_neg"}
+    with pytest.raises(InputError, match="--model: unknown model structure 'cubic'"):
+        rung("cubic", argument="--model")
+
+
+def test_equal_predictions_keep_the_simplest():
+    rng = np.random.default_rng(1)
+    base = rng.uniform(0.05, 0.3, 5)
+    outs = [outcome("9", base)] + [outcome(n, base * (1 + 1e-4 * rng.standard_normal(5)))
+                                   for n in ("coulomb", "pendulum-coulomb", "widths")]
+    sel = select(outs)
+    assert sel.chosen == 0 and sel.method == "paired held-out scores"
+    assert sel.critical == pytest.approx(stats.t.ppf(0.95, 4))
+
+
+def test_a_consistent_improvement_on_every_log_is_kept_however_the_logs_differ():
+    # logs that differ by a factor 10 in how well any model predicts them; pendulum Coulomb halves every error
+    base = np.array([0.02, 0.2, 0.05, 0.6])
+    outs = [outcome("9", base), outcome("coulomb", base * 0.98),
+            outcome("pendulum-coulomb", base * np.array([0.5, 0.45, 0.55, 0.5])),
+            outcome("widths", base * np.array([0.5, 0.45, 0.55, 0.5]) * 0.999)]
+    sel = select(outs)
+    assert sel.chosen == 2 and sel.best == 3  # widths: 0.1 % better on every log, below MIN_GAIN
+    # the log ratio of (9) to the best: about ln 2 on every log
+    assert sel.difference[0] == pytest.approx(np.mean(np.log(1 / (np.array([0.5, 0.45, 0.55, 0.5]) * 0.999))))
+
+
+def test_a_consistent_gain_above_the_floor_is_kept():
+    base = np.array([0.1, 0.2, 0.3])
+    outs = [outcome("9", base), outcome("coulomb", base * (1 - 3 * MIN_GAIN))]
+    assert select(outs).chosen == 1
+
+
+def test_an_inconsistent_improvement_is_noise():
+    # better on two logs, worse on two: not significantly better than (9)
+    base = np.array([0.1, 0.1, 0.1, 0.1])
+    outs = [outcome("9", base), outcome("coulomb", base * np.array([0.7, 1.3, 0.75, 1.2]))]
+    assert select(outs).chosen == 0
+
+
+def test_one_scoring_log_keeps_the_simplest_within_the_least_gain_and_none_falls_back_on_bic():
+    # a richer structure's BIC may be lower while it predicts the held-out log three times worse
+    outs = [outcome("9", [0.382], bic=100.0), outcome("coulomb", [1.256], bic=50.0),
+            outcome("pendulum-coulomb", [0.380], bic=60.0)]
+    sel = select(outs)
+    assert sel.chosen == 0 and sel.best == 2 and sel.method.startswith("one scoring log")
+    outs = [outcome("9", [0.2]), outcome("coulomb", [0.1]), outcome("pendulum-coulomb", [0.0995])]
+    assert select(outs).chosen == 1
+    outs = [outcome("9", [], bic=100.0), outcome("coulomb", [], bic=50.0), outcome("pendulum-coulomb", [], bic=60.0)]
+    sel = select(outs)
+    assert sel.chosen == 1 and sel.method == "BIC (no scoring log)"
+
+
+def test_a_failed_fit_is_never_chosen():
+    base = np.array([0.2, 0.3, 0.25])
+    outs = [outcome("9", base), outcome("coulomb", base * 0.1, success=False), outcome("pendulum-coulomb", base)]
+    sel = select(outs)
+    assert sel.best != 1 and sel.chosen == 0
+    outs = [outcome("9", [0.2, np.nan, 0.3]), outcome("coulomb", base)]
+    assert select(outs).chosen == 1  # a log (9) could not simulate
+
+
+def test_information_criteria_are_the_gaussian_ones():
+    n, k, rss = 1000, 9, 4.0
+    aic, bic = information_criteria(rss / 2, n, k)
+    assert aic == pytest.approx(n * math.log(rss / n) + 2 * k)
+    assert bic == pytest.approx(n * math.log(rss / n) + k * math.log(n))
+    assert all(math.isnan(v) for v in information_criteria(0.0, n, k))
