@@ -42,7 +42,7 @@ from ..models.actuator import command
 from ..models.equations import optional_terms_off, rhs_of
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
 from .controller import LERR_FLOOR, accept_factor, log_error, next_step_size, reject_factor
-from .dop853 import N_STAGES, error_norm_lanes, stage_input_lanes
+from .dop853 import N_STAGES, dense_eval_row, error_norm_lanes, stage_input_lanes
 from .engine import (
     BRIDGE,
     CLIPPED,
@@ -169,6 +169,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
     n_out = t_out.size
     cps = to_fixed_tuple(bt.command_params, N_COMMAND)
     held = is_held(bt.kind, seg.mode)
+    rows = out.store == STORE_SAMPLES and not held
     plain = bt.kind == I_HOPF and not held
     for r in range(r0, r1):
         plain = plain and optional_terms_off(model, bt.P[r])
@@ -230,8 +231,6 @@ def run_lanes(n, bt, tol, out, r0, r1):
             if mode == M_READY or mode == M_IDLE:
                 continue
             r = RUN[l]
-            o = run_output(out, r)
-            fld = run_field(bt, r, held, UV[l], HV[l])
             for i in range(n):
                 ys[i] = Y[i, l]
                 fs[i] = F[i, l]
@@ -253,7 +252,10 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     g_new = switch_of(KINKED[l], YT[0, l])
                     crossing = PLAN[l] & FORCED == 0 and g_cur * g_new < 0.0
                     t_new = TB[l] if PLAN[l] & CLIPPED != 0 else t + h
-                    if crossing or TNEXT[l] < t_new - tol_t:
+                    dense = crossing or TNEXT[l] < t_new - tol_t
+                    h_force = -1.0
+                    if dense:
+                        fld = run_field(bt, r, held, UV[l], HV[l])
                         wK = wk.K
                         wy = wk.y_new
                         for i in range(n):
@@ -262,9 +264,8 @@ def run_lanes(n, bt, tol, out, r0, r1):
                                 wK[s, i] = K[s, i, l]
                         dense_step(fld, t, ys, h, wk, n)
                         NFEV[l] += 3
-                    h_force = -1.0
-                    if crossing:
-                        h_force = kink_step(model, fld.P, wk.F, ys, h, t, g_cur, g_new, wk.yo, n)
+                        if crossing:
+                            h_force = kink_step(model, fld.P, wk.F, ys, h, t, g_cur, g_new, wk.yo, n)
                     if h_force > 0.0 and h_force < h:
                         NREJ[l] += 1
                         HF[l] = h_force
@@ -276,11 +277,19 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         REJ[l] = False
                         HN[l] = next_step_size(h, HN[l], factor, PLAN[l] == 0)
                         NACC[l] += 1
-                        j = J[l]
-                        while j < n_out and t_out[j] < t_new - tol_t:
-                            put_dense(o, j, t_out[j], t, h, ys, n, fld, wk)
-                            j += 1
-                        J[l] = j
+                        if dense:
+                            # outputs inside the step; states only: straight into their rows (as integrate)
+                            j = J[l]
+                            if rows:
+                                Xr = out.X[r]
+                                rh = 1.0 / h
+                                while j < n_out and t_out[j] < t_new - tol_t:
+                                    dense_eval_row(wk.F, ys, (t_out[j] - t) * rh, Xr, j, n)
+                                    j += 1
+                            while j < n_out and t_out[j] < t_new - tol_t:
+                                put_dense(run_output(out, r), j, t_out[j], t, h, ys, n, fld, wk)
+                                j += 1
+                            J[l] = j
                         ALAST[l] = F[2, l]
                         HLAST[l] = t_new - t
                         for i in range(n):
@@ -295,7 +304,9 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 mode = M_PLAN
                 if beyond(ys, n, xmax):
                     STAT[l] = ST_DIVERGED
-                elif T[l] < TB[l] - tol_t:
+                elif T[l] < TB[l] - tol_t and J[l] < n_out and t_out[J[l]] <= T[l] + tol_t:
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
                     j = J[l]
                     while j < n_out and t_out[j] <= T[l] + tol_t:
                         put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
@@ -305,6 +316,8 @@ def run_lanes(n, bt, tol, out, r0, r1):
             while mode == M_PLAN:
                 if ACTIVE[l] and (STAT[l] != ST_OK or T[l] >= t_end - tol_t):
                     # ---- the run in this lane is done
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
                     j = J[l]
                     if STAT[l] == ST_OK:
                         fld = held_field(fld, end_hold(fld, seg, seg.values[r], KSEG[l] + 1, T[l], ys))
@@ -334,7 +347,6 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     RUN[l] = r
                     ACTIVE[l] = True
                     n_active += 1
-                    o = run_output(out, r)
                     for k in range(N_PACK):
                         PL[k, l] = bt.P[r, k]
                     for k in range(N_INPUT_PARAMS):
@@ -342,8 +354,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     for i in range(n):
                         ys[i] = bt.X0[r, i]
                         Y[i, l] = ys[i]
-                    fld = run_field(bt, r, held, 0.0, 0.0)
-                    KINKED[l] = has_kink(model, fld.P)
+                    KINKED[l] = has_kink(model, to_fixed_tuple(bt.P[r], N_PACK))
                     T[l] = t0
                     KSEG[l] = 0
                     if seg.mode != SEG_CONT:
@@ -363,6 +374,8 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     if not NEWSEG[l]:
                         KSEG[l] += 1
                     NEWSEG[l] = False
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
                     hold = hold_of(fld, seg, seg.values[r], KSEG[l], T[l], ys, t_end, tol_t)
                     TB[l] = hold.t_b
                     UV[l] = hold.uval
@@ -397,6 +410,8 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 BRIDGED[l] = False
                 if plan.flags == BRIDGE:
                     # ---- an RK4 step across a kink close ahead
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
                     hb = plan.h
                     eb = rk4_bridge(fld, t, ys, fs, hb, wk, n, tol)
                     NFEV[l] += 4
