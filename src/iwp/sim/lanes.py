@@ -134,6 +134,46 @@ def run_field(bt, r, held, uval, hval):
                  to_fixed_tuple(bt.command_params, N_COMMAND), held, uval, hval, None)
 
 
+@jit
+def lane_dense(fld, t, h, K, YT, l, ys, wk):
+    """The dense output of lane ``l``'s accepted step of size h from (t, ys), into ``wk.F``.
+
+    Copies the lane's stages and end state into ``wk`` and adds stages 13-15
+    (:func:`~iwp.sim.engine.dense_step`, three evaluations).
+    """
+    n = ys.size
+    for i in range(n):
+        wk.y_new[i] = YT[i, l]
+        for s in range(N_STAGES + 1):
+            wk.K[s, i] = K[s, i, l]
+    dense_step(fld, t, ys, h, wk, n)
+
+
+@jit(inline=True)
+def lane_outputs(out, r, j, step, ys, fld, wk):
+    """Outputs of run r from sample j inside an accepted step ``step = (t, h, t_stop)``; returns the next sample.
+
+    The samples before ``t_stop`` [s] are interpolated on the dense output
+    ``wk.F`` from the state ``ys`` at ``t``; states only (a continuous input
+    with store="samples") go straight into their rows, as
+    :func:`~iwp.sim.engine.integrate` writes them, others through
+    :func:`~iwp.sim.engine.put_dense`.
+    """
+    t, h, t_stop = step
+    t_out = out.t
+    n = ys.size
+    if out.store == STORE_SAMPLES and not fld.held:
+        Xr = out.X[r]
+        rh = 1.0 / h
+        while j < t_out.size and t_out[j] < t_stop:
+            dense_eval_row(wk.F, ys, (t_out[j] - t) * rh, Xr, j, n)
+            j += 1
+    while j < t_out.size and t_out[j] < t_stop:
+        put_dense(run_output(out, r), j, t_out[j], t, h, ys, n, fld, wk)
+        j += 1
+    return j
+
+
 @jit(inline=True)
 def plain_stages(cps, T, Y, H, K, YT, IPL, PL, n, L):
     """Stages 1-12 of every lane, model (9) without optional terms and the continuous Hopf law (vectorised)."""
@@ -169,7 +209,6 @@ def run_lanes(n, bt, tol, out, r0, r1):
     n_out = t_out.size
     cps = to_fixed_tuple(bt.command_params, N_COMMAND)
     held = is_held(bt.kind, seg.mode)
-    rows = out.store == STORE_SAMPLES and not held
     plain = bt.kind == I_HOPF and not held
     for r in range(r0, r1):
         plain = plain and optional_terms_off(model, bt.P[r])
@@ -256,13 +295,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     h_force = -1.0
                     if dense:
                         fld = run_field(bt, r, held, UV[l], HV[l])
-                        wK = wk.K
-                        wy = wk.y_new
-                        for i in range(n):
-                            wy[i] = YT[i, l]
-                            for s in range(N_STAGES + 1):
-                                wK[s, i] = K[s, i, l]
-                        dense_step(fld, t, ys, h, wk, n)
+                        lane_dense(fld, t, h, K, YT, l, ys, wk)
                         NFEV[l] += 3
                         if crossing:
                             h_force = kink_step(model, fld.P, wk.F, ys, h, t, g_cur, g_new, wk.yo, n)
@@ -278,18 +311,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         HN[l] = next_step_size(h, HN[l], factor, PLAN[l] == 0)
                         NACC[l] += 1
                         if dense:
-                            # outputs inside the step; states only: straight into their rows (as integrate)
-                            j = J[l]
-                            if rows:
-                                Xr = out.X[r]
-                                rh = 1.0 / h
-                                while j < n_out and t_out[j] < t_new - tol_t:
-                                    dense_eval_row(wk.F, ys, (t_out[j] - t) * rh, Xr, j, n)
-                                    j += 1
-                            while j < n_out and t_out[j] < t_new - tol_t:
-                                put_dense(run_output(out, r), j, t_out[j], t, h, ys, n, fld, wk)
-                                j += 1
-                            J[l] = j
+                            J[l] = lane_outputs(out, r, J[l], (t, h, t_new - tol_t), ys, fld, wk)
                         ALAST[l] = F[2, l]
                         HLAST[l] = t_new - t
                         for i in range(n):
@@ -462,20 +484,30 @@ def run_lanes(n, bt, tol, out, r0, r1):
         error_norm_lanes(K, H, Y, YT, tol.rtol, tol.atol, n, L, ERR)
         # ---- 3. all lanes: accept the ordinary steps (branch-free but for the controller's factor)
         for l in range(L):
-            err = ERR[l]
-            h = H[l]
             # a step that may cross a kink is concluded lane by lane (with the cosine)
             crossless = (not KINKED[l]) | (PLAN[l] & FORCED != 0) | (not may_cross(Y[0, l], YT[0, l]))
-            ok = (MODE[l] == M_READY) & (err < 1.0) & (PLAN[l] & (FORCED | CLIPPED) == 0)
-            ok = ok & crossless & (TNEXT[l] >= T[l] + h - tol_t)
+            ok = (MODE[l] == M_READY) & (ERR[l] < 1.0) & (PLAN[l] & (FORCED | CLIPPED) == 0) & crossless
             DONE[l] = ok
+            MODE[l] = M_DECIDE if MODE[l] == M_READY and not ok else MODE[l]
+        for l in range(L):
+            # outputs inside an accepted ordinary step: its dense output, lane by lane
+            if DONE[l] and TNEXT[l] < T[l] + H[l] - tol_t:
+                for i in range(n):
+                    ys[i] = Y[i, l]
+                fld = run_field(bt, RUN[l], held, UV[l], HV[l])
+                lane_dense(fld, T[l], H[l], K, YT, l, ys, wk)
+                NFEV[l] += 3
+                J[l] = lane_outputs(out, RUN[l], J[l], (T[l], H[l], T[l] + H[l] - tol_t), ys, fld, wk)
+                TNEXT[l] = t_out[J[l]] if J[l] < n_out else np.inf
+        for l in range(L):
+            ok = DONE[l]
+            h = H[l]
             ALAST[l] = F[2, l] if ok else ALAST[l]
             # t_new - t, as integrate has it (not h: they differ by rounding)
             HLAST[l] = (T[l] + h) - T[l] if ok else HLAST[l]
             T[l] = T[l] + h if ok else T[l]
             NACC[l] += 1 if ok else 0
             NFEV[l] += N_STAGES if ok else 0
-            MODE[l] = M_DECIDE if MODE[l] == M_READY and not ok else MODE[l]
         for l in range(L):
             # the controller (libm's log and exp: lane by lane)
             if DONE[l]:
