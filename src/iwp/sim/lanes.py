@@ -11,11 +11,13 @@ input and outputs. Their states are the columns of ``(n, LANES)`` arrays.
 Each step of a block has four parts:
 
 1. lane by lane, the lanes that need it: start and finish runs, begin a held
-   segment, conclude a step that was not ordinary (rejected, interpolated,
-   crossing a kink), plan a step near a kink (with the RK4 bridge);
+   segment, conclude a step that was not ordinary (rejected, clipped to a
+   segment end, landed on or crossing a kink), plan a step near a kink (with
+   the RK4 bridge);
 2. all lanes at once: the DOP853 stages and error norms (vectorised);
 3. all lanes at once: accept the ordinary steps (the new state,
-   branch-free, vectorised; the controller's factor lane by lane);
+   branch-free, vectorised; the controller's factor, and the dense output of
+   a step with output times inside it, lane by lane);
 4. all lanes at once: plan the next ordinary steps; a lane near a kink or at
    a segment end is left to part 1.
 
