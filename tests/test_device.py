@@ -30,10 +30,20 @@ from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
 from iwp.device.cheader import HEADER_PATH, c_header
 from iwp.device.core import DeviceCore
+from iwp.device.errors import DeviceError
 from iwp.device.experiments import run_on_rig
 from iwp.device.framing import FrameDecoder, encode_frame
-from iwp.device.protocol import MESSAGES, PARAMS, ProtocolError, decode, encode, markdown_table, params_table
-from iwp.device.rig import Rig
+from iwp.device.protocol import (
+    MESSAGES,
+    PARAMS,
+    STATES,
+    ProtocolError,
+    decode,
+    encode,
+    markdown_table,
+    params_table,
+)
+from iwp.device.rig import REQUEST_REPEAT, REQUEST_TIMEOUT, Rig
 from iwp.device.twin import TwinRig
 from iwp.ident.logfit import load_logs
 
@@ -124,7 +134,7 @@ def test_corrupted_commands_are_never_applied_by_the_core():
     def send(name, **kw):
         core.rx(encode_frame(encode(name, **kw)))
 
-    send("ARM")
+    send("ARM", req=1)
     sent, applied, seq = {0.0}, [], 0
     for k in range(1, 2001):
         u = round(float(rng.uniform(-50, 50)), 3)
@@ -145,7 +155,20 @@ def test_corrupted_commands_are_never_applied_by_the_core():
     assert core.status()[1] == 1  # still ARMED: nothing tripped
 
 
-class _Flipper:
+class _Wire:
+    """A pyserial-like wrapper around a port (the twin's pseudo-terminal) that passes on what it does not change."""
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+    def __setattr__(self, name, value):
+        if name == "timeout":
+            self.inner.timeout = value
+        else:
+            object.__setattr__(self, name, value)
+
+
+class _Flipper(_Wire):
     """A pyserial-like wrapper that replaces bytes at random in both directions (the wire's noise)."""
 
     def __init__(self, inner, rate, seed):
@@ -161,15 +184,6 @@ class _Flipper:
         bad, hit = _corrupt(data, self.rate, self.rng)
         self.read_hits += int(hit.sum())
         return bad
-
-    def __getattr__(self, name):
-        return getattr(self.inner, name)
-
-    def __setattr__(self, name, value):
-        if name == "timeout":
-            self.inner.timeout = value
-        else:
-            object.__setattr__(self, name, value)
 
 
 def test_a_noisy_link_through_the_emulator_applies_only_what_the_host_sent(monkeypatch):
@@ -199,6 +213,60 @@ def test_a_noisy_link_through_the_emulator_applies_only_what_the_host_sent(monke
     # the run completes (no injected error stops the motor) and keeps the samples whose frames arrived whole
     assert not run.interrupted, run.reason
     assert log.n_samples >= 0.9 * 801
+
+
+class _Dropper(_Wire):
+    """A pyserial-like wrapper that loses the host's next ``n`` frames (each ``write`` is one frame)."""
+
+    def __init__(self, inner, n):
+        self.inner, self.n, self.lost = inner, n, 0
+
+    def write(self, data):
+        if self.n > 0:
+            self.n -= 1
+            self.lost += 1
+            return len(data)
+        return self.inner.write(data)
+
+
+def test_a_lost_request_is_sent_again_and_a_silent_device_is_named_after_the_attempts():
+    rig = TwinRig(fast=True)
+    try:
+        wire = rig.link.serial = _Dropper(rig.link.serial, 2)
+        rig.set_params(v_dz_pos=12.5)  # the third attempt gets through
+        assert wire.lost == 2 and rig.get_param("v_dz_pos") == pytest.approx(12.5)
+        assert rig.device.core.status()[1] == STATES["DISARMED"]  # nothing else happened on the way
+        wire.n = 10**6  # the wire is cut
+        t0 = time.monotonic()
+        with pytest.raises(DeviceError, match=r"no answer to ARM within 1 s \(sent (\d+) times") as err:
+            rig.arm()
+        took = time.monotonic() - t0
+        sent = int(re.search(r"sent (\d+) times", str(err.value)).group(1))
+        assert REQUEST_TIMEOUT <= took < REQUEST_TIMEOUT + 1.0
+        assert 2 <= sent <= REQUEST_TIMEOUT / REQUEST_REPEAT + 1 and wire.lost - 2 == sent
+        assert rig.device.core.status()[1] == STATES["DISARMED"]  # never armed
+        wire.n = 0  # the wire is back
+        rig.arm()
+        rig.arm()  # ARM when armed is answered OK, as a repeated attempt is
+        assert rig.device.core.status()[1] == STATES["ARMED"]
+    finally:
+        rig.close()
+
+
+def test_a_late_ack_is_never_taken_for_the_answer_to_another_request():
+    """ACKs of earlier attempts that arrive late (the device was slow) are told apart by the echoed ``req``."""
+    rig = TwinRig(fast=True)
+    try:
+        for name, value in (("v_dz_pos", 11.0), ("v_dz_neg", 22.0)):  # the same request type, other parameters
+            for k in range(2):  # earlier requests whose ACKs come late, in the way of the next answers
+                rig.link.send("SET_PARAM", req=60000 + k, param=PARAMS[name].id, value=value)
+            rig.set_params(**{name: value})
+        for k in range(2):
+            rig.link.send("GET_PARAM", req=61000 + k, param=PARAMS["v_dz_pos"].id)
+        assert rig.get_param("v_dz_neg") == pytest.approx(22.0)  # not v_dz_pos's late 11.0
+        assert rig.get_param("v_dz_pos") == pytest.approx(11.0)
+    finally:
+        rig.close()
 
 
 # --------------------------------------------------------------------------
@@ -345,8 +413,6 @@ def test_the_twin_rig_stops_the_motor_when_closed_and_refuses_bad_requests():
             got += rig.samples(0.5)
             rig.heartbeat(got[-1].seq + 2)
         assert got[-1].v == pytest.approx(61.0) and got[-1].state == "ARMED"
-        from iwp.device.errors import DeviceError
-
         with pytest.raises(DeviceError, match="refused"):
             rig.set_params(v_max=50.0)  # not while armed
         assert rig.estop() and rig.estop()  # idempotent

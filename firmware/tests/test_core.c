@@ -34,7 +34,14 @@ static void send(const uint8_t *payload, uint8_t n)
     iwp_core_rx(&core, frame, (uint16_t)(m + 2));
 }
 
-static void send0(uint8_t type) { send(&type, 1); }
+/* a request without fields but its req (numbered here from 1) */
+static uint16_t req;
+static void send0(uint8_t type)
+{
+    req++;
+    uint8_t b[3] = {type, (uint8_t)req, (uint8_t)(req >> 8)};
+    send(b, sizeof b);
+}
 
 /* the last message of a type among the device's answers since the last call (payload into msg) */
 static int last(uint8_t type, uint8_t *msg)
@@ -60,7 +67,11 @@ static int last(uint8_t type, uint8_t *msg)
 
 static void set_param(uint8_t id, float v)
 {
-    uint8_t b[IWP_MSG_SET_PARAM_SIZE] = {IWP_MSG_SET_PARAM, id};
+    uint8_t b[IWP_MSG_SET_PARAM_SIZE] = {IWP_MSG_SET_PARAM};
+    req++;
+    b[IWP_OFF_SET_PARAM_REQ] = (uint8_t)req;
+    b[IWP_OFF_SET_PARAM_REQ + 1] = (uint8_t)(req >> 8);
+    b[IWP_OFF_SET_PARAM_PARAM] = id;
     putf(b + IWP_OFF_SET_PARAM_VALUE, v);
     send(b, sizeof b);
 }
@@ -213,9 +224,27 @@ static void test_watchdog_limits_estop(void)
     CHECK(last(IWP_MSG_TELEMETRY, m) && m[IWP_OFF_TELEMETRY_STATE] == IWP_STATE_ESTOP && getf(m + IWP_OFF_TELEMETRY_V) == 0.0f);
 }
 
+static void test_acks_echo_req_and_a_repeated_arm_feeds_the_watchdog(void)
+{
+    uint8_t m[80];
+    reset(); /* watchdog 100 ms at 5 ms */
+    send0(IWP_MSG_ARM);
+    CHECK(last(IWP_MSG_ACK, m) && m[IWP_OFF_ACK_CODE] == IWP_ACK_OK && m[IWP_OFF_ACK_MSG] == IWP_MSG_ARM
+          && (m[IWP_OFF_ACK_REQ] | m[IWP_OFF_ACK_REQ + 1] << 8) == req);
+    command(1, 0, 20.0f);
+    for (int k = 0; k < 15; k++) { tick(0, 0); last(IWP_MSG_TELEMETRY, m); }
+    send0(IWP_MSG_ARM); /* 75 ms on: the host repeats ARM (its ACK was lost): OK, and the watchdog is fed */
+    CHECK(last(IWP_MSG_ACK, m) && m[IWP_OFF_ACK_CODE] == IWP_ACK_OK
+          && (m[IWP_OFF_ACK_REQ] | m[IWP_OFF_ACK_REQ + 1] << 8) == req);
+    int k = 0;
+    while (tick(0, 0) != 0.0f) { k++; last(IWP_MSG_TELEMETRY, m); }
+    CHECK(k == 19); /* 100 ms counted from the repeated ARM, not from the command */
+}
+
 static void test_hopf_law(void)
 {
-    uint8_t m[80], mode[IWP_MSG_MODE_SIZE] = {IWP_MSG_MODE, IWP_MODE_HOPF};
+    uint8_t m[80], mode[IWP_MSG_MODE_SIZE] = {IWP_MSG_MODE};
+    mode[IWP_OFF_MODE_MODE] = IWP_MODE_HOPF;
     reset();
     set_param(IWP_P_FILTER_TAU, 0.0f);
     send(mode, sizeof mode);
@@ -236,6 +265,7 @@ int main(void)
     test_feedforward_saturation_and_queue();
     test_corrupt_frames_are_not_applied();
     test_watchdog_limits_estop();
+    test_acks_echo_req_and_a_repeated_arm_feeds_the_watchdog();
     test_hopf_law();
     printf("%d passed, %d failed\n", passed, failed);
     return failed != 0;

@@ -34,7 +34,17 @@ DISPATCHERS = {
 
 
 def compile_notices(say: Callable[[str], None]) -> None:
-    """Call ``say(line)`` once per kernel when it starts to compile (not when it loads from the cache)."""
+    """Call ``say(line)`` once per kernel when it starts to compile (not when it loads from the cache).
+
+    Parameters
+    ----------
+    say : callable
+        Called as ``say(line)`` with a one-line notice (``str``) naming the kernel and its rough compile time [s].
+
+    Notes
+    -----
+    Registers a listener for numba's ``"numba:compile"`` event for the rest of the process; returns None.
+    """
     class _Notice(event.Listener):
         def __init__(self):
             self.seen: set[str] = set()

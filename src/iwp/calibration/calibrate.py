@@ -152,7 +152,27 @@ def _check_names(names: Sequence[str], what: str) -> tuple[str, ...]:
 
 
 def truth_values(truth: RigTruth, names: Sequence[str] = tuple(COORDINATES)) -> dict[str, float]:
-    """The values of the coordinates ``names`` in ``truth``."""
+    """The values of the coordinates ``names`` in ``truth``.
+
+    Parameters
+    ----------
+    truth : RigTruth
+        The rig's truth; it must have a belt (15).
+    names : sequence of str, default all of COORDINATES
+        Coordinate names, keys of :data:`COORDINATES` (``"lumped.p1"``, ``"belt.b2_share"``, ...); a single
+        string is one name.
+
+    Returns
+    -------
+    dict of str to float
+        Value of each coordinate, in its unit (:data:`COORDINATES`); ``"belt.b2_share"`` is ``b2/I2`` over
+        ``p2 rho``.
+
+    Raises
+    ------
+    InputError
+        A truth without a belt, an unknown name or a name given twice.
+    """
     if truth.belt is None:
         raise InputError("the twin needs the belt (15): give a truth with a belt")
     out = {}
@@ -174,6 +194,23 @@ def truth_with(base: RigTruth, values: Mapping[str, float]) -> RigTruth:
     (:meth:`BeltParameters.from_rigid`) so that the belt's rigid limit is the
     lumped ``p2 rho``, ``p3 rho``; ``b2/I2`` keeps its share of ``p2 rho``
     unless ``belt.b2_share`` is given.
+
+    Parameters
+    ----------
+    base : RigTruth
+        The truth to start from; it must have a belt (15).
+    values : mapping of str to float
+        New values of coordinates (keys of :data:`COORDINATES`), in their units; the others keep ``base``'s.
+
+    Returns
+    -------
+    RigTruth
+        A new truth; ``base`` is not changed.
+
+    Raises
+    ------
+    InputError
+        A truth without a belt, an unknown coordinate name or one given twice.
     """
     _check_names(list(values), "values")
     current = truth_values(base)
@@ -189,7 +226,24 @@ def truth_with(base: RigTruth, values: Mapping[str, float]) -> RigTruth:
 
 def twin_statistics(truth: RigTruth, targets: Sequence[PaperTarget], *, seed: int = 0,
                     overrides: Mapping[str, Mapping[str, Any]] | None = None) -> dict[str, float]:
-    """The twin's value of every target's statistic (:func:`iwp.calibration.statistics.paper_numbers`)."""
+    """The twin's value of every target's statistic (:func:`iwp.calibration.statistics.paper_numbers`).
+
+    Parameters
+    ----------
+    truth : RigTruth
+        The twin's truth.
+    targets : sequence of PaperTarget
+        The targets whose statistics are wanted.
+    seed : int, default 0
+        Seed of the virtual rig's measurement noise.
+    overrides : mapping of str to mapping, optional
+        Options of the paper's experiments, by experiment name (as :func:`~iwp.calibration.statistics.paper_numbers`).
+
+    Returns
+    -------
+    dict of str to float
+        Value of each target's statistic, by statistic name (in the statistic's unit).
+    """
     numbers = paper_numbers(truth, seed=seed, overrides=overrides)
     return numbers.values(sorted({t.statistic for t in targets}))
 

@@ -101,6 +101,22 @@ def compensated_line(curve: StaticCurve) -> dict[str, Any]:
     (the paper: 25 rad/s), the curve interpolated linearly between its
     points; ``linearity`` is the largest residual of the line over
     ``|u| > 20`` relative to the largest ``|q4|`` there.
+
+    Parameters
+    ----------
+    curve : StaticCurve
+        Static curve of the compensated input ``u`` [input units] to the wheel velocity ``q4`` [rad/s].
+
+    Returns
+    -------
+    dict
+        ``"line"``: ``[a, b]`` of ``q4 = a u + b`` [rad/(s input unit), rad/s]; ``"linearity"``: relative
+        largest residual [-]; ``"error_at_u15"``: line minus curve at ``u = 15`` [rad/s].
+
+    Raises
+    ------
+    InputError
+        ``curve`` is not a :class:`StaticCurve`, or has fewer than 3 points with ``|u| > 20``.
     """
     if not isinstance(curve, StaticCurve):
         raise InputError(f"compensated_line needs a StaticCurve, got {type(curve).__name__}")
@@ -118,12 +134,38 @@ def compensated_line(curve: StaticCurve) -> dict[str, Any]:
 
 
 def amplitude_window(duration: float) -> float:
-    """The window over which an oscillation's amplitude is read: the last 20 s, or a third of a shorter log [s]."""
+    """The window over which an oscillation's amplitude is read: the last 20 s, or a third of a shorter log [s].
+
+    Parameters
+    ----------
+    duration : float
+        Length of the log [s].
+
+    Returns
+    -------
+    float
+        20 for logs of at least 40 s, else ``duration / 3`` [s].
+    """
     return 20.0 if duration >= 40.0 else duration / 3.0
 
 
 def oscillation_amplitude(t, q1, window: float | None = None) -> float:
-    """Largest ``|q1|`` over the last ``window`` seconds [rad] (default :func:`amplitude_window`)."""
+    """Largest ``|q1|`` over the last ``window`` seconds [rad] (default :func:`amplitude_window`).
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Sample times [s], increasing.
+    q1 : array_like, shape (n,)
+        Pendulum angle [rad].
+    window : float, optional
+        Length of the end of the log read [s]; None (default): ``amplitude_window(t[-1] - t[0])``.
+
+    Returns
+    -------
+    float
+        The amplitude [rad].
+    """
     t = np.asarray(t, dtype=float)
     if window is None:
         window = amplitude_window(float(t[-1] - t[0]))
@@ -138,6 +180,20 @@ def least_squares_parameters(free: IdentificationResult, two_step: Identificatio
     ``p1`` and the pendulum frictions from set-up ``free``, ``p2, p3, rho``
     from set-up ``two-step``, the dead zone from set-up ``dead-zone`` (else
     Table 1's 31), no Coulomb friction (the paper's model (9)).
+
+    Parameters
+    ----------
+    free : IdentificationResult
+        Result of set-up ``free`` (``p1`` and the pendulum frictions).
+    two_step : IdentificationResult
+        Result of set-up ``two-step`` (``p2``, ``p3``, ``rho``).
+    dead_zone : IdentificationResult, optional
+        Result of set-up ``dead-zone`` (``v_dz_pos``, ``v_dz_neg``); None (default): Table 1's thresholds.
+
+    Returns
+    -------
+    LumpedParameters
+        The combined parameters, ``sigma_c2 = 0``.
     """
     base = free.to_params(table1())
     if dead_zone is not None:
@@ -154,6 +210,23 @@ def closed_loop_model(log: ExperimentData, params: LumpedParameters, *, k1: floa
     the simulation starts from the log's initial state. Returns the times,
     the measured and simulated ``q1``, the fit [%], both amplitudes
     (:func:`oscillation_amplitude`) and the window.
+
+    Parameters
+    ----------
+    log : ExperimentData
+        The rig's closed-loop log.
+    params : LumpedParameters
+        Parameters of model (9).
+    k1 : float, optional
+        Gain of ``q3`` [input units s/rad]; None (default): the log's metadata ``k1`` (else -10).
+    k2 : float, optional
+        Gain of ``q3^3`` [input units s^3/rad^3]; None (default): the log's metadata ``k2`` (else 0.1).
+
+    Returns
+    -------
+    dict
+        ``"t"`` [s], ``"measured"`` and ``"simulated"`` ``q1`` [rad], ``"fit"`` [%], ``"k1"``, ``"k2"``,
+        ``"window"`` [s], ``"amplitude_rig"`` and ``"amplitude_model"`` [rad].
     """
     k1 = float(log.metadata.get("k1", -10.0)) if k1 is None else float(k1)
     k2 = float(log.metadata.get("k2", 0.1)) if k2 is None else float(k2)
@@ -173,6 +246,18 @@ def friction_ratio(full: IdentificationResult, free: IdentificationResult) -> fl
 
     The paper's numbers give 930 (``sigma~_a1``), 76 (``sigma~_v1``) and 123
     (``sigma~_b1``): "significantly far". ``inf`` if a free-pendulum value is 0.
+
+    Parameters
+    ----------
+    full : IdentificationResult
+        Result of the full identification (16).
+    free : IdentificationResult
+        Result of set-up ``free`` (``theta^c``).
+
+    Returns
+    -------
+    float
+        The ratio [-]; ``inf`` if a free-pendulum value is 0, ``0`` if only a full-model value is 0.
     """
     logs = []
     for k in FRICTION_TERMS:

@@ -190,6 +190,16 @@ def _target(entry: Any, where: str) -> PaperTarget:
 def load_targets(path: str | os.PathLike | None = None) -> list[PaperTarget]:
     """Read a targets file (default: the paper's, :data:`TARGETS_FILE`).
 
+    Parameters
+    ----------
+    path : str or path-like, optional
+        Targets file (JSON, ``"kind": "paper-targets"``); None (default): :data:`TARGETS_FILE`.
+
+    Returns
+    -------
+    list of PaperTarget
+        The targets, in the file's order.
+
     Raises
     ------
     InputError
@@ -214,7 +224,25 @@ def load_targets(path: str | os.PathLike | None = None) -> list[PaperTarget]:
 
 
 def compare_targets(targets: Sequence[PaperTarget], values: Mapping[str, float]) -> list[TargetRow]:
-    """Each target against the reproduced value of its statistic (``values``: statistic name -> value)."""
+    """Each target against the reproduced value of its statistic (``values``: statistic name -> value).
+
+    Parameters
+    ----------
+    targets : sequence of PaperTarget
+        The targets.
+    values : mapping of str to float
+        Reproduced value of each statistic, by statistic name (in the statistic's unit).
+
+    Returns
+    -------
+    list of TargetRow
+        One row per target, in order.
+
+    Raises
+    ------
+    InputError
+        ``values`` lacks the statistic of a target.
+    """
     rows = []
     for t in targets:
         if t.statistic not in values:

@@ -101,7 +101,21 @@ def _one_line(text: str) -> str:
 
 
 def user_message(exc: BaseException, parser: argparse.ArgumentParser | None) -> str:
-    """The error's message with the API's argument names replaced by the command's flags, on one line."""
+    """The error's message with the API's argument names replaced by the command's flags, on one line.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The error; its ``argument`` attribute (if any) names the API arguments it concerns.
+    parser : argparse.ArgumentParser or None
+        Parser of the command that ran, whose flags replace the argument names; None leaves the names.
+
+    Returns
+    -------
+    str
+        The message on one line (long messages shortened with ``"..."``), NumPy scalar reprs such as
+        ``np.float64(0.5)`` written as ``0.5``.
+    """
     text = _NUMPY_REPR.sub(r"\1", str(exc))  # np.float64(0.5) -> 0.5: a value as the user typed it
     if parser is not None:
         flags = _flags(parser)
@@ -133,7 +147,20 @@ def _os_message(exc: OSError) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``iwp`` console script; returns the exit status."""
+    """Entry point of the ``iwp`` console script; returns the exit status.
+
+    Parameters
+    ----------
+    argv : list of str or None, optional
+        Command-line arguments without the program name; None (default): ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        Exit status: 0 success (or the command's own status), 2 an error the user can fix (one line on stderr),
+        3 an internal error, 130 interrupted or terminated. Set ``IWP_TRACEBACK=1`` to see the traceback of an
+        internal error instead.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     cli_parser = getattr(args, "cli_parser", None)

@@ -26,7 +26,18 @@ __all__ = ["LQRBalance", "lqr_balance", "wrap_angle"]
 
 
 def wrap_angle(theta):
-    """``theta`` wrapped to ``[-pi, pi)`` [rad] (element-wise)."""
+    """``theta`` wrapped to ``[-pi, pi)`` [rad] (element-wise).
+
+    Parameters
+    ----------
+    theta : float or ndarray
+        Angle [rad].
+
+    Returns
+    -------
+    float or ndarray
+        The wrapped angle [rad], of ``theta``'s shape.
+    """
     return (theta + math.pi) % (2.0 * math.pi) - math.pi
 
 

@@ -26,6 +26,16 @@ REDUCED = (0, 2, 3)
 def lumped_parameters(params) -> LumpedParameters:
     """``params`` as :class:`LumpedParameters` (physical ones are mapped, section 4).
 
+    Parameters
+    ----------
+    params : LumpedParameters or PhysicalParameters
+        The plant's parameters.
+
+    Returns
+    -------
+    LumpedParameters
+        ``params`` itself, or the lumped parameters of physical ones.
+
     Raises
     ------
     InputError
@@ -39,7 +49,18 @@ def lumped_parameters(params) -> LumpedParameters:
 
 
 def lift(z) -> np.ndarray:
-    """``(q1, q3, q4) -> [q1, 0, q3, q4]`` (the cyclic ``q2`` set to 0)."""
+    """``(q1, q3, q4) -> [q1, 0, q3, q4]`` (the cyclic ``q2`` set to 0).
+
+    Parameters
+    ----------
+    z : array_like, shape (3,)
+        Reduced state ``(q1, q3, q4)`` [rad, rad/s, rad/s].
+
+    Returns
+    -------
+    ndarray, shape (4,)
+        Full state ``[q1, q2, q3, q4]`` with ``q2 = 0`` [rad, rad, rad/s, rad/s].
+    """
     z = np.asarray(z, dtype=float)
     return np.array([z[0], 0.0, z[1], z[2]])
 

@@ -145,6 +145,38 @@ def continue_branch(shooter: OrbitShooter, first: Correction, *, direction: int,
     step adapts to the corrector's iterations; it stops at ``a_max``,
     ``T_max``, outside ``[k_min, k_max]``, after ``max_points`` orbits or
     when ``stop(y)`` is true.
+
+    Parameters
+    ----------
+    shooter : OrbitShooter
+        The periodic-orbit equations, with the free gain ``k``.
+    first : Correction
+        The converged orbit to start from.
+    direction : int
+        Sign (+1 or -1) of the amplitude's change along the first step.
+    ds : float
+        First step along the arclength.
+    ds_min : float
+        Smallest step; the run stops when the corrector fails below it.
+    ds_max : float
+        Largest step.
+    a_max : float
+        Stop at this amplitude [rad].
+    T_max : float
+        Stop at this period [s].
+    k_min : float
+        Stop when the free gain falls below this [unit of the gain].
+    k_max : float
+        Stop when the free gain exceeds this [unit of the gain].
+    max_points : int
+        Most orbits on the branch, the first included.
+    stop : callable, optional
+        ``stop(y)`` with the unknowns ``y = (a, q4_0, T, k)`` of the last orbit; the run stops when it is true.
+
+    Returns
+    -------
+    BranchRun
+        The orbits, their unknowns, why the run stopped and the number of corrector runs.
     """
     y_first = first.y
     k_scale = max(1.0, abs(y_first[3]))
@@ -210,6 +242,20 @@ def hopf_start(shooter: OrbitShooter, hp: HopfPoint, a_start: float) -> Correcti
 
     ``shooter`` continues in ``k1`` at the Hopf point's ``k2``.
 
+    Parameters
+    ----------
+    shooter : OrbitShooter
+        The periodic-orbit equations, free gain ``k1``, ``k2`` fixed at the Hopf point's.
+    hp : HopfPoint
+        The Hopf point.
+    a_start : float
+        Amplitude of the first orbit [rad].
+
+    Returns
+    -------
+    Correction
+        The converged orbit.
+
     Raises
     ------
     SimulationError
@@ -227,7 +273,24 @@ def hopf_start(shooter: OrbitShooter, hp: HopfPoint, a_start: float) -> Correcti
 
 
 def correct_at(shooter: OrbitShooter, ys, index: int, target: float) -> Correction | None:
-    """Correct the orbit with ``y[index] = target`` from the two branch points around it (None if none)."""
+    """Correct the orbit with ``y[index] = target`` from the two branch points around it (None if none).
+
+    Parameters
+    ----------
+    shooter : OrbitShooter
+        The periodic-orbit equations.
+    ys : sequence of ndarray, shape (4,)
+        Unknowns ``(a, q4_0, T, k)`` of consecutive orbits of a branch.
+    index : int
+        Which unknown is fixed: 0 amplitude [rad], 1 ``q4_0`` [rad/s], 2 period [s], 3 gain ``k``.
+    target : float
+        Its value (in the unknown's unit).
+
+    Returns
+    -------
+    Correction or None
+        The corrected orbit; None if the branch does not reach ``target`` or the corrector does not converge.
+    """
     vals = np.array([y[index] for y in ys])
     guess = None
     for i in range(len(ys) - 1):
@@ -246,7 +309,19 @@ def correct_at(shooter: OrbitShooter, ys, index: int, target: float) -> Correcti
 
 
 def locate_bifurcations(orbits) -> tuple:
-    """Changes of stability between consecutive orbits (see :attr:`HopfBranch.bifurcations`)."""
+    """Changes of stability between consecutive orbits (see :attr:`HopfBranch.bifurcations`).
+
+    Parameters
+    ----------
+    orbits : sequence of PeriodicOrbit
+        Consecutive orbits of a branch.
+
+    Returns
+    -------
+    tuple of dict
+        One per change: ``"kind"`` (``"torus"``, ``"multiplier +1"`` or ``"period doubling"``), ``"k1"``,
+        ``"k2"``, ``"amplitude"`` [rad] and ``"multiplier"`` ``[re, im]``, interpolated between the two orbits.
+    """
     out = []
     for o_a, o_b in zip(orbits[:-1], orbits[1:]):
         ma, mb = nontrivial_multipliers(o_a.floquet), nontrivial_multipliers(o_b.floquet)

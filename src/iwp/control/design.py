@@ -248,7 +248,19 @@ class SimulatedOscillation:
 
 
 def refined_peak(sig: np.ndarray) -> float:
-    """Largest sample of ``sig``, refined by a parabola through the three samples around it (units of ``sig``)."""
+    """Largest sample of ``sig``, refined by a parabola through the three samples around it (units of ``sig``).
+
+    Parameters
+    ----------
+    sig : ndarray, shape (n,)
+        Sampled signal.
+
+    Returns
+    -------
+    float
+        The refined peak value (units of ``sig``); the largest sample itself at an end or without a
+        downward parabola.
+    """
     i = int(np.argmax(sig))
     if 0 < i < sig.size - 1:
         a, b, c = sig[i - 1], sig[i], sig[i + 1]

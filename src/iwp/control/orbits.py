@@ -99,7 +99,18 @@ class PeriodicOrbit:
 
 
 def nontrivial_multipliers(mult: np.ndarray) -> np.ndarray:
-    """The Floquet multipliers without the trivial one (the one closest to 1)."""
+    """The Floquet multipliers without the trivial one (the one closest to 1).
+
+    Parameters
+    ----------
+    mult : ndarray, shape (m,)
+        Floquet multipliers (complex) of a periodic orbit.
+
+    Returns
+    -------
+    ndarray, shape (m - 1,)
+        The others, in their order.
+    """
     i_triv = int(np.argmin(np.abs(mult - 1.0)))
     return np.delete(mult, i_triv)
 

@@ -66,7 +66,23 @@ CONVERGED = 1e-6
 
 
 def check_draws(draws) -> int:
-    """``draws`` as an integer from 1 to :data:`~iwp.sim.uncertainty.MAX_DRAWS`, or an error naming it."""
+    """``draws`` as an integer from 1 to :data:`~iwp.sim.uncertainty.MAX_DRAWS`, or an error naming it.
+
+    Parameters
+    ----------
+    draws : int
+        Number of draws.
+
+    Returns
+    -------
+    int
+        ``draws`` as a Python int.
+
+    Raises
+    ------
+    InputError
+        Not an integer (a bool is not one), or outside ``[1, MAX_DRAWS]``.
+    """
     if isinstance(draws, bool) or not isinstance(draws, (int, np.integer)) or not 1 <= draws <= MAX_DRAWS:
         raise InputError(f"draws must be an integer from 1 to {MAX_DRAWS}, got {draws!r}", argument="draws")
     return int(draws)
@@ -180,7 +196,20 @@ class Spread:
 
 
 def spread_of(values, level: float = LEVEL) -> Spread:
-    """The :class:`Spread` of the finite entries of ``values``."""
+    """The :class:`Spread` of the finite entries of ``values``.
+
+    Parameters
+    ----------
+    values : array_like
+        Outcomes over the draws (any shape; NaN and infinite ones are dropped) [units of the outcome].
+    level : float, default 0.95
+        Probability of the central interval ``[low, high]``.
+
+    Returns
+    -------
+    Spread
+        The spread; all NaN statistics when no value is finite.
+    """
     v = np.sort(np.asarray(values, dtype=float).ravel())
     v = v[np.isfinite(v)]
     if v.size == 0:

@@ -288,7 +288,25 @@ def _neighbour_value(y: np.ndarray, k: int) -> float:
 
 
 def repair(y, glitches: Sequence[Glitch]) -> np.ndarray:
-    """A copy of ``y`` with each replaced glitch's sample set to its replacement."""
+    """A copy of ``y`` with each replaced glitch's sample set to its replacement.
+
+    Parameters
+    ----------
+    y : array_like, shape (n,)
+        Logged signal [unit of the signal].
+    glitches : sequence of Glitch
+        Glitches found in ``y``; those with a ``replacement`` of None are left as logged.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Repaired float copy of ``y``; ``y`` is not changed.
+
+    Raises
+    ------
+    InputError
+        A replaced glitch's ``index`` outside ``[0, n)``.
+    """
     out = np.array(y, dtype=float)
     for g in glitches:
         if g.replacement is not None:
@@ -299,7 +317,20 @@ def repair(y, glitches: Sequence[Glitch]) -> np.ndarray:
 
 
 def summarize(glitches: Sequence[Glitch], limit: int = 4) -> str:
-    """``"3 glitches: q4 spike at t = 0 s (2345 -> 12.1), ..."``."""
+    """``"3 glitches: q4 spike at t = 0 s (2345 -> 12.1), ..."``.
+
+    Parameters
+    ----------
+    glitches : sequence of Glitch
+        Glitches to describe.
+    limit : int, default 4
+        Most glitches described one by one; the rest are counted (``"; and 2 more"``).
+
+    Returns
+    -------
+    str
+        One line, ``"no glitches"`` for an empty sequence.
+    """
     n = len(glitches)
     if n == 0:
         return "no glitches"

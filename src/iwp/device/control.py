@@ -46,7 +46,25 @@ CONTROLLERS = {"hopf": ("device", "host"), "balance": ("device", "host"), "swing
 
 
 def balanced(q1, t, *, tolerance: float = 0.05, hold: float = 3.0) -> bool:
-    """Within ``tolerance`` [rad] of the upright over the last ``hold`` [s] of the log."""
+    """Within ``tolerance`` [rad] of the upright over the last ``hold`` [s] of the log.
+
+    Parameters
+    ----------
+    q1 : array_like, shape (n,)
+        Pendulum angle, 0 hanging down [rad].
+    t : array_like, shape (n,)
+        Sample times [s], increasing.
+    tolerance : float, default 0.05
+        Largest distance to the upright ``q1 = pi`` (mod ``2 pi``) [rad].
+    hold : float, default 3.0
+        Length of the end of the log checked [s].
+
+    Returns
+    -------
+    bool
+        True when every sample of the last ``hold`` seconds is within ``tolerance``; False for a log shorter
+        than ``hold``.
+    """
     q1, t = np.asarray(q1, dtype=float), np.asarray(t, dtype=float)
     if t.size == 0 or t[-1] - t[0] < hold:
         return False

@@ -250,7 +250,7 @@ def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup:
         time, ``after_host``: seconds since the host's last bytes).
     """
     for name, value in (setup or {}).items():
-        device.rx(encode_frame(encode("SET_PARAM", param=PARAMS[name].id, value=float(value))))
+        device.rx(encode_frame(encode("SET_PARAM", req=0, param=PARAMS[name].id, value=float(value))))
     device.tx()  # the answers to ourselves
     master, slave, path = open_pty()
     emu = Emulator(device, master)

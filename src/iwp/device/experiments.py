@@ -83,7 +83,18 @@ class RigRun:
 
 
 def default_operator(message: str) -> None:
-    """No operator: a rig without emulated hands cannot be arranged."""
+    """No operator: a rig without emulated hands cannot be arranged.
+
+    Parameters
+    ----------
+    message : str
+        What the operator would be asked to do.
+
+    Raises
+    ------
+    DeviceError
+        Always, naming ``message``.
+    """
     raise DeviceError(f"this rig has no emulated hands: {message}, then run again with an operator "
                       "(the command line asks you)")
 
@@ -235,7 +246,17 @@ def _prepare(rig: Rig, fast: bool) -> None:
 
 
 def arrange(rig: Rig, locked: bool, operator) -> None:
-    """Clamp the pendulum at rest, or hold it still hanging down; then zero the encoders there."""
+    """Clamp the pendulum at rest, or hold it still hanging down; then zero the encoders there.
+
+    Parameters
+    ----------
+    rig : Rig
+        The connected rig.
+    locked : bool
+        True: clamp the pendulum (a clamped experiment); False: hold it hanging still, then release it.
+    operator : callable
+        ``operator(message)``, asked to do by hand what the rig's emulated hands cannot (a real rig).
+    """
     if locked:
         if rig.fixture("CLAMP") is None:
             operator("clamp the pendulum at rest, hanging down")
@@ -248,7 +269,22 @@ def arrange(rig: Rig, locked: bool, operator) -> None:
 
 def hold_at(rig: Rig, q1: float, operator) -> None:
     """Hold the pendulum at ``q1`` [rad], the wheel still (the emulated hands, or the operator's), and let the
-    device's velocity estimates settle there."""
+    device's velocity estimates settle there.
+
+    Parameters
+    ----------
+    rig : Rig
+        The connected rig.
+    q1 : float
+        Pendulum angle to hold, 0 hanging down [rad].
+    operator : callable
+        ``operator(message)``, asked to hold the pendulum when the rig has no emulated hands.
+
+    Raises
+    ------
+    LinkLost
+        No telemetry while the estimates settle.
+    """
     if rig.fixture("HOLD", q1) is not None:
         settle(rig, _SETTLE)
     else:
@@ -258,7 +294,20 @@ def hold_at(rig: Rig, q1: float, operator) -> None:
 
 
 def settle(rig: Rig, seconds: float) -> None:
-    """Let ``seconds`` of device time pass (heartbeats allow the ticks with the host clock)."""
+    """Let ``seconds`` of device time pass (heartbeats allow the ticks with the host clock).
+
+    Parameters
+    ----------
+    rig : Rig
+        The connected rig.
+    seconds : float
+        Device time to let pass [s], counted in sample periods.
+
+    Raises
+    ------
+    LinkLost
+        No telemetry within 1 s.
+    """
     Ts = rig.info.params["period_us"] * 1e-6
     n = 0
     while n * Ts < seconds:
@@ -271,7 +320,19 @@ def settle(rig: Rig, seconds: float) -> None:
 
 
 def releaser(rig: Rig):
-    """``on_start`` of :func:`~iwp.device.loop.run_loop` that lets the held pendulum go."""
+    """``on_start`` of :func:`~iwp.device.loop.run_loop` that lets the held pendulum go.
+
+    Parameters
+    ----------
+    rig : Rig
+        The connected rig.
+
+    Returns
+    -------
+    callable
+        ``release()``, returning the device tick from which the pendulum is free, or None on a rig without
+        emulated hands (the operator lets go).
+    """
     def release() -> int | None:
         return rig.fixture("RELEASE")  # None on a real rig: the operator lets go; the log starts before
     return release

@@ -33,12 +33,34 @@ MAX_FRAME = MAX_PAYLOAD + 2 + MAX_PAYLOAD // 254 + 2
 
 
 def crc16(data: bytes) -> int:
-    """CRC-16/CCITT-FALSE of ``data`` (poly 0x1021, init 0xFFFF, no reflection, no final xor)."""
+    """CRC-16/CCITT-FALSE of ``data`` (poly 0x1021, init 0xFFFF, no reflection, no final xor).
+
+    Parameters
+    ----------
+    data : bytes
+        Bytes to check.
+
+    Returns
+    -------
+    int
+        The CRC, in ``[0, 0xFFFF]``.
+    """
     return binascii.crc_hqx(data, CRC_INIT)
 
 
 def encode_frame(payload: bytes) -> bytes:
-    """``0x00 COBS(payload + crc16 big-endian) 0x00``."""
+    """``0x00 COBS(payload + crc16 big-endian) 0x00``.
+
+    Parameters
+    ----------
+    payload : bytes
+        The message payload.
+
+    Returns
+    -------
+    bytes
+        The frame, delimited by zero bytes.
+    """
     body = bytes(payload) + crc16(payload).to_bytes(2, "big")
     return b"\x00" + cobs.encode(body) + b"\x00"
 

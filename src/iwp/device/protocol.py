@@ -55,7 +55,7 @@ __all__ = [
 ]
 
 #: Protocol version: a device with another version is refused.
-PROTOCOL_VERSION = 1
+PROTOCOL_VERSION = 2
 #: Largest payload (type byte + fields) of a frame [bytes].
 MAX_PAYLOAD = 64
 
@@ -121,21 +121,27 @@ def _f(name: str, code: str, unit: str, doc: str) -> Field:
     return Field(name, code, unit, doc)
 
 
+#: The first field of every request the device answers with ACK: the host numbers its requests, repeats a
+#: request whose ACK did not come with the same number (every such request is idempotent), and takes only the
+#: ACK carrying that number, so a late or repeated ACK is never taken for the answer to another request.
+_REQ = _f("req", "H", "-", "request number, echoed in ACK")
+
 #: The messages, by name.
 MESSAGES: dict[str, Message] = {m.name: m for m in [
     # ---------------------------------------------------------------- host -> device
     Message("HELLO", 0x01, (_f("nonce", "H", "-", "echoed in IDENT"),),
             "start a session (the sequence numbers of COMMAND and HEARTBEAT start again) and ask the device who it "
             "is; it answers IDENT"),
-    Message("GET_PARAM", 0x02, (_f("param", "B", "-", "parameter id"),),
+    Message("GET_PARAM", 0x02, (_REQ, _f("param", "B", "-", "parameter id"),),
             "read a parameter; ACK carries its value"),
-    Message("SET_PARAM", 0x03, (_f("param", "B", "-", "parameter id"), _f("value", "f", "param", "new value")),
+    Message("SET_PARAM", 0x03, (_REQ, _f("param", "B", "-", "parameter id"), _f("value", "f", "param", "new value")),
             "set a parameter (refused while armed, or outside its range); ACK carries the value kept"),
-    Message("ARM", 0x04, (), "enable the motor (refused in FAULT or ESTOP, or with a limit already exceeded)"),
-    Message("DISARM", 0x05, (), "motor off, back to DISARMED; a fault is kept"),
-    Message("ESTOP", 0x06, (), "emergency stop: motor off, latched until CLEAR; idempotent"),
-    Message("CLEAR", 0x07, (), "clear a fault or an emergency stop, back to DISARMED"),
-    Message("ZERO", 0x08, (_f("mask", "B", "-", "bit 0: pendulum encoder, bit 1: wheel encoder"),),
+    Message("ARM", 0x04, (_REQ,), "enable the motor (refused in FAULT or ESTOP, or with a limit already "
+            "exceeded); when armed already: OK, and the watchdog is fed"),
+    Message("DISARM", 0x05, (_REQ,), "motor off, back to DISARMED; a fault is kept"),
+    Message("ESTOP", 0x06, (_REQ,), "emergency stop: motor off, latched until CLEAR; idempotent"),
+    Message("CLEAR", 0x07, (_REQ,), "clear a fault or an emergency stop, back to DISARMED"),
+    Message("ZERO", 0x08, (_REQ, _f("mask", "B", "-", "bit 0: pendulum encoder, bit 1: wheel encoder"),),
             "set encoder counts to 0 (refused while armed)"),
     Message("COMMAND", 0x09, (_f("seq", "I", "-", "increasing; an older or repeated one is skipped"),
                               _f("tick", "I", "-", "device tick from which it applies; 0: the next tick"),
@@ -145,13 +151,13 @@ MESSAGES: dict[str, Message] = {m.name: m for m in [
                                 _f("tick", "I", "-", "the host may be this far (host clock: the device may run "
                                                      "up to this tick)")),
             "feeds the watchdog (on-device controllers, idle links)"),
-    Message("MODE", 0x0B, (_f("mode", "B", "-", "see MODES"),),
+    Message("MODE", 0x0B, (_REQ, _f("mode", "B", "-", "see MODES"),),
             "the device's control law: the host's commands, Hopf or state feedback (refused while armed)"),
-    Message("FIXTURE", 0x0D, (_f("action", "B", "-", "see FIXTURE_ACTIONS"),
+    Message("FIXTURE", 0x0D, (_REQ, _f("action", "B", "-", "see FIXTURE_ACTIONS"),
                               _f("q1", "f", "rad", "HOLD: the angle the pendulum is held at")),
             "the operator's hands on an emulated rig (CAPS FIXTURE): clamp, hold, release; a real board refuses it "
             "and the host asks the operator instead"),
-    Message("STREAM", 0x0C, (_f("every", "B", "ticks", "one telemetry frame every N ticks; 0: none"),),
+    Message("STREAM", 0x0C, (_REQ, _f("every", "B", "ticks", "one telemetry frame every N ticks; 0: none"),),
             "telemetry rate"),
     # ---------------------------------------------------------------- device -> host
     Message("IDENT", 0x81, (_f("nonce", "H", "-", "HELLO's nonce"),
@@ -166,7 +172,8 @@ MESSAGES: dict[str, Message] = {m.name: m for m in [
                             _f("base_us", "I", "us", "the device's tick granularity (period is a multiple)"),
                             _f("tick", "I", "ticks", "the device's tick now (older telemetry is stale)")),
             "who the device is"),
-    Message("ACK", 0x82, (_f("msg", "B", "-", "type of the message answered"),
+    Message("ACK", 0x82, (_f("req", "H", "-", "the request's ``req``"),
+                          _f("msg", "B", "-", "type of the message answered"),
                           _f("code", "B", "-", "see ACK_CODES"),
                           _f("param", "B", "-", "parameter id (GET_PARAM/SET_PARAM), else 0"),
                           _f("value", "f", "param", "the parameter's value (GET_PARAM/SET_PARAM), else 0")),
@@ -250,7 +257,23 @@ PARAM_BY_ID: dict[int, Param] = {p.id: p for p in PARAMS.values()}
 
 
 def param(name: str) -> Param:
-    """The parameter ``name``; :class:`ProtocolError` listing the names for an unknown one."""
+    """The parameter ``name``; :class:`ProtocolError` listing the names for an unknown one.
+
+    Parameters
+    ----------
+    name : str
+        Device parameter name, a key of :data:`PARAMS`.
+
+    Returns
+    -------
+    Param
+        Its id, unit and limits.
+
+    Raises
+    ------
+    ProtocolError
+        Unknown name.
+    """
     if name not in PARAMS:
         raise ProtocolError(f"unknown device parameter {name!r}; known: {', '.join(PARAMS)}")
     return PARAMS[name]
@@ -272,7 +295,25 @@ class Decoded:
 
 
 def encode(name: str, **values: Any) -> bytes:
-    """The payload of message ``name`` with ``values`` (every field, nothing else)."""
+    """The payload of message ``name`` with ``values`` (every field, nothing else).
+
+    Parameters
+    ----------
+    name : str
+        Message name, a key of :data:`MESSAGES`.
+    **values
+        Every field of the message, by name, and no other.
+
+    Returns
+    -------
+    bytes
+        The payload: the message's type byte, then its fields (little-endian, the message's struct).
+
+    Raises
+    ------
+    ProtocolError
+        Unknown message, missing or extra fields, or a value its field cannot hold.
+    """
     m = MESSAGES.get(name)
     if m is None:
         raise ProtocolError(f"unknown message {name!r}")
@@ -286,7 +327,23 @@ def encode(name: str, **values: Any) -> bytes:
 
 
 def decode(payload: bytes) -> Decoded:
-    """The message in ``payload``; :class:`ProtocolError` for an unknown type or a wrong length."""
+    """The message in ``payload``; :class:`ProtocolError` for an unknown type or a wrong length.
+
+    Parameters
+    ----------
+    payload : bytes
+        Payload of one frame (type byte first).
+
+    Returns
+    -------
+    Decoded
+        The message and its field values by name.
+
+    Raises
+    ------
+    ProtocolError
+        Empty payload, unknown message type or a length other than the message's.
+    """
     if not payload:
         raise ProtocolError("empty payload")
     m = MESSAGE_BY_ID.get(payload[0])
@@ -339,12 +396,38 @@ def params_table() -> str:
 
 
 def flag_names(flags: int, table: Mapping[str, int] = FLAGS) -> list[str]:
-    """The names of the bits set in ``flags``."""
+    """The names of the bits set in ``flags``.
+
+    Parameters
+    ----------
+    flags : int
+        Bit field.
+    table : mapping of str to int, default FLAGS
+        Bit of each name.
+
+    Returns
+    -------
+    list of str
+        Names whose bits are set, in the table's order.
+    """
     return [k for k, v in table.items() if flags & v]
 
 
 def name_of(table: Mapping[str, int], value: int) -> str:
-    """The name of ``value`` in one of the tables (``STATES``, ``FAULTS``, ...), or its number."""
+    """The name of ``value`` in one of the tables (``STATES``, ``FAULTS``, ...), or its number.
+
+    Parameters
+    ----------
+    table : mapping of str to int
+        Value of each name.
+    value : int
+        Value to name.
+
+    Returns
+    -------
+    str
+        The first name with that value, else ``str(value)``.
+    """
     for k, v in table.items():
         if v == value:
             return k

@@ -22,7 +22,19 @@ FIFO_PRIORITY = 20
 
 @contextlib.contextmanager
 def realtime_priority(enabled: bool = True):
-    """Within the block the calling thread runs ``SCHED_FIFO``; yields ``"SCHED_FIFO 20"`` or ``"normal"``."""
+    """Within the block the calling thread runs ``SCHED_FIFO``; yields ``"SCHED_FIFO 20"`` or ``"normal"``.
+
+    Parameters
+    ----------
+    enabled : bool, default True
+        False: leave the scheduling as it is (yields ``"normal"``).
+
+    Yields
+    ------
+    str
+        The policy the thread runs under: ``"SCHED_FIFO 20"``, or ``"normal"`` when it is off or the system
+        refuses (no permission, no ``sched_setscheduler``). The old policy is restored after the block.
+    """
     if not enabled or not hasattr(os, "sched_setscheduler"):
         yield "normal"
         return

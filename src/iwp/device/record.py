@@ -33,7 +33,22 @@ __all__ = ["loop_log", "rig_description"]
 
 
 def rig_description(info: DeviceInfo, Ts: float, input_name: str | None) -> dict:
-    """A rig description (docs/rig-description.md) of the logs that :func:`loop_log` writes."""
+    """A rig description (docs/rig-description.md) of the logs that :func:`loop_log` writes.
+
+    Parameters
+    ----------
+    info : DeviceInfo
+        What the device reported (port, board, firmware, parameters).
+    Ts : float
+        Sample period of the logs [s].
+    input_name : str or None
+        Logged input column, ``"u"`` (compensated) or ``"v"``; None: no input column.
+
+    Returns
+    -------
+    dict
+        The rig description, ready to write as JSON.
+    """
     p = info.params
     return {"kind": "iwp-rig", "name": f"iwp rig on {info.port} ({info.board}, firmware {info.firmware})",
             "sample_period": Ts, "time": {"column": "t", "unit": "s"},

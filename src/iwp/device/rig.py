@@ -48,6 +48,12 @@ __all__ = ["Rig", "DeviceInfo", "Sample", "BOARDS", "connect", "params_hash"]
 BOARDS = {0: "host (emulator or software in the loop)", 1: "ATmega328P", 2: "ATmega2560"}
 #: How long a request waits for its ACK [s].
 REQUEST_TIMEOUT = 1.0
+#: How often, meanwhile, the request is sent again [s]. Every request the device answers with ACK is idempotent
+#: (ARM when armed, DISARM when disarmed, a repeated SET_PARAM ... answer OK and change nothing more) and carries
+#: a number its ACK echoes, so a frame lost to the wire's noise, either way, costs a repeat, not the experiment;
+#: at most half the device's watchdog, so that an ARM whose ACK was lost is repeated (which feeds the watchdog)
+#: before the watchdog stops the motor.
+REQUEST_REPEAT = 0.05
 
 
 @dataclass(frozen=True)
@@ -118,7 +124,18 @@ class Sample:
 
 
 def params_hash(values: dict[str, float]) -> int:
-    """FNV-1a of the parameters as float32 in id order: the device's ``params_hash``."""
+    """FNV-1a of the parameters as float32 in id order: the device's ``params_hash``.
+
+    Parameters
+    ----------
+    values : dict of str to float
+        Value of every device parameter (:data:`PARAMS`), by name, in its unit.
+
+    Returns
+    -------
+    int
+        The 32-bit hash.
+    """
     h = 2166136261
     for p in sorted(PARAMS.values(), key=lambda p: p.id):
         for b in struct.pack("<f", values[p.name]):
@@ -156,6 +173,7 @@ class Rig:
         self.last_seq = -1
         self._cmd_seq = 0
         self._hb_seq = 0
+        self._req = 0
         self.info: DeviceInfo | None = None
         try:
             self.link.discard_input()
@@ -170,14 +188,33 @@ class Rig:
         return self.link.port
 
     def _request(self, name: str, what: str, **fields) -> Decoded:
-        """Send ``name`` and wait for its ACK; a refusal raises :class:`DeviceError`."""
-        self.link.send(name, **fields)
-        want = MESSAGES[name].id  # the ACK's ``msg`` is the request's type
-        ack = self._wait(lambda m: m.name == "ACK" and m["msg"] == want, REQUEST_TIMEOUT, what)
+        """Send request ``name`` and wait for its ACK (the one echoing its ``req``), sending it again every
+        :data:`REQUEST_REPEAT` s for up to :data:`REQUEST_TIMEOUT` s; a refusal raises :class:`DeviceError`."""
+        self._req = self._req % 0xFFFF + 1
+        req, want = self._req, MESSAGES[name].id  # the ACK's ``req`` and ``msg`` (the request's type)
+        attempts = 0
+        end = _now() + REQUEST_TIMEOUT
+        while True:
+            left = end - _now()
+            if left <= 0:
+                raise DeviceError(f"port {self.port}: no answer to {what} within {REQUEST_TIMEOUT:g} s (sent "
+                                  f"{attempts} times; is an iwp firmware on it, at the right baud rate?)")
+            self.link.send(name, req=req, **fields)
+            attempts += 1
+            ack = self._poll(lambda m: m.name == "ACK" and m["req"] == req and m["msg"] == want,
+                             min(self._repeat(), left))
+            if ack is not None:
+                break
         if ack["code"] != ACK_CODES["OK"]:
             raise DeviceError(f"{self.port}: the device refused {what}: {name_of(ACK_CODES, ack['code']).lower()}"
                               + (f" (state {self.state_text()})" if ack["code"] in (3, 4, 5) else ""))
         return ack
+
+    def _repeat(self) -> float:
+        """How long one attempt of a request waits [s]: :data:`REQUEST_REPEAT`, or half the device's watchdog."""
+        if self.info is None:
+            return REQUEST_REPEAT
+        return min(REQUEST_REPEAT, self.info.params["watchdog_ms"] / 2000.0)
 
     def _next_messages(self, timeout: float) -> list[Decoded]:
         """The device's messages in the order they came: those put back first, then new ones."""
@@ -187,15 +224,14 @@ class Rig:
             return out
         return self.link.receive(timeout)
 
-    def _wait(self, match, timeout: float, what: str) -> Decoded:
-        """The first message that ``match``es; telemetry before it is kept for :meth:`samples`, later messages
-        are put back."""
+    def _poll(self, match, timeout: float) -> Decoded | None:
+        """The first message that ``match``es within ``timeout`` s, or None; telemetry before it is kept for
+        :meth:`samples`, later messages are put back."""
         end = _now() + timeout
         while True:
             left = end - _now()
             if left <= 0:
-                raise DeviceError(f"port {self.port}: no answer to {what} within {timeout:g} s "
-                                  "(is an iwp firmware on it, at the right baud rate?)")
+                return None
             batch = self._next_messages(left)
             for i, m in enumerate(batch):
                 if m.name == "TELEMETRY":
@@ -204,6 +240,14 @@ class Rig:
                 elif match(m):
                     self._pending.extendleft(reversed(batch[i + 1:]))
                     return m
+
+    def _wait(self, match, timeout: float, what: str) -> Decoded:
+        """:meth:`_poll`, raising :class:`DeviceError` when nothing matches within ``timeout`` s."""
+        m = self._poll(match, timeout)
+        if m is None:
+            raise DeviceError(f"port {self.port}: no answer to {what} within {timeout:g} s "
+                              "(is an iwp firmware on it, at the right baud rate?)")
+        return m
 
     def identify(self) -> DeviceInfo:
         """Ask the device who it is (HELLO), check its protocol, read its parameters."""
@@ -381,7 +425,20 @@ class Rig:
 
 
 def connect(port: str, *, baudrate: int = DEFAULT_BAUD) -> Rig:
-    """Open the rig on ``port`` (see :class:`Rig`)."""
+    """Open the rig on ``port`` (see :class:`Rig`).
+
+    Parameters
+    ----------
+    port : str
+        Serial device, pseudo-terminal or pyserial URL.
+    baudrate : int, default DEFAULT_BAUD
+        Baud rate of the serial link.
+
+    Returns
+    -------
+    Rig
+        The open rig.
+    """
     return Rig(port, baudrate=baudrate)
 
 

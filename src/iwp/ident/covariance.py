@@ -38,7 +38,20 @@ AUTO_FACTOR = 2.0
 
 
 def null_space_message(Vt_null: np.ndarray, names: Sequence[str]) -> str:
-    """The combinations of unknowns along the (near) null directions ``Vt_null`` (rows), in words."""
+    """The combinations of unknowns along the (near) null directions ``Vt_null`` (rows), in words.
+
+    Parameters
+    ----------
+    Vt_null : ndarray, shape (k, p)
+        Right singular vectors of the null directions of the unit-norm-column Jacobian, one per row.
+    names : sequence of str
+        Names of the ``p`` unknowns.
+
+    Returns
+    -------
+    str
+        One clause per direction, joined by ``"; "``: an unexcited column or a collinear combination.
+    """
     parts = []
     for v in Vt_null:
         v = v / np.abs(v).max()
@@ -63,6 +76,22 @@ def block_sigmas(r: np.ndarray, blocks: np.ndarray, used: np.ndarray, n_unknowns
     """Residual standard deviation of each block (``blocks`` are 0..B-1), with the degrees-of-freedom correction.
 
     ``sigma_b^2 = (sum of r^2 in b / used rows of b) * n_used / (n_used - n_unknowns)``.
+
+    Parameters
+    ----------
+    r : ndarray, shape (n,)
+        Residuals (unused rows 0) [units of each block's signal].
+    blocks : ndarray of int, shape (n,)
+        Block of each row, ``0 .. B-1``.
+    used : ndarray of bool, shape (n,)
+        Rows that count (not left out).
+    n_unknowns : int
+        Number of estimated unknowns (degrees of freedom removed).
+
+    Returns
+    -------
+    ndarray, shape (B,)
+        Standard deviation per block [units of its signal].
     """
     nb = int(blocks.max()) + 1 if blocks.size else 0
     ssr = np.bincount(blocks, weights=r * r, minlength=nb)
@@ -77,6 +106,21 @@ def covariance_from_jacobian(Jw: np.ndarray, names: Sequence[str]) -> tuple[np.n
 
     Unknowns involved in a direction the data do not determine get NaN rows
     and columns.
+
+    Parameters
+    ----------
+    Jw : ndarray, shape (n, p)
+        Weighted Jacobian of the residuals with respect to the unknowns.
+    names : sequence of str
+        Names of the ``p`` unknowns, for the messages.
+
+    Returns
+    -------
+    cov : ndarray, shape (p, p)
+        The pseudo-inverse, in the unknowns' units squared over the residuals' (NaN rows and columns for
+        undetermined unknowns).
+    messages : list of str
+        Rank deficiency (naming the collinear columns) or a condition number above 1e6.
     """
     nz = Jw.shape[1]
     if nz == 0:
@@ -116,6 +160,24 @@ def correlation_messages(free: Sequence[str], values: np.ndarray, cov: np.ndarra
     their sum or difference when it is determined and the units agree; when
     there is none, the most collinear pair is named as strongly correlated;
     the other correlated pairs are listed in one line.
+
+    Parameters
+    ----------
+    free : sequence of str
+        Names of the ``p`` free parameters.
+    values : ndarray, shape (p,)
+        Their estimates [their units].
+    cov : ndarray, shape (p, p)
+        Their covariance.
+    units : sequence of str
+        Their units (a sum or difference is given only for equal units).
+    Jp : ndarray, shape (n, p)
+        Jacobian columns of the free parameters (ranks the pairs by collinearity).
+
+    Returns
+    -------
+    list of str
+        The warnings, empty when no pair is correlated above :data:`CORR_WARN`.
     """
     npar = len(free)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
@@ -165,6 +227,18 @@ def bartlett_long_run_covariance(H: np.ndarray, L: int) -> np.ndarray:
 
     Uses the identity with overlapping window sums of length L+1 over the
     zero-padded series, which is exact and costs O(T p^2) for any L.
+
+    Parameters
+    ----------
+    H : ndarray, shape (T, r)
+        Series of scores, one sample per row.
+    L : int
+        Bandwidth: lags included (0: ``H^T H``).
+
+    Returns
+    -------
+    ndarray, shape (r, r)
+        The long-run covariance, not divided by ``T``.
     """
     T, r = H.shape
     if L == 0:
@@ -240,6 +314,16 @@ def fixed_b_critical_value(b: float) -> float:
 
     Kiefer & Vogelsang (2005), polynomial fit for the Bartlett kernel,
     ``b = bandwidth / T``; 1.96 at b = 0.
+
+    Parameters
+    ----------
+    b : float
+        Bandwidth over the number of samples, clipped to ``[0, 1]``.
+
+    Returns
+    -------
+    float
+        The critical value.
     """
     b = min(max(b, 0.0), 1.0)
     return 1.96 + 2.9694 * b + 0.4160 * b**2 - 0.5324 * b**3
@@ -345,6 +429,22 @@ def white_covariance(J: np.ndarray, row_sigma: np.ndarray, names: Sequence[str],
     weights) and ``row_sigma`` each row's residual standard deviation (its
     block's, :func:`block_sigmas`); with rows weighted by their noise
     (``row_sigma`` 1) it is the textbook ``(J^T J)^-1``.
+
+    Parameters
+    ----------
+    J : ndarray, shape (n, p)
+        Jacobian of the minimised residuals.
+    row_sigma : ndarray, shape (n,)
+        Standard deviation of each row's residual.
+    names : sequence of str
+        Names of the ``p`` unknowns, for the messages.
+    dof : int
+        Degrees of freedom of the Student t quantile (at least 1 is used).
+
+    Returns
+    -------
+    Covariance
+        Method ``"white"``, critical value the 97.5 % Student t quantile.
     """
     A, msgs = covariance_from_jacobian(J, names)
     Js = J * row_sigma[:, None]
@@ -368,7 +468,22 @@ _LOSS_DERIVATIVES = {
 
 
 def loss_weights(loss: str, r: np.ndarray, f_scale: float) -> np.ndarray:
-    """Iteratively-reweighted least-squares weights ``rho'((r/f)^2)`` of a robust loss at its optimum (1: linear)."""
+    """Iteratively-reweighted least-squares weights ``rho'((r/f)^2)`` of a robust loss at its optimum (1: linear).
+
+    Parameters
+    ----------
+    loss : {"linear", "soft_l1", "huber", "cauchy", "arctan"}
+        Loss of :func:`scipy.optimize.least_squares`.
+    r : ndarray
+        Residuals at the optimum.
+    f_scale : float
+        Soft margin of the loss, in the residuals' unit.
+
+    Returns
+    -------
+    ndarray
+        The weights, of ``r``'s shape, in ``(0, 1]``.
+    """
     return _LOSS_DERIVATIVES[loss]((r / f_scale) ** 2)
 
 
@@ -381,6 +496,24 @@ def cluster_covariance(Jw: np.ndarray, rw: np.ndarray, groups: np.ndarray, names
     pendulum's damping time); its 95 % intervals use Student's t with
     ``G - 1`` degrees of freedom for ``G`` experiments, so that few
     experiments give wide intervals. Needs ``G >= 2``.
+
+    Parameters
+    ----------
+    Jw : ndarray, shape (n, p)
+        Weighted Jacobian of the residuals.
+    rw : ndarray, shape (n,)
+        Weighted residuals.
+    groups : ndarray, shape (n,)
+        Experiment of each row.
+    names : sequence of str
+        Names of the ``p`` unknowns, for the messages.
+    dof : int
+        Residual degrees of freedom (small-sample correction; at least 1 is used).
+
+    Returns
+    -------
+    Covariance
+        Method ``"experiments"``; all NaN when there are fewer than 2 experiments or no unknowns.
     """
     white, msgs = covariance_from_jacobian(Jw, names)
     p = Jw.shape[1]
@@ -452,6 +585,24 @@ def reliability(chosen: Covariance, within: Covariance | None, experiments: int,
 
     ``model_columns`` are the unknowns that are model parameters (not initial
     states); ``length`` the samples of the shortest experiment.
+
+    Parameters
+    ----------
+    chosen : Covariance
+        The covariance the intervals use.
+    within : Covariance or None
+        The covariance within experiments (compared with ``chosen`` to detect model-structure error).
+    experiments : int
+        Independent experiments in the fit.
+    model_columns : sequence of int
+        Indices of the unknowns that are model parameters.
+    length : int
+        Samples of the shortest experiment.
+
+    Returns
+    -------
+    Reliability
+        Method, spread, structure error, whether the intervals are reliable, and notes.
     """
     notes: list[str] = []
     cols = list(model_columns)
@@ -511,6 +662,18 @@ def across_and_within(across: Covariance, within: Covariance) -> Covariance:
     on how the residuals are correlated within an experiment (measured: 95 %
     with three 8 s experiments where the sandwich within them gave 81 %,
     tests/test_uncertainty.py).
+
+    Parameters
+    ----------
+    across : Covariance
+        The spread across experiments (:func:`cluster_covariance`).
+    within : Covariance
+        The sandwich within experiments, of the same unknowns.
+
+    Returns
+    -------
+    Covariance
+        Method ``"experiments"``, ``across``'s critical value, ``within``'s bandwidth and messages.
     """
     a, w = np.diag(across.matrix), np.diag(within.matrix)
     with np.errstate(invalid="ignore", divide="ignore"):

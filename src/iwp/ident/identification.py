@@ -166,6 +166,21 @@ def default_differentiator(Ts: float) -> Differentiator:
     The Savitzky-Golay filter of :data:`IDENTIFY_DIFFERENTIATOR` with the
     same window length in seconds (:data:`DEFAULT_WINDOW_SECONDS`), i.e.
     ``window = 2 round(0.25 / Ts) + 1`` samples (at least 7), cubic.
+
+    Parameters
+    ----------
+    Ts : float
+        Sample time [s], positive.
+
+    Returns
+    -------
+    Differentiator
+        :data:`IDENTIFY_DIFFERENTIATOR` itself for ``Ts = 0.005`` s, else a cubic Savitzky-Golay filter.
+
+    Raises
+    ------
+    InputError
+        ``Ts`` not a positive finite number.
     """
     if not (isinstance(Ts, (int, float)) and math.isfinite(Ts) and Ts > 0):
         raise InputError(f"Ts must be a positive number of seconds, got {Ts!r}")
@@ -498,6 +513,19 @@ def identify_dead_zone(curve: Any, *, min_fraction: float = 0.2) -> Identificati
 
     See :func:`iwp.ident.setups.dead_zone.fit_static_curve` for the method;
     the result carries ``v_dz_pos``, ``v_dz_neg`` [in] with standard errors.
+
+    Parameters
+    ----------
+    curve : StaticCurve or list of StaticCurve
+        Input ``v`` [in] (or ``u`` for a compensated curve) and steady disk velocity ``q4`` [rad/s]; several
+        curves are pooled.
+    min_fraction : float, default 0.2
+        Lower end of the straight part of each side, as a fraction of that side's largest ``|q4|``.
+
+    Returns
+    -------
+    IdentificationResult
+        Set-up ``"dead-zone"``, parameters ``v_dz_pos`` and ``v_dz_neg`` [in].
     """
     fit = fit_static_curve(curve, min_fraction=min_fraction)
     return IdentificationResult(
@@ -520,9 +548,21 @@ def load_pendulum(path: str | os.PathLike) -> Any:
     so uncertainties are kept), or any lumped parameter file / built-in name
     (values only).
 
+    Parameters
+    ----------
+    path : str or path-like
+        A JSON file as above, or the name of a built-in parameter set (``"table1"``).
+
     Returns
     -------
     IdentificationResult or LumpedParameters
+        The identification result (with uncertainties), or lumped parameters (values only).
+
+    Raises
+    ------
+    InputError
+        A file that does not read, an identification that did not succeed or has no ``p1``, or ``p1`` not
+        positive and finite.
     """
     p = Path(path)
     obj: Any = None

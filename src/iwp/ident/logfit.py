@@ -261,6 +261,25 @@ def load_logs(items, rig: RigDescription | None, *, argument: str = "logs") -> l
     """Read logs as :class:`ExperimentData`, glitches found and recorded.
 
     Paths are read with the rig description (or as iwp logs without one).
+
+    Parameters
+    ----------
+    items : str, path-like, ExperimentData or sequence of them
+        Log files or logs already read.
+    rig : RigDescription or None
+        How to read the files (another rig's logs); None: iwp's own log format.
+    argument : str, default "logs"
+        Name of the argument in error messages.
+
+    Returns
+    -------
+    list of ExperimentData
+        The logs, in order, with their glitches found.
+
+    Raises
+    ------
+    InputError
+        A missing file, an item of another type, or a file that does not read.
     """
     if isinstance(items, (str, os.PathLike, ExperimentData)):
         items = [items]
@@ -376,6 +395,20 @@ def least_squares_start(logs: Sequence[ExperimentData], *, base: LumpedParameter
     ``p1``, the friction, ``p2``, ``p3``. Where the sampling does not allow it
     (fewer than :data:`MIN_SAMPLES_PER_PERIOD` samples per pendulum period) or
     the values are not physical, ``p1`` comes from the spectrum of ``q1``.
+
+    Parameters
+    ----------
+    logs : sequence of ExperimentData
+        Training logs, with the input ``u`` and the wheel velocity.
+    base : LumpedParameters, optional
+        Parameters whose other entries (dead zone, Coulomb friction, ...) the start keeps; None (default):
+        zero frictions and defaults.
+
+    Returns
+    -------
+    LeastSquaresStart
+        The start (``p1``, ``p2``, ``p3``, ``rho``, ``sigma_a1``, ``sigma_v1``, ``sigma_b1``), the method used,
+        the least-squares values and notes.
     """
     notes: list[str] = []
     parts = [_terms(d) for d in logs]
@@ -820,6 +853,16 @@ def measured_initial_state(d: ExperimentData) -> np.ndarray:
     quadratic through the next samples), or for a speed sampled as the mean
     over the preceding period, the next two means extrapolated to ``t[0]``
     (``1.5 y[1] - 0.5 y[2]``).
+
+    Parameters
+    ----------
+    d : ExperimentData
+        The log.
+
+    Returns
+    -------
+    ndarray, shape (4,)
+        ``[q1, q2, q3, q4]`` at ``t[0]`` [rad, rad, rad/s, rad/s].
     """
     m = max(5, int(round(X0_SECONDS / d.Ts)) + 1)
     m = min(m, d.n_samples)

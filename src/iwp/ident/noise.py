@@ -132,6 +132,36 @@ def noise_covariance(setup, sig: Signals, d: Differentiator, Phi: np.ndarray, bl
 
     Returns None when it does not apply (rank deficiency, method
     ``"savgol_direct"``, nonlinear mode ``"filtered-states"``).
+
+    Parameters
+    ----------
+    setup : Setup
+        The identification set-up (its rows' noise coefficients, ``row_betas``).
+    sig : Signals
+        Stacked, filtered signals of the set-up's files.
+    d : Differentiator
+        The filter the signals were differentiated with.
+    Phi : ndarray, shape (n_rows, p)
+        Regressor matrix, one block of ``sig.n`` rows per label.
+    blocks : ndarray or None
+        Block label of each row; None: one block (unweighted).
+    labels : sequence of str
+        The block labels, in row order.
+    res : LeastSquaresResult
+        The least-squares solution.
+    vals : mapping of str to float
+        Estimated value of each unknown.
+    pend : mapping of str to float or None
+        Known pendulum parameters (two-step set-up), else None.
+    p2_known : float
+        Known ``p2`` [1/s] (0 if none).
+
+    Returns
+    -------
+    tuple of (ndarray, dict) or None
+        The covariance, shape ``(p, p)``, and the noise levels: ``"q1"``, ``"q2"`` [rad] (from the positions)
+        and ``"from_residuals"`` (the level the residuals imply per encoder) [rad]; None where it does not
+        apply.
     """
     if not res.success or d.method == "savgol_direct" or any(f["v1"] is None for f in sig.files):
         return None
@@ -189,6 +219,22 @@ def noise_covariance(setup, sig: Signals, d: Differentiator, Phi: np.ndarray, bl
 
 
 def row_weights(blocks: np.ndarray | None, res: LeastSquaresResult, n_rows: int) -> np.ndarray:
+    """Row weight (1 / block sigma) of every row, as the block-weighted least squares used them.
+
+    Parameters
+    ----------
+    blocks : ndarray or None
+        Block label of each row; None: one block.
+    res : LeastSquaresResult
+        The solution, whose ``block_sigma`` holds each block's residual standard deviation.
+    n_rows : int
+        Number of rows.
+
+    Returns
+    -------
+    ndarray, shape (n_rows,)
+        The weights; all 1 with fewer than two blocks. A non-finite sigma counts as the largest finite one.
+    """
     if blocks is None or len(res.block_sigma) < 2:
         return np.ones(n_rows)
     sig = res.block_sigma
@@ -202,7 +248,22 @@ def row_weights(blocks: np.ndarray | None, res: LeastSquaresResult, n_rows: int)
 
 
 def block_weights(blocks: np.ndarray | None, res: LeastSquaresResult, labels: Sequence[str]) -> dict[str, float]:
-    """Row weight (1 / block sigma) per block label, as the block-weighted least squares used them."""
+    """Row weight (1 / block sigma) per block label, as the block-weighted least squares used them.
+
+    Parameters
+    ----------
+    blocks : ndarray or None
+        Block label of each row; None: one block.
+    res : LeastSquaresResult
+        The solution, whose ``block_sigma`` holds each block's residual standard deviation.
+    labels : sequence of str
+        The block labels.
+
+    Returns
+    -------
+    dict of str to float
+        Weight per label; all 1 with fewer than two blocks. A non-finite sigma counts as the largest finite one.
+    """
     if blocks is None or len(res.block_sigma) < 2:
         return {lab: 1.0 for lab in labels}
     sig = list(res.block_sigma.values())

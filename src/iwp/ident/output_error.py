@@ -69,12 +69,38 @@ MIN_SAMPLES = 10
 
 
 def x0_name(state: int, experiment: int) -> str:
-    """The name of an initial state of an experiment as a fit parameter."""
+    """The name of an initial state of an experiment as a fit parameter.
+
+    Parameters
+    ----------
+    state : int
+        State index, 0 to 3 (``q1`` ... ``q4``).
+    experiment : int
+        Experiment number.
+
+    Returns
+    -------
+    str
+        ``"q1(0) of experiment 2"``.
+    """
     return f"{STATE_NAMES[state]}(0) of experiment {experiment}"
 
 
 def offset_name(output: str, experiment: int) -> str:
-    """The name of the sensor offset of an output of an experiment as a fit parameter."""
+    """The name of the sensor offset of an output of an experiment as a fit parameter.
+
+    Parameters
+    ----------
+    output : str
+        Output name (``"q1"``, ...).
+    experiment : int
+        Experiment number.
+
+    Returns
+    -------
+    str
+        ``"offset of q1 in experiment 2"``.
+    """
     return f"offset of {output} in experiment {experiment}"
 
 
@@ -82,7 +108,20 @@ def offset_name(output: str, experiment: int) -> str:
 # measured signals and states
 # --------------------------------------------------------------------------
 def replay(data: ExperimentData, input_name: str | None) -> Sampled | None:
-    """A log's input ``u`` or ``v`` replayed with a zero-order hold on its sample grid, or ``None``."""
+    """A log's input ``u`` or ``v`` replayed with a zero-order hold on its sample grid, or ``None``.
+
+    Parameters
+    ----------
+    data : ExperimentData
+        The log.
+    input_name : {"u", "v"} or None
+        Which input to replay; None gives None.
+
+    Returns
+    -------
+    Sampled or None
+        The input [input units], held from ``t[0]`` every ``Ts``; None without an input.
+    """
     if input_name is None or data.input_name is None:
         return None
     return Sampled(np.asarray(getattr(data, input_name), dtype=float), data.Ts, float(data.t[0]))
@@ -95,6 +134,26 @@ def measured_signals(data: ExperimentData, names: Sequence[str], differentiator:
     Velocities come from the log's ``q3``/``q4`` columns when present, else
     from differentiating the positions (Savitzky-Golay, 21 samples, cubic, by
     default).
+
+    Parameters
+    ----------
+    data : ExperimentData
+        The log.
+    names : sequence of str
+        Signals wanted, among ``"q1"``, ``"q2"``, ``"q3"``, ``"q4"``.
+    differentiator : Differentiator, optional
+        Filter for velocities not logged; None (default): :data:`DEFAULT_DIFFERENTIATOR`.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n,)
+        Each signal by name [rad or rad/s].
+
+    Raises
+    ------
+    InputError
+        An unknown name, ``q2`` from a log without a wheel angle, or ``q4`` from a log with neither ``q2`` nor
+        ``q4``.
     """
     out: dict[str, np.ndarray] = {}
     d = differentiator or DEFAULT_DIFFERENTIATOR
@@ -118,7 +177,24 @@ def measured_signals(data: ExperimentData, names: Sequence[str], differentiator:
 
 
 def measured_state(data: ExperimentData, index: int, differentiator: Differentiator | None = None) -> np.ndarray:
-    """The state ``[q1, q2, q3, q4]`` of a log at sample ``index``: smoothed positions, differentiated velocities."""
+    """The state ``[q1, q2, q3, q4]`` of a log at sample ``index``: smoothed positions, differentiated velocities.
+
+    Parameters
+    ----------
+    data : ExperimentData
+        The log.
+    index : int
+        Sample number (0-based).
+    differentiator : Differentiator, optional
+        Filter of the positions; None (default): :data:`DEFAULT_DIFFERENTIATOR`. A log shorter than the filter
+        uses central differences.
+
+    Returns
+    -------
+    ndarray, shape (4,)
+        ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s]; logged ``q3``/``q4`` are used as they are (``q2 = 0``
+        without a wheel angle).
+    """
     d = differentiator or DEFAULT_DIFFERENTIATOR
     q = np.column_stack([data.q1, data.q2 if data.q2 is not None else np.zeros_like(data.q1)])
     if data.n_samples >= d.min_samples(data.Ts):
@@ -167,6 +243,18 @@ def measured_state_covariance(data: ExperimentData, index: int) -> np.ndarray:
     squares gives the variance of the position and of the slope, the
     velocity. A logged speed ``q4`` is treated as a measured value with the
     spread of its own local quadratic.
+
+    Parameters
+    ----------
+    data : ExperimentData
+        The log.
+    index : int
+        Sample number (0-based).
+
+    Returns
+    -------
+    ndarray, shape (4, 4)
+        The covariance; zero rows and columns for a signal the log does not hold.
     """
     m = min(max(7, int(round(LOCAL_SECONDS / data.Ts)) + 1), data.n_samples)
     t = np.asarray(data.t, dtype=float)
@@ -192,6 +280,22 @@ def initial_state(data: ExperimentData, index: int, plant: Plant,
     Positions smoothed and velocities differentiated (:func:`measured_state`);
     a held wheel (the free-pendulum models) has ``q4 = 0``; a locked pendulum
     has ``q1 = q3 = 0``.
+
+    Parameters
+    ----------
+    data : ExperimentData
+        The log.
+    index : int
+        Sample number (0-based).
+    plant : Plant
+        The plant the state is for.
+    differentiator : Differentiator, optional
+        Filter of the positions; None (default): :data:`DEFAULT_DIFFERENTIATOR`.
+
+    Returns
+    -------
+    ndarray, shape (4,)
+        ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s].
     """
     x = measured_state(data, index, differentiator)
     if plant.wheel_held:

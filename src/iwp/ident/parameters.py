@@ -171,7 +171,25 @@ def _parse(expr: str) -> ast.Expression:
 
 
 def evaluate_expression(expr: str, values: Mapping[str, float]) -> float:
-    """The value of ``expr`` (names, numbers, ``+ - * / **``, ``sqrt exp log abs``) for the named ``values``."""
+    """The value of ``expr`` (names, numbers, ``+ - * / **``, ``sqrt exp log abs``) for the named ``values``.
+
+    Parameters
+    ----------
+    expr : str
+        The expression, in Python syntax.
+    values : mapping of str to float
+        Value of each name.
+
+    Returns
+    -------
+    float
+        The value; NaN outside an operation's domain (a division by zero, ``log`` of a negative number).
+
+    Raises
+    ------
+    InputError
+        Invalid syntax, a name not in ``values``, or an operation or function not allowed.
+    """
 
     def ev(node: ast.AST) -> float:
         if isinstance(node, ast.Expression):
@@ -398,6 +416,18 @@ def parameter_table(params: Iterable[Parameter], units: Mapping[str, str] | None
 
     The note says ``fixed`` (given, not estimated) or ``not identifiable``
     (no finite standard error). ``units`` overrides the parameters' own.
+
+    Parameters
+    ----------
+    params : iterable of Parameter
+        The estimates.
+    units : mapping of str to str, optional
+        Unit of each name, replacing the parameter's own.
+
+    Returns
+    -------
+    list of str
+        The header line, then one line per parameter.
     """
     params = list(params)
     w = max([9] + [len(p.name) for p in params])
@@ -411,7 +441,20 @@ def parameter_table(params: Iterable[Parameter], units: Mapping[str, str] | None
 
 
 def closing_lines(warnings: Sequence[str], message: str) -> list[str]:
-    """The last lines of a summary: the warnings, then the verdict."""
+    """The last lines of a summary: the warnings, then the verdict.
+
+    Parameters
+    ----------
+    warnings : sequence of str
+        Warnings (none: no ``warnings:`` line).
+    message : str
+        The verdict, last.
+
+    Returns
+    -------
+    list of str
+        The lines.
+    """
     lines = []
     if warnings:
         lines.append("warnings:")

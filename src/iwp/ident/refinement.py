@@ -117,6 +117,25 @@ def simulation_equivalent(model: str, params: LumpedParameters) -> tuple[str, Lu
 
     Every model that :func:`refine` fits (the free pendulum included) is a
     model of :mod:`iwp.models`; kept so that callers need not know it.
+
+    Parameters
+    ----------
+    model : str
+        Model name, one of :data:`REFINE_MODELS`.
+    params : LumpedParameters
+        The fitted parameters.
+
+    Returns
+    -------
+    model : str
+        ``model`` itself.
+    params : LumpedParameters
+        ``params`` itself.
+
+    Raises
+    ------
+    InputError
+        A model :func:`refine` does not fit, or ``params`` not :class:`LumpedParameters`.
     """
     fit_plant(params, model)
     return model, params
@@ -366,7 +385,23 @@ class RefineResult:
 
 
 def refine_report(residuals: OutputError, result: FitResult, start: Plant) -> RefineResult:
-    """The :class:`RefineResult` of a solved simulation-error problem (per experiment and output)."""
+    """The :class:`RefineResult` of a solved simulation-error problem (per experiment and output).
+
+    Parameters
+    ----------
+    residuals : OutputError
+        The simulation-error problem (experiments, outputs, weights).
+    result : FitResult
+        Its solution: optimum, start, estimates with standard errors, covariance.
+    start : Plant
+        The plant the fit started from (its model and parameters).
+
+    Returns
+    -------
+    RefineResult
+        Estimated parameters, fits [%] and RMS errors [rad or rad/s] per experiment and output, at the start and
+        at the optimum, initial states, offsets and the simulated signals.
+    """
     est = result.parameters
     plant = start.with_values({n: est[n].value for n in residuals.model_parameter_names()})
     model_free = tuple(n for n in result.free if est[n].kind == "model")

@@ -130,6 +130,24 @@ def fast_derivatives(d: Differentiator, Ts: float, q: np.ndarray):
     gives the same values as ``d.derivatives`` away from the ends (the
     samples identification keeps; checked in the tests), 5-10 times faster
     for a 101-sample window.
+
+    Parameters
+    ----------
+    d : Differentiator
+        The differentiator.
+    Ts : float
+        Sample time [s].
+    q : ndarray, shape (n, m)
+        Positions, one signal per column [rad].
+
+    Returns
+    -------
+    pos : ndarray, shape (n, m)
+        Smoothed positions [rad].
+    vel : ndarray, shape (n, m)
+        Velocities [rad/s].
+    acc : ndarray, shape (n, m)
+        Accelerations [rad/s^2].
     """
     if d.method != "savgol":
         return d.derivatives(Ts, q)
@@ -147,7 +165,20 @@ def fast_derivatives(d: Differentiator, Ts: float, q: np.ndarray):
 
 
 def corr_len(d: Differentiator, Ts: float) -> float:
-    """Rough correlation length [samples] of the filter's output noise."""
+    """Rough correlation length [samples] of the filter's output noise.
+
+    Parameters
+    ----------
+    d : Differentiator
+        The differentiator.
+    Ts : float
+        Sample time [s].
+
+    Returns
+    -------
+    float
+        The window for Savitzky-Golay filters, ``0.5 / (cutoff Ts)`` (at least 2) for Butterworth, else 2.
+    """
     if d.method in ("savgol", "savgol_direct"):
         return float(d.window)
     if d.method == "butter":
@@ -165,7 +196,35 @@ def as_list(data: Any) -> list:
 
 def prepare_signals(setup, datas: list, d: Differentiator, t_start, t_end, *, nonlinear: str = "filter-terms"
                     ) -> Signals:
-    """Window, differentiate, filter and stack the logs of one set-up (``setup``: a :class:`~.setups.Setup`)."""
+    """Window, differentiate, filter and stack the logs of one set-up (``setup``: a :class:`~.setups.Setup`).
+
+    Parameters
+    ----------
+    setup : Setup
+        The identification set-up (its columns, input and Coulomb needs).
+    datas : list of ExperimentData
+        Time-series logs with uniform sampling and the wheel angle ``q2``.
+    d : Differentiator
+        The differentiator (and common low-pass ``K``).
+    t_start : float or None
+        Start of the window of every log [s]; None: from the first sample.
+    t_end : float or None
+        End of the window [s]; None: to the last sample.
+    nonlinear : {"filter-terms", "filtered-states"}, default "filter-terms"
+        ``"filter-terms"``: the model's terms evaluated at the samples, then filtered by ``K`` (consistent with
+        the target); ``"filtered-states"``: the terms of the filtered states (for comparison).
+
+    Returns
+    -------
+    Signals
+        The stacked signals without the ends each filter spoils, and per-file records.
+
+    Raises
+    ------
+    InputError
+        A static curve or another object, an input the set-up cannot use (no ``u``, a raw ``v``, or a motor
+        that is on for set-up ``free``), a bad window, too few samples, non-uniform sampling, or no ``q2``.
+    """
     coulomb = setup.coulomb
     n_params = len(setup.columns)
     parts = []
@@ -267,14 +326,44 @@ def prepare_signals(setup, datas: list, d: Differentiator, t_start, t_end, *, no
 
 
 def apply_K(d: Differentiator, Ts: float, X: np.ndarray) -> np.ndarray:
-    """The common low-pass ``K`` of the differentiator on columns that are zero near both ends."""
+    """The common low-pass ``K`` of the differentiator on columns that are zero near both ends.
+
+    Parameters
+    ----------
+    d : Differentiator
+        The differentiator.
+    Ts : float
+        Sample time [s].
+    X : ndarray, shape (n, m)
+        Columns to filter.
+
+    Returns
+    -------
+    ndarray, shape (n, m)
+        The filtered columns, in ``X``'s units.
+    """
     if d.method == "savgol":
         return _convolve_same(X, d.smoothing_kernel())
     return d.smooth(Ts, X)
 
 
 def apply_KS(d: Differentiator, Ts: float, X: np.ndarray) -> np.ndarray:
-    """``K`` after the triangle average ``S`` of :func:`_tri3` (one convolution for ``"savgol"``)."""
+    """``K`` after the triangle average ``S`` of :func:`_tri3` (one convolution for ``"savgol"``).
+
+    Parameters
+    ----------
+    d : Differentiator
+        The differentiator.
+    Ts : float
+        Sample time [s].
+    X : ndarray, shape (n, m)
+        Columns to average and filter.
+
+    Returns
+    -------
+    ndarray, shape (n, m)
+        The filtered columns, in ``X``'s units.
+    """
     if d.method == "savgol":
         KS = np.convolve(d.smoothing_kernel(), np.array([1.0, 10.0, 1.0]) / 12.0)
         return _convolve_same(X, KS)

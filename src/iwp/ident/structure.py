@@ -25,7 +25,9 @@ rung                    terms freed on top of the rung before
 The rule (:func:`select`): each rung's score per scoring log is its
 simulation error there, the mean over the outputs of ``1 - fit/100`` (the
 normalised RMS error of :func:`iwp.ident.fit.fit_percent`). The best rung has
-the lowest mean score; the chosen one is the simplest whose paired log
+the lowest mean log score (the geometric mean: one log whose prediction
+wandered off, a chaotic swing over the top, does not outweigh the others);
+the chosen one is the simplest whose paired log
 ratio to the best, ``d = ln(score / best score)`` over the scoring logs, is
 not significantly above zero: ``mean(d) <= t(0.95, n - 1) se(d)`` (a
 one-sided test at 5 %), or is below ``ln(1 + MIN_GAIN)``: a structure must cut
@@ -99,12 +101,41 @@ RUNGS: dict[str, Rung] = {r.name: r for r in (
 
 
 def ladder(raw_command: bool) -> tuple[Rung, ...]:
-    """The rungs for logs whose input is a raw command ``v`` (with the dead zone rung) or a compensated ``u``."""
+    """The rungs for logs whose input is a raw command ``v`` (with the dead zone rung) or a compensated ``u``.
+
+    Parameters
+    ----------
+    raw_command : bool
+        True for logs of ``v`` (all rungs), False for logs of ``u`` (the rungs without the dead zone).
+
+    Returns
+    -------
+    tuple of Rung
+        The rungs, simplest first (the order of :data:`RUNGS`).
+    """
     return tuple(r for r in RUNGS.values() if raw_command or "dead_zone" not in r.flags)
 
 
 def rung(name: str, *, argument: str = "model") -> Rung:
-    """The rung called ``name`` (a clear error naming ``argument`` otherwise)."""
+    """The rung called ``name`` (a clear error naming ``argument`` otherwise).
+
+    Parameters
+    ----------
+    name : str
+        Rung name, a key of :data:`RUNGS`.
+    argument : str, default "model"
+        Name of the argument in the error message.
+
+    Returns
+    -------
+    Rung
+        The rung.
+
+    Raises
+    ------
+    InputError
+        Unknown name (the message lists the rungs).
+    """
     if name not in RUNGS:
         raise InputError(f"{argument}: unknown model structure {name!r}; choose from {', '.join(RUNGS)}",
                          argument=argument)
@@ -119,6 +150,22 @@ def information_criteria(cost: float, n_rows: int, n_unknowns: int) -> tuple[flo
     the unknowns (initial states and offsets included). Both assume white
     residuals, which a simulation error never has; they are shown beside the
     held-out ranking, not used for it (but with one scoring log).
+
+    Parameters
+    ----------
+    cost : float
+        Half the weighted residual sum of squares at the optimum.
+    n_rows : int
+        Residuals used.
+    n_unknowns : int
+        Estimated unknowns.
+
+    Returns
+    -------
+    aic : float
+        Akaike's criterion; NaN without rows or a positive finite cost.
+    bic : float
+        The Bayesian criterion; NaN likewise.
     """
     if n_rows <= 0 or not (cost > 0) or not math.isfinite(cost):
         return float("nan"), float("nan")
@@ -163,9 +210,10 @@ class RungOutcome:
 
     @property
     def score(self) -> float:
-        """The mean score over the scoring logs (inf if any failed)."""
+        """The geometric mean score over the scoring logs, the statistic :func:`select` ranks by (inf if any
+        failed)."""
         s = np.asarray(self.scores, dtype=float)
-        return float(np.mean(s)) if s.size and np.all(np.isfinite(s)) else float("inf")
+        return float(np.exp(np.mean(np.log(s)))) if s.size and np.all(np.isfinite(s) & (s > 0)) else float("inf")
 
 
 @dataclass(frozen=True)
@@ -213,10 +261,11 @@ def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
         bic = np.array([o.bic if u else np.inf for o, u in zip(outcomes, usable)])
         best = int(np.nanargmin(bic)) if np.isfinite(bic).any() else int(np.flatnonzero(usable)[0])
         return Selection(best, best, np.full(R, np.nan), np.full(R, np.nan), float("nan"), "BIC (no scoring log)")
-    mean = np.where(usable, S.mean(axis=1), np.inf)
-    best = int(np.argmin(mean))
     with np.errstate(divide="ignore", invalid="ignore"):
         L = np.log(np.where(S > 0, S, np.nan))
+    # the best by the statistic the rule tests (the mean log score): an arithmetic mean would let one log whose
+    # prediction wandered off (a chaotic swing) outweigh every other log and pick a worse structure as the best
+    best = int(np.argmin(np.where(usable & np.all(np.isfinite(L), axis=1), L.mean(axis=1), np.inf)))
     D = L - L[best]
     if n == 1:  # no spread to judge by: the simplest within MIN_GAIN of the best
         diff = D[:, 0]

@@ -159,6 +159,16 @@ def auto_model(data: ExperimentData) -> str:
     ``wheel: none``; ``"free"`` for other logs without input; ``"raw"``
     for logs of ``v``; ``"compensated"`` otherwise (the pendulum locked or
     not, see ``locked``).
+
+    Parameters
+    ----------
+    data : ExperimentData
+        The log (its input and metadata).
+
+    Returns
+    -------
+    str
+        ``"free-nowheel"``, ``"free"``, ``"raw"`` or ``"compensated"``.
     """
     m = data.metadata
     if data.input_name is None:
@@ -180,6 +190,36 @@ def choose_model(data: ExperimentData, model: str = "auto", *, stored: str | Non
     takes the log's input, else :func:`auto_model` with a warning naming
     ``source``. A model given explicitly must take the log's input (none,
     ``u`` or ``v``), unless the loop is closed by a simulated controller.
+
+    Parameters
+    ----------
+    data : ExperimentData
+        The log.
+    model : str, default "auto"
+        A model of :data:`~iwp.models.MODELS`, or ``"auto"``.
+    stored : str, optional
+        The model the parameter file names (:func:`~iwp.models.stored_model`).
+    closed_loop : bool, default False
+        A simulated controller closes the loop (the log's input is not replayed).
+    source : str, default "the parameter file"
+        How the warning and errors name the parameter file.
+    log : str, default "the log"
+        How the error names the log.
+
+    Returns
+    -------
+    str
+        The model name.
+
+    Raises
+    ------
+    InputError
+        ``stored`` not one of iwp's models, or an explicit ``model`` that does not take the log's input.
+
+    Warns
+    -----
+    UserWarning
+        With ``"auto"``, when the stored model does not take the log's input.
     """
     if stored is not None and stored not in MODELS:
         raise InputError(f"params {source}: its model {stored!r} is not one of iwp's models ({', '.join(MODELS)})",
@@ -207,6 +247,25 @@ def validation_plant(params, data: ExperimentData, model: str = "compensated") -
     ``"auto"`` (:func:`auto_model`); the pendulum of ``"compensated"`` and
     ``"raw"`` is clamped when the log says so (metadata ``pendulum: locked``).
     A :class:`~iwp.models.plant.Plant` is taken as it is.
+
+    Parameters
+    ----------
+    params : LumpedParameters, PhysicalParameters or Plant
+        The parameters (physical ones are mapped to lumped ones).
+    data : ExperimentData
+        The log (its input, and metadata ``pendulum``).
+    model : str, default "compensated"
+        One of :data:`~iwp.ident.refinement.REFINE_MODELS`, or ``"auto"``; ignored for a plant.
+
+    Returns
+    -------
+    Plant
+        The plant.
+
+    Raises
+    ------
+    InputError
+        ``params`` of another type, or an unknown model.
     """
     if isinstance(params, Plant):
         return params

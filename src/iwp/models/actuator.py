@@ -149,12 +149,44 @@ def _apply(kernel, x, *args):
 
 
 def dead_zone(v, v_dz_pos: float, v_dz_neg: float):
-    """The dead-zone saturation ``f(v)`` of (5) in input units (element-wise)."""
+    """The dead-zone saturation ``f(v)`` of (5) in input units (element-wise).
+
+    Parameters
+    ----------
+    v : float or array_like
+        Commanded input ``v`` [input units].
+    v_dz_pos : float
+        Threshold ``v+`` of the dead zone for positive inputs [input units].
+    v_dz_neg : float
+        Threshold ``v-`` for negative inputs, as a magnitude (``f(v) = -v-`` below ``-v-``) [input units].
+
+    Returns
+    -------
+    float or ndarray
+        ``f(v)``: ``v`` clipped to ``[-v-, v+]`` [input units]; a float for a scalar ``v``, else an array of
+        ``v``'s shape.
+    """
     return _apply(lambda x, out: _dead_zone_array(x, float(v_dz_pos), float(v_dz_neg), out, False), v)
 
 
 def dead_zone_output(v, v_dz_pos: float, v_dz_neg: float):
-    """The net input ``v - f(v)`` that reaches the disk through the dead zone (5) (element-wise)."""
+    """The net input ``v - f(v)`` that reaches the disk through the dead zone (5) (element-wise).
+
+    Parameters
+    ----------
+    v : float or array_like
+        Commanded input ``v`` [input units].
+    v_dz_pos : float
+        Threshold ``v+`` of the dead zone for positive inputs [input units].
+    v_dz_neg : float
+        Threshold ``v-`` for negative inputs, as a magnitude [input units].
+
+    Returns
+    -------
+    float or ndarray
+        ``v - f(v)`` [input units]: zero inside ``[-v-, v+]``, ``v - v+`` above and ``v + v-`` below; a float
+        for a scalar ``v``, else an array of ``v``'s shape.
+    """
     return _apply(lambda x, out: _dead_zone_array(x, float(v_dz_pos), float(v_dz_neg), out, True), v)
 
 
@@ -164,6 +196,20 @@ def feedforward(u, v_dz_pos: float, v_dz_neg: float | None = None):
     ``v = u + v+`` for ``u > 0``, ``u - v-`` for ``u < 0`` and ``0`` for
     ``u = 0``, with asymmetric thresholds (``v_dz_neg`` defaults to
     ``v_dz_pos``; the paper uses ``v+ = v- = 31``).
+
+    Parameters
+    ----------
+    u : float or array_like
+        Input ``u`` the controller asks for [input units].
+    v_dz_pos : float
+        Threshold ``v+`` added for ``u > 0`` [input units].
+    v_dz_neg : float or None, optional
+        Threshold ``v-`` subtracted for ``u < 0``, as a magnitude [input units]; ``None`` (default): ``v_dz_pos``.
+
+    Returns
+    -------
+    float or ndarray
+        Command ``v`` (8) [input units]; a float for a scalar ``u``, else an array of ``u``'s shape.
     """
     if v_dz_neg is None:
         v_dz_neg = v_dz_pos

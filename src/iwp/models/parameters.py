@@ -157,7 +157,23 @@ def _names_with_sign(owner: str, sign: str) -> tuple[str, ...]:
 
 
 def parameter_info(name: str) -> ParameterInfo:
-    """The :class:`ParameterInfo` of a parameter name; a clear error for an unknown one."""
+    """The :class:`ParameterInfo` of a parameter name; a clear error for an unknown one.
+
+    Parameters
+    ----------
+    name : str
+        Parameter name (a key of :data:`PARAMETER_INFO`, e.g. ``"p1"``).
+
+    Returns
+    -------
+    ParameterInfo
+        Its description, unit and role.
+
+    Raises
+    ------
+    InputError
+        Unknown name (the message lists the known ones).
+    """
     try:
         return PARAMETER_INFO[name]
     except KeyError:
@@ -559,7 +575,23 @@ _NAMED = {"table1": table1}
 
 
 def named_params(name: str) -> LumpedParameters:
-    """A built-in parameter set by name (``"table1"``)."""
+    """A built-in parameter set by name (``"table1"``).
+
+    Parameters
+    ----------
+    name : str
+        Name of the built-in set; only ``"table1"`` (the paper's Table 1) is built in.
+
+    Returns
+    -------
+    LumpedParameters
+        A new copy of that set.
+
+    Raises
+    ------
+    InputError
+        Unknown name (the message lists the built-in sets).
+    """
     try:
         return _NAMED[name]()
     except KeyError:
@@ -619,7 +651,18 @@ _OTHER_FILES = {"iwp-fit": "iwp fit's fit.json"}
 
 def stored_model(path_or_name: str | Path) -> str | None:
     """The model a parameter file says its parameters were fitted with (its ``"model"`` entry, or that of its
-    ``"refinement"``), or None (a built-in set, no such entry, a file that does not read)."""
+    ``"refinement"``), or None (a built-in set, no such entry, a file that does not read).
+
+    Parameters
+    ----------
+    path_or_name : str or path-like
+        Path of a parameter file (JSON), or the name of a built-in set (which gives None).
+
+    Returns
+    -------
+    str or None
+        The model name stored in the file, or None. Never raises for a bad file: :func:`load_params` reports it.
+    """
     path = Path(str(path_or_name))
     if str(path_or_name) in _NAMED or not path.is_file():
         return None

@@ -135,7 +135,23 @@ _CLAMPABLE = ("raw", "compensated", "belt-full")
 
 
 def model_info(model: str) -> ModelInfo:
-    """The :class:`ModelInfo` of a model name; a clear error for an unknown one."""
+    """The :class:`ModelInfo` of a model name; a clear error for an unknown one.
+
+    Parameters
+    ----------
+    model : str
+        Model name, one of :data:`MODELS`.
+
+    Returns
+    -------
+    ModelInfo
+        The model's description.
+
+    Raises
+    ------
+    InputError
+        Not a string, or an unknown model (the message lists the valid names).
+    """
     if not isinstance(model, str) or model not in MODELS:
         raise InputError(f"unknown model {model!r}; choose one of: {', '.join(MODELS)}")
     return MODELS[model]
@@ -359,7 +375,26 @@ EXPERIMENT_KINDS: dict[str, str] = {
 
 
 def plant_for_kind(plant: Plant, kind: str) -> Plant:
-    """The plant an experiment of ``kind`` (:data:`EXPERIMENT_KINDS`) simulates, with ``plant``'s parameters."""
+    """The plant an experiment of ``kind`` (:data:`EXPERIMENT_KINDS`) simulates, with ``plant``'s parameters.
+
+    Parameters
+    ----------
+    plant : Plant
+        The plant whose parameters (and Coulomb smoothing) are used.
+    kind : str
+        Experiment kind, one of :data:`EXPERIMENT_KINDS`: ``"clamped"`` locks the pendulum, ``"wheel-locked"``
+        holds the wheel (the ``"free"`` pendulum model); any other kind keeps ``plant``.
+
+    Returns
+    -------
+    Plant
+        ``plant`` itself when it already fits the kind, else a new plant.
+
+    Raises
+    ------
+    InputError
+        Unknown ``kind``.
+    """
     if kind not in EXPERIMENT_KINDS:
         raise InputError(f"unknown experiment kind {kind!r}; choose among {', '.join(EXPERIMENT_KINDS)}",
                          argument="kind")

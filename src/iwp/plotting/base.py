@@ -22,7 +22,31 @@ SIGNAL_LABELS = {
 
 
 def stacked_axes(n: int, axes=None, sharex=True, figsize=None):
-    """``(figure, [n axes])``: the caller's axes (checked to be ``n``) or ``n`` new stacked panels."""
+    """``(figure, [n axes])``: the caller's axes (checked to be ``n``) or ``n`` new stacked panels.
+
+    Parameters
+    ----------
+    n : int
+        Number of panels.
+    axes : matplotlib Axes or sequence of Axes, optional
+        The caller's axes (one Axes for ``n = 1``); None (default): a new figure.
+    sharex : bool, default True
+        New panels share the x axis.
+    figsize : (float, float), optional
+        Size of a new figure [inch]; default ``(7, 1.8 n + 0.8)``.
+
+    Returns
+    -------
+    figure : matplotlib.figure.Figure
+        The figure of the axes.
+    axes : list of matplotlib Axes
+        The ``n`` axes, top to bottom.
+
+    Raises
+    ------
+    ValueError
+        ``axes`` does not hold ``n`` axes.
+    """
     if axes is not None:
         axes = list(axes) if hasattr(axes, "__len__") else [axes]
         if len(axes) != n:
@@ -34,7 +58,22 @@ def stacked_axes(n: int, axes=None, sharex=True, figsize=None):
 
 
 def savefig(fig, path, *, dpi=150):
-    """Save ``fig`` to ``path`` (format from the extension) and close it."""
+    """Save ``fig`` to ``path`` (format from the extension) and close it.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        Figure to save.
+    path : str or path-like
+        Output file; its extension chooses the format (``.png``, ``.pdf``, ``.svg``, ...).
+    dpi : float, default 150
+        Resolution of raster formats [dots per inch].
+
+    Returns
+    -------
+    str or path-like
+        ``path``, as given.
+    """
     fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path

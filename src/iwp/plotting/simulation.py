@@ -59,6 +59,25 @@ def plot_comparison(t, measured, simulated, *, name="q4", ax=None, error_ax=None
     95 % parameter and prediction bands (:class:`iwp.sim.uncertainty.PredictionBand`),
     shaded around the simulation.
 
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Sample times [s].
+    measured : ndarray, shape (n,)
+        Measured signal [rad or rad/s].
+    simulated : ndarray, shape (n,)
+        Simulated signal at the same times [rad or rad/s].
+    name : str, default "q4"
+        Signal name (``"q1"`` ... ``"q4"``), for the axis labels.
+    ax : matplotlib Axes, optional
+        Axes of the signals; None (default): a new figure with the signals above and the error below.
+    error_ax : matplotlib Axes, optional
+        Axes of the error ``measured - simulated``; only used with ``ax`` (None: no error panel).
+    labels : (str, str), default ("experimental data", "numerical simulation")
+        Legend labels of the measured and the simulated signal.
+    band : tuple of 4 ndarray, shape (n,), optional
+        ``(lower, upper, pred_lower, pred_upper)`` bounds of the 95 % parameter and prediction bands.
+
     Returns
     -------
     dict

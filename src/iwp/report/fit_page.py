@@ -81,10 +81,25 @@ def _shown(fits: list) -> list:
 def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> dict:
     """Write the files of a :class:`~iwp.ident.logfit.LogFitResult` into the folder ``out`` (see the module).
 
+    Parameters
+    ----------
+    result : LogFitResult
+        What :func:`~iwp.ident.logfit.fit_logs` returned.
+    out : str or path-like
+        Output folder: ``report.html``, ``fit.json``, ``parameters.json`` and ``figures/``. The files are written
+        into a hidden sibling and moved into place only when all are written.
+    force : bool, default False
+        Allow writing into an existing folder that is not empty.
+
     Returns
     -------
     dict
         ``{"folder": Path, "report": Path, "json": Path, "parameters": Path, "figures": [Path]}``.
+
+    Raises
+    ------
+    InputError
+        ``out`` exists and is not empty, without ``force``.
     """
     out = Path(out)
     r = result.refinement
@@ -148,7 +163,8 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                 f"Model structures, ranked on {lad.scored_on} ({lad.n_scored} logs)",
                 ["structure", "free parameters"] + [f"fit {k} [%]" for k in outs]
                 + ["score", "ln(score / best)", "BIC (training)", "converged"], lrows,
-                note="score: the mean over the signals of 1 - fit/100 on each scoring log, averaged; chosen: the "
+                note="score: the mean over the signals of 1 - fit/100 on each scoring log, geometric mean over the "
+                     "logs; best: the lowest score; chosen: the "
                      "simplest structure whose log ratio to the best is not significantly above zero (one-sided "
                      f"t-test at 5 %, {sel.method}); BIC assumes white residuals and is shown for comparison only"))
         if len(shown) < len(result.validation):

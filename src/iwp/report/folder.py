@@ -17,7 +17,26 @@ PLOT_POINTS = 3000
 
 
 def save_figure(fig, out_dir: str | os.PathLike, name: str, *, dpi: int = 110) -> tuple[bytes, list[Path]]:
-    """Save ``fig`` as ``out_dir/figures/NAME.png`` and ``.svg``; close it; return the PNG bytes and the paths."""
+    """Save ``fig`` as ``out_dir/figures/NAME.png`` and ``.svg``; close it; return the PNG bytes and the paths.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure; it is closed.
+    out_dir : str or path-like
+        Report folder; ``figures/`` is created in it.
+    name : str
+        File name without extension.
+    dpi : int, default 110
+        Resolution of the PNG [dots per inch].
+
+    Returns
+    -------
+    png : bytes
+        Contents of the PNG file.
+    paths : list of Path
+        The PNG and the SVG file.
+    """
     import matplotlib.pyplot as plt
 
     d = Path(out_dir) / "figures"
@@ -40,6 +59,22 @@ def decimate(t, y, n_max: int = PLOT_POINTS) -> tuple[np.ndarray, np.ndarray]:
 
     Series with at most ``n_max`` points are returned as they are. Used by
     the pipeline so that SVG figures stay small; plotting computes nothing.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        Sample times [s].
+    y : array_like, shape (n,)
+        Signal (any unit); NaN samples are never chosen as a bucket's extreme.
+    n_max : int, default PLOT_POINTS
+        Largest number of points kept (about); below 4 nothing is dropped.
+
+    Returns
+    -------
+    t : ndarray, shape (m,)
+        The kept times [s], first and last included.
+    y : ndarray, shape (m,)
+        The kept values, in ``y``'s unit.
     """
     t = np.asarray(t, dtype=float)
     y = np.asarray(y, dtype=float)

@@ -115,7 +115,20 @@ class Report:
 # formatting
 # --------------------------------------------------------------------------
 def fmt(x: Any, digits: int = 4) -> str:
-    """A number for a table: ``digits`` significant digits, ``-`` for None/NaN."""
+    """A number for a table: ``digits`` significant digits, ``-`` for None/NaN.
+
+    Parameters
+    ----------
+    x : object
+        A number (a string is returned as it is, anything else not a number as ``str(x)``).
+    digits : int, default 4
+        Significant digits; scientific notation for ``|x| >= 1e5`` or ``|x| < 1e-4``.
+
+    Returns
+    -------
+    str
+        The text; ``"-"`` for None and NaN, ``"inf"``/``"-inf"``, ``"0"`` for zero.
+    """
     if x is None:
         return "-"
     if isinstance(x, str):
@@ -213,7 +226,18 @@ def _statements_html(statements: Sequence[Statement]) -> str:
 
 
 def render_html(report: Report) -> str:
-    """The page as one self-contained HTML string (no external resources)."""
+    """The page as one self-contained HTML string (no external resources).
+
+    Parameters
+    ----------
+    report : Report
+        The page's content.
+
+    Returns
+    -------
+    str
+        The HTML document, CSS and script inline, figures as embedded images.
+    """
     parts = [
         "<!DOCTYPE html>",
         '<html lang="en"><head><meta charset="utf-8">',
@@ -249,7 +273,27 @@ def render_html(report: Report) -> str:
 
 
 def write_html(report: Report, path: str | os.PathLike, *, force: bool = False) -> Path:
-    """Render ``report`` and write it to ``path`` (refuses an existing file unless ``force``)."""
+    """Render ``report`` and write it to ``path`` (refuses an existing file unless ``force``).
+
+    Parameters
+    ----------
+    report : Report
+        The page's content.
+    path : str or path-like
+        Output file; its folder is created.
+    force : bool, default False
+        Allow overwriting an existing file.
+
+    Returns
+    -------
+    Path
+        The written file.
+
+    Raises
+    ------
+    InputError
+        ``path`` exists (without ``force``) or is a folder.
+    """
     p = prepare_output_file(path, force=force)
     p.write_text(render_html(report), encoding="utf-8")
     return p

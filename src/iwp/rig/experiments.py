@@ -153,7 +153,18 @@ def list_experiments() -> list[ExperimentSpec]:
 
 
 def experiment_spec(name: str) -> ExperimentSpec:
-    """The experiment ``name``; an :class:`InputError` listing the valid names for an unknown one."""
+    """The experiment ``name``; an :class:`InputError` listing the valid names for an unknown one.
+
+    Parameters
+    ----------
+    name : str
+        Experiment name, a key of :data:`EXPERIMENTS`.
+
+    Returns
+    -------
+    ExperimentSpec
+        The experiment's description and default settings.
+    """
     if not isinstance(name, str) or name not in EXPERIMENTS:
         raise InputError(f"unknown experiment {name!r}; valid: {', '.join(EXPERIMENTS)}")
     return EXPERIMENTS[name]
@@ -164,6 +175,24 @@ def open_loop_input(name: str, settings: Mapping[str, Any]) -> Input | None:
 
     The sinusoids ``u = A sin(omega t)`` (figures 3, 4) and the chirps
     ``u = A sin((w0 + t/tau) t)`` (section 5.1 and eq. (16)).
+
+    Parameters
+    ----------
+    name : str
+        Experiment name.
+    settings : mapping of str to object
+        Its settings: ``amplitude`` [input units], and ``omega`` [rad/s] (sinusoids) or ``w0`` [rad/s] and
+        ``tau`` [s^2/rad] (chirps).
+
+    Returns
+    -------
+    Input or None
+        :class:`Sine` for ``"sine-*"``, :class:`Chirp` for ``"*chirp"``, None otherwise.
+
+    Raises
+    ------
+    InputError
+        A non-finite amplitude.
     """
     if name.startswith("sine-"):
         return Sine(check_finite("amplitude", settings["amplitude"]), settings["omega"])

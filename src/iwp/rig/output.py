@@ -22,6 +22,26 @@ def check_output_path(name: str, path: str | os.PathLike, *, force: bool = False
     Static curves are CSV (``.csv``/``.txt``); time series are CSV, Parquet
     or MAT by extension (see :func:`iwp.data.write_experiment`). Refuses an
     existing file unless ``force``.
+
+    Parameters
+    ----------
+    name : str
+        Experiment name.
+    path : str or path-like
+        Output file.
+    force : bool, default False
+        Allow overwriting an existing file.
+
+    Returns
+    -------
+    Path
+        The checked path.
+
+    Raises
+    ------
+    InputError
+        Unknown experiment, an extension the result cannot be written as, a folder, or an existing file
+        without ``force``.
     """
     experiment_spec(name)
     suffixes = _STATIC_EXT if name.startswith("static-curve") else _SERIES_EXT
@@ -29,7 +49,27 @@ def check_output_path(name: str, path: str | os.PathLike, *, force: bool = False
 
 
 def write_result(result, path: str | os.PathLike, *, force: bool = False) -> Path:
-    """Write what :meth:`iwp.rig.VirtualRig.run` returned: a static curve as CSV, a log by extension."""
+    """Write what :meth:`iwp.rig.VirtualRig.run` returned: a static curve as CSV, a log by extension.
+
+    Parameters
+    ----------
+    result : ExperimentData or StaticCurve
+        What the experiment returned.
+    path : str or path-like
+        Output file; a static curve needs ``.csv`` or ``.txt``, a log ``.csv``, ``.parquet`` or ``.mat``.
+    force : bool, default False
+        Allow overwriting an existing file.
+
+    Returns
+    -------
+    Path
+        The written file.
+
+    Raises
+    ------
+    InputError
+        Another kind of result, or an extension the result cannot be written as.
+    """
     if isinstance(result, StaticCurve):
         if Path(path).suffix.lower() not in _STATIC_EXT:
             raise InputError(f"{path}: a static curve is written as CSV; use the extension .csv or .txt")

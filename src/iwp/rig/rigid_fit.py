@@ -25,6 +25,29 @@ def rigid_fit_error(name: str, *, truth: RigTruth | None = None, seed: int = 0, 
     returns ``std(q4_rigid - q4_true) / std(q4_true)`` over ``t >= skip``
     [s], with ``q4_true`` the truth's disk velocity (column ``true_q4``):
     the error ``e`` of figures 3 and 4 in relative form.
+
+    Parameters
+    ----------
+    name : str
+        Experiment with an open-loop input.
+    truth : RigTruth, optional
+        The virtual rig's truth (default: :func:`default_truth`).
+    seed : int, default 0
+        Seed of the rig's noise.
+    skip : float, default 5.0
+        Start of the compared part [s].
+    **overrides
+        Options of the experiment (as :meth:`VirtualRig.run`).
+
+    Returns
+    -------
+    float
+        The relative error [-].
+
+    Raises
+    ------
+    InputError
+        An experiment without an open-loop input, or a bad option.
     """
     rig = VirtualRig(truth, seed=seed)
     log = rig.run(name, **overrides)

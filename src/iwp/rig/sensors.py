@@ -33,7 +33,20 @@ __all__ = ["pendulum_reading", "wheel_reading", "motor_current", "time_reading"]
 
 
 def time_reading(t, rig: RigDescription) -> np.ndarray:
-    """Times [s] in the unit of the rig's time column."""
+    """Times [s] in the unit of the rig's time column.
+
+    Parameters
+    ----------
+    t : array_like
+        Times [s].
+    rig : RigDescription
+        The rig, whose ``time.unit`` is ``"s"``, ``"ms"`` or ``"us"``.
+
+    Returns
+    -------
+    ndarray
+        The times in that unit.
+    """
     return np.asarray(t, dtype=float) / TIME_UNITS[rig.time.unit]
 
 
@@ -106,6 +119,31 @@ def motor_current(w, q4, *, p3: float, p2_emf: float, amps_per_accel: float, uni
     ``i = amps_per_accel * (p3 w - p2_emf q4)``: the current is the motor
     torque over ``kT`` (section 2), here in the lumped units of model (9)
     (``p3 w - p2_emf q4`` is the motor torque over ``I1_hat``) [A, or mA with ``unit``].
+
+    Parameters
+    ----------
+    w : array_like
+        Model input ``w`` that reaches the motor [input units].
+    q4 : array_like
+        Wheel velocity [rad/s], of ``w``'s shape.
+    p3 : float
+        Input gain [rad s^-2 per input unit].
+    p2_emf : float
+        Back-emf part of ``p2`` [1/s].
+    amps_per_accel : float
+        Current per motor torque over ``I1_hat`` [A per rad s^-2].
+    unit : {"A", "mA"}, default "A"
+        Unit of the result.
+
+    Returns
+    -------
+    ndarray
+        The current [``unit``].
+
+    Raises
+    ------
+    InputError
+        Unknown ``unit``.
     """
     if unit not in CURRENT_UNITS:
         raise InputError(f"unit must be one of {', '.join(CURRENT_UNITS)}, got {unit!r}")

@@ -401,5 +401,27 @@ class VirtualRig:
 
 
 def run_experiment(name: str, *, truth: RigTruth | None = None, seed: int = 0, **overrides):
-    """``VirtualRig(truth, seed).run(name, **overrides)``: one experiment of the default rig."""
+    """``VirtualRig(truth, seed).run(name, **overrides)``: one experiment of the default rig.
+
+    Parameters
+    ----------
+    name : str
+        Experiment name (:func:`iwp.rig.list_experiments`).
+    truth : RigTruth, optional
+        The rig's truth (default: :func:`default_truth`).
+    seed : int, default 0
+        Seed of the rig's noise.
+    **overrides
+        Options of the experiment (see :meth:`VirtualRig.run`).
+
+    Returns
+    -------
+    ExperimentData or StaticCurve
+        The log, or a static curve.
+
+    Raises
+    ------
+    InputError
+        Unknown experiment, an option it does not take, or a bad value.
+    """
     return VirtualRig(truth, seed=seed).run(name, **overrides)

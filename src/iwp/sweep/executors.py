@@ -137,7 +137,28 @@ class DaskExecutor:
 
 
 def make_executor(*, scheduler: str | None = None, workers: int | None = None, threads: int | None = None):
-    """:class:`DaskExecutor` when ``scheduler`` or ``workers`` is given, else :class:`LocalExecutor`."""
+    """:class:`DaskExecutor` when ``scheduler`` or ``workers`` is given, else :class:`LocalExecutor`.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        Address of a Dask scheduler (``"tcp://host:8786"``).
+    workers : int, optional
+        Number of workers of a local Dask cluster.
+    threads : int, optional
+        Engine threads of a local run (default: all cores); not with ``scheduler`` or ``workers``.
+
+    Returns
+    -------
+    DaskExecutor or LocalExecutor
+        The executor.
+
+    Raises
+    ------
+    InputError
+        ``threads`` with a Dask run or not a positive integer, or a Dask run without ``distributed``
+        installed.
+    """
     if scheduler is not None or workers is not None:
         if threads is not None:
             raise InputError("threads is for a local run; a Dask worker runs one engine thread per worker thread",

@@ -345,7 +345,26 @@ class LaneSet:
 
 
 def lanes_of_chunk(spec: SweepSpec, index: int) -> LaneSet:
-    """The lanes of chunk ``index`` with their grid values and draws (seeded by the chunk's index)."""
+    """The lanes of chunk ``index`` with their grid values and draws (seeded by the chunk's index).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        The sweep.
+    index : int
+        Chunk index, from 0 to ``spec.n_chunks - 1``.
+
+    Returns
+    -------
+    LaneSet
+        The chunk's lanes; a lane whose parameters leave the physical range keeps ``spec.params`` and is marked
+        not physical.
+
+    Raises
+    ------
+    InputError
+        ``index`` outside the chunks.
+    """
     lanes = np.arange(spec.chunk_range(index).start, spec.chunk_range(index).stop)
     m = lanes.size
     values: dict[str, np.ndarray] = {}
@@ -441,6 +460,27 @@ def spec_from_dict(doc, *, where: str = "spec", base: Path | None = None, **over
     ``params`` and ``uncertainty`` are built-in names or file paths, relative to
     ``base`` (the spec file's folder). ``overrides`` replace keys of ``doc``
     (``chunk_size=...``).
+
+    Parameters
+    ----------
+    doc : dict
+        The spec's JSON form.
+    where : str, default "spec"
+        What the errors name as the source.
+    base : Path, optional
+        Folder that relative file names in ``doc`` are relative to; None: the working folder.
+    **overrides
+        Keys of ``doc`` replaced; None values are ignored.
+
+    Returns
+    -------
+    SweepSpec
+        The sweep.
+
+    Raises
+    ------
+    InputError
+        Not an object, an unknown key, an unreadable parameter or uncertainty file, or a bad value.
     """
     if not isinstance(doc, dict):
         raise InputError(f"{where}: expected a JSON object")
@@ -504,7 +544,27 @@ def spec_from_dict(doc, *, where: str = "spec", base: Path | None = None, **over
 
 
 def load_spec(path, *, argument: str = "spec", **overrides) -> SweepSpec:
-    """The :class:`SweepSpec` of a JSON file (paths inside it are relative to the file's folder)."""
+    """The :class:`SweepSpec` of a JSON file (paths inside it are relative to the file's folder).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The spec file (JSON, docs/sweeps.md).
+    argument : str, default "spec"
+        Name of the argument in error messages.
+    **overrides
+        Keys of the spec replaced (``chunk_size=...``); None values are ignored.
+
+    Returns
+    -------
+    SweepSpec
+        The sweep.
+
+    Raises
+    ------
+    InputError
+        A file that does not read as JSON, or a bad spec (the message names the file and the key).
+    """
     p = Path(path)
     doc = read_json(p, argument=argument)
     return spec_from_dict(doc, where=f"{argument} {p}", base=p.parent, **overrides)

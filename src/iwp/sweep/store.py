@@ -64,7 +64,23 @@ INT_COLUMNS = ("lane", "status", "rotating", "captured", "nfev")
 
 
 def read_table(path) -> dict[str, np.ndarray]:
-    """A sweep's CSV table (a chunk file or ``results.csv``) as columns; lane, status, flags and counts as integers."""
+    """A sweep's CSV table (a chunk file or ``results.csv``) as columns; lane, status, flags and counts as integers.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The CSV file, with a header line.
+
+    Returns
+    -------
+    dict of str to ndarray, shape (n,)
+        Each column by its header name; float, or int64 for :data:`INT_COLUMNS`.
+
+    Raises
+    ------
+    DataFormatError
+        An empty file, a body that is not numbers, or rows of another width than the header.
+    """
     p = Path(path)
     with open(p, encoding="utf-8") as f:
         names = f.readline().strip().split(",")

@@ -72,11 +72,21 @@ uint16_t iwp_core_tx_take(iwp_core_t *c, uint8_t *buf, uint16_t max)
     return n;
 }
 
-static void ack(iwp_core_t *c, uint8_t msg, uint8_t code, uint8_t param, float value)
+/* Every request answered by ACK starts with its req (u16 at byte 1), echoed so that the host takes only the ACK
+ * of the attempt it waits for. */
+_Static_assert(IWP_OFF_GET_PARAM_REQ == 1 && IWP_OFF_SET_PARAM_REQ == 1 && IWP_OFF_ARM_REQ == 1 &&
+               IWP_OFF_DISARM_REQ == 1 && IWP_OFF_ESTOP_REQ == 1 && IWP_OFF_CLEAR_REQ == 1 &&
+               IWP_OFF_ZERO_REQ == 1 && IWP_OFF_MODE_REQ == 1 && IWP_OFF_FIXTURE_REQ == 1 &&
+               IWP_OFF_STREAM_REQ == 1, "req is the first field of every acknowledged request");
+
+/* The ACK of request m (its type and req) */
+static void ack(iwp_core_t *c, const uint8_t *m, uint8_t code, uint8_t param, float value)
 {
     uint8_t b[IWP_MSG_ACK_SIZE];
     b[0] = IWP_MSG_ACK;
-    b[IWP_OFF_ACK_MSG] = msg;
+    b[IWP_OFF_ACK_REQ] = m[1];
+    b[IWP_OFF_ACK_REQ + 1] = m[2];
+    b[IWP_OFF_ACK_MSG] = m[0];
     b[IWP_OFF_ACK_CODE] = code;
     b[IWP_OFF_ACK_PARAM] = param;
     put_f32(b + IWP_OFF_ACK_VALUE, value);
@@ -249,8 +259,8 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
     case IWP_MSG_GET_PARAM: {
         if (n != IWP_MSG_GET_PARAM_SIZE) break;
         uint8_t id = m[IWP_OFF_GET_PARAM_PARAM];
-        if (id >= IWP_N_PARAMS) ack(c, type, IWP_ACK_BAD_PARAM, id, 0.0f);
-        else ack(c, type, IWP_ACK_OK, id, c->p[id]);
+        if (id >= IWP_N_PARAMS) ack(c, m, IWP_ACK_BAD_PARAM, id, 0.0f);
+        else ack(c, m, IWP_ACK_OK, id, c->p[id]);
         return;
     }
     case IWP_MSG_SET_PARAM: {
@@ -258,7 +268,7 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
         uint8_t id = m[IWP_OFF_SET_PARAM_PARAM];
         uint8_t code = c->state == IWP_STATE_ARMED ? IWP_ACK_ARMED
                                                    : set_param(c, id, get_f32(m + IWP_OFF_SET_PARAM_VALUE));
-        ack(c, type, code, id, id < IWP_N_PARAMS ? c->p[id] : 0.0f);
+        ack(c, m, code, id, id < IWP_N_PARAMS ? c->p[id] : 0.0f);
         return;
     }
     case IWP_MSG_ARM: {
@@ -266,24 +276,26 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
         uint8_t code = IWP_ACK_OK;
         if (c->state == IWP_STATE_FAULT || c->state == IWP_STATE_ESTOP) code = IWP_ACK_FAULT;
         else if (outside_limits(c) != IWP_FAULT_NONE) code = IWP_ACK_LIMIT;
-        else if (c->state != IWP_STATE_ARMED) {
-            motor_off(c);
-            c->state = IWP_STATE_ARMED;
-            c->fed_us = c->t_us;
+        else {
+            if (c->state != IWP_STATE_ARMED) {
+                motor_off(c);
+                c->state = IWP_STATE_ARMED;
+            }
+            c->fed_us = c->t_us; /* a repeated ARM (its first ACK lost) feeds the watchdog too */
         }
-        ack(c, type, code, 0, 0.0f);
+        ack(c, m, code, 0, 0.0f);
         return;
     }
     case IWP_MSG_DISARM:
         if (n != IWP_MSG_DISARM_SIZE) break;
         if (c->state == IWP_STATE_ARMED) c->state = IWP_STATE_DISARMED;
         motor_off(c);
-        ack(c, type, IWP_ACK_OK, 0, 0.0f);
+        ack(c, m, IWP_ACK_OK, 0, 0.0f);
         return;
     case IWP_MSG_ESTOP:
         if (n != IWP_MSG_ESTOP_SIZE) break;
         trip(c, IWP_FAULT_ESTOP);
-        ack(c, type, IWP_ACK_OK, 0, 0.0f);
+        ack(c, m, IWP_ACK_OK, 0, 0.0f);
         return;
     case IWP_MSG_CLEAR:
         if (n != IWP_MSG_CLEAR_SIZE) break;
@@ -292,19 +304,19 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
             c->fault = IWP_FAULT_NONE;
         }
         motor_off(c);
-        ack(c, type, IWP_ACK_OK, 0, 0.0f);
+        ack(c, m, IWP_ACK_OK, 0, 0.0f);
         return;
     case IWP_MSG_ZERO: {
         if (n != IWP_MSG_ZERO_SIZE) break;
         if (c->state == IWP_STATE_ARMED) {
-            ack(c, type, IWP_ACK_ARMED, 0, 0.0f);
+            ack(c, m, IWP_ACK_ARMED, 0, 0.0f);
             return;
         }
         uint8_t mask = m[IWP_OFF_ZERO_MASK];
         if (mask & 1) { c->off1 += c->c1; c->c1 = 0; c->q1 = 0.0f; }
         if (mask & 2) { c->off2 += c->c2; c->c2 = 0; }
         c->have_prev = 0;
-        ack(c, type, IWP_ACK_OK, 0, 0.0f);
+        ack(c, m, IWP_ACK_OK, 0, 0.0f);
         return;
     }
     case IWP_MSG_COMMAND: {
@@ -338,7 +350,7 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
                  (mode == IWP_MODE_STATE_FEEDBACK && (c->caps & IWP_CAP_STATE_FEEDBACK)))
             c->mode = mode;
         else code = IWP_ACK_BAD_MODE;
-        ack(c, type, code, 0, (float)c->mode);
+        ack(c, m, code, 0, (float)c->mode);
         return;
     }
     case IWP_MSG_FIXTURE: {
@@ -353,13 +365,13 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
             c->fixture_action = action;
             c->fixture_q1 = q1;
         }
-        ack(c, type, code, 0, (float)action);
+        ack(c, m, code, 0, (float)action);
         return;
     }
     case IWP_MSG_STREAM:
         if (n != IWP_MSG_STREAM_SIZE) break;
         c->stream_every = m[IWP_OFF_STREAM_EVERY];
-        ack(c, type, IWP_ACK_OK, 0, (float)c->stream_every);
+        ack(c, m, IWP_ACK_OK, 0, (float)c->stream_every);
         return;
     default:
         break;

@@ -3,8 +3,8 @@
 #ifndef IWP_PROTOCOL_H
 #define IWP_PROTOCOL_H
 
-#define IWP_PROTOCOL_VERSION 1
-#define IWP_DICT_HASH 0xe8dad521UL
+#define IWP_PROTOCOL_VERSION 2
+#define IWP_DICT_HASH 0xd88257f9UL
 #define IWP_MAX_PAYLOAD 64
 
 /* messages: type byte, payload size, byte offset of each field (little-endian, packed) */
@@ -12,23 +12,30 @@
 #define IWP_MSG_HELLO_SIZE 3
 #define IWP_OFF_HELLO_NONCE 1 /* uint16_t, - */
 #define IWP_MSG_GET_PARAM 0x02
-#define IWP_MSG_GET_PARAM_SIZE 2
-#define IWP_OFF_GET_PARAM_PARAM 1 /* uint8_t, - */
+#define IWP_MSG_GET_PARAM_SIZE 4
+#define IWP_OFF_GET_PARAM_REQ 1 /* uint16_t, - */
+#define IWP_OFF_GET_PARAM_PARAM 3 /* uint8_t, - */
 #define IWP_MSG_SET_PARAM 0x03
-#define IWP_MSG_SET_PARAM_SIZE 6
-#define IWP_OFF_SET_PARAM_PARAM 1 /* uint8_t, - */
-#define IWP_OFF_SET_PARAM_VALUE 2 /* float, param */
+#define IWP_MSG_SET_PARAM_SIZE 8
+#define IWP_OFF_SET_PARAM_REQ 1 /* uint16_t, - */
+#define IWP_OFF_SET_PARAM_PARAM 3 /* uint8_t, - */
+#define IWP_OFF_SET_PARAM_VALUE 4 /* float, param */
 #define IWP_MSG_ARM 0x04
-#define IWP_MSG_ARM_SIZE 1
+#define IWP_MSG_ARM_SIZE 3
+#define IWP_OFF_ARM_REQ 1 /* uint16_t, - */
 #define IWP_MSG_DISARM 0x05
-#define IWP_MSG_DISARM_SIZE 1
+#define IWP_MSG_DISARM_SIZE 3
+#define IWP_OFF_DISARM_REQ 1 /* uint16_t, - */
 #define IWP_MSG_ESTOP 0x06
-#define IWP_MSG_ESTOP_SIZE 1
+#define IWP_MSG_ESTOP_SIZE 3
+#define IWP_OFF_ESTOP_REQ 1 /* uint16_t, - */
 #define IWP_MSG_CLEAR 0x07
-#define IWP_MSG_CLEAR_SIZE 1
+#define IWP_MSG_CLEAR_SIZE 3
+#define IWP_OFF_CLEAR_REQ 1 /* uint16_t, - */
 #define IWP_MSG_ZERO 0x08
-#define IWP_MSG_ZERO_SIZE 2
-#define IWP_OFF_ZERO_MASK 1 /* uint8_t, - */
+#define IWP_MSG_ZERO_SIZE 4
+#define IWP_OFF_ZERO_REQ 1 /* uint16_t, - */
+#define IWP_OFF_ZERO_MASK 3 /* uint8_t, - */
 #define IWP_MSG_COMMAND 0x09
 #define IWP_MSG_COMMAND_SIZE 13
 #define IWP_OFF_COMMAND_SEQ 1 /* uint32_t, - */
@@ -39,15 +46,18 @@
 #define IWP_OFF_HEARTBEAT_SEQ 1 /* uint32_t, - */
 #define IWP_OFF_HEARTBEAT_TICK 5 /* uint32_t, - */
 #define IWP_MSG_MODE 0x0b
-#define IWP_MSG_MODE_SIZE 2
-#define IWP_OFF_MODE_MODE 1 /* uint8_t, - */
+#define IWP_MSG_MODE_SIZE 4
+#define IWP_OFF_MODE_REQ 1 /* uint16_t, - */
+#define IWP_OFF_MODE_MODE 3 /* uint8_t, - */
 #define IWP_MSG_FIXTURE 0x0d
-#define IWP_MSG_FIXTURE_SIZE 6
-#define IWP_OFF_FIXTURE_ACTION 1 /* uint8_t, - */
-#define IWP_OFF_FIXTURE_Q1 2 /* float, rad */
+#define IWP_MSG_FIXTURE_SIZE 8
+#define IWP_OFF_FIXTURE_REQ 1 /* uint16_t, - */
+#define IWP_OFF_FIXTURE_ACTION 3 /* uint8_t, - */
+#define IWP_OFF_FIXTURE_Q1 4 /* float, rad */
 #define IWP_MSG_STREAM 0x0c
-#define IWP_MSG_STREAM_SIZE 2
-#define IWP_OFF_STREAM_EVERY 1 /* uint8_t, ticks */
+#define IWP_MSG_STREAM_SIZE 4
+#define IWP_OFF_STREAM_REQ 1 /* uint16_t, - */
+#define IWP_OFF_STREAM_EVERY 3 /* uint8_t, ticks */
 #define IWP_MSG_IDENT 0x81
 #define IWP_MSG_IDENT_SIZE 26
 #define IWP_OFF_IDENT_NONCE 1 /* uint16_t, - */
@@ -62,11 +72,12 @@
 #define IWP_OFF_IDENT_BASE_US 18 /* uint32_t, us */
 #define IWP_OFF_IDENT_TICK 22 /* uint32_t, ticks */
 #define IWP_MSG_ACK 0x82
-#define IWP_MSG_ACK_SIZE 8
-#define IWP_OFF_ACK_MSG 1 /* uint8_t, - */
-#define IWP_OFF_ACK_CODE 2 /* uint8_t, - */
-#define IWP_OFF_ACK_PARAM 3 /* uint8_t, - */
-#define IWP_OFF_ACK_VALUE 4 /* float, param */
+#define IWP_MSG_ACK_SIZE 10
+#define IWP_OFF_ACK_REQ 1 /* uint16_t, - */
+#define IWP_OFF_ACK_MSG 3 /* uint8_t, - */
+#define IWP_OFF_ACK_CODE 4 /* uint8_t, - */
+#define IWP_OFF_ACK_PARAM 5 /* uint8_t, - */
+#define IWP_OFF_ACK_VALUE 6 /* float, param */
 #define IWP_MSG_TELEMETRY 0x83
 #define IWP_MSG_TELEMETRY_SIZE 43
 #define IWP_OFF_TELEMETRY_SEQ 1 /* uint32_t, ticks */

@@ -31,7 +31,23 @@ PARAMETER_NAMES: dict[str, tuple[str, ...]] = {name: s.parameters for name, s in
 
 
 def get_setup(name: str) -> Setup:
-    """The set-up called ``name``; a clear error for an unknown one."""
+    """The set-up called ``name``; a clear error for an unknown one.
+
+    Parameters
+    ----------
+    name : str
+        Set-up name, a key of :data:`SETUPS` (``"full"``, ``"free"``, ``"two-step"``, ``"dead-zone"``, ...).
+
+    Returns
+    -------
+    Setup
+        The set-up.
+
+    Raises
+    ------
+    InputError
+        Not a string, or an unknown name (the message lists the set-ups).
+    """
     if not isinstance(name, str) or name not in SETUPS:
         raise InputError(f"unknown set-up {name!r}: setup must be one of {', '.join(SETUPS)}")
     return SETUPS[name]
