@@ -136,19 +136,19 @@ def run_field(bt, r, held, uval, hval):
                  to_fixed_tuple(bt.command_params, N_COMMAND), held, uval, hval, None)
 
 
-@jit
-def lane_dense(fld, t, h, K, YT, l, ys, wk):
-    """The dense output of lane ``l``'s accepted step of size h from (t, ys), into ``wk.F``.
+@jit(inline=True)
+def lane_step_into(K, YT, l, wK, wy, n):
+    """Copy lane ``l``'s stages 0-12 and end state into one run's work arrays ``wK`` (16, n) and ``wy`` (n,).
 
-    Copies the lane's stages and end state into ``wk`` and adds stages 13-15
-    (:func:`~iwp.sim.engine.dense_step`, three evaluations).
+    Then :func:`~iwp.sim.engine.dense_step` adds stages 13-15 and the dense
+    coefficients, as for a single run. (The work arrays are passed, not the
+    :class:`~iwp.sim.engine.Work` record: numba lost writes made through a
+    record inside an inlined function.)
     """
-    n = ys.size
     for i in range(n):
-        wk.y_new[i] = YT[i, l]
+        wy[i] = YT[i, l]
         for s in range(N_STAGES + 1):
-            wk.K[s, i] = K[s, i, l]
-    dense_step(fld, t, ys, h, wk, n)
+            wK[s, i] = K[s, i, l]
 
 
 @jit(inline=True)
@@ -297,7 +297,8 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     h_force = -1.0
                     if dense:
                         fld = run_field(bt, r, held, UV[l], HV[l])
-                        lane_dense(fld, t, h, K, YT, l, ys, wk)
+                        lane_step_into(K, YT, l, wk.K, wk.y_new, n)
+                        dense_step(fld, t, ys, h, wk, n)
                         NFEV[l] += 3
                         if crossing:
                             h_force = kink_step(model, fld.P, wk.F, ys, h, t, g_cur, g_new, wk.yo, n)
@@ -497,7 +498,8 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 for i in range(n):
                     ys[i] = Y[i, l]
                 fld = run_field(bt, RUN[l], held, UV[l], HV[l])
-                lane_dense(fld, T[l], H[l], K, YT, l, ys, wk)
+                lane_step_into(K, YT, l, wk.K, wk.y_new, n)
+                dense_step(fld, T[l], ys, H[l], wk, n)
                 NFEV[l] += 3
                 J[l] = lane_outputs(out, RUN[l], J[l], (T[l], H[l], T[l] + H[l] - tol_t), ys, fld, wk)
                 TNEXT[l] = t_out[J[l]] if J[l] < n_out else np.inf
