@@ -4,12 +4,12 @@ The virtual direct-drive rig of the issue (50 ms samples, PWM duty in
 [-1, 1], pendulum encoder 20,000 counts/rev with noise, wheel speed as the
 mean over the period from a 4,096-count encoder) is given each structure of
 the ladder as its truth in turn; for every seed it logs three chirps to
-train and eight pseudo-random binary runs held out (the issue's user has 19), and ``fit_logs``
+train and pseudo-random binary runs held out (19 as the issue's user has; ``--held``), and ``fit_logs``
 with ``select=True`` fits and ranks the ladder. Reported per truth: how
 often the true structure is chosen, what else was chosen, and how often the
 chosen fit's 95 % intervals contain the true parameters.
 
-Run: python benchmarks/ladder_study.py [--seeds 10] [--truths 9,coulomb,...] [--cv]
+Run: python benchmarks/ladder_study.py [--seeds 10] [--truths 9,coulomb,...] [--held 19] [--cv]
 """
 
 from __future__ import annotations
@@ -64,10 +64,10 @@ def logs(truth: LumpedParameters, seed: int, folder: Path, *, duration: float = 
     return rig, train, held
 
 
-def one(truth_name: str, seed: int, cv: bool, duration: float):
+def one(truth_name: str, seed: int, cv: bool, duration: float, n_held: int):
     truth = TRUTHS[truth_name]
     with tempfile.TemporaryDirectory() as tmp:
-        rig, train, held = logs(truth, seed, Path(tmp), duration=duration)
+        rig, train, held = logs(truth, seed, Path(tmp), duration=duration, n_held=n_held)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             res = fit_logs(train, rig=rig, validate=() if cv else held, options=LogFitOptions(select=True),
@@ -87,17 +87,18 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--truths", default=",".join(TRUTHS))
     ap.add_argument("--duration", type=float, default=40.0)
+    ap.add_argument("--held", type=int, default=19, help="held-out logs per seed")
     ap.add_argument("--cv", action="store_true", help="rank by leaving one training log out (no held-out logs)")
     args = ap.parse_args(argv)
     print(f"# ladder study: {args.seeds} seeds, logs of {args.duration:g} s, ranked on "
-          f"{'leave-one-log-out cross-validation' if args.cv else 'eight held-out logs'}\n")
+          f"{'leave-one-log-out cross-validation' if args.cv else f'{args.held} held-out logs'}\n")
     print("| truth | true structure chosen | also chosen | true parameters inside their 95 % intervals | "
           "mean time of fit_logs |")
     print("|---|---:|---|---:|---:|")
     for name in args.truths.split(","):
         picks, inside, times = collections.Counter(), [], []
         for seed in range(args.seeds):
-            chosen, ins, el = one(name, seed, args.cv, args.duration)
+            chosen, ins, el = one(name, seed, args.cv, args.duration, args.held)
             picks[chosen] += 1
             inside += ins
             times.append(el)

@@ -9,6 +9,7 @@ import pytest
 from scipy.signal import fftconvolve
 
 from iwp.errors import IdentificationError, InputError
+from iwp.ident.covariance import hac_bandwidth
 from iwp.ident.lsq import (
     LeastSquaresResult,
     solve_least_squares,
@@ -338,3 +339,20 @@ def test_stack_rows_layout() -> None:
         stack_rows(({"x": a}, a), (np.ones((4, 1)), a))
     with pytest.raises(InputError, match="column 'x'"):
         stack_rows(({"x": a[:3]}, a),)
+
+
+def test_the_bandwidth_leaves_out_score_columns_that_overflow_or_are_not_finite():
+    # the Andrews plug-in of the AR(1) fits overflows on scores of 1e200 (a near-diverged simulation's
+    # sensitivities) and is undefined on a non-finite one: such a column is left out, never a NaN bandwidth
+    rng = np.random.default_rng(0)
+    H = rng.standard_normal((400, 3))
+    H[:, 0] = np.convolve(rng.standard_normal(409), np.ones(10) / 10, "valid")  # autocorrelated: a longer lag
+    alone = hac_bandwidth(H[:, [0, 2]])
+    assert 0 < alone <= 100 and hac_bandwidth(H) != 0
+    H[:, 1] *= 1e200
+    assert hac_bandwidth(H) == alone
+    H[:, 1] = 1.0
+    H[5, 1] = np.inf
+    assert hac_bandwidth(H) == alone
+    H[:, [0, 2]] = np.nan
+    assert hac_bandwidth(H) == 0  # nothing left to judge by

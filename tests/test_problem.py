@@ -141,6 +141,36 @@ def test_fit_problem_agrees_with_scipy_curve_fit(differences):
     assert res.dof == t.size - 3 and res.cost < res.cost_start
 
 
+class _FailsAtTheEnd(_Decay):
+    """``_Decay`` whose Jacobian is NaN from its ``fail_at``-th evaluation on (a simulation failing near the
+    optimum, where the statistics evaluate it)."""
+
+    def __init__(self, t, y, fail_at=None):
+        super().__init__(t, y, None)
+        self.fail_at, self.jacobians = fail_at, 0
+
+    def evaluate(self, values, wrt=()):
+        ev = super().evaluate(values, wrt)
+        if wrt:
+            self.jacobians += 1
+            if self.fail_at is not None and self.jacobians >= self.fail_at:
+                ev.J = np.full_like(ev.J, np.nan)
+        return ev
+
+
+def test_a_jacobian_that_fails_at_the_optimum_gives_no_interval_and_says_why():
+    t = np.linspace(0.0, 5.0, 400)
+    y = 2.0 * np.exp(-0.7 * t) + 0.3 + np.random.default_rng(4).normal(0.0, 0.02, t.size)
+    ps = Parameters([Parameter("a", 1.0, min=0.0), Parameter("b", 1.0, min=0.0), Parameter("c", 0.0)])
+    clean = _FailsAtTheEnd(t, y)
+    good = FitProblem(ps, clean).solve(SolverOptions(tol=1e-12))
+    assert np.all(np.isfinite(good.covariance))
+    res = FitProblem(ps, _FailsAtTheEnd(t, y, fail_at=clean.jacobians)).solve(SolverOptions(tol=1e-12))
+    assert res.parameters["b"].value == good.parameters["b"].value  # the same optimum ...
+    assert all(math.isnan(res.parameters[n].stderr) for n in "abc")  # ... and no interval, with the reason
+    assert any(w.startswith("the Jacobian at the optimum is not finite") for w in res.warnings), res.warnings
+
+
 def test_robust_loss_and_bounds_are_reported():
     t = np.linspace(0.0, 5.0, 200)
     y = 2.0 * np.exp(-0.7 * t) + 0.3

@@ -270,7 +270,8 @@ def hac_bandwidth(H: np.ndarray, rule: str = "auto") -> int:
     Returns
     -------
     int
-        Number of lags, at most ``T // 4``.
+        Number of lags, at most ``T // 4``. A score column whose squares overflow or that holds a non-finite
+        value is left out of the plug-in (0 when none is left; ``T // 4`` when the plug-in itself overflows).
     """
     T = H.shape[0]
     cap = max(0, T // 4)
@@ -281,7 +282,7 @@ def hac_bandwidth(H: np.ndarray, rule: str = "auto") -> int:
         Ht = np.ascontiguousarray(H.T)  # one contiguous row per score column (fast reductions)
         x0, x1 = Ht[:, :-1], Ht[:, 1:]
         den = np.einsum("ji,ji->j", x0, x0)
-        ok = den > 0
+        ok = np.isfinite(den) & (den > 0) & np.all(np.isfinite(Ht), axis=1)  # a column with a non-finite score
         if not np.any(ok):
             return 0
         if not np.all(ok):
@@ -294,7 +295,7 @@ def hac_bandwidth(H: np.ndarray, rule: str = "auto") -> int:
         dnm = np.sum(s2**2 / (1 - rho) ** 4)
         alpha = num / dnm if dnm > 0 else 0.0
         L = factor * 1.1447 * (alpha * T) ** (1.0 / 3.0)
-        return int(min(cap, math.ceil(L)))
+        return int(min(cap, math.ceil(L))) if math.isfinite(L) else cap
     if rule == "nw94":
         n = int(math.floor(4.0 * (T / 100.0) ** (2.0 / 9.0)))
         h = H.sum(axis=1)

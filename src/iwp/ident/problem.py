@@ -321,7 +321,14 @@ class FitProblem:
         if self.statistics:
             J = obj.jacobian(z)
             optimum = obj.evaluation(z)
-            result = _statistics(self, obj, z, J, optimum, f_scale)
+            if np.all(np.isfinite(J)) and np.all(np.isfinite(optimum.r)):
+                result = _statistics(self, obj, z, J, optimum, f_scale)
+            else:  # a simulation near the optimum failed: no curvature, so no honest interval
+                result = _no_statistics(params, z)
+                result["warnings"].append(
+                    f"the {'Jacobian' if np.all(np.isfinite(optimum.r)) else 'residuals'} at the optimum "
+                    f"{'is' if np.all(np.isfinite(optimum.r)) else 'are'} not finite (a simulation near it "
+                    "failed or diverged): no standard errors or intervals are given")
         else:
             J = np.zeros((self.model.n_rows, 0))
             optimum = obj.evaluation(z)
