@@ -16,8 +16,12 @@ Each step of a block has four parts:
    the RK4 bridge);
 2. all lanes at once: the DOP853 stages and error norms (vectorised);
 3. all lanes at once: accept the ordinary steps (the new state,
-   branch-free, vectorised; the controller's factor, and the dense output of
-   a step with output times inside it, lane by lane);
+   branch-free, vectorised; the controller's factor lane by lane). A step
+   with output times inside it needs the dense output: for model (9) without
+   optional terms, the Hopf law and store="samples", the step is put in a slot
+   (:class:`DenseSlots`) and its three extra stages are computed with those of
+   ``LANES`` such steps at once (:func:`flush_dense`, also before a run ends);
+   otherwise lane by lane (:func:`~iwp.sim.engine.dense_step`);
 4. all lanes at once: plan the next ordinary steps; a lane near a kink or at
    a segment end is left to part 1.
 
@@ -44,7 +48,7 @@ from ..models.actuator import command
 from ..models.equations import optional_terms_off, rhs_of
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
 from .controller import LERR_FLOOR, accept_factor, log_error, next_step_size, reject_factor
-from .dop853 import N_STAGES, dense_eval_row, error_norm_lanes, stage_input_lanes
+from .dop853 import N_STAGES, dense_coefficients, dense_eval_row, error_norm_lanes, stage_input_lanes
 from .engine import (
     BRIDGE,
     CLIPPED,
@@ -104,6 +108,13 @@ Batch = namedtuple("Batch", ["model", "P", "X0", "kind", "input_params", "comman
 BatchOutput = namedtuple(
     "BatchOutput", ["t", "store", "X", "U", "W", "S", "x_final", "status", "nfev", "n_steps", "n_rejected"]
 )
+
+#: Deferred dense outputs of accepted ordinary steps (model (9) plain, store="samples"),
+#: one step per slot, computed ``LANES`` at a time by :func:`flush_dense`: per slot the
+#: step's start time T, state Y (n, L), size H, stages K (16, n, L) with 0-12 given, scratch
+#: YT (n, L), end state YN (n, L), input and plant parameters IPL, PL, and its run R and
+#: output samples ``J0 .. J1-1``.
+DenseSlots = namedtuple("DenseSlots", ["T", "Y", "H", "K", "YT", "YN", "IPL", "PL", "R", "J0", "J1"])
 
 # what a lane waits for before its next vector step
 M_READY = 0  #: its next step is planned
@@ -177,15 +188,84 @@ def lane_outputs(out, r, j, step, ys, fld, wk):
 
 
 @jit(inline=True)
-def plain_stages(cps, T, Y, H, K, YT, IPL, PL, n, L):
-    """Stages 1-12 of every lane, model (9) without optional terms and the continuous Hopf law (vectorised)."""
-    for s in range(1, N_STAGES + 1):
+def plain_stages(cps, TYH, K, YT, IPL, PL, n, span):
+    """DOP853 stages of every lane, model (9) without optional terms and the continuous Hopf law (vectorised).
+
+    Parameters
+    ----------
+    cps : tuple
+        The command vector.
+    TYH : tuple
+        ``(T, Y, H)``: per lane the step's start time (L,), state (n, L) and size (L,); read only.
+    K : ndarray
+        Stages (16, n, L): ``K[0 .. s0-1]`` given, ``K[s0 .. s1-1]`` filled.
+    YT : ndarray
+        Scratch (n, L): the last stage's input on return (the new state after stage 12).
+    IPL, PL : ndarray
+        Input parameters (N_INPUT_PARAMS, L) and packed plant parameters (N_PACK, L) per lane.
+    n : int
+        Number of states.
+    span : tuple
+        ``(s0, s1, L)``: stages ``s0 .. s1-1`` of lanes ``0 .. L-1`` (1-12 for a step, 13-15 for its dense output).
+    """
+    T, Y, H = TYH
+    s0, s1, L = span
+    for s in range(s0, s1):
         stage_input_lanes(s, Y, H, K, YT, n, L)
         cs = NODES[s]
         for l in range(L):
             x = lane(YT, l)
             w = command(input_value(I_HOPF, _lane_input_params(IPL, l), T[l] + cs * H[l], x), cps)
             rhs_of(M_PLAIN, x, w, lane(PL, l), slab_lane(K, s, l))
+
+
+@jit(vector=True)
+def flush_dense(cps, ds, nd, X, t_out, F, n):
+    """The dense outputs of the first ``nd`` slots of ``ds``, side by side, into their rows of ``X``.
+
+    Stages 13-15 of all slots at once (:func:`plain_stages`), then per slot
+    the coefficients (:func:`~iwp.sim.dop853.dense_coefficients`) and the
+    samples (:func:`~iwp.sim.dop853.dense_eval_row`), as
+    :func:`~iwp.sim.engine.dense_step` and :func:`lane_outputs` compute them
+    for one lane.
+
+    Parameters
+    ----------
+    cps : tuple
+        The command vector.
+    ds : DenseSlots
+        The deferred steps.
+    nd : int
+        Number of slots filled (at most ``LANES``).
+    X : ndarray
+        States of the batch (n_runs, n_out, n).
+    t_out : ndarray
+        Output times (n_out,).
+    F : ndarray
+        Scratch for the dense coefficients (7, n).
+    n : int
+        Number of states.
+    """
+    if nd == 0:
+        return
+    plain_stages(cps, (ds.T, ds.Y, ds.H), ds.K, ds.YT, ds.IPL, ds.PL, n, (N_STAGES + 1, 16, nd))
+    for k in range(nd):
+        y = ds.Y[:, k]
+        h = ds.H[k]
+        dense_coefficients(ds.K[:, :, k], h, y, ds.YN[:, k], F, n)
+        Xr = X[ds.R[k]]
+        rh = 1.0 / h
+        for j in range(ds.J0[k], ds.J1[k]):
+            dense_eval_row(F, y, (t_out[j] - ds.T[k]) * rh, Xr, j, n)
+
+
+@jit
+def new_slots(n):
+    """Empty :class:`DenseSlots` of ``LANES`` slots for ``n`` states."""
+    L = LANES
+    return DenseSlots(np.zeros(L), np.zeros((n, L)), np.ones(L), np.zeros((16, n, L)), np.zeros((n, L)),
+                      np.zeros((n, L)), np.zeros((N_INPUT_PARAMS, L)), np.zeros((N_PACK, L)),
+                      np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.int64))
 
 
 @jit(inline=True)
@@ -263,6 +343,12 @@ def run_lanes(n, bt, tol, out, r0, r1):
     ys = np.empty(n)
     fs = np.empty(n)
     wk = new_work(n)
+    # dense outputs of ordinary steps, deferred and computed LANES at a time
+    defer = plain and out.store == STORE_SAMPLES
+    # (filled through these names: numba lost writes made through the record's fields here)
+    ds = new_slots(n)
+    DT, DY, DH, DK, _, DYN, DIPL, DPL, DR, DJ0, DJ1 = ds
+    nd = 0
     nxt = r0
     n_active = 0
     while True:
@@ -349,6 +435,10 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         while j < n_out and t_out[j] <= t_end + tol_t:
                             put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
                             j += 1
+                    if nd > 0:
+                        # the run's deferred samples first (its input columns follow from them)
+                        flush_dense(cps, ds, nd, out.X, t_out, wk.F, n)
+                        nd = 0
                     if not held and out.store == STORE_SAMPLES:
                         input_samples(bt.kind, fld.input_params, fld.command_params, t_out[:j], o.X[:j], o.U[:j],
                                       o.W[:j])
@@ -481,7 +571,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
             for l in range(L):
                 K[0, i, l] = F[i, l]
         if plain:
-            plain_stages(cps, T, Y, H, K, YT, IPL, PL, n, L)
+            plain_stages(cps, (T, Y, H), K, YT, IPL, PL, n, (1, N_STAGES + 1, L))
         else:
             general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L)
         error_norm_lanes(K, H, Y, YT, tol.rtol, tol.atol, n, L, ERR)
@@ -494,7 +584,34 @@ def run_lanes(n, bt, tol, out, r0, r1):
             MODE[l] = M_DECIDE if MODE[l] == M_READY and not ok else MODE[l]
         for l in range(L):
             # outputs inside an accepted ordinary step: its dense output, lane by lane
-            if DONE[l] and TNEXT[l] < T[l] + H[l] - tol_t:
+            if defer and DONE[l] and TNEXT[l] < T[l] + H[l] - tol_t:
+                # into a slot: stages 13-15 and the samples when LANES slots are full
+                t_stop = T[l] + H[l] - tol_t
+                j = J[l]
+                DJ0[nd] = j
+                while j < n_out and t_out[j] < t_stop:
+                    j += 1
+                DJ1[nd] = j
+                DR[nd] = RUN[l]
+                DT[nd] = T[l]
+                DH[nd] = H[l]
+                for i in range(n):
+                    DY[i, nd] = Y[i, l]
+                    DYN[i, nd] = YT[i, l]
+                    for s in range(N_STAGES + 1):
+                        DK[s, i, nd] = K[s, i, l]
+                for k in range(N_PACK):
+                    DPL[k, nd] = PL[k, l]
+                for k in range(N_INPUT_PARAMS):
+                    DIPL[k, nd] = IPL[k, l]
+                nd += 1
+                if nd == L:
+                    flush_dense(cps, ds, nd, out.X, t_out, wk.F, n)
+                    nd = 0
+                NFEV[l] += 3
+                J[l] = j
+                TNEXT[l] = t_out[j] if j < n_out else np.inf
+            elif DONE[l] and TNEXT[l] < T[l] + H[l] - tol_t:
                 for i in range(n):
                     ys[i] = Y[i, l]
                 fld = run_field(bt, RUN[l], held, UV[l], HV[l])
@@ -544,6 +661,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
             BRIDGED[l] = BRIDGED[l] and not plan_here
             mode = M_READY if plan_here else (M_POST if post else M_PLAN)
             MODE[l] = mode if DONE[l] else MODE[l]
+    flush_dense(cps, ds, nd, out.X, t_out, wk.F, n)
     return 0
 
 
