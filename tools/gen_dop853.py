@@ -87,7 +87,7 @@ def source() -> str:
     w("    ``l``, with step ``H[l]``; the loop over lanes is the one the compiler vectorises.")
     w('    """')
     first = True
-    for s in range(1, ns + 1):
+    for s in range(1, 16):
         w(f"    {'if' if first else 'elif'} s == {s}:")
         first = False
         w("        for l in range(L):")

@@ -20,7 +20,7 @@ KERNELS: dict[str, tuple[str, float]] = {
     "simulation": ("the simulation kernel of the 4-state models", 9.0),
     "belt": ("the simulation kernel of the belt models", 11.0),
     "sensitivity": ("the sensitivity kernel of fits and shooting", 11.0),
-    "batch": ("the kernels of runs side by side", 30.0),
+    "batch": ("the kernel of runs side by side", 30.0),
     "identification": ("the kernel of the least-squares uncertainty", 1.0),
 }
 #: compiled function name -> kernel name (what the notice says)
@@ -29,7 +29,6 @@ DISPATCHERS = {
     "integrate_6": "belt",
     "integrate_sens": "sensitivity",
     "run_lanes_4": "batch",
-    "integrate_batch_4": "batch",
     "_noise_moments": "identification",
 }
 

@@ -37,7 +37,7 @@ FASTMATH = {"contract", "reassoc", "nsz", "arcp"}
 FASTMATH_EXACT = {"contract", "nsz", "arcp"}
 
 
-def jit(func=None, *, inline: bool = False, parallel: bool = False, exact: bool = False):
+def jit(func=None, *, inline: bool = False, parallel: bool = False, exact: bool = False, vector: bool = False):
     """``numba.njit`` with iwp's options: cached on disk, fast math.
 
     Parameters
@@ -50,12 +50,19 @@ def jit(func=None, *, inline: bool = False, parallel: bool = False, exact: bool 
         Compile ``prange`` loops for all cores.
     exact : bool
         Use :data:`FASTMATH_EXACT`.
+    vector : bool
+        numpy's error model: a division by zero gives inf or NaN instead of
+        raising, so that loops with divisions vectorise (the lanes of
+        :mod:`iwp.sim.lanes`; their results are checked as values, not
+        trapped).
     """
     opts = {"cache": True, "fastmath": FASTMATH_EXACT if exact else FASTMATH}
     if inline:
         opts["inline"] = "always"
     if parallel:
         opts["parallel"] = True
+    if vector:
+        opts["error_model"] = "numpy"
     if func is None:
         return njit(**opts)
     return njit(**opts)(func)

@@ -11,8 +11,12 @@ Everything that integrates a model in iwp goes through :func:`integrate`:
 simulations (:mod:`iwp.sim.simulate`), forward sensitivities for the
 simulation-error fits (:mod:`iwp.sim.sensitivity`), the shooting of periodic
 orbits and the one-sample predictions of the observer and the Gymnasium
-environment. Many simulations side by side use the same step logic in
-:mod:`iwp.sim.lanes`.
+environment. Many simulations side by side (:mod:`iwp.sim.lanes`) take the
+same steps with the same pieces: the tableau (:mod:`iwp.sim.dop853`), the
+step-size controller (:mod:`iwp.sim.controller`), the plan of a step and the
+kink bridge (:func:`plan_step`, :func:`rk4_bridge`, :func:`kink_step`), the
+held segments of the input (:func:`hold_of`) and the writing of outputs
+(:func:`put_sample` and its kin).
 
 What one run does
 -----------------
@@ -47,8 +51,9 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import prange
+from numba import types
 from numba.cpython.unsafe.tuple import tuple_setitem
+from numba.extending import overload
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from ..errors import InputError
@@ -65,8 +70,17 @@ from ..models.layout import (
     N_PACK,
     SA,
 )
+from .controller import (
+    LERR_FLOOR,
+    accept_factor,
+    first_step_size,
+    first_trial,
+    log_error,
+    next_step_size,
+    reject_factor,
+)
 from .dop853 import N_STAGES, dense_coefficients, dense_eval, dense_eval_row, error_norm, stage_input
-from .dop853 import C as _C_TUPLE
+from .dop853 import C as NODE_TUPLE
 from .inputs import I_EXTERNAL, I_STEP, N_INPUT_PARAMS, input_value
 from .views import vec
 
@@ -74,15 +88,8 @@ from .views import vec
 # constants
 # --------------------------------------------------------------------------
 #: stage nodes of DOP853 (scipy's tables, via the generated module)
-NODES = np.array(_C_TUPLE)
+NODES = np.array(NODE_TUPLE)
 
-SAFETY = 0.9
-MIN_FACTOR = 0.2
-MAX_FACTOR = 10.0
-#: PI step-size control (Gustafsson; Hairer & Wanner II.4): the accepted-step
-#: factor is ``SAFETY err^-(1/8 - 0.75 BETA) err_prev^BETA``; it damps the
-#: oscillating step sizes that otherwise waste many rejected steps.
-BETA = 0.04
 #: A step that would contain a predicted kink of ``|cos q1|`` ends
 #: KINK_MARGIN (relative) before it; an RK4 step of at most BRIDGE_FRAC times
 #: the natural step size, with its own error check, crosses it and ends
@@ -139,11 +146,39 @@ SensView = namedtuple("SensView", ["nx", "n_par", "n_cols", "index", "step", "jc
 #: The interval: initial state (overwritten with the final one), start and
 #: end time [s], and the first step size (<= 0: estimated).
 Span = namedtuple("Span", ["x0", "t0", "t_end", "h0"])
-#: Outputs: times, states (n_out, n), ideal input and command (n_out,) and
-#: whether a continuous input is recorded (held inputs always are).
-Output = namedtuple("Output", ["t", "X", "U", "W", "record_u"])
+#: What a run keeps of its output samples (``Output.store``): the samples, or
+#: their summary ``S`` (4, n): per state the minimum, maximum, sum and sum of
+#: squares over the output times (mean and RMS follow).
+STORE_SAMPLES = 0
+STORE_SUMMARY = 1
+N_SUMMARY = 4
+#: Outputs: times, states (n_out, n), ideal input and command (n_out,),
+#: whether a continuous input is recorded (held inputs always are), the
+#: store mode and the summary (N_SUMMARY, n) of STORE_SUMMARY.
+Output = namedtuple("Output", ["t", "X", "U", "W", "record_u", "store", "S"])
 #: What a run returns.
 RunStats = namedtuple("RunStats", ["status", "nfev", "n_steps", "n_rejected", "t_reached", "h_next"])
+#: Inside the kernels, the right-hand side a stepper evaluates: model code,
+#: packed plant parameters, input kind and parameters, command vector (tuples),
+#: whether the input is held over the current segment, its held ideal input
+#: and command there, and the sensitivities (``None`` or a :class:`SensView`).
+Field = namedtuple("Field", ["model", "P", "kind", "input_params", "command_params", "held", "uval", "hval", "sens"])
+#: Work arrays of one run's steps: stages K (16, n), stage input, rate, new
+#: state, dense-output coefficients (7, n) and an interpolated state.
+Work = namedtuple("Work", ["K", "ytmp", "dx", "y_new", "F", "yo"])
+#: A held segment of the input: its end time [s], ideal input and command.
+Hold = namedtuple("Hold", ["t_b", "uval", "hval"])
+#: The next step (:func:`plan_step`): its kind (flags below) and size [s].
+Plan = namedtuple("Plan", ["flags", "h"])
+FORCED = 1  #: onto a kink located on the dense output
+CLIPPED = 2  #: ends at the segment end
+SHORT = 4  #: ends just before a predicted kink
+BRIDGE = 8  #: an RK4 bridge across a kink close ahead
+
+
+def samples_output(t, X, U, W, record_u: bool) -> Output:
+    """An :class:`Output` that keeps the samples (the summary array unused)."""
+    return Output(t, X, U, W, bool(record_u), STORE_SAMPLES, np.zeros((N_SUMMARY, 1)))
 
 
 def sensitivity(nx: int, index, step, jcols) -> Sensitivity:
@@ -183,30 +218,31 @@ def sens_views(sens):
 # the rate of the integrated state
 # --------------------------------------------------------------------------
 @jit
-def plant_rate(model, P, t, y, dx, held, hval, kind, input_params, command_params):
+def plant_rate(fld, t, y, dx):
     """``dx = f(t, y)`` of the plant with its input: held value, or signal/feedback law through the command chain."""
-    if held:
-        w = hval
+    if fld.held:
+        w = fld.hval
     else:
-        w = command(input_value(kind, input_params, t, y), command_params)
-    rhs(model, y, w, P, dx)
+        w = command(input_value(fld.kind, fld.input_params, t, y), fld.command_params)
+    rhs(fld.model, y, w, fld.P, dx)
 
 
 @jit
-def sens_rate(model, P, t, y, dx, n, held, hval, kind, input_params, command_params, sv):
+def sens_rate(fld, t, y, dx, n):
     """Rate of the state and its sensitivities; ``y = [x, S[:, 0], S[:, 1], ...]`` (``n`` entries, views).
 
     ``S' = (df/dx) S + [df/dtheta, 0]``: the first ``sv.n_par`` columns are
     sensitivities to parameters, the others to initial states. Both
     Jacobians are forward differences of :func:`plant_rate` (a feedback law
-    is differentiated with the plant: the closed loop's). ``sv`` is a
+    is differentiated with the plant: the closed loop's). ``fld.sens`` is a
     :class:`SensView`.
     """
+    sv = fld.sens
     nx = sv.nx
     A = sv.A
     xp = sv.xp
     fp = sv.fp
-    plant_rate(model, P, t, y, dx, held, hval, kind, input_params, command_params)
+    plant_rate(fld, t, y, dx)
     ns = (n - nx) // nx
     if ns == 0:
         return
@@ -217,7 +253,7 @@ def sens_rate(model, P, t, y, dx, n, held, hval, kind, input_params, command_par
         h = FD_STATE * max(1.0, abs(y[c]))
         xp[c] = y[c] + h
         h = xp[c] - y[c]
-        plant_rate(model, P, t, xp, fp, held, hval, kind, input_params, command_params)
+        plant_rate(fld, t, xp, fp)
         for r in range(nx):
             A[r * nx + c] = (fp[r] - dx[r]) / h
     for j in range(ns):
@@ -228,39 +264,123 @@ def sens_rate(model, P, t, y, dx, n, held, hval, kind, input_params, command_par
                 c = sv.jcols[kc]
                 acc += A[r * nx + c] * y[off + c]
             dx[off + r] = acc
+    P = fld.P
+    input_params = fld.input_params
     for k in range(sv.n_par):
         idx = sv.index[k]
         d = sv.step[k]
         if idx < N_PACK:
             v = P[idx] + d
-            plant_rate(model, tuple_setitem(P, idx, v), t, y, fp, held, hval, kind, input_params, command_params)
+            plant_rate(Field(fld.model, tuple_setitem(P, idx, v), fld.kind, input_params, fld.command_params,
+                             fld.held, fld.uval, fld.hval, None), t, y, fp)
             d = v - P[idx]
         else:
             v = input_params[idx - N_PACK] + d
-            plant_rate(
-                model, P, t, y, fp, held, hval, kind, tuple_setitem(input_params, idx - N_PACK, v), command_params
-            )
+            plant_rate(Field(fld.model, P, fld.kind, tuple_setitem(input_params, idx - N_PACK, v),
+                             fld.command_params, fld.held, fld.uval, fld.hval, None), t, y, fp)
             d = v - input_params[idx - N_PACK]
         off = nx + k * nx
         for r in range(nx):
             dx[off + r] += (fp[r] - dx[r]) / d
 
 
-@jit(inline=True)
-def rate(model, P, t, y, dx, held, hval, kind, input_params, command_params, sens):
-    """The rate of the integrated state: the plant's (``sens`` is None) or with its sensitivities.
+def rate(fld, t, y, dx):
+    """The rate of the integrated state: the plant's (``fld.sens`` is None) or with its sensitivities.
 
-    ``sens`` is ``None`` in plain kernels, so the sensitivity branch is never compiled into them.
+    Resolved at compile time from the type of ``fld.sens`` (:func:`_rate_overload`):
+    ``None`` in plain kernels, so the sensitivity branch is never compiled into them.
     """
+
+
+@overload(rate, inline="always")
+def _rate_overload(fld, t, y, dx):
     # borrowed views: no reference counting at these calls (see iwp.sim.views)
-    if sens is None:
-        plant_rate(model, P, t, vec(y), vec(dx), held, hval, kind, input_params, command_params)
-    else:
-        sens_rate(model, P, t, vec(y), vec(dx), y.size, held, hval, kind, input_params, command_params, sens)
+    if isinstance(fld[8], types.NoneType):
+        return lambda fld, t, y, dx: plant_rate(fld, t, vec(y), vec(dx))
+    return lambda fld, t, y, dx: sens_rate(fld, t, vec(y), vec(dx), y.size)
 
 
 # --------------------------------------------------------------------------
-# step logic shared with the lanes
+# the stepper: DOP853 stages, the RK4 bridge, first step (one run)
+# --------------------------------------------------------------------------
+@jit(inline=True)
+def stages(fld, t, y, h, wk, n, s0, s1):
+    """DOP853 stages ``s0 .. s1-1`` of a step of size h from (t, y) into ``wk.K`` (``K[0] = f(t, y)`` given)."""
+    K = wk.K
+    ytmp = wk.ytmp
+    dx = wk.dx
+    for s in range(s0, s1):
+        stage_input(s, y, h, K, ytmp, n)
+        rate(fld, t + NODES[s] * h, ytmp, dx)
+        for i in range(n):
+            K[s, i] = dx[i]
+
+
+@jit
+def dense_step(fld, t, y, h, wk, n):
+    """The dense output of an accepted step of size h from (t, y): stages 13-15 and the coefficients ``wk.F``.
+
+    ``wk.K[0..12]`` hold the step's stages and ``wk.y_new`` its end state. Three evaluations.
+    """
+    stages(fld, t, y, h, wk, n, N_STAGES + 1, 16)
+    dense_coefficients(wk.K, h, y, wk.y_new, wk.F, n)
+
+
+@jit
+def rk4_bridge(fld, t, y, f, hb, wk, n, tol):
+    """A classical RK4 step of size ``hb`` across a kink; returns its error (accept if < 1).
+
+    ``f = f(t, y)``; fills ``wk.y_new`` and ``wk.dx = f(t + hb, y_new)`` and
+    uses ``wk.K[1..3]`` as scratch. The error is the embedded third-order
+    estimate (the last stage replaced by ``f`` at the new state), scaled like
+    the DOP853 error norm over the first ``tol.n_err`` states. Four evaluations.
+    """
+    K = wk.K
+    ytmp = wk.ytmp
+    dx = wk.dx
+    y_new = wk.y_new
+    for i in range(n):
+        ytmp[i] = y[i] + 0.5 * hb * f[i]
+    rate(fld, t + 0.5 * hb, ytmp, dx)
+    for i in range(n):
+        K[1, i] = dx[i]
+        ytmp[i] = y[i] + 0.5 * hb * dx[i]
+    rate(fld, t + 0.5 * hb, ytmp, dx)
+    for i in range(n):
+        K[2, i] = dx[i]
+        ytmp[i] = y[i] + hb * dx[i]
+    rate(fld, t + hb, ytmp, dx)
+    for i in range(n):
+        K[3, i] = dx[i]
+        y_new[i] = y[i] + hb / 6.0 * (f[i] + 2.0 * (K[1, i] + K[2, i]) + dx[i])
+    rate(fld, t + hb, y_new, dx)
+    n_err = min(n, tol.n_err)
+    eb = 0.0
+    for i in range(n_err):
+        d = hb / 6.0 * (K[3, i] - dx[i]) / (tol.atol[i] + max(abs(y[i]), abs(y_new[i])) * tol.rtol)
+        eb += d * d
+    return eb / n_err
+
+
+@jit
+def first_step(fld, t, y, f, wk, n, tol):
+    """Hairer's first step size from ``f = f(t, y)`` (one more evaluation, :mod:`iwp.sim.controller`)."""
+    n_err = min(n, tol.n_err)
+    h0 = first_trial(y, f, n_err, tol.rtol, tol.atol, tol.h_max)
+    for i in range(n):
+        wk.ytmp[i] = y[i] + h0 * f[i]
+    rate(fld, t + h0, wk.ytmp, wk.dx)
+    return first_step_size(y, f, wk.dx, h0, n_err, tol.rtol, tol.atol, tol.h_max)
+
+
+@jit
+def new_work(n):
+    """The :class:`Work` arrays of one run's steps for ``n`` integrated states."""
+    return Work(np.empty((16, n)), np.empty(n), np.empty(n), np.empty(n), np.empty((7, n)), np.empty(n))
+
+
+# --------------------------------------------------------------------------
+# kinks of |cos q1| and the plan of the next step (shared with the lanes)
 # --------------------------------------------------------------------------
 @jit
 def is_held(kind, seg_mode):
@@ -282,17 +402,46 @@ def has_kink(model, P):
     return P[SA] != 0.0
 
 
-@jit
-def switch(model, P, y):
-    """Switching function of the right-hand side's kinks (its sign changes there).
+@jit(inline=True)
+def switch_of(kinked, q1):
+    """Switching function of the right-hand side's kinks (its sign changes there): ``cos q1``, or 1 without kink.
 
     The rolling friction ``sigma_a1 |cos q1| q3`` of section 3.1 has a kink
     where ``cos q1 = 0``; a Runge-Kutta step across it loses its order and its
-    error estimate. Returns ``cos q1`` for models with that term, else 1.
+    error estimate.
     """
-    if not has_kink(model, P):
-        return 1.0
-    return math.cos(y[0])
+    return math.cos(q1) if kinked else 1.0
+
+
+@jit(inline=True)
+def may_cross(q_a, q_b):
+    """False only if ``cos q`` surely has one sign at ``q_a`` and ``q_b`` (branch-free, vectorises).
+
+    The same half-period ``floor((q - pi/2)/pi)`` at both ends, neither within
+    1e-9 rad of a kink: then :func:`switch_of` has one sign at both, so the
+    lanes need no cosine for a step that crosses nothing.
+    """
+    m_a = (q_a - 0.5 * math.pi) / math.pi
+    m_b = (q_b - 0.5 * math.pi) / math.pi
+    f_a = math.floor(m_a)
+    f_b = math.floor(m_b)
+    near = (m_a - f_a < 1e-9) | (f_a + 1.0 - m_a < 1e-9) | (m_b - f_b < 1e-9) | (f_b + 1.0 - m_b < 1e-9)
+    return (f_a != f_b) | near | (not (abs(q_a) < 1e9)) | (not (abs(q_b) < 1e9))
+
+
+@jit
+def switch(model, P, y):
+    """:func:`switch_of` of a state ``y`` of ``model`` with parameters ``P``."""
+    return switch_of(has_kink(model, P), y[0])
+
+
+@jit(inline=True)
+def kink_possible(q1, v, a, jk, H):
+    """True if ``cos q`` may change sign within ``H`` on the Taylor model of :func:`kink_ahead` (branch-free)."""
+    qe = q1 + H * (v + H * (0.5 * a + H * jk / 6.0))
+    m0 = math.floor((q1 - 0.5 * math.pi) / math.pi)
+    me = math.floor((qe - 0.5 * math.pi) / math.pi)
+    return (m0 != me) & (abs(q1) < 1e9) & (abs(qe) < 1e9)
 
 
 @jit
@@ -303,13 +452,11 @@ def kink_ahead(q1, v, a, jk, H):
     pendulum angle over the coming step (``v = q3``, ``a = q3'`` and ``jk``
     an estimate of ``q3''``); the kinks are at ``q = pi/2 + m pi``.
     """
-    qe = q1 + H * (v + H * (0.5 * a + H * jk / 6.0))
-    if not (abs(q1) < 1e9 and abs(qe) < 1e9):
+    if not kink_possible(q1, v, a, jk, H):
         return -1.0
+    qe = q1 + H * (v + H * (0.5 * a + H * jk / 6.0))
     m0 = math.floor((q1 - 0.5 * math.pi) / math.pi)
     me = math.floor((qe - 0.5 * math.pi) / math.pi)
-    if m0 == me:
-        return -1.0
     qs = 0.5 * math.pi + math.pi * max(m0, me)
     lo = 0.0
     hi = H
@@ -335,20 +482,41 @@ def kink_ahead(q1, v, a, jk, H):
 
 
 @jit
-def accept_factor(err, lerr_prev):
-    """Step-size factor after an accepted step with error ``err`` (PI control, see :data:`BETA`)."""
-    if err == 0.0:
-        return MAX_FACTOR
-    lerr = math.log(err)
-    return min(MAX_FACTOR, SAFETY * math.exp(-(1.0 / 8.0 - 0.75 * BETA) * lerr + BETA * lerr_prev))
+def plan_step(t, t_b, h_nat, h_max, h_force, look, taylor, tol_t):
+    """The next step from ``t`` in a segment ending at ``t_b``: a :class:`Plan`.
+
+    The natural size ``h_nat`` (at most ``h_max``), or ``h_force`` onto a
+    kink located by :func:`kink_step` (flag ``FORCED``), clipped to the
+    segment end (``CLIPPED``). With ``look`` (a kinked model whose last step
+    was not a bridge) a kink predicted on ``taylor = (q1, q3, q3', q3'')``
+    ends the step just before it (``SHORT``), or, when it is close, an RK4
+    bridge of size ``h`` crosses it (``BRIDGE``).
+    """
+    h = min(h_nat, h_max)
+    flags = 0
+    if h_force > 0.0:
+        h = h_force
+        flags = FORCED
+    if t + h > t_b:
+        # clip to the segment end; a step is never stretched, so a
+        # rejected clipped step is retried with a shorter one
+        h = t_b - t
+        flags |= CLIPPED
+    if look and flags & FORCED == 0:
+        s_k = kink_ahead(taylor[0], taylor[1], taylor[2], taylor[3], h)
+        if s_k > 0.0 and s_k <= BRIDGE_FRAC * h_nat:
+            hb = s_k * (1.0 + KINK_OVERSHOOT) + 1e-12 * max(1.0, abs(t))
+            if t + hb < t_b - tol_t:
+                return Plan(BRIDGE, hb)
+        elif s_k > 0.0 and s_k * (1.0 - KINK_MARGIN) < h:
+            return Plan(SHORT, s_k * (1.0 - KINK_MARGIN))
+    return Plan(flags, h)
 
 
 @jit
-def reject_factor(err):
-    """Step-size factor after a rejected step with error ``err`` (NaN: the smallest factor)."""
-    if err != err:
-        return MIN_FACTOR
-    return max(MIN_FACTOR, SAFETY * err ** (-1.0 / 8.0))
+def min_step(t):
+    """The smallest step from ``t``: ten units in the last place of ``t``."""
+    return 10.0 * abs(np.nextafter(t, np.inf) - t)
 
 
 @jit
@@ -400,98 +568,6 @@ def kink_step(model, P, F, y, h, t, g_a, g_b, yo, n):
 
 
 @jit
-def first_step(
-    model, P, t, y, f, n, n_err, rtol, atol, h_max, held, hval, kind, input_params, command_params, sens, ytmp, dx
-):
-    """Hairer's estimate of the first step size from ``f = f(t, y)`` (one more evaluation), at most ``h_max``."""
-    d0 = 0.0
-    d1 = 0.0
-    for i in range(n_err):
-        sc = atol[i] + abs(y[i]) * rtol
-        d0 += (y[i] / sc) ** 2
-        d1 += (f[i] / sc) ** 2
-    d0 = math.sqrt(d0 / n_err)
-    d1 = math.sqrt(d1 / n_err)
-    h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
-    h0 = min(h0, h_max)
-    for i in range(n):
-        ytmp[i] = y[i] + h0 * f[i]
-    rate(model, P, t + h0, ytmp, dx, held, hval, kind, input_params, command_params, sens)
-    d2 = 0.0
-    for i in range(n_err):
-        sc = atol[i] + abs(y[i]) * rtol
-        d2 += ((dx[i] - f[i]) / sc) ** 2
-    d2 = math.sqrt(d2 / n_err) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 8.0)
-    return min(100.0 * h0, h1, h_max)
-
-
-@jit(inline=True)
-def stages(model, P, t, y, h, K, ytmp, dx, n, s0, s1, held, hval, kind, input_params, command_params, sens):
-    """DOP853 stages ``s0 .. s1-1`` of a step of size h from (t, y) into ``K`` (``K[0] = f(t, y)`` given)."""
-    for s in range(s0, s1):
-        stage_input(s, y, h, K, ytmp, n)
-        rate(model, P, t + NODES[s] * h, ytmp, dx, held, hval, kind, input_params, command_params, sens)
-        for i in range(n):
-            K[s, i] = dx[i]
-
-
-@jit
-def rk4_bridge(
-    model,
-    P,
-    t,
-    y,
-    f,
-    hb,
-    K,
-    ytmp,
-    y_new,
-    dx,
-    n,
-    n_err,
-    rtol,
-    atol,
-    held,
-    hval,
-    kind,
-    input_params,
-    command_params,
-    sens,
-):
-    """A classical RK4 step of size ``hb`` across a kink; returns its error (accept if < 1).
-
-    ``f = f(t, y)``; fills ``y_new`` and ``dx = f(t + hb, y_new)`` and uses
-    ``K[1..3]`` as scratch. The error is the embedded third-order estimate
-    (the last stage replaced by ``f`` at the new state), scaled like the
-    DOP853 error norm. Four evaluations.
-    """
-    for i in range(n):
-        ytmp[i] = y[i] + 0.5 * hb * f[i]
-    rate(model, P, t + 0.5 * hb, ytmp, dx, held, hval, kind, input_params, command_params, sens)
-    for i in range(n):
-        K[1, i] = dx[i]
-        ytmp[i] = y[i] + 0.5 * hb * dx[i]
-    rate(model, P, t + 0.5 * hb, ytmp, dx, held, hval, kind, input_params, command_params, sens)
-    for i in range(n):
-        K[2, i] = dx[i]
-        ytmp[i] = y[i] + hb * dx[i]
-    rate(model, P, t + hb, ytmp, dx, held, hval, kind, input_params, command_params, sens)
-    for i in range(n):
-        K[3, i] = dx[i]
-        y_new[i] = y[i] + hb / 6.0 * (f[i] + 2.0 * (K[1, i] + K[2, i]) + dx[i])
-    rate(model, P, t + hb, y_new, dx, held, hval, kind, input_params, command_params, sens)
-    eb = 0.0
-    for i in range(n_err):
-        d = hb / 6.0 * (K[3, i] - dx[i]) / (atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol)
-        eb += d * d
-    return eb / n_err
-
-
-@jit
 def beyond(y, n_err, xmax):
     """True if one of the first ``n_err`` components is NaN or beyond ``xmax`` in magnitude."""
     for i in range(n_err):
@@ -501,46 +577,139 @@ def beyond(y, n_err, xmax):
 
 
 # --------------------------------------------------------------------------
-# the kernel
+# outputs: written here only (single runs and lanes)
 # --------------------------------------------------------------------------
 @jit
-def _put(j, tj, yv, out, n, held, uval, hval, kind, input_params, command_params):
+def put_state(out, j, yv, n):
+    """Keep the state ``yv`` of output sample j: in ``out.X[j]``, or into the summary ``out.S``."""
+    if out.store == STORE_SAMPLES:
+        for i in range(n):
+            out.X[j, i] = yv[i]
+    else:
+        S = out.S
+        for i in range(n):
+            v = yv[i]
+            S[0, i] = min(S[0, i], v)
+            S[1, i] = max(S[1, i], v)
+            S[2, i] += v
+            S[3, i] += v * v
+
+
+@jit
+def put_sample(out, j, tj, yv, n, fld):
     """Write output sample j: the state, the ideal input u and the command.
 
     A continuous input is recorded only with ``out.record_u``; otherwise the
     caller computes it afterwards from ``t`` and ``x`` (:func:`input_samples`).
     """
-    for i in range(n):
-        out.X[j, i] = yv[i]
-    if held:
-        out.U[j] = uval
-        out.W[j] = hval
+    put_state(out, j, yv, n)
+    if out.store != STORE_SAMPLES:
+        return
+    if fld.held:
+        out.U[j] = fld.uval
+        out.W[j] = fld.hval
     elif out.record_u:
-        u_ = input_value(kind, input_params, tj, yv)
+        u_ = input_value(fld.kind, fld.input_params, tj, yv)
         out.U[j] = u_
-        out.W[j] = command(u_, command_params)
+        out.W[j] = command(u_, fld.command_params)
 
 
 @jit
-def _put_near(j, tj, y, f, t, out, n, held, uval, hval, kind, input_params, command_params):
+def put_near(out, j, tj, y, f, t, n, fld, yo):
     """Write output sample j at ``tj``, within the time tolerance of a step end ``t``: ``y + f (tj - t)``.
 
     Samples on a grid of output times meet step ends up to rounding (and
     up to ``tol_t``); the first-order correction makes them exact to
-    ``|x''| (tj - t)^2 / 2``.
+    ``|x''| (tj - t)^2 / 2``. ``yo`` is scratch.
     """
     dt = tj - t
     for i in range(n):
-        out.X[j, i] = y[i] + f[i] * dt
-    if held:
-        out.U[j] = uval
-        out.W[j] = hval
-    elif out.record_u:
-        u_ = input_value(kind, input_params, tj, out.X[j])
-        out.U[j] = u_
-        out.W[j] = command(u_, command_params)
+        yo[i] = y[i] + f[i] * dt
+    put_sample(out, j, tj, yo, n, fld)
 
 
+@jit
+def put_dense(out, j, tj, t, h, y, n, fld, wk):
+    """Write output sample j inside an accepted step of size h from (t, y) with dense coefficients ``wk.F``."""
+    if out.store == STORE_SAMPLES and not fld.held and not out.record_u:
+        # states only: straight into the output row
+        dense_eval_row(wk.F, y, (tj - t) * (1.0 / h), out.X, j, n)
+    else:
+        dense_eval(wk.F, y, (tj - t) / h, wk.yo, n)
+        put_sample(out, j, tj, wk.yo, n, fld)
+
+
+@jit
+def put_unreached(out, j, n):
+    """Samples from j on were never reached (a failed run): NaN."""
+    if out.store != STORE_SAMPLES:
+        return
+    for jj in range(j, out.t.size):
+        for i in range(n):
+            out.X[jj, i] = np.nan
+        if jj < out.U.size:
+            out.U[jj] = np.nan
+            out.W[jj] = np.nan
+
+
+# --------------------------------------------------------------------------
+# segments of the input
+# --------------------------------------------------------------------------
+@jit
+def hold_of(fld, seg, values, kseg, t, y, t_end, tol_t):
+    """The :class:`Hold` of segment ``kseg`` of a run that starts it at ``t`` in state ``y``.
+
+    Continuous inputs run to ``t_end`` (a step input to its step time, held
+    on either side); sampled arrays hold ``values[kseg]`` (``values``: the
+    run's row of held samples), sampled controllers their value at ``t``,
+    Python controllers ``seg.external``.
+    """
+    kind = fld.kind
+    ips = fld.input_params
+    t_b = t_end
+    uval = 0.0
+    hval = 0.0
+    if seg.mode == SEG_CONT:
+        if kind == I_STEP:
+            if ips[0] > t + tol_t and ips[0] < t_end - tol_t:
+                t_b = ips[0]
+            uval = input_value(kind, ips, t + tol_t, y)
+            hval = command(uval, fld.command_params)
+    else:
+        t_b = min(seg.start + (kseg + 1) * seg.period, t_end)
+        if seg.mode == SEG_SAMPLES:
+            uval = values[min(max(kseg, 0), values.size - 1)]
+        elif kind == I_EXTERNAL:
+            uval = seg.external
+        else:
+            uval = input_value(kind, ips, t, y)
+        hval = command(uval, fld.command_params)
+    return Hold(t_b, uval, hval)
+
+
+@jit
+def end_hold(fld, seg, values, kseg, t, y):
+    """The held input at the end time ``t`` (the outputs there): the next sample's value."""
+    if not fld.held:
+        return Hold(t, fld.uval, fld.hval)
+    uval = fld.uval
+    if seg.mode == SEG_SAMPLES:
+        uval = values[min(max(kseg, 0), values.size - 1)]
+    elif fld.kind != I_EXTERNAL:
+        uval = input_value(fld.kind, fld.input_params, t, y)
+    return Hold(t, uval, command(uval, fld.command_params))
+
+
+@jit(inline=True)
+def held_field(fld, hold):
+    """``fld`` with the held values of ``hold``."""
+    return Field(fld.model, fld.P, fld.kind, fld.input_params, fld.command_params, fld.held, hold.uval, hold.hval,
+                 fld.sens)
+
+
+# --------------------------------------------------------------------------
+# the kernel
+# --------------------------------------------------------------------------
 @jit
 def integrate(n, system, seg, tol, sens, span, out):
     """Integrate one run; fill ``out.X`` (n_out, n) and, for held or recorded inputs, ``out.U``, ``out.W``.
@@ -552,94 +721,54 @@ def integrate(n, system, seg, tol, sens, span, out):
     step size returned in :class:`RunStats`).
     """
     model = system.model
-    kind = system.kind
     P = to_fixed_tuple(system.P, N_PACK)
-    input_params = to_fixed_tuple(system.input_params, N_INPUT_PARAMS)
-    command_params = to_fixed_tuple(system.command_params, N_COMMAND)
-    rtol = tol.rtol
-    atol = tol.atol
-    h_max = tol.h_max
+    held = is_held(system.kind, seg.mode)
+    fld = Field(model, P, system.kind, to_fixed_tuple(system.input_params, N_INPUT_PARAMS),
+                to_fixed_tuple(system.command_params, N_COMMAND), held, 0.0, 0.0, sens)
     # plain runs control every state (a constant: the loops unroll)
     n_err = n if sens is None else tol.n_err
-    t0 = span.t0
     t_end = span.t_end
     t_out = out.t
     n_out = t_out.size
     kinked = has_kink(model, P)
     y = span.x0.copy()
     f = np.empty(n)
-    y_new = np.empty(n)
-    dx = np.empty(n)
-    ytmp = np.empty(n)
-    K = np.empty((16, n))
-    F = np.empty((7, n))
-    yo = np.empty(n)
+    wk = new_work(n)
+    K = wk.K
+    y_new = wk.y_new
+    F_dense = wk.F
+    X_out = out.X
+    rows_only = out.store == STORE_SAMPLES and not held and not out.record_u
     tol_t = 1e-9 * max(1.0, abs(t_end))
-    t = t0
+    t = span.t0
     j = 0
     nfev = 0
     nacc = 0
     nrej = 0
     status = ST_OK
     h_nat = span.h0
-    held = is_held(kind, seg.mode)
-    hval = 0.0
-    uval = 0.0
     kseg = 0
     if seg.mode != SEG_CONT:
-        kseg = int(math.floor((t0 - seg.start) / seg.period + 1e-9))
+        kseg = int(math.floor((t - seg.start) / seg.period + 1e-9))
     if beyond(y, n_err, tol.xmax):
         status = ST_DIVERGED
     while status == ST_OK and t < t_end - tol_t:
         # ---- segment [t, t_b] with its held value
-        if seg.mode == SEG_CONT:
-            t_b = t_end
-            if kind == I_STEP:
-                if input_params[0] > t + tol_t and input_params[0] < t_end - tol_t:
-                    t_b = input_params[0]
-                uval = input_value(kind, input_params, t + tol_t, y)
-                hval = command(uval, command_params)
-        else:
-            t_b = min(seg.start + (kseg + 1) * seg.period, t_end)
-            if seg.mode == SEG_SAMPLES:
-                uval = seg.values[min(max(kseg, 0), seg.values.size - 1)]
-            elif kind == I_EXTERNAL:
-                uval = seg.external
-            else:
-                uval = input_value(kind, input_params, t, y)
-            hval = command(uval, command_params)
-        rate(model, P, t, y, f, held, hval, kind, input_params, command_params, sens)
+        hold = hold_of(fld, seg, seg.values, kseg, t, y, t_end, tol_t)
+        t_b = hold.t_b
+        fld = held_field(fld, hold)
+        rate(fld, t, y, f)
         nfev += 1
         while j < n_out and t_out[j] <= t + tol_t:
-            _put_near(j, t_out[j], y, f, t, out, n, held, uval, hval, kind, input_params, command_params)
+            put_near(out, j, t_out[j], y, f, t, n, fld, wk.yo)
             j += 1
         if h_nat <= 0.0:
-            h_nat = first_step(
-                model,
-                P,
-                t,
-                y,
-                f,
-                n,
-                n_err,
-                rtol,
-                atol,
-                h_max,
-                held,
-                hval,
-                kind,
-                input_params,
-                command_params,
-                sens,
-                ytmp,
-                dx,
-            )
+            h_nat = first_step(fld, t, y, f, wk, n, tol)
             nfev += 1
         rejected = False
         h_force = -1.0
-        lerr_prev = math.log(1e-4)
-        g_cur = switch(model, P, y)
-        g_new = g_cur
+        lerr_prev = LERR_FLOOR
+        g_cur = switch_of(kinked, y[0])
         h_last = -1.0
         a_last = 0.0
         bridged = False
@@ -647,85 +776,45 @@ def integrate(n, system, seg, tol, sens, span, out):
             if nacc + nrej >= tol.max_steps:
                 status = ST_MAX_STEPS
                 break
-            min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
-            h = min(h_nat, h_max)
-            forced = False
-            if h_force > 0.0:
-                h = h_force
-                h_force = -1.0
-                forced = True
-            clipped = False
-            if t + h > t_b:
-                # clip to the segment end; a step is never stretched, so a
-                # rejected clipped step is retried with a shorter one
-                h = t_b - t
-                clipped = True
-            # ---- a kink of |cos q1| ahead (section 3.1): end this step just
-            # before it, or cross it with a short RK4 step that ends just past it
-            shortened = False
-            if kinked and not forced and not bridged:
-                jk = 0.0
-                if h_last > 0.0:
-                    jk = (f[2] - a_last) / h_last
-                s_k = kink_ahead(y[0], f[0], f[2], jk, h)
-                if s_k > 0.0 and s_k <= BRIDGE_FRAC * h_nat:
-                    hb = s_k * (1.0 + KINK_OVERSHOOT) + 1e-12 * max(1.0, abs(t))
-                    if t + hb < t_b - tol_t:
-                        eb = rk4_bridge(
-                            model,
-                            P,
-                            t,
-                            y,
-                            f,
-                            hb,
-                            K,
-                            ytmp,
-                            y_new,
-                            dx,
-                            n,
-                            n_err,
-                            rtol,
-                            atol,
-                            held,
-                            hval,
-                            kind,
-                            input_params,
-                            command_params,
-                            sens,
-                        )
-                        nfev += 4
-                        if eb < 1.0:
-                            # outputs inside the bridge: cubic Hermite
-                            while j < n_out and t_out[j] < t + hb - tol_t:
-                                hermite(y, y_new, f, dx, hb, (t_out[j] - t) / hb, yo, n)
-                                _put(j, t_out[j], yo, out, n, held, uval, hval, kind, input_params, command_params)
-                                j += 1
-                            a_last = f[2]
-                            h_last = hb
-                            for i in range(n):
-                                f[i] = dx[i]
-                                y[i] = y_new[i]
-                            t = t + hb
-                            g_cur = switch(model, P, y)
-                            nacc += 1
-                            # the next step is an ordinary one: a kink the
-                            # bridge did not reach is found after that step
-                            bridged = True
-                            if beyond(y, n_err, tol.xmax):
-                                status = ST_DIVERGED
-                                break
-                            while j < n_out and t_out[j] <= t + tol_t:
-                                _put_near(
-                                    j, t_out[j], y, f, t, out, n, held, uval, hval, kind, input_params, command_params
-                                )
-                                j += 1
-                            continue
-                elif s_k > 0.0 and s_k * (1.0 - KINK_MARGIN) < h:
-                    h = s_k * (1.0 - KINK_MARGIN)
-                    shortened = True
-                    clipped = False
+            jk = (f[2] - a_last) / h_last if h_last > 0.0 else 0.0
+            plan = plan_step(t, t_b, h_nat, tol.h_max, h_force, kinked and not bridged, (y[0], f[0], f[2], jk), tol_t)
+            h = plan.h
+            h_force = -1.0
             bridged = False
-            if h < min_step:
+            if plan.flags == BRIDGE:
+                # ---- a kink of |cos q1| close ahead (section 3.1): an RK4 step across it
+                eb = rk4_bridge(fld, t, y, f, h, wk, n, tol)
+                nfev += 4
+                if eb < 1.0:
+                    # outputs inside the bridge: cubic Hermite
+                    while j < n_out and t_out[j] < t + h - tol_t:
+                        hermite(y, y_new, f, wk.dx, h, (t_out[j] - t) / h, wk.yo, n)
+                        put_sample(out, j, t_out[j], wk.yo, n, fld)
+                        j += 1
+                    a_last = f[2]
+                    h_last = h
+                    for i in range(n):
+                        f[i] = wk.dx[i]
+                        y[i] = y_new[i]
+                    t = t + h
+                    g_cur = switch_of(kinked, y[0])
+                    nacc += 1
+                    # the next step is an ordinary one: a kink the
+                    # bridge did not reach is found after that step
+                    bridged = True
+                    if beyond(y, n_err, tol.xmax):
+                        status = ST_DIVERGED
+                        break
+                    while j < n_out and t_out[j] <= t + tol_t:
+                        put_near(out, j, t_out[j], y, f, t, n, fld, wk.yo)
+                        j += 1
+                    continue
+                # a failed bridge: an ordinary step of the natural size
+                plan = plan_step(t, t_b, h_nat, tol.h_max, -1.0, False, (y[0], f[0], f[2], jk), tol_t)
+                h = plan.h
+            forced = plan.flags & FORCED != 0
+            clipped = plan.flags & CLIPPED != 0
+            if h < min_step(t):
                 status = ST_STEP_TOO_SMALL
                 break
             # ---- the stages. Stage 12 (first same as last) is f at the new
@@ -733,85 +822,51 @@ def integrate(n, system, seg, tol, sens, span, out):
             # be interpolated or crosses a kink.
             for i in range(n):
                 K[0, i] = f[i]
-            stages(
-                model, P, t, y, h, K, ytmp, dx, n, 1, N_STAGES + 1, held, hval, kind, input_params, command_params, sens
-            )
+            stages(fld, t, y, h, wk, n, 1, N_STAGES + 1)
             nfev += N_STAGES
             for i in range(n):
-                y_new[i] = ytmp[i]
-            err = error_norm(K, h, y, y_new, rtol, atol, n_err)
-            crossing = False
-            dense = False
-            if err < 1.0:
-                g_new = switch(model, P, y_new)
-                if not forced:
-                    crossing = g_cur * g_new < 0.0
-                t_e = t_b if clipped else t + h
-                dense = crossing or (j < n_out and t_out[j] < t_e - tol_t)
+                y_new[i] = wk.ytmp[i]
+            err = error_norm(K, h, y, y_new, tol.rtol, tol.atol, n_err)
             if not (err < 1.0):
                 nrej += 1
                 h_nat = h * reject_factor(err)
                 rejected = True
-                if h_nat < min_step:
+                if h_nat < min_step(t):
                     status = ST_STEP_TOO_SMALL
                     break
                 continue
-            if dense:
+            g_new = switch_of(kinked, y_new[0])
+            crossing = not forced and g_cur * g_new < 0.0
+            t_new = t_b if clipped else t + h
+            if crossing or (j < n_out and t_out[j] < t_new - tol_t):
                 nfev += 3
-                stages(
-                    model,
-                    P,
-                    t,
-                    y,
-                    h,
-                    K,
-                    ytmp,
-                    dx,
-                    n,
-                    N_STAGES + 1,
-                    16,
-                    held,
-                    hval,
-                    kind,
-                    input_params,
-                    command_params,
-                    sens,
-                )
-                dense_coefficients(K, h, y, y_new, F, n)
+                dense_step(fld, t, y, h, wk, n)
             # a kink of the right-hand side inside the step: redo the step so
             # that it ends just past the kink (located on the dense output)
             if crossing:
-                h_force = kink_step(model, P, F, y, h, t, g_cur, g_new, yo, n)
+                h_force = kink_step(model, P, wk.F, y, h, t, g_cur, g_new, wk.yo, n)
                 if h_force < h:
                     nrej += 1
                     continue
                 h_force = -1.0
             # accepted
             factor = accept_factor(err, lerr_prev)
-            lerr_prev = math.log(max(err, 1e-4))
+            lerr_prev = log_error(err)
             if rejected:
                 factor = min(1.0, factor)
             rejected = False
-            if not clipped and not forced and not shortened:
-                h_nat = h * factor
-            elif factor < 1.0:
-                # a step clipped to the segment end keeps the natural step
-                # size unless its own error asks for a smaller one
-                h_nat = min(h_nat, h * factor)
+            h_nat = next_step_size(h, h_nat, factor, plan.flags == 0)
             nacc += 1
-            t_new = t_b if clipped else t + h
-            # dense output strictly inside (t, t_new)
-            if held or out.record_u:
-                while j < n_out and t_out[j] < t_new - tol_t:
-                    dense_eval(F, y, (t_out[j] - t) / h, yo, n)
-                    _put(j, t_out[j], yo, out, n, held, uval, hval, kind, input_params, command_params)
-                    j += 1
-            else:
-                # states only: straight into the output rows
+            # dense output strictly inside (t, t_new); states only: straight into
+            # their rows (put_dense's first case, without a call per sample)
+            if rows_only:
                 rh = 1.0 / h
                 while j < n_out and t_out[j] < t_new - tol_t:
-                    dense_eval_row(F, y, (t_out[j] - t) * rh, out.X, j, n)
+                    dense_eval_row(F_dense, y, (t_out[j] - t) * rh, X_out, j, n)
                     j += 1
+            while j < n_out and t_out[j] < t_new - tol_t:
+                put_dense(out, j, t_out[j], t, h, y, n, fld, wk)
+                j += 1
             a_last = f[2]
             h_last = t_new - t
             for i in range(n):
@@ -825,31 +880,20 @@ def integrate(n, system, seg, tol, sens, span, out):
             # outputs exactly at an interior step end
             if t < t_b - tol_t:
                 while j < n_out and t_out[j] <= t + tol_t:
-                    _put_near(j, t_out[j], y, f, t, out, n, held, uval, hval, kind, input_params, command_params)
+                    put_near(out, j, t_out[j], y, f, t, n, fld, wk.yo)
                     j += 1
         if status != ST_OK:
             break
         kseg += 1
-        if kind == I_EXTERNAL:
+        if fld.kind == I_EXTERNAL:
             break  # Python supplies the next held value
     if status == ST_OK and t >= t_end - tol_t:
         # outputs at the end time
-        if held:
-            if seg.mode == SEG_SAMPLES:
-                uval = seg.values[min(max(kseg, 0), seg.values.size - 1)]
-            elif kind != I_EXTERNAL:
-                uval = input_value(kind, input_params, t, y)
-            hval = command(uval, command_params)
+        fld = held_field(fld, end_hold(fld, seg, seg.values, kseg, t, y))
         while j < n_out and t_out[j] <= t_end + tol_t:
-            _put_near(j, t_out[j], y, f, t, out, n, held, uval, hval, kind, input_params, command_params)
+            put_near(out, j, t_out[j], y, f, t, n, fld, wk.yo)
             j += 1
-    # samples never reached (a failed run) are NaN
-    for jj in range(j, n_out):
-        for i in range(n):
-            out.X[jj, i] = np.nan
-        if held or out.record_u:
-            out.U[jj] = np.nan
-            out.W[jj] = np.nan
+    put_unreached(out, j, n)
     for i in range(n):
         span.x0[i] = y[i]
     return RunStats(status, nfev, nacc, nrej, t, h_nat)
@@ -888,38 +932,6 @@ def _make_kernel(n: int | None):
     return jit(kernel_)
 
 
-def _make_batch(n: int):
-    """Runs with their own parameters, one per thread at a time (:func:`iwp.sim.simulate.simulate_batch`)."""
-
-    def batch_(
-        model, Pm, X0m, kind, input_params_runs, command_params, seg, tol, t0, t_end, t_out, X, U, W, status, nfev
-    ):
-        for r in prange(Pm.shape[0]):
-            st = integrate(
-                n,
-                System(model, Pm[r], input_params_runs[r], command_params, kind),
-                seg,
-                tol,
-                None,
-                Span(X0m[r].copy(), t0, t_end, -1.0),
-                Output(t_out, X[r], U[r], W[r], True),
-            )
-            status[r] = st.status
-            nfev[r] = st.nfev
-
-    batch_.__name__ = batch_.__qualname__ = f"integrate_batch_{n}"
-    return jit(batch_, parallel=True)
-
-
-def batch_kernel(n_states: int):
-    """The parallel batch of runs of ``n_states`` states (compiled on first use)."""
-    key = ("batch", int(n_states))
-    k = _KERNELS.get(key)
-    if k is None:
-        k = _KERNELS[key] = _make_batch(int(n_states))
-    return k
-
-
 def kernel(n_states: int):
     """The compiled plain run for a model of ``n_states`` states (compiled on first use, cached on disk).
 
@@ -948,6 +960,10 @@ def sensitivity_kernel():
 
 __all__ = [
     "Output",
+    "STORE_SAMPLES",
+    "STORE_SUMMARY",
+    "samples_output",
+    "may_cross",
     "RunStats",
     "Segments",
     "SensView",
@@ -955,7 +971,6 @@ __all__ = [
     "Span",
     "System",
     "Tolerances",
-    "batch_kernel",
     "integrate",
     "input_samples",
     "kernel",

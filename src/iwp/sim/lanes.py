@@ -1,31 +1,43 @@
 """Many simulations side by side: the batch kernel (internal).
 
 :func:`iwp.sim.simulate.simulate_batch` runs thousands of simulations of one
-model that differ in their gains, input parameters or initial states. One
-simulation alone is latency-bound: every Runge-Kutta stage waits for the
-previous one through the right-hand side. This kernel advances ``LANES``
-simulations in lock step instead, each with its own step size, error
-control, kink handling and outputs. Their states are the columns of
-``(n, LANES)`` arrays, the stages and the right-hand side are evaluated for
-all lanes in one loop that the compiler vectorises, and everything that
-differs between lanes -- accepting or rejecting a step, the next step size,
-dense output, the kinks of ``|cos q1|`` -- is done lane by lane with the
-same code paths as :func:`iwp.sim.engine.integrate`. A lane whose simulation
-ends takes the next one of its thread's share. The right-hand side is that
-of :mod:`iwp.models`, reached through lane views (:mod:`iwp.sim.views`).
+model that differ in their plant parameters, inputs (signals, the Hopf law,
+sampled controllers, held sample arrays) or initial states. One simulation
+alone is latency-bound: every Runge-Kutta stage waits for the previous one
+through the right-hand side. This kernel advances ``LANES`` simulations in
+lock step instead, each with its own step size, error control, kinks, held
+input and outputs. Their states are the columns of ``(n, LANES)`` arrays.
 
-The method is the same DOP853 with the same error control, so a simulation
-gives the same result here as alone, up to rounding (the compiler may order
-sums differently in vector code).
+Each step of a block has four parts:
 
-Used for continuous inputs (signals and the continuous Hopf law) and
-parameters shared by all runs; held inputs, sampled controllers and
-per-run parameters go through :func:`iwp.sim.engine.batch_kernel`.
+1. lane by lane, the lanes that need it: start and finish runs, begin a held
+   segment, conclude a step that was not ordinary (rejected, clipped to a
+   segment end, landed on or crossing a kink), plan a step near a kink (with
+   the RK4 bridge);
+2. all lanes at once: the DOP853 stages and error norms (vectorised);
+3. all lanes at once: accept the ordinary steps (the new state,
+   branch-free, vectorised; the controller's factor lane by lane). A step
+   with output times inside it needs the dense output: for model (9) without
+   optional terms, the Hopf law and store="samples", the step is put in a slot
+   (:class:`DenseSlots`) and its three extra stages are computed with those of
+   ``LANES`` such steps at once (:func:`flush_dense`, also before a run ends);
+   otherwise lane by lane (:func:`~iwp.sim.engine.dense_step`);
+4. all lanes at once: plan the next ordinary steps; a lane near a kink or at
+   a segment end is left to part 1.
+
+Parts 1, 3 and 4 are made of the pieces :func:`iwp.sim.engine.integrate`
+uses -- the controller (:mod:`iwp.sim.controller`), :func:`~iwp.sim.engine.plan_step`,
+the bridge, the held segments and the output writers of :mod:`iwp.sim.engine`
+-- so a simulation takes the same steps here as alone and gives the same
+result up to rounding (the compiler may order sums differently in vector
+code). The right-hand side is that of :mod:`iwp.models`, reached through
+lane views (:mod:`iwp.sim.views`); for model (9) without optional terms and
+the continuous Hopf law it is the branch-free one that vectorises.
 """
 
 from __future__ import annotations
 
-import math
+from collections import namedtuple
 
 import numpy as np
 from numba import prange
@@ -35,484 +47,643 @@ from ..jit import jit
 from ..models.actuator import command
 from ..models.equations import optional_terms_off, rhs_of
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
-from .dop853 import N_STAGES as _NS
-from .dop853 import dense_coefficients, dense_eval, error_norm_lanes, stage_input_lanes
+from .controller import LERR_FLOOR, accept_factor, log_error, next_step_size, reject_factor
+from .dop853 import N_STAGES, dense_coefficients, dense_eval_row, error_norm_lanes, stage_input_lanes
 from .engine import (
-    BRIDGE_FRAC,
-    KINK_MARGIN,
-    KINK_OVERSHOOT,
+    BRIDGE,
+    CLIPPED,
+    FORCED,
     NODES,
+    SEG_CONT,
     ST_DIVERGED,
     ST_MAX_STEPS,
     ST_OK,
     ST_STEP_TOO_SMALL,
-    accept_factor,
+    STORE_SAMPLES,
+    Field,
+    Output,
+    Segments,
+    Tolerances,
+    beyond,
+    dense_step,
+    end_hold,
     first_step,
     has_kink,
+    held_field,
     hermite,
+    hold_of,
     input_samples,
-    kink_ahead,
+    is_held,
+    kink_possible,
     kink_step,
+    may_cross,
+    min_step,
+    new_work,
+    plan_step,
     plant_rate,
-    reject_factor,
+    put_dense,
+    put_near,
+    put_sample,
+    put_unreached,
+    rate,
     rk4_bridge,
-    stages,
-    switch,
+    switch_of,
 )
-from .inputs import I_HOPF, input_value
+from .inputs import I_HOPF, N_INPUT_PARAMS, input_value
 from .views import lane, slab_lane
 
 #: simulations per thread advanced together (two 8-wide vectors)
 LANES = 16
 
+#: A batch of runs of one model: the model code, plant parameters per run
+#: (n_runs, N_PACK), initial states (n_runs, n), the input kind, input
+#: parameters per run (n_runs, N_INPUT_PARAMS), the command vector, how the
+#: input is held (:class:`~iwp.sim.engine.Segments` whose ``values`` has one
+#: row of held samples per run) and the interval [s].
+Batch = namedtuple("Batch", ["model", "P", "X0", "kind", "input_params", "command_params", "seg", "t0", "t_end"])
+#: What a batch keeps: output times, store mode (``engine.STORE_*``), states
+#: (n_runs, n_out, n), ideal input and command (n_runs, n_out), summaries
+#: (n_runs, N_SUMMARY, n), final states (n_runs, n) and per run the status,
+#: evaluations, accepted and rejected steps.
+BatchOutput = namedtuple(
+    "BatchOutput", ["t", "store", "X", "U", "W", "S", "x_final", "status", "nfev", "n_steps", "n_rejected"]
+)
+
+#: Deferred dense outputs of accepted ordinary steps (model (9) plain, store="samples"),
+#: one step per slot, computed ``LANES`` at a time by :func:`flush_dense`: per slot the
+#: step's start time T, state Y (n, L), size H, stages K (16, n, L) with 0-12 given, scratch
+#: YT (n, L), end state YN (n, L), input and plant parameters IPL, PL, and its run R and
+#: output samples ``J0 .. J1-1``.
+DenseSlots = namedtuple("DenseSlots", ["T", "Y", "H", "K", "YT", "YN", "IPL", "PL", "R", "J0", "J1"])
+
+# what a lane waits for before its next vector step
+M_READY = 0  #: its next step is planned
+M_DECIDE = 1  #: its last step was not an ordinary one: concluded lane by lane
+M_POST = 2  #: its last step was accepted: outputs at the step end, divergence
+M_PLAN = 3  #: its next step is planned lane by lane (kink, segment end, run end)
+M_IDLE = 4  #: no run left for it
+
 
 @jit(inline=True)
-def _lane_input_params(input_params_lanes, l):
+def _lane_input_params(IPL, l):
     """The input parameters of lane ``l`` as the tuple the input functions take."""
-    return (input_params_lanes[0, l], input_params_lanes[1, l], input_params_lanes[2, l], input_params_lanes[3, l])
+    return (IPL[0, l], IPL[1, l], IPL[2, l], IPL[3, l])
 
 
 @jit(inline=True)
-def _plain_stages(P, command_params, T, Y, H, K, YT, input_params_lanes, n, L):
-    """Stages 1-12 of a DOP853 step of every lane, model (9) without optional terms and the Hopf law.
+def run_output(out, r):
+    """The :class:`~iwp.sim.engine.Output` of run ``r`` of a batch.
 
-    Everything is inlined and free of library calls: the loops over lanes
-    are vectorised.
+    A continuous input is not recorded sample by sample: its columns are
+    computed from the states when the run ends (:func:`~iwp.sim.engine.input_samples`).
     """
-    for s in range(1, _NS + 1):
+    return Output(out.t, out.X[r], out.U[r], out.W[r], False, out.store, out.S[r])
+
+
+@jit(inline=True)
+def run_field(bt, r, held, uval, hval):
+    """The :class:`~iwp.sim.engine.Field` of run ``r`` of a batch with its held values."""
+    return Field(bt.model, to_fixed_tuple(bt.P[r], N_PACK), bt.kind, to_fixed_tuple(bt.input_params[r], N_INPUT_PARAMS),
+                 to_fixed_tuple(bt.command_params, N_COMMAND), held, uval, hval, None)
+
+
+@jit(inline=True)
+def lane_step_into(K, YT, l, wK, wy, n):
+    """Copy lane ``l``'s stages 0-12 and end state into one run's work arrays ``wK`` (16, n) and ``wy`` (n,).
+
+    Then :func:`~iwp.sim.engine.dense_step` adds stages 13-15 and the dense
+    coefficients, as for a single run. (The work arrays are passed, not the
+    :class:`~iwp.sim.engine.Work` record: numba lost writes made through a
+    record inside an inlined function.)
+    """
+    for i in range(n):
+        wy[i] = YT[i, l]
+        for s in range(N_STAGES + 1):
+            wK[s, i] = K[s, i, l]
+
+
+@jit(inline=True)
+def lane_outputs(out, r, j, step, ys, fld, wk):
+    """Outputs of run r from sample j inside an accepted step ``step = (t, h, t_stop)``; returns the next sample.
+
+    The samples before ``t_stop`` [s] are interpolated on the dense output
+    ``wk.F`` from the state ``ys`` at ``t``; states only (a continuous input
+    with store="samples") go straight into their rows, as
+    :func:`~iwp.sim.engine.integrate` writes them, others through
+    :func:`~iwp.sim.engine.put_dense`.
+    """
+    t, h, t_stop = step
+    t_out = out.t
+    n = ys.size
+    if out.store == STORE_SAMPLES and not fld.held:
+        Xr = out.X[r]
+        rh = 1.0 / h
+        while j < t_out.size and t_out[j] < t_stop:
+            dense_eval_row(wk.F, ys, (t_out[j] - t) * rh, Xr, j, n)
+            j += 1
+    while j < t_out.size and t_out[j] < t_stop:
+        put_dense(run_output(out, r), j, t_out[j], t, h, ys, n, fld, wk)
+        j += 1
+    return j
+
+
+@jit(inline=True)
+def plain_stages(cps, TYH, K, YT, IPL, PL, n, span):
+    """DOP853 stages of every lane, model (9) without optional terms and the continuous Hopf law (vectorised).
+
+    Parameters
+    ----------
+    cps : tuple
+        The command vector.
+    TYH : tuple
+        ``(T, Y, H)``: per lane the step's start time (L,), state (n, L) and size (L,); read only.
+    K : ndarray
+        Stages (16, n, L): ``K[0 .. s0-1]`` given, ``K[s0 .. s1-1]`` filled.
+    YT : ndarray
+        Scratch (n, L): the last stage's input on return (the new state after stage 12).
+    IPL, PL : ndarray
+        Input parameters (N_INPUT_PARAMS, L) and packed plant parameters (N_PACK, L) per lane.
+    n : int
+        Number of states.
+    span : tuple
+        ``(s0, s1, L)``: stages ``s0 .. s1-1`` of lanes ``0 .. L-1`` (1-12 for a step, 13-15 for its dense output).
+    """
+    T, Y, H = TYH
+    s0, s1, L = span
+    for s in range(s0, s1):
         stage_input_lanes(s, Y, H, K, YT, n, L)
         cs = NODES[s]
         for l in range(L):
             x = lane(YT, l)
-            input_params = _lane_input_params(input_params_lanes, l)
-            w = command(input_value(I_HOPF, input_params, T[l] + cs * H[l], x), command_params)
-            rhs_of(M_PLAIN, x, w, P, slab_lane(K, s, l))
+            w = command(input_value(I_HOPF, _lane_input_params(IPL, l), T[l] + cs * H[l], x), cps)
+            rhs_of(M_PLAIN, x, w, lane(PL, l), slab_lane(K, s, l))
 
 
-@jit(inline=True)
-def _general_stages(model, P, kind, command_params, T, Y, H, K, YT, input_params_lanes, n, L):
-    """Stages 1-12 of a DOP853 step of every lane, any model and input: one call per lane and stage."""
-    for s in range(1, _NS + 1):
-        stage_input_lanes(s, Y, H, K, YT, n, L)
-        cs = NODES[s]
-        for l in range(L):
-            input_params = _lane_input_params(input_params_lanes, l)
-            plant_rate(
-                model,
-                P,
-                T[l] + cs * H[l],
-                lane(YT, l),
-                slab_lane(K, s, l),
-                False,
-                0.0,
-                kind,
-                input_params,
-                command_params,
-            )
+@jit(vector=True)
+def flush_dense(cps, ds, nd, X, t_out, F, n):
+    """The dense outputs of the first ``nd`` slots of ``ds``, side by side, into their rows of ``X``.
 
+    Stages 13-15 of all slots at once (:func:`plain_stages`), then per slot
+    the coefficients (:func:`~iwp.sim.dop853.dense_coefficients`) and the
+    samples (:func:`~iwp.sim.dop853.dense_eval_row`), as
+    :func:`~iwp.sim.engine.dense_step` and :func:`lane_outputs` compute them
+    for one lane.
 
-@jit(inline=True)
-def _vector_step(model, P, kind, command_params, T, Y, F, H, K, YT, input_params_lanes, n, L):
-    for l in range(L):
-        for i in range(n):
-            K[0, i, l] = F[i, l]
-    if optional_terms_off(model, P) and kind == I_HOPF:
-        _plain_stages(P, command_params, T, Y, H, K, YT, input_params_lanes, n, L)
-    else:
-        _general_stages(model, P, kind, command_params, T, Y, H, K, YT, input_params_lanes, n, L)
+    Parameters
+    ----------
+    cps : tuple
+        The command vector.
+    ds : DenseSlots
+        The deferred steps.
+    nd : int
+        Number of slots filled (at most ``LANES``).
+    X : ndarray
+        States of the batch (n_runs, n_out, n).
+    t_out : ndarray
+        Output times (n_out,).
+    F : ndarray
+        Scratch for the dense coefficients (7, n).
+    n : int
+        Number of states.
+    """
+    if nd == 0:
+        return
+    plain_stages(cps, (ds.T, ds.Y, ds.H), ds.K, ds.YT, ds.IPL, ds.PL, n, (N_STAGES + 1, 16, nd))
+    for k in range(nd):
+        y = ds.Y[:, k]
+        h = ds.H[k]
+        dense_coefficients(ds.K[:, :, k], h, y, ds.YN[:, k], F, n)
+        Xr = X[ds.R[k]]
+        rh = 1.0 / h
+        for j in range(ds.J0[k], ds.J1[k]):
+            dense_eval_row(F, y, (t_out[j] - ds.T[k]) * rh, Xr, j, n)
 
 
 @jit
-def run_lanes(
-    model,
-    n,
-    P_arr,
-    X0m,
-    r0,
-    r1,
-    t0,
-    t_end,
-    t_out,
-    kind,
-    input_params_runs,
-    command_params_arr,
-    tol,
-    X,
-    U,
-    W,
-    status,
-    nfev,
-):
-    """Simulations ``r0 .. r1-1`` of a batch, ``LANES`` at a time; fills X, U, W, status and nfev of each."""
+def new_slots(n):
+    """Empty :class:`DenseSlots` of ``LANES`` slots for ``n`` states."""
     L = LANES
-    P = to_fixed_tuple(P_arr, N_PACK)
-    command_params = to_fixed_tuple(command_params_arr, N_COMMAND)
-    rtol = tol.rtol
-    atol = tol.atol
-    h_max = tol.h_max
-    max_steps = tol.max_steps
-    xmax = tol.xmax
+    return DenseSlots(np.zeros(L), np.zeros((n, L)), np.ones(L), np.zeros((16, n, L)), np.zeros((n, L)),
+                      np.zeros((n, L)), np.zeros((N_INPUT_PARAMS, L)), np.zeros((N_PACK, L)),
+                      np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.int64))
+
+
+@jit(inline=True)
+def general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L):
+    """Stages 1-12 of every lane, any model and input: one call per lane and stage."""
+    for s in range(1, N_STAGES + 1):
+        stage_input_lanes(s, Y, H, K, YT, n, L)
+        cs = NODES[s]
+        for l in range(L):
+            fld = run_field(bt, RUN[l], held, 0.0, HV[l])
+            plant_rate(fld, T[l] + cs * H[l], lane(YT, l), slab_lane(K, s, l))
+
+
+@jit(vector=True)
+def run_lanes(n, bt, tol, out, r0, r1):
+    """Simulations ``r0 .. r1-1`` of a :class:`Batch`, ``LANES`` at a time, into the :class:`BatchOutput`."""
+    L = LANES
+    model = bt.model
+    seg = bt.seg
+    t0 = bt.t0
+    t_end = bt.t_end
+    t_out = out.t
     n_out = t_out.size
-    kinked = has_kink(model, P)
+    cps = to_fixed_tuple(bt.command_params, N_COMMAND)
+    held = is_held(bt.kind, seg.mode)
+    plain = bt.kind == I_HOPF and not held
+    for r in range(r0, r1):
+        plain = plain and optional_terms_off(model, bt.P[r])
+    h_max = tol.h_max
+    xmax = tol.xmax
     tol_t = 1e-9 * max(1.0, abs(t_end))
-    # lane arrays: column l is the simulation in lane l
-    Y = np.zeros((n, L))
+    # lane arrays: column l is the simulation in lane l; idle lanes hold a
+    # copy of the first run, so that their (unused) stages stay finite
+    Y = np.empty((n, L))
     F = np.zeros((n, L))
-    YT = np.zeros((n, L))
+    YT = np.empty((n, L))
     K = np.zeros((16, n, L))
-    input_params_lanes = np.zeros((4, L))
-    for l in range(L):  # idle lanes evaluate a real run's input (zeros are a chirp of no sweep time: 1/0)
-        for i in range(4):
-            input_params_lanes[i, l] = input_params_runs[r0, i]
+    PL = np.empty((N_PACK, L))
+    IPL = np.empty((N_INPUT_PARAMS, L))
+    for l in range(L):
+        for i in range(n):
+            Y[i, l] = bt.X0[r0, i]
+        for k in range(N_PACK):
+            PL[k, l] = bt.P[r0, k]
+        for k in range(N_INPUT_PARAMS):
+            IPL[k, l] = bt.input_params[r0, k]
     H = np.zeros(L)
     ERR = np.zeros(L)
     T = np.full(L, t0)
+    TB = np.full(L, t_end)  # end of the held segment
+    TNEXT = np.full(L, np.inf)  # next output time
+    HV = np.zeros(L)  # held command
+    UV = np.zeros(L)  # held ideal input
     HN = np.zeros(L)  # natural step size
     HF = np.full(L, -1.0)  # forced step size (a kink landed on)
     LERRP = np.zeros(L)  # log of the previous error (PI control)
-    HLAST = np.zeros(L)
+    HLAST = np.full(L, -1.0)
     ALAST = np.zeros(L)
-    GCUR = np.ones(L)
-    RUN = np.full(L, -1)
+    RUN = np.full(L, r0)
+    ACTIVE = np.zeros(L, dtype=np.bool_)
+    MODE = np.full(L, M_PLAN)
+    PLAN = np.zeros(L, dtype=np.int64)
+    KSEG = np.zeros(L, dtype=np.int64)
     J = np.zeros(L, dtype=np.int64)
     NFEV = np.zeros(L, dtype=np.int64)
-    NSTEP = np.zeros(L, dtype=np.int64)
+    NACC = np.zeros(L, dtype=np.int64)
+    NREJ = np.zeros(L, dtype=np.int64)
     STAT = np.zeros(L, dtype=np.int64)
     REJ = np.zeros(L, dtype=np.bool_)
-    FORCED = np.zeros(L, dtype=np.bool_)
-    CLIPPED = np.zeros(L, dtype=np.bool_)
-    SHORT = np.zeros(L, dtype=np.bool_)
     BRIDGED = np.zeros(L, dtype=np.bool_)
-    # one lane's data, for the lane-by-lane work
+    KINKED = np.zeros(L, dtype=np.bool_)
+    NEWSEG = np.zeros(L, dtype=np.bool_)
+    DONE = np.zeros(L, dtype=np.bool_)
+    # one lane's state, for the lane-by-lane work
     ys = np.empty(n)
-    yn = np.empty(n)
     fs = np.empty(n)
-    dx = np.empty(n)
-    ytmp = np.empty(n)
-    ftmp = np.empty(n)
-    Ks = np.empty((16, n))
-    Fd = np.empty((7, n))
-    yo = np.empty(n)
+    wk = new_work(n)
+    # dense outputs of ordinary steps, deferred and computed LANES at a time
+    defer = plain and out.store == STORE_SAMPLES
+    # (filled through these names: numba lost writes made through the record's fields here)
+    ds = new_slots(n)
+    DT, DY, DH, DK, _, DYN, DIPL, DPL, DR, DJ0, DJ1 = ds
+    nd = 0
     nxt = r0
     n_active = 0
     while True:
-        # ---- lane by lane: finish and start simulations, choose the next step
+        # ---- 1. lane by lane, where needed
         for l in range(L):
-            while True:
-                r = RUN[l]
-                if r >= 0 and (STAT[l] != ST_OK or T[l] >= t_end - tol_t):
-                    # ---- the simulation in this lane is done
+            mode = MODE[l]
+            if mode == M_READY or mode == M_IDLE:
+                continue
+            r = RUN[l]
+            for i in range(n):
+                ys[i] = Y[i, l]
+                fs[i] = F[i, l]
+            if mode == M_DECIDE:
+                # conclude a step that was not an ordinary one (as integrate does)
+                t = T[l]
+                h = H[l]
+                err = ERR[l]
+                NFEV[l] += N_STAGES
+                mode = M_PLAN
+                if not (err < 1.0):
+                    NREJ[l] += 1
+                    HN[l] = h * reject_factor(err)
+                    REJ[l] = True
+                    if HN[l] < min_step(t):
+                        STAT[l] = ST_STEP_TOO_SMALL
+                else:
+                    g_cur = switch_of(KINKED[l], ys[0])
+                    g_new = switch_of(KINKED[l], YT[0, l])
+                    crossing = PLAN[l] & FORCED == 0 and g_cur * g_new < 0.0
+                    t_new = TB[l] if PLAN[l] & CLIPPED != 0 else t + h
+                    dense = crossing or TNEXT[l] < t_new - tol_t
+                    h_force = -1.0
+                    if dense:
+                        fld = run_field(bt, r, held, UV[l], HV[l])
+                        lane_step_into(K, YT, l, wk.K, wk.y_new, n)
+                        dense_step(fld, t, ys, h, wk, n)
+                        NFEV[l] += 3
+                        if crossing:
+                            h_force = kink_step(model, fld.P, wk.F, ys, h, t, g_cur, g_new, wk.yo, n)
+                    if h_force > 0.0 and h_force < h:
+                        NREJ[l] += 1
+                        HF[l] = h_force
+                    else:
+                        factor = accept_factor(err, LERRP[l])
+                        LERRP[l] = log_error(err)
+                        if REJ[l]:
+                            factor = min(1.0, factor)
+                        REJ[l] = False
+                        HN[l] = next_step_size(h, HN[l], factor, PLAN[l] == 0)
+                        NACC[l] += 1
+                        if dense:
+                            J[l] = lane_outputs(out, r, J[l], (t, h, t_new - tol_t), ys, fld, wk)
+                        ALAST[l] = F[2, l]
+                        HLAST[l] = t_new - t
+                        for i in range(n):
+                            fs[i] = K[N_STAGES, i, l]
+                            ys[i] = YT[i, l]
+                            F[i, l] = fs[i]
+                            Y[i, l] = ys[i]
+                        T[l] = t_new
+                        mode = M_POST
+            if mode == M_POST:
+                # after an accepted step: divergence, outputs exactly at an interior step end
+                mode = M_PLAN
+                if beyond(ys, n, xmax):
+                    STAT[l] = ST_DIVERGED
+                elif T[l] < TB[l] - tol_t and J[l] < n_out and t_out[J[l]] <= T[l] + tol_t:
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
+                    j = J[l]
+                    while j < n_out and t_out[j] <= T[l] + tol_t:
+                        put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
+                        j += 1
+                    J[l] = j
+            # ---- plan the next step (several when it bridges a kink); finish and start runs
+            while mode == M_PLAN:
+                if ACTIVE[l] and (STAT[l] != ST_OK or T[l] >= t_end - tol_t):
+                    # ---- the run in this lane is done
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
                     j = J[l]
                     if STAT[l] == ST_OK:
-                        # samples within the time tolerance of the end: first-order correction
+                        fld = held_field(fld, end_hold(fld, seg, seg.values[r], KSEG[l] + 1, T[l], ys))
                         while j < n_out and t_out[j] <= t_end + tol_t:
-                            for i in range(n):
-                                X[r, j, i] = Y[i, l] + F[i, l] * (t_out[j] - T[l])
+                            put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
                             j += 1
-                    input_samples(
-                        kind,
-                        _lane_input_params(input_params_lanes, l),
-                        command_params,
-                        t_out[:j],
-                        X[r, :j],
-                        U[r, :j],
-                        W[r, :j],
-                    )
-                    # samples never reached (a failed run) are NaN
-                    X[r, j:] = np.nan
-                    U[r, j:] = np.nan
-                    W[r, j:] = np.nan
-                    status[r] = STAT[l]
-                    nfev[r] = NFEV[l]
-                    RUN[l] = -1
+                    if nd > 0:
+                        # the run's deferred samples first (its input columns follow from them)
+                        flush_dense(cps, ds, nd, out.X, t_out, wk.F, n)
+                        nd = 0
+                    if not held and out.store == STORE_SAMPLES:
+                        input_samples(bt.kind, fld.input_params, fld.command_params, t_out[:j], o.X[:j], o.U[:j],
+                                      o.W[:j])
+                    put_unreached(o, j, n)
+                    for i in range(n):
+                        out.x_final[r, i] = ys[i]
+                    out.status[r] = STAT[l]
+                    out.nfev[r] = NFEV[l]
+                    out.n_steps[r] = NACC[l]
+                    out.n_rejected[r] = NREJ[l]
+                    ACTIVE[l] = False
                     n_active -= 1
-                    r = -1
-                if r < 0:
+                if not ACTIVE[l]:
                     if nxt >= r1:
+                        mode = M_IDLE
                         H[l] = 0.0
                         break
-                    # ---- start the next simulation in this lane
+                    # ---- start the next run in this lane
                     r = nxt
                     nxt += 1
                     RUN[l] = r
+                    ACTIVE[l] = True
                     n_active += 1
-                    for i in range(4):
-                        input_params_lanes[i, l] = input_params_runs[r, i]
-                    input_params = _lane_input_params(input_params_lanes, l)
+                    for k in range(N_PACK):
+                        PL[k, l] = bt.P[r, k]
+                    for k in range(N_INPUT_PARAMS):
+                        IPL[k, l] = bt.input_params[r, k]
                     for i in range(n):
-                        ys[i] = X0m[r, i]
+                        ys[i] = bt.X0[r, i]
                         Y[i, l] = ys[i]
+                    KINKED[l] = has_kink(model, to_fixed_tuple(bt.P[r], N_PACK))
                     T[l] = t0
-                    plant_rate(model, P, t0, ys, fs, False, 0.0, kind, input_params, command_params)
+                    KSEG[l] = 0
+                    if seg.mode != SEG_CONT:
+                        KSEG[l] = int(np.floor((t0 - seg.start) / seg.period + 1e-9))
+                    HN[l] = -1.0
+                    STAT[l] = ST_OK
+                    J[l] = 0
+                    NFEV[l] = 0
+                    NACC[l] = 0
+                    NREJ[l] = 0
+                    NEWSEG[l] = True
+                    if beyond(ys, n, xmax):
+                        STAT[l] = ST_DIVERGED
+                        continue
+                if NEWSEG[l] or T[l] >= TB[l] - tol_t:
+                    # ---- a held segment begins (the first one of the run, or the next)
+                    if not NEWSEG[l]:
+                        KSEG[l] += 1
+                    NEWSEG[l] = False
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
+                    hold = hold_of(fld, seg, seg.values[r], KSEG[l], T[l], ys, t_end, tol_t)
+                    TB[l] = hold.t_b
+                    UV[l] = hold.uval
+                    HV[l] = hold.hval
+                    fld = held_field(fld, hold)
+                    rate(fld, T[l], ys, fs)
+                    NFEV[l] += 1
                     for i in range(n):
                         F[i, l] = fs[i]
-                    j = 0
-                    while j < n_out and t_out[j] <= t0 + tol_t:
-                        for i in range(n):
-                            X[r, j, i] = ys[i]
+                    j = J[l]
+                    while j < n_out and t_out[j] <= T[l] + tol_t:
+                        put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
                         j += 1
                     J[l] = j
-                    HN[l] = first_step(
-                        model,
-                        P,
-                        t0,
-                        ys,
-                        fs,
-                        n,
-                        n,
-                        rtol,
-                        atol,
-                        h_max,
-                        False,
-                        0.0,
-                        kind,
-                        input_params,
-                        command_params,
-                        None,
-                        ytmp,
-                        ftmp,
-                    )
-                    NFEV[l] = 2
-                    NSTEP[l] = 0
-                    STAT[l] = ST_OK
+                    if HN[l] <= 0.0:
+                        HN[l] = first_step(fld, T[l], ys, fs, wk, n, tol)
+                        NFEV[l] += 1
+                    REJ[l] = False
                     HF[l] = -1.0
-                    LERRP[l] = math.log(1e-4)
+                    LERRP[l] = LERR_FLOOR
                     HLAST[l] = -1.0
                     ALAST[l] = 0.0
-                    REJ[l] = False
                     BRIDGED[l] = False
-                    GCUR[l] = switch(model, P, ys)
+                if NACC[l] + NREJ[l] >= tol.max_steps:
+                    STAT[l] = ST_MAX_STEPS
                     continue
-                # ---- the next step of this lane (as in _integrator.run)
                 t = T[l]
-                min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
-                h = min(HN[l], h_max)
-                forced = False
-                if HF[l] > 0.0:
-                    h = HF[l]
-                    HF[l] = -1.0
-                    forced = True
-                clipped = False
-                if t + h > t_end:
-                    h = t_end - t
-                    clipped = True
-                shortened = False
-                if kinked and not forced and not BRIDGED[l]:
-                    jk = 0.0
-                    if HLAST[l] > 0.0:
-                        jk = (F[2, l] - ALAST[l]) / HLAST[l]
-                    s_k = kink_ahead(Y[0, l], F[0, l], F[2, l], jk, h)
-                    if s_k > 0.0 and s_k <= BRIDGE_FRAC * HN[l]:
-                        hb = s_k * (1.0 + KINK_OVERSHOOT) + 1e-12 * max(1.0, abs(t))
-                        if t + hb < t_end - tol_t:
-                            # RK4 bridge across the kink, on this lane's copy
-                            input_params = _lane_input_params(input_params_lanes, l)
-                            for i in range(n):
-                                ys[i] = Y[i, l]
-                                fs[i] = F[i, l]
-                            eb = rk4_bridge(
-                                model,
-                                P,
-                                t,
-                                ys,
-                                fs,
-                                hb,
-                                Ks,
-                                ytmp,
-                                yn,
-                                dx,
-                                n,
-                                n,
-                                rtol,
-                                atol,
-                                False,
-                                0.0,
-                                kind,
-                                input_params,
-                                command_params,
-                                None,
-                            )
-                            NFEV[l] += 4
-                            if eb < 1.0:
-                                j = J[l]
-                                while j < n_out and t_out[j] < t + hb - tol_t:
-                                    hermite(ys, yn, fs, dx, hb, (t_out[j] - t) / hb, yo, n)
-                                    for i in range(n):
-                                        X[r, j, i] = yo[i]
-                                    j += 1
-                                ALAST[l] = fs[2]
-                                HLAST[l] = hb
-                                bad = False
-                                for i in range(n):
-                                    F[i, l] = dx[i]
-                                    Y[i, l] = yn[i]
-                                    if not (abs(yn[i]) < xmax):
-                                        bad = True
-                                t = t + hb
-                                T[l] = t
-                                GCUR[l] = switch(model, P, yn)
-                                NSTEP[l] += 1
-                                BRIDGED[l] = True
-                                if bad:
-                                    STAT[l] = ST_DIVERGED
-                                while j < n_out and t_out[j] <= t + tol_t:
-                                    for i in range(n):
-                                        X[r, j, i] = yn[i] + dx[i] * (t_out[j] - t)
-                                    j += 1
-                                J[l] = j
-                                continue
-                    elif s_k > 0.0 and s_k * (1.0 - KINK_MARGIN) < h:
-                        h = s_k * (1.0 - KINK_MARGIN)
-                        shortened = True
-                        clipped = False
+                jk = (fs[2] - ALAST[l]) / HLAST[l] if HLAST[l] > 0.0 else 0.0
+                taylor = (ys[0], fs[0], fs[2], jk)
+                plan = plan_step(t, TB[l], HN[l], h_max, HF[l], KINKED[l] and not BRIDGED[l], taylor, tol_t)
+                HF[l] = -1.0
                 BRIDGED[l] = False
-                if h < min_step:
+                if plan.flags == BRIDGE:
+                    # ---- an RK4 step across a kink close ahead
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
+                    hb = plan.h
+                    eb = rk4_bridge(fld, t, ys, fs, hb, wk, n, tol)
+                    NFEV[l] += 4
+                    if eb < 1.0:
+                        j = J[l]
+                        while j < n_out and t_out[j] < t + hb - tol_t:
+                            hermite(ys, wk.y_new, fs, wk.dx, hb, (t_out[j] - t) / hb, wk.yo, n)
+                            put_sample(o, j, t_out[j], wk.yo, n, fld)
+                            j += 1
+                        ALAST[l] = fs[2]
+                        HLAST[l] = hb
+                        for i in range(n):
+                            fs[i] = wk.dx[i]
+                            ys[i] = wk.y_new[i]
+                            F[i, l] = fs[i]
+                            Y[i, l] = ys[i]
+                        t = t + hb
+                        T[l] = t
+                        NACC[l] += 1
+                        BRIDGED[l] = True
+                        if beyond(ys, n, xmax):
+                            STAT[l] = ST_DIVERGED
+                        else:
+                            while j < n_out and t_out[j] <= t + tol_t:
+                                put_near(o, j, t_out[j], ys, fs, t, n, fld, wk.yo)
+                                j += 1
+                        J[l] = j
+                        continue
+                    plan = plan_step(t, TB[l], HN[l], h_max, -1.0, False, taylor, tol_t)
+                if plan.h < min_step(t):
                     STAT[l] = ST_STEP_TOO_SMALL
                     continue
-                H[l] = h
-                FORCED[l] = forced
-                CLIPPED[l] = clipped
-                SHORT[l] = shortened
-                break
+                H[l] = plan.h
+                PLAN[l] = plan.flags
+                mode = M_READY
+            MODE[l] = mode
+            TNEXT[l] = t_out[J[l]] if J[l] < n_out else np.inf
         if n_active == 0:
             break
-        # ---- all lanes at once: the stages and the error estimates
-        _vector_step(model, P, kind, command_params, T, Y, F, H, K, YT, input_params_lanes, n, L)
-        error_norm_lanes(K, H, Y, YT, rtol, atol, n, L, ERR)
-        # ---- lane by lane: accept or reject (as in _integrator.run)
+        # ---- 2. all lanes: the stages and the error norms
+        for i in range(n):
+            for l in range(L):
+                K[0, i, l] = F[i, l]
+        if plain:
+            plain_stages(cps, (T, Y, H), K, YT, IPL, PL, n, (1, N_STAGES + 1, L))
+        else:
+            general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L)
+        error_norm_lanes(K, H, Y, YT, tol.rtol, tol.atol, n, L, ERR)
+        # ---- 3. all lanes: accept the ordinary steps (branch-free but for the controller's factor)
         for l in range(L):
-            r = RUN[l]
-            if r < 0:
-                continue
-            NFEV[l] += _NS
-            t = T[l]
-            h = H[l]
-            err = ERR[l]
-            forced = FORCED[l]
-            clipped = CLIPPED[l]
-            min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
-            crossing = False
-            dense = False
-            g_new = 1.0
-            j = J[l]
-            if err < 1.0:
-                g_new = switch(model, P, lane(YT, l))
-                if not forced:
-                    crossing = GCUR[l] * g_new < 0.0
-                t_e = t_end if clipped else t + h
-                dense = crossing or (j < n_out and t_out[j] < t_e - tol_t)
-            if not (err < 1.0):
-                NSTEP[l] += 1
-                HN[l] = h * reject_factor(err)
-                REJ[l] = True
-                if HN[l] < min_step:
-                    STAT[l] = ST_STEP_TOO_SMALL
-                if NSTEP[l] >= max_steps:
-                    STAT[l] = ST_MAX_STEPS
-                continue
-            if dense:
-                # this lane's step, with its three extra stages, on a copy
-                input_params = _lane_input_params(input_params_lanes, l)
+            # a step that may cross a kink is concluded lane by lane (with the cosine)
+            crossless = (not KINKED[l]) | (PLAN[l] & FORCED != 0) | (not may_cross(Y[0, l], YT[0, l]))
+            ok = (MODE[l] == M_READY) & (ERR[l] < 1.0) & (PLAN[l] & (FORCED | CLIPPED) == 0) & crossless
+            DONE[l] = ok
+            MODE[l] = M_DECIDE if MODE[l] == M_READY and not ok else MODE[l]
+        for l in range(L):
+            # outputs inside an accepted ordinary step: its dense output, lane by lane
+            if defer and DONE[l] and TNEXT[l] < T[l] + H[l] - tol_t:
+                # into a slot: stages 13-15 and the samples when LANES slots are full
+                t_stop = T[l] + H[l] - tol_t
+                j = J[l]
+                DJ0[nd] = j
+                while j < n_out and t_out[j] < t_stop:
+                    j += 1
+                DJ1[nd] = j
+                DR[nd] = RUN[l]
+                DT[nd] = T[l]
+                DH[nd] = H[l]
+                for i in range(n):
+                    DY[i, nd] = Y[i, l]
+                    DYN[i, nd] = YT[i, l]
+                    for s in range(N_STAGES + 1):
+                        DK[s, i, nd] = K[s, i, l]
+                for k in range(N_PACK):
+                    DPL[k, nd] = PL[k, l]
+                for k in range(N_INPUT_PARAMS):
+                    DIPL[k, nd] = IPL[k, l]
+                nd += 1
+                if nd == L:
+                    flush_dense(cps, ds, nd, out.X, t_out, wk.F, n)
+                    nd = 0
+                NFEV[l] += 3
+                J[l] = j
+                TNEXT[l] = t_out[j] if j < n_out else np.inf
+            elif DONE[l] and TNEXT[l] < T[l] + H[l] - tol_t:
                 for i in range(n):
                     ys[i] = Y[i, l]
-                    yn[i] = YT[i, l]
-                    for s in range(_NS + 1):
-                        Ks[s, i] = K[s, i, l]
-                stages(
-                    model,
-                    P,
-                    t,
-                    ys,
-                    h,
-                    Ks,
-                    ytmp,
-                    dx,
-                    n,
-                    _NS + 1,
-                    16,
-                    False,
-                    0.0,
-                    kind,
-                    input_params,
-                    command_params,
-                    None,
-                )
+                fld = run_field(bt, RUN[l], held, UV[l], HV[l])
+                lane_step_into(K, YT, l, wk.K, wk.y_new, n)
+                dense_step(fld, T[l], ys, H[l], wk, n)
                 NFEV[l] += 3
-                dense_coefficients(Ks, h, ys, yn, Fd, n)
-            if crossing:
-                h_force = kink_step(model, P, Fd, ys, h, t, GCUR[l], g_new, yo, n)
-                if h_force < h:
-                    NSTEP[l] += 1
-                    HF[l] = h_force
-                    if NSTEP[l] >= max_steps:
-                        STAT[l] = ST_MAX_STEPS
-                    continue
-            # accepted
-            factor = accept_factor(err, LERRP[l])
-            LERRP[l] = math.log(max(err, 1e-4))
-            if REJ[l]:
-                factor = min(1.0, factor)
-            REJ[l] = False
-            if not clipped and not forced and not SHORT[l]:
-                HN[l] = h * factor
-            elif factor < 1.0:
-                HN[l] = min(HN[l], h * factor)
-            NSTEP[l] += 1
-            t_new = t_end if clipped else t + h
-            while j < n_out and t_out[j] < t_new - tol_t:
-                dense_eval(Fd, ys, (t_out[j] - t) / h, yo, n)
-                for i in range(n):
-                    X[r, j, i] = yo[i]
-                j += 1
-            ALAST[l] = F[2, l]
-            HLAST[l] = t_new - t
+                J[l] = lane_outputs(out, RUN[l], J[l], (T[l], H[l], T[l] + H[l] - tol_t), ys, fld, wk)
+                TNEXT[l] = t_out[J[l]] if J[l] < n_out else np.inf
+        for l in range(L):
+            ok = DONE[l]
+            h = H[l]
+            ALAST[l] = F[2, l] if ok else ALAST[l]
+            # t_new - t, as integrate has it (not h: they differ by rounding)
+            HLAST[l] = (T[l] + h) - T[l] if ok else HLAST[l]
+            T[l] = T[l] + h if ok else T[l]
+            NACC[l] += 1 if ok else 0
+            NFEV[l] += N_STAGES if ok else 0
+        for l in range(L):
+            # the controller (libm's log and exp: lane by lane)
+            if DONE[l]:
+                factor = accept_factor(ERR[l], LERRP[l])
+                if REJ[l]:
+                    factor = min(1.0, factor)
+                REJ[l] = False
+                LERRP[l] = log_error(ERR[l])
+                HN[l] = next_step_size(H[l], HN[l], factor, PLAN[l] == 0)
+        for i in range(n):
+            for l in range(L):
+                Y[i, l] = YT[i, l] if DONE[l] else Y[i, l]
+                F[i, l] = K[N_STAGES, i, l] if DONE[l] else F[i, l]
+        # ---- 4. all lanes: plan the next ordinary steps; the others lane by lane
+        for l in range(L):
+            t = T[l]
             bad = False
             for i in range(n):
-                F[i, l] = K[_NS, i, l]
-                Y[i, l] = YT[i, l]
-                if not (abs(YT[i, l]) < xmax):
-                    bad = True
-            GCUR[l] = g_new
-            T[l] = t_new
-            if bad:
-                STAT[l] = ST_DIVERGED
-            elif NSTEP[l] >= max_steps:
-                STAT[l] = ST_MAX_STEPS
-            elif t_new < t_end - tol_t:
-                while j < n_out and t_out[j] <= t_new + tol_t:
-                    for i in range(n):
-                        X[r, j, i] = Y[i, l] + F[i, l] * (t_out[j] - t_new)
-                    j += 1
-            J[l] = j
+                bad = bad | (not (abs(Y[i, l]) < xmax))
+            post = DONE[l] & (bad | (TNEXT[l] <= t + tol_t))
+            h = min(HN[l], h_max)
+            clip = t + h > TB[l]
+            h = TB[l] - t if clip else h
+            jk = (F[2, l] - ALAST[l]) / HLAST[l] if HLAST[l] > 0.0 else 0.0
+            near = KINKED[l] & (not BRIDGED[l]) & kink_possible(Y[0, l], F[0, l], F[2, l], jk, h)
+            slow = (h < 2.3e-15 * abs(t) + 1e-300) | (NACC[l] + NREJ[l] >= tol.max_steps)
+            plan_here = DONE[l] & (not post) & (not near) & (not slow) & (not clip)
+            H[l] = h if plan_here else H[l]
+            PLAN[l] = 0 if plan_here else PLAN[l]
+            BRIDGED[l] = BRIDGED[l] and not plan_here
+            mode = M_READY if plan_here else (M_POST if post else M_PLAN)
+            MODE[l] = mode if DONE[l] else MODE[l]
+    flush_dense(cps, ds, nd, out.X, t_out, wk.F, n)
+    return 0
 
 
 def _make_kernel(n: int):
     """The batch of runs side by side for ``n`` states (a compile-time constant inside it)."""
 
-    def lanes_(
-        model, P, X0m, kind, input_params_runs, command_params, tol, t0, t_end, t_out, X, U, W, status, nfev, nb
-    ):
-        nrun = X0m.shape[0]
+    def lanes_(bt, tol, out, nb):
+        # numba's parallel loop takes arrays and scalars, not records of arrays:
+        # the records are taken apart here and put together in each thread
+        model, P, X0, kind, ips, cps, seg, t0, t_end = bt
+        mode, period, start, values, external = seg
+        rtol, atol, h_max, max_steps, xmax, n_err = tol
+        t, store, X, U, W, S, x_final, status, nfev, n_steps, n_rejected = out
+        nrun = X0.shape[0]
         for b in prange(nb):
             run_lanes(
-                model,
                 n,
-                P,
-                X0m,
+                Batch(model, P, X0, kind, ips, cps, Segments(mode, period, start, values, external), t0, t_end),
+                Tolerances(rtol, atol, h_max, max_steps, xmax, n_err),
+                BatchOutput(t, store, X, U, W, S, x_final, status, nfev, n_steps, n_rejected),
                 b * nrun // nb,
                 (b + 1) * nrun // nb,
-                t0,
-                t_end,
-                t_out,
-                kind,
-                input_params_runs,
-                command_params,
-                tol,
-                X,
-                U,
-                W,
-                status,
-                nfev,
             )
 
     lanes_.__name__ = lanes_.__qualname__ = f"run_lanes_{n}"
@@ -525,10 +696,14 @@ _KERNELS: dict = {}
 def kernel(n_states: int):
     """The lane kernel for ``n_states`` states (compiled on first use, then cached on disk).
 
-    Called as ``kernel(n)(model, P, X0m, kind, input_params_runs, command_params, tol, t0, t_end, t_out, X, U, W,
-    status, nfev, nb)``; ``nb`` is the number of blocks of runs (one per thread).
+    Called as ``kernel(n)(batch, tol, out, nb)`` with a :class:`Batch`, the
+    engine's :class:`~iwp.sim.engine.Tolerances` and a :class:`BatchOutput`;
+    ``nb`` is the number of blocks of runs (one per thread, at least one run each).
     """
     k = _KERNELS.get(int(n_states))
     if k is None:
         k = _KERNELS[int(n_states)] = _make_kernel(int(n_states))
     return k
+
+
+__all__ = ["Batch", "BatchOutput", "LANES", "kernel", "run_lanes"]

@@ -135,26 +135,36 @@ class BatchResult:
     Attributes
     ----------
     t : ndarray, shape (n_out,)
-        Output times [s].
-    x : ndarray, shape (n_runs, n_out, n_states)
+        The output times [s] (those the summary runs over with ``store="summary"``).
+    x : ndarray, shape (n_runs, n_out, n_states), or None
         States ``q1, q2, q3, q4`` [rad, rad, rad/s, rad/s] (belt models: and
-        the belt's two states).
-    u, command : ndarray, shape (n_runs, n_out)
+        the belt's two states) at the output times (``store="samples"``).
+    u, command : ndarray, shape (n_runs, n_out), or None
         The input ``u`` of (9) and the command applied after the feedforward
-        (7)-(8) and the saturation [input units].
+        (7)-(8) and the saturation [input units] (``store="samples"``).
     status : ndarray of int, shape (n_runs,)
         0 for a run that reached ``t_end``; else why it stopped (its samples
         after the failure are NaN).
     nfev : ndarray of int, shape (n_runs,)
         Evaluations of the right-hand side per run.
+    x_final : ndarray, shape (n_runs, n_states)
+        The state each run reached (at ``t_end`` when it succeeded) [rad, rad/s].
+    summary : dict of str to ndarray, shape (n_runs, n_states), or None
+        ``store="summary"``: ``min``, ``max``, ``mean`` and ``rms`` of each
+        state over the output times (NaN for a failed run).
+    store : str
+        What was kept: ``"samples"``, ``"final"`` or ``"summary"``.
     """
 
     t: np.ndarray
-    x: np.ndarray
-    u: np.ndarray
-    command: np.ndarray
+    x: np.ndarray | None
+    u: np.ndarray | None
+    command: np.ndarray | None
     status: np.ndarray
     nfev: np.ndarray
+    x_final: np.ndarray | None = None
+    summary: dict | None = None
+    store: str = "samples"
 
     @property
     def success(self) -> np.ndarray:

@@ -22,7 +22,7 @@ from ..models.layout import LUMPED_INDEX, N_PACK
 from ..models.parameters import TYPICAL
 from ..models.plant import Plant
 from . import engine
-from .engine import ST_OK, STATUS_TEXT, Output, Span, sensitivity
+from .engine import ST_OK, STATUS_TEXT, Span, samples_output, sensitivity
 from .inputs import Input
 from .simulate import command_of, initial_state, output_times, segments_of, system_of, tolerances
 
@@ -157,11 +157,11 @@ def simulate_sensitivities(
     W = np.empty(t_out.size)
     span = Span(y0, float(t0), float(t_end), -1.0)
     if ns == 0:  # nothing to differentiate: the plain kernel
-        stats = engine.kernel(n)(system, seg, tol, span, Output(t_out, X, U, W, False))
+        stats = engine.kernel(n)(system, seg, tol, span, samples_output(t_out, X, U, W, False))
     else:
         tol = tol._replace(atol=np.concatenate([tol.atol, np.full(n * ns, np.inf)]), n_err=n)
         sens = sensitivity(n, pidx, psteps, plant.info.depends_on)
-        stats = engine.sensitivity_kernel()(system, seg, tol, sens, span, Output(t_out, X, U, W, False))
+        stats = engine.sensitivity_kernel()(system, seg, tol, sens, span, samples_output(t_out, X, U, W, False))
     status = int(stats.status)
     message = STATUS_TEXT.get(status, "failed")
     if status != ST_OK:

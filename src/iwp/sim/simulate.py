@@ -35,16 +35,16 @@ from .engine import (
     ST_OK,
     ST_STEP_TOO_SMALL,
     STATUS_TEXT,
-    Output,
     Segments,
     Span,
     System,
     Tolerances,
+    samples_output,
 )
 from .inputs import I_EXTERNAL, I_ZERO, N_INPUT_PARAMS, CallableController, Input, Sampled, input_value
 from .result import BatchResult, SimulationResult
 
-__all__ = ["simulate", "simulate_batch", "simulate_scipy", "as_plant", "output_times", "X_MAX"]
+__all__ = ["BATCH_STORES", "simulate", "simulate_batch", "simulate_scipy", "as_plant", "output_times", "X_MAX"]
 
 #: States beyond this magnitude count as divergence [rad, rad/s].
 X_MAX = 1e7
@@ -324,7 +324,7 @@ def simulate(
     X = np.empty((n_out, n))
     U = np.empty(n_out if held else 0)
     W = np.empty(n_out if held else 0)
-    stats = engine.kernel(n)(system, seg, tol, Span(x0a.copy(), t0, t_end, -1.0), Output(t_out, X, U, W, False))
+    stats = engine.kernel(n)(system, seg, tol, Span(x0a.copy(), t0, t_end, -1.0), samples_output(t_out, X, U, W, False))
     inputs = (U, W) if held else _LazyInputs(system.kind, system.input_params, command_params)
     return _finish(plant, t_out, X, inputs, stats, check, input)
 
@@ -346,7 +346,8 @@ def integrate_held(
     X = np.empty((1, plant.n_states))
     U = np.empty(1)
     W = np.empty(1)
-    return engine.kernel(plant.n_states)(system, seg, tol, Span(x, t, t_next, h0), Output(t_out, X, U, W, False))
+    out = samples_output(t_out, X, U, W, False)
+    return engine.kernel(plant.n_states)(system, seg, tol, Span(x, t, t_next, h0), out)
 
 
 def _run_external(plant, x0a, t0, t_end, t_out, ctrl, command_params, tol, X, U, W) -> engine.RunStats:
@@ -382,7 +383,7 @@ def _run_external(plant, x0a, t0, t_end, t_out, ctrl, command_params, tol, X, U,
             Segments(SEG_CONTROLLER, Tc, t, np.zeros(1), u),
             tol,
             Span(x, t, t_b, h_nat),
-            Output(seg_t, Xs, Us, Ws, True),
+            samples_output(seg_t, Xs, Us, Ws, True),
         )
         h_nat = st.h_next
         # the kernel's held value is the command; U records the controller's u
@@ -429,6 +430,10 @@ def _simulate_callable_continuous(plant, x0a, t0, t_end, t_out, ctrl, command_pa
 # --------------------------------------------------------------------------
 # many runs
 # --------------------------------------------------------------------------
+#: What :func:`simulate_batch` keeps of each run.
+BATCH_STORES = ("samples", "final", "summary")
+
+
 def simulate_batch(
     plant,
     *,
@@ -445,26 +450,24 @@ def simulate_batch(
     max_step: float | None = None,
     max_steps: int = 50_000_000,
     t_eval=None,
+    store: str = "samples",
 ) -> BatchResult:
     """Run many simulations at once, in parallel on all cores.
 
     Any of ``plant``, ``x0`` and ``input`` may be a list (all lists of the
     same length, the number of runs); the others are shared. Plants in a
     list must share their model; inputs in a list must be of one type (e.g.
-    :class:`~iwp.sim.inputs.HopfController` with different gains); Python
+    :class:`~iwp.sim.inputs.HopfController` with different gains, or
+    :class:`~iwp.sim.inputs.Sampled` arrays on one sample grid); Python
     callables are not supported here.
 
-    The other arguments are those of :func:`simulate`. Failed runs are
-    reported per run in ``status`` (no exception); their samples after the
-    failure are NaN.
+    Failed runs are reported per run in ``status`` (no exception); their
+    samples after the failure are NaN, their summaries NaN.
 
-    Runs that share one plant and have a continuous input (signals, the
-    continuous Hopf law) advance 16 at a time on each thread, side by side,
-    each with its own step size and error control (:mod:`iwp.sim.lanes`);
-    for model (9) with the Hopf law the compiler vectorises them (10,000
-    closed loops of 300 s in about 6 s on 2 cores, see BENCHMARKS.md). A
-    run's result equals that of :func:`simulate` up to rounding. Other
-    batches run one simulation per thread at a time.
+    The runs advance 16 at a time on each thread, side by side, each with
+    its own step size and error control (:mod:`iwp.sim.lanes`); for model (9)
+    with the Hopf law the compiler vectorises them. A run's result equals
+    that of :func:`simulate` up to rounding.
 
     Parameters
     ----------
@@ -480,13 +483,22 @@ def simulate_batch(
         Inputs or laws (:mod:`iwp.sim.inputs`).
     feedforward, saturation, rtol, atol, max_step, max_steps, t_eval
         As :func:`simulate` (``saturation`` [input units], ``max_step`` [s]).
+    store : {"samples", "final", "summary"}
+        What to keep of each run: the samples at the output times (``x``,
+        ``u``, ``command``); only the final state (``x_final``, always
+        kept); or per state the minimum, maximum, mean and RMS over the
+        output times (``summary``), so that a sweep of many long runs does
+        not hold every sample.
 
     Returns
     -------
     BatchResult
-        Times [s], states ``(n_runs, n_out, n_states)`` and inputs per run,
-        with a status per run (0: success).
+        Times [s], states ``(n_runs, n_out, n_states)`` and inputs per run
+        (with ``store="samples"``), the final states, and a status per run
+        (0: success).
     """
+    if store not in BATCH_STORES:
+        raise InputError(f"store must be one of {', '.join(BATCH_STORES)}, got {store!r}", argument="store")
     lists = [len(v) for v in (plant, x0, input) if isinstance(v, (list, tuple)) and not _is_state(v)]
     if lists and len(set(lists)) != 1:
         raise InputError(f"list arguments of simulate_batch must have one length, got lengths {sorted(set(lists))}")
@@ -500,8 +512,8 @@ def simulate_batch(
         raise InputError("inputs of one batch must all be of one type")
     for i_ in i_list:
         _check_input(i_)
-    if any(isinstance(i, (CallableController, Sampled)) for i in i_list):
-        raise InputError("simulate_batch supports built-in signals and the Hopf controller, not callables or arrays")
+    if any(isinstance(i, CallableController) for i in i_list):
+        raise InputError("simulate_batch supports built-in signals, controllers and sampled arrays, not callables")
     if len({None if i is None else i.sampled_period for i in i_list}) != 1:
         raise InputError("inputs of one batch must share the sample period Ts")
     t0, t_end, Ts = _check_span(t0, t_end, Ts)
@@ -518,62 +530,64 @@ def simulate_batch(
     for x_ in x_list:
         if id(x_) not in states:
             states[id(x_)] = initial_state(x_, first)
-    Pm = np.ascontiguousarray([plants[id(p_)].packed() for p_ in p_list])
-    X0m = np.ascontiguousarray([states[id(x_)] for x_ in x_list])
+    packed = {k: pl.packed() for k, pl in plants.items()}
+    Pm = np.ascontiguousarray([packed[id(p_)] for p_ in p_list], dtype=float)
+    X0m = np.ascontiguousarray([states[id(x_)] for x_ in x_list], dtype=float)
     input_params_runs = np.ascontiguousarray(
-        [np.zeros(N_INPUT_PARAMS) if i_ is None else i_.parameters() for i_ in i_list]
+        [np.zeros(N_INPUT_PARAMS) if i_ is None else i_.parameters() for i_ in i_list], dtype=float
     )
     command_params = command_of(first, feedforward, saturation)
     tol = tolerances(n, rtol, atol, max_step=max_step, max_steps=max_steps)
-    seg = segments_of(i_list[0], t0)
+    seg = _batch_segments(i_list, t0, nrun)
     kind = I_ZERO if i_list[0] is None else i_list[0].kind
     t_out = output_times(t0, t_end, Ts, t_eval)
-    X = np.empty((nrun, t_out.size, n))
-    U = np.empty((nrun, t_out.size))
-    W = np.empty((nrun, t_out.size))
-    status = np.zeros(nrun, dtype=np.int64)
-    nfev = np.zeros(nrun, dtype=np.int64)
-    held = engine.is_held(kind, seg.mode)
-    if bool(np.all(Pm == Pm[0])) and not held:
-        # one parameter set and a continuous input: many runs side by side
-        lanes.kernel(n)(
-            first.code,
-            Pm[0],
-            X0m,
-            kind,
-            input_params_runs,
-            command_params,
-            tol,
-            t0,
-            t_end,
-            t_out,
-            X,
-            U,
-            W,
-            status,
-            nfev,
-            min(numba.get_num_threads(), nrun),
-        )
+    t_run = np.empty(0) if store == "final" else t_out
+    n_keep = t_run.size if store == "samples" else 0
+    X = np.empty((nrun, n_keep, n))
+    U = np.empty((nrun, n_keep))
+    W = np.empty((nrun, n_keep))
+    if store == "summary":
+        S = np.zeros((nrun, engine.N_SUMMARY, n))
+        S[:, 0] = np.inf
+        S[:, 1] = -np.inf
     else:
-        engine.batch_kernel(n)(
-            first.code,
-            Pm,
-            X0m,
-            kind,
-            input_params_runs,
-            command_params,
-            seg,
-            tol,
-            t0,
-            t_end,
-            t_out,
-            X,
-            U,
-            W,
-            status,
-            nfev,
-        )
-    return BatchResult(t=t_out, x=X, u=U, command=W, status=status, nfev=nfev)
+        S = np.zeros((nrun, engine.N_SUMMARY, 1))
+    out = lanes.BatchOutput(
+        t_run, engine.STORE_SUMMARY if store == "summary" else engine.STORE_SAMPLES, X, U, W, S,
+        np.empty((nrun, n)), np.zeros(nrun, dtype=np.int64), np.zeros(nrun, dtype=np.int64),
+        np.zeros(nrun, dtype=np.int64), np.zeros(nrun, dtype=np.int64),
+    )
+    batch = lanes.Batch(first.code, Pm, X0m, kind, input_params_runs, command_params, seg, t0, t_end)
+    lanes.kernel(n)(batch, tol, out, min(numba.get_num_threads(), nrun))
+    summary = None
+    if store == "summary":
+        failed = out.status != ST_OK
+        m = max(t_run.size, 1)
+        summary = {"min": S[:, 0], "max": S[:, 1], "mean": S[:, 2] / m, "rms": np.sqrt(S[:, 3] / m)}
+        for v in summary.values():
+            v[failed] = np.nan
+    keep = store == "samples"
+    return BatchResult(t=t_out if store != "final" else np.array([t_end]), x=X if keep else None,
+                       u=U if keep else None, command=W if keep else None, status=out.status, nfev=out.nfev,
+                       x_final=out.x_final, summary=summary, store=store)
+
+
+def _batch_segments(i_list, t0: float, nrun: int) -> Segments:
+    """How the inputs of a batch are held; sampled arrays: one row of held values per run (padded with the last)."""
+    first = i_list[0]
+    if isinstance(first, Sampled):
+        grids = {(float(i.Ts), float(i.t0)) for i in i_list}
+        if len(grids) != 1:
+            raise InputError("sampled inputs of one batch must share their sample time Ts and start t0")
+        m = max(i.values.size for i in i_list)
+        values = np.empty((nrun, m))
+        for r, i in enumerate(i_list):
+            v = np.asarray(i.values, dtype=float)
+            values[r, : v.size] = v
+            values[r, v.size:] = v[-1]
+        return Segments(SEG_SAMPLES, float(first.Ts), float(first.t0), values, 0.0)
+    seg = segments_of(first, t0)
+    return Segments(seg.mode, seg.period, seg.start, np.zeros((nrun, 1)), 0.0)
 
 
 def _is_state(v) -> bool:

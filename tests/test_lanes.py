@@ -1,0 +1,89 @@
+"""Runs side by side (iwp.sim.lanes) against the same runs alone (iwp.sim.simulate).
+
+A lane takes the same steps as :func:`simulate` (one stepper, one controller),
+so its samples equal the single run's up to rounding: here to 1e-9 relative.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from iwp.errors import InputError
+from iwp.models import Plant, table1
+from iwp.sim import Chirp, HopfController, Sampled, simulate, simulate_batch
+
+
+def _rel(a, b):
+    """Largest difference relative to the largest magnitude of the reference."""
+    return float(np.max(np.abs(a - b)) / np.max(np.abs(b)))
+
+
+def test_one_plant_in_a_list_equals_the_single_run():
+    # a list of one plant once raised ZeroDivisionError: the idle lanes'
+    # chirp had a zero sweep time
+    plant = Plant(table1())
+    te = np.linspace(0.0, 8.0, 161)
+    br = simulate_batch([plant], input=Chirp(60.0, 3.0, 100.0), t_end=8.0, t_eval=te)
+    r = simulate(plant, input=Chirp(60.0, 3.0, 100.0), t_end=8.0, t_eval=te)
+    assert br.x.shape == (1, te.size, 4) and br.status.tolist() == [0]
+    assert _rel(br.x[0], r.x) < 1e-9
+    assert br.nfev[0] == r.nfev
+
+
+@pytest.mark.parametrize("case", ["chirp", "sampled", "hopf-held"])
+def test_lanes_with_their_own_plants_equal_single_runs(case):
+    """Per-lane plants, inputs and initial states; more runs than lanes, so lanes are refilled."""
+    rng = np.random.default_rng(3)
+    n = 35
+    t_end = 5.0
+    te = np.linspace(0.0, t_end, 101)
+    plants = [Plant(table1().replace(p1=float(p1), p3=float(p3)))
+              for p1, p3 in zip(rng.uniform(22, 30, n), rng.uniform(0.03, 0.05, n))]
+    x0s = [[float(rng.uniform(-0.5, 0.5)), 0.0, float(rng.uniform(-1, 1)), 0.0] for _ in range(n)]
+    if case == "chirp":
+        inputs = [Chirp(float(a), 3.0, 100.0) for a in rng.uniform(20, 60, n)]
+    elif case == "sampled":
+        # held arrays of different lengths on one grid (the shorter ones hold their last value)
+        inputs = [Sampled(rng.uniform(-40, 40, int(m)), 0.02) for m in rng.integers(150, 260, n)]
+    else:
+        inputs = [HopfController(float(k1), 0.1, Ts=0.01) for k1 in rng.uniform(-12, -6, n)]
+    br = simulate_batch(plants, x0=x0s, input=inputs, t_end=t_end, t_eval=te)
+    assert np.all(br.success)
+    for i in (0, 7, 16, 33, 34):
+        r = simulate(plants[i], x0=x0s[i], input=inputs[i], t_end=t_end, t_eval=te)
+        assert _rel(br.x[i], r.x) < 1e-9, (case, i)
+        np.testing.assert_allclose(br.u[i], r.u, rtol=1e-9, atol=1e-9 * np.max(np.abs(r.u)))
+        np.testing.assert_allclose(br.command[i], r.command, rtol=1e-9, atol=1e-9 * np.max(np.abs(r.u)))
+        assert abs(br.nfev[i] - r.nfev) <= 0.01 * r.nfev
+        np.testing.assert_allclose(br.x_final[i], r.x[-1], rtol=1e-9, atol=1e-12)
+
+
+def test_store_final_and_summary_agree_with_the_samples():
+    ctrls = [HopfController(float(k1), 0.1) for k1 in np.linspace(-12, -6, 20)]
+    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=30.0, t_eval=np.arange(0.0, 30.0 + 1e-9, 0.05), input=ctrls)
+    full = simulate_batch(table1(), **kw)
+    final = simulate_batch(table1(), store="final", **kw)
+    summ = simulate_batch(table1(), store="summary", **kw)
+    assert final.x is None and final.u is None and summ.x is None
+    assert final.t.tolist() == [30.0]
+    # the final state is the last sample (the end time is an output time)
+    np.testing.assert_allclose(final.x_final, full.x[:, -1], rtol=0, atol=1e-9)
+    np.testing.assert_allclose(full.x_final, full.x[:, -1], rtol=0, atol=1e-9)
+    X = full.x
+    expect = {"min": X.min(axis=1), "max": X.max(axis=1), "mean": X.mean(axis=1),
+              "rms": np.sqrt((X ** 2).mean(axis=1))}
+    for k, v in expect.items():
+        np.testing.assert_allclose(summ.summary[k], v, rtol=1e-9, atol=1e-9, err_msg=k)
+
+
+def test_summary_of_a_failed_run_is_nan():
+    unstable = table1().replace(sigma_v1=-5.0, sigma_a1=0.0, sigma_b1=0.0)
+    br = simulate_batch(unstable, x0=[[0.0, 0.0, 0.0, 0.0], [0.1, 0.0, 0.0, 0.0]], t_end=200.0, store="summary")
+    assert br.status.tolist() == [0, 1]
+    assert np.all(br.summary["max"][0] == 0.0) and np.all(np.isnan(br.summary["max"][1]))
+
+
+def test_an_unknown_store_is_refused_by_name():
+    with pytest.raises(InputError, match="store must be one of samples, final, summary, got 'all'"):
+        simulate_batch(table1(), t_end=1.0, store="all")
