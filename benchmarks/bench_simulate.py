@@ -25,22 +25,21 @@ import time
 
 import numba
 import numpy as np
+from bench_lanes_ratio import rhs_alone  # the in-run baseline, one copy (uncached: see there)
 from numba import njit
 from numba.np.unsafe.ndarray import to_fixed_tuple
 from scipy.integrate import solve_ivp
 
 from iwp.jit import FASTMATH
 from iwp.models import Plant, table1
-from iwp.models.actuator import command
 from iwp.models.equations import rhs_of
-from iwp.models.layout import M_COMP, M_PLAIN, N_COMMAND, N_PACK
+from iwp.models.layout import M_COMP, N_COMMAND, N_PACK
 from iwp.sim import Chirp, HopfController, simulate, simulate_batch, simulate_scipy
 from iwp.sim.dop853 import N_STAGES
-from iwp.sim.inputs import I_CHIRP, I_HOPF, input_value
+from iwp.sim.inputs import I_CHIRP, input_value
 from iwp.sim.lanes import LANES, plain_stages
 from iwp.sim.simulate import command_of
 from iwp.sim.uncertainty import ParameterUncertainty, prediction_band
-from iwp.sim.views import lane, slab_lane
 
 
 def python_rhs(p, u_of):
@@ -95,34 +94,6 @@ def rk4_fixed(P_arr, input_params_arr, Ts, m, nout):
         for i in range(4):
             X[j, i] = y[i]
     return X
-
-
-@njit(cache=True, fastmath=FASTMATH)
-def rhs_alone(P_arr, command_arr, k1s, reps):
-    """The vectorised right-hand side of model (9) with the Hopf law on LANES lanes, ``reps`` x 12 times."""
-    L = LANES
-    P = np.empty((N_PACK, L))
-    IP = np.zeros((4, L))
-    for l in range(L):
-        P[:, l] = P_arr
-        IP[0, l] = k1s[l]
-        IP[1, l] = 0.1
-    cps = to_fixed_tuple(command_arr, N_COMMAND)
-    Y = np.zeros((4, L))
-    K = np.zeros((16, 4, L))
-    for l in range(L):
-        Y[0, l] = 0.1 + 1e-3 * l
-    acc = 0.0
-    for _ in range(reps):
-        for s in range(1, N_STAGES + 1):
-            for l in range(L):
-                x = lane(Y, l)
-                w = command(input_value(I_HOPF, (IP[0, l], IP[1, l], IP[2, l], IP[3, l]), 0.0, x), cps)
-                rhs_of(M_PLAIN, x, w, lane(P, l), slab_lane(K, s, l))
-            for l in range(L):
-                Y[2, l] += 1e-9 * K[s, 3, l]
-        acc += K[5, 2, 0]
-    return acc
 
 
 @njit(cache=True, fastmath=FASTMATH)
