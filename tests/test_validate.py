@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 from iwp.cli import main
 from iwp.data import write_experiment
 from iwp.errors import InputError
-from iwp.ident.validation import ValidationResult, auto_model, fit_percent, validate
+from iwp.ident.validation import UninformativeValidation, ValidationResult, auto_model, fit_percent, validate
 from iwp.models import Plant, save_params, table1
 from iwp.rig import VirtualRig
 from iwp.sim.inputs import HopfController
@@ -70,6 +70,17 @@ def test_validate_the_truth_on_the_free_decay(rig, free_log):
     assert set(d["fit"]) == {"q1", "q2"} and d["samples"] == v.t.size
     assert d["fit"]["q1"] == pytest.approx(v.fit["q1"])
     assert "q1: fit" in v.summary()
+
+
+def test_a_validation_that_says_nothing_warns_and_a_caller_can_filter_it(free_log):
+    still = dataclasses.replace(free_log, q1=np.zeros_like(free_log.q1), q2=np.zeros_like(free_log.q2))
+    with pytest.warns(UninformativeValidation, match="constant"):
+        validate(still, table1(), model="free")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any other warning fails the test
+        warnings.simplefilter("ignore", UninformativeValidation)
+        v = validate(still, table1(), model="free")
+    assert np.ptp(v.measured["q1"]) == 0.0
 
 
 def test_estimated_initial_state_fits_better_than_the_measured_one(rig, free_log):

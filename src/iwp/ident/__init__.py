@@ -37,7 +37,7 @@ from .problem import FitProblem, FitResult, Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, fit_plant, refine, refine_identification
 from .result import IdentificationResult
 from .setups import PARAMETER_NAMES, PARAMETER_UNITS, SETUPS, Setup, get_setup
-from .validation import ValidationResult, auto_model, validate, validation_plant
+from .validation import UninformativeValidation, ValidationResult, auto_model, validate, validation_plant
 
 __all__ = [
     "Differentiator",
@@ -58,6 +58,7 @@ __all__ = [
     "SETUPS",
     "Setup",
     "SolverOptions",
+    "UninformativeValidation",
     "ValidationResult",
     "as_experiments",
     "auto_model",

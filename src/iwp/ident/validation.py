@@ -47,7 +47,13 @@ from .problem import FitProblem, SolverOptions
 from .refinement import REFINE_MODELS
 
 __all__ = ["validate", "fit_percent", "ValidationResult", "auto_model", "choose_model", "validation_plant",
-           "VALIDATION_OPTIONS"]
+           "VALIDATION_OPTIONS", "UninformativeValidation"]
+
+
+class UninformativeValidation(UserWarning):
+    """A validation that says nothing about the model: no motion in the log, or a model that explains less of
+    it than its mean. Callers that tabulate every fit themselves filter it
+    (``warnings.simplefilter("ignore", UninformativeValidation)``)."""
 
 _SIGNALS = ("q1", "q2", "q3", "q4")
 
@@ -323,7 +329,6 @@ def validate(
     restart_times: Sequence[float] = (),
     controller: Input | None = None,
     estimate_x0: bool = False,
-    warn: bool = True,
 ) -> ValidationResult:
     """Simulate a model against a log and measure how well it predicts it.
 
@@ -356,14 +361,16 @@ def validate(
     estimate_x0 : bool
         Estimate the initial state by a simulation-error fit (parameters
         fixed) instead of taking the measured one.
-    warn : bool
-        Warn when the validation says nothing: every compared signal is
-        constant, or the model explains less of each than its mean (fit < 0 %);
-        ``False`` for callers that report the fits themselves.
 
     Returns
     -------
     ValidationResult
+
+    Warns
+    -----
+    UninformativeValidation
+        When the validation says nothing: every compared signal is constant, or the model explains less of each
+        than its mean (fit < 0 %). Callers that report the fits themselves filter it.
     """
     if not isinstance(experiment, ExperimentData):
         raise InputError(f"experiment must be an ExperimentData, got {type(experiment).__name__}")
@@ -404,8 +411,7 @@ def validate(
         band = _band(model_, x0s, x0_cov, uncertainty, signals)
         coverage = band.coverage(measured, {s: np.concatenate([p.w[s] > 0 for p in model_.prepared]) for s in signals})
     fits = {s: fit_percent(measured[s], simulated[s]) for s in signals}
-    if warn:
-        _warn_uninformative(experiment.source, measured, fits)
+    _warn_uninformative(experiment.source, measured, fits)
     return ValidationResult(
         t=t, measured=measured, simulated=simulated, error={s: measured[s] - simulated[s] for s in signals},
         fit=fits, x0=np.asarray(x0s[0], dtype=float),
@@ -421,12 +427,13 @@ def _warn_uninformative(source: str, measured: dict[str, np.ndarray], fits: dict
     flat = [s for s, y in measured.items() if y.size and float(np.ptp(y)) == 0.0]
     if flat and len(flat) == len(measured):  # one constant signal is a locked pendulum or a held wheel
         warnings.warn(f"{source}: {', '.join(flat)} {'is' if len(flat) == 1 else 'are'} constant (no motion in the "
-                      "log): the validation says nothing about the model", UserWarning, stacklevel=3)
+                      "log): the validation says nothing about the model", UninformativeValidation, stacklevel=3)
     defined = {s: f for s, f in fits.items() if math.isfinite(f)}
     if defined and all(f < 0.0 for f in defined.values()):
         listing = ", ".join(f"{s} {f:.1f} %" for s, f in defined.items())
         warnings.warn(f"{source}: the model explains less of the log than the log's mean does (fit {listing}): "
-                      "is it a log of this rig, with these parameters and this model?", UserWarning, stacklevel=3)
+                      "is it a log of this rig, with these parameters and this model?", UninformativeValidation,
+                      stacklevel=3)
 
 
 def _moving(plant: Plant, C: np.ndarray) -> np.ndarray:

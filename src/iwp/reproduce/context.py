@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -11,7 +12,7 @@ import numpy as np
 
 from ..files import jsonable
 from ..ident.fit import fit_percent
-from ..ident.validation import validate
+from ..ident.validation import UninformativeValidation, validate
 from ..report import decimate, save_figure
 from ..rig import write_result
 from .paper import PAPER
@@ -261,8 +262,10 @@ def series(t, y, label: str | None = None):
 
 def compare(data, params, *, model: str, signals, restart_times=(), controller=None):
     """Run :func:`iwp.ident.validation.validate` and return ``(t, measured, simulated, fit)`` as plain arrays."""
-    r = validate(data, params, model=model, signals=tuple(signals), restart_times=tuple(restart_times),
-                 controller=controller, warn=False)  # the report tabulates every fit
+    with warnings.catch_warnings():  # the report tabulates every fit
+        warnings.simplefilter("ignore", UninformativeValidation)
+        r = validate(data, params, model=model, signals=tuple(signals), restart_times=tuple(restart_times),
+                     controller=controller)
     t = np.asarray(r.t, dtype=float)
     meas = {s: np.asarray(r.measured[s], dtype=float) for s in signals}
     sim = {s: np.asarray(r.simulated[s], dtype=float) for s in signals}
