@@ -187,6 +187,56 @@ def test_interrupts_while_numba_boxes_a_result_raise_and_never_crash(sig):
     assert done.stdout.split()[-1] == "10"
 
 
+_COMPILE_LOOP = """
+import importlib, os, signal, sys
+import numba
+import numba.core.codegen as cg
+from iwp.cli.interrupts import interrupts_as_exceptions
+
+# numba's hook that LLVM calls back through llvmlite's ctypes callback when it has compiled an object to cache:
+# the interrupt arrives inside it
+armed = []
+orig = cg.JITCodeLibrary._object_compiled_hook.__func__
+
+
+def hook(cls, ll_module, buf):
+    if armed:
+        armed.pop()
+        signal.raise_signal(SIGNAL)
+    return orig(cls, ll_module, buf)
+
+
+cg.JITCodeLibrary._object_compiled_hook = classmethod(hook)
+sys.path.insert(0, os.getcwd())
+caught = 0
+with interrupts_as_exceptions():
+    for trial in range(TRIALS):
+        with open(f"m{trial}.py", "w") as fh:
+            fh.write(f"import numba\\n@numba.njit(cache=True)\\ndef f(x):\\n    return x * {trial + 2}.0 + 1.0\\n")
+        m = importlib.import_module(f"m{trial}")
+        armed.append(True)
+        try:
+            m.f(1.0)
+        except KeyboardInterrupt:
+            caught += 1
+print(caught, m.f(1.0), numba.njit(lambda x: x * 2.0)(2.0))
+"""
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_interrupts_while_numba_compiles_raise_and_leave_numba_working(tmp_path, sig):
+    """An interrupt that lands in LLVM's callback while numba compiles (a cold cache) is an exception, raised when
+    the callback returns: ctypes would print and drop it there, and numba would go on with a broken library ("no
+    compiled object yet for <Library 'sens_views'>": iwp reproduce's step failed, exit 1 instead of 130, in CI)."""
+    code = _COMPILE_LOOP.replace("TRIALS", "5").replace("SIGNAL", f"signal.{sig.name}")
+    env = {**_env(), "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path,
+                          timeout=300)
+    assert done.returncode == 0, f"exit {done.returncode}: {done.stderr[-2000:]}"
+    assert done.stdout.split() == ["5", "7.0", "4.0"], done.stdout + done.stderr[-2000:]
+    assert "Exception ignored" not in done.stderr, done.stderr[-2000:]
+
+
 @pytest.mark.parametrize("sig, step", [(signal.SIGINT, "[ 3/12]"), (signal.SIGTERM, "[11/12]")],
                          ids=["SIGINT", "SIGTERM"])
 def test_an_interrupted_reproduction_leaves_nothing(tmp_path, sig, step):

@@ -6,10 +6,11 @@ out and the CLI exits 130 with one line. Python runs a signal's handler at
 the next bytecode it executes; while a compiled (numba) kernel returns, numba
 runs Python code of its own (``numba.core.serialize``, unpickling the class
 of the result it boxes) and does not check it for an exception: an interrupt
-raised there crashes the process (a segmentation fault, issue 23). An
-interrupt that arrives there is therefore raised a moment later, when the
-kernel's caller runs again (at the next function call or return outside
-numba's callback).
+raised there crashes the process (a segmentation fault, issue 23). So do
+llvmlite's callbacks from LLVM while numba compiles (ctypes prints and drops
+the exception, and the compilation goes on broken). An interrupt that
+arrives there is therefore raised a moment later, when the caller runs
+again (at the next function call or return outside those callbacks).
 """
 
 from __future__ import annotations
@@ -20,8 +21,10 @@ import signal
 import sys
 import threading
 
-#: Python code run by compiled code that must not raise (a path fragment of its file).
-_NO_RAISE = (os.sep.join(("numba", "core", "serialize.py")),)
+#: Python code run by compiled code that must not raise (path fragments of its files): numba's boxing, and
+#: llvmlite's callbacks from LLVM while numba compiles (an exception there is printed and dropped by ctypes, and
+#: the compilation goes on broken: "no compiled object yet for <Library ...>", exit 1 instead of 130)
+_NO_RAISE = (os.sep.join(("numba", "core", "serialize.py")), os.sep.join(("llvmlite", "binding", "")))
 #: The signal that arrived inside numba's boxing, to be raised when it returns.
 _PENDING: list[int] = []
 
@@ -32,7 +35,7 @@ class Terminated(KeyboardInterrupt):
 
 def _inside_compiled_return(frame) -> bool:
     while frame is not None:
-        if frame.f_code.co_filename.endswith(_NO_RAISE):
+        if any(part in frame.f_code.co_filename for part in _NO_RAISE):
             return True
         frame = frame.f_back
     return False
