@@ -177,12 +177,51 @@ BRIDGE = 8  #: an RK4 bridge across a kink close ahead
 
 
 def samples_output(t, X, U, W, record_u: bool) -> Output:
-    """An :class:`Output` that keeps the samples (the summary array unused)."""
+    """An :class:`Output` that keeps the samples (the summary array unused).
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        The output times [s].
+    X : ndarray, shape (n, nx)
+        The states at those times, written by the run (rad, rad/s).
+    U, W : ndarray, shape (n,)
+        The input ``u`` and what reaches the plant ``w`` at those times [input units], written when
+        ``record_u``.
+    record_u : bool
+        Whether the run writes ``U`` and ``W``.
+
+    Returns
+    -------
+    Output
+    """
     return Output(t, X, U, W, bool(record_u), STORE_SAMPLES, np.zeros((N_SUMMARY, 1)))
 
 
 def sensitivity(nx: int, index, step, jcols) -> Sensitivity:
-    """A :class:`Sensitivity` with its work arrays, for ``nx`` model states."""
+    """A :class:`Sensitivity` with its work arrays, for ``nx`` model states.
+
+    Parameters
+    ----------
+    nx : int
+        Number of model states (at most ``MAX_STATES``).
+    index : sequence of int
+        The packed-parameter indices the sensitivities are taken with respect to (at most ``MAX_SENS_PARAMS``).
+    step : sequence of float
+        The relative difference step of each parameter (its Jacobian column of the right-hand side).
+    jcols : sequence of int
+        The states whose initial values are also differentiated (their sensitivity columns start at the unit
+        vectors).
+
+    Returns
+    -------
+    Sensitivity
+
+    Raises
+    ------
+    InputError
+        More parameters or states than the kernel holds.
+    """
     index = list(index)
     jcols = list(jcols)
     if len(index) > MAX_SENS_PARAMS:
@@ -937,6 +976,17 @@ def kernel(n_states: int):
 
     Called as ``kernel(n)(system, seg, tol, span, out) -> RunStats`` with the
     named tuples of this module.
+
+    Parameters
+    ----------
+    n_states : int
+        Number of states of the model (4, or 6 with the belt (15)).
+
+    Returns
+    -------
+    numba dispatcher
+        The DOP853 run (one stepper, :mod:`iwp.sim.controller` for the step size) for that state size, the same
+        object on every call.
     """
     key = ("plain", int(n_states))
     k = _KERNELS.get(key)

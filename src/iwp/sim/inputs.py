@@ -374,6 +374,26 @@ def make_input(name: str, argument: str = "input", **kw) -> Input | None:
     ``kw`` holds the input's settings (``amplitude``, ``omega``, ``w0``, ``tau``,
     ``t_step``; ``k1``, ``k2``, ``Ts`` for the Hopf law), each checked finite;
     ``argument`` names the option in errors.
+
+    Parameters
+    ----------
+    name : str
+        The input's name (case-insensitive); with ``argument="controller"`` only the controllers' names.
+    argument : str
+        The option named in errors (``"input"`` or ``"controller"``).
+    **kw : float
+        The settings: ``amplitude`` [input units], ``omega``, ``w0`` [rad/s], ``tau`` [s] (chirp), ``phase``
+        [rad], ``t_step`` [s]; ``k1``, ``k2``, ``Ts`` [s] of the Hopf law (section 5.3).
+
+    Returns
+    -------
+    Input or None
+        The input; None for ``zero``.
+
+    Raises
+    ------
+    InputError
+        An unknown name, or a setting that is not finite.
     """
     for k, v in kw.items():
         if v is not None:

@@ -699,6 +699,16 @@ def kernel(n_states: int):
     Called as ``kernel(n)(batch, tol, out, nb)`` with a :class:`Batch`, the
     engine's :class:`~iwp.sim.engine.Tolerances` and a :class:`BatchOutput`;
     ``nb`` is the number of blocks of runs (one per thread, at least one run each).
+
+    Parameters
+    ----------
+    n_states : int
+        Number of states of the model (4, or 6 with the belt (15)).
+
+    Returns
+    -------
+    numba dispatcher
+        The lanes' run for that state size (the same object on every call).
     """
     k = _KERNELS.get(int(n_states))
     if k is None:

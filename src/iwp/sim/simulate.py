@@ -54,7 +54,24 @@ X_MAX = 1e7
 # building the engine's arguments
 # --------------------------------------------------------------------------
 def as_plant(plant, model: str | None = None) -> Plant:
-    """A :class:`Plant` from a plant, or from a parameter set and a model name (default ``"compensated"``)."""
+    """A :class:`Plant` from a plant, or from a parameter set and a model name (default ``"compensated"``).
+
+    Parameters
+    ----------
+    plant : Plant, LumpedParameters or PhysicalParameters
+        The plant, or its parameters.
+    model : str, optional
+        The model's name (:data:`iwp.models.plant.MODELS`); with a plant, it must be the plant's.
+
+    Returns
+    -------
+    Plant
+
+    Raises
+    ------
+    InputError
+        Another type, or a model that contradicts the plant's.
+    """
     if isinstance(plant, Plant):
         if model is not None and model != plant.model:
             raise InputError(f"model={model!r} contradicts the plant's model {plant.model!r}; give one of them")
@@ -67,7 +84,27 @@ def as_plant(plant, model: str | None = None) -> Plant:
 
 
 def output_times(t0: float, t_end: float, Ts: float, t_eval=None) -> np.ndarray:
-    """The output times: ``t_eval`` checked, or the grid ``t0, t0 + Ts, ...`` up to ``t_end`` [s]."""
+    """The output times: ``t_eval`` checked, or the grid ``t0, t0 + Ts, ...`` up to ``t_end`` [s].
+
+    Parameters
+    ----------
+    t0, t_end : float
+        Start and end of the run [s].
+    Ts : float
+        Output period of the grid [s] (without ``t_eval``).
+    t_eval : array_like, optional
+        Output times [s], strictly increasing, within ``[t0, t_end]``.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The output times [s], C-ordered and writeable.
+
+    Raises
+    ------
+    InputError
+        ``t_eval`` empty, not finite, not increasing or outside the span; a grid of too many samples.
+    """
     if t_eval is not None:
         # writeable and C-ordered: one compiled signature for every caller
         te = np.require(np.asarray(t_eval, dtype=float).ravel(), requirements=["C", "W"])

@@ -36,6 +36,18 @@ def physical_range_message(plant: Plant, q3: np.ndarray) -> str | None:
     (energy conservation of (4) without friction); a rig's pendulum stays
     within a few times that. Beyond :data:`SPEED_MARGIN` times, the parameter
     set is not a pendulum's (e.g. negative damping held only by the cubic term).
+
+    Parameters
+    ----------
+    plant : Plant
+        The simulated plant (its ``p1`` [1/s^2]).
+    q3 : ndarray
+        The run's pendulum speed [rad/s].
+
+    Returns
+    -------
+    str or None
+        The message, or None when the speed is within range (or ``p1`` is not positive).
     """
     p1 = plant.lumped.p1
     if not (p1 > 0.0):
@@ -118,6 +130,27 @@ def write_simulation(task: SimulationTask, out, *, plot=None, force: bool = Fals
     Both outputs are checked before the simulation and written together
     (nothing is written when anything fails). The log's format follows its
     extension (``.csv``/``.txt``, ``.parquet``/``.pq``, ``.mat``).
+
+    Parameters
+    ----------
+    task : SimulationTask
+        The run (with its prediction band when ``task.band`` is set).
+    out : str or PathLike
+        The log to write.
+    plot : str or PathLike, optional
+        The figure to write beside it.
+    force : bool
+        Replace existing files.
+
+    Returns
+    -------
+    str
+        The summary line ``iwp simulate`` prints.
+
+    Raises
+    ------
+    InputError
+        An output that exists without ``force``, of an unknown format, or the figure on the log's path.
     """
     out = check_output_file(out, force=force, argument="out", suffixes=LOG_SUFFIXES)
     if plot is not None:

@@ -145,7 +145,21 @@ class ParameterUncertainty:
 
 
 def uncertainty_record(r) -> dict[str, Any]:
-    """The JSON record of a fit's uncertainty (stored in ``parameters.json`` by ``iwp fit``)."""
+    """The JSON record of a fit's uncertainty (stored in ``parameters.json`` by ``iwp fit``).
+
+    Parameters
+    ----------
+    r : RefineResult
+        A simulation-error fit (:func:`iwp.ident.refinement.refine`, :func:`iwp.ident.logfit.fit_logs`'s
+        refinement): its free parameters, covariance, residual standard deviations and reliability.
+
+    Returns
+    -------
+    dict
+        ``free`` (names), ``matrix`` (the covariance, JSON numbers, NaN as null), ``noise`` (residual standard
+        deviation per output, in its unit), ``method``, ``reliable`` and ``notes`` of the reliability verdict;
+        :func:`load_uncertainty` reads it back.
+    """
     u = ParameterUncertainty.from_refinement(r) if np.all(np.isfinite(r.covariance)) else None
     return {"free": list(r.free), "matrix": [[json_float(v) for v in row] for row in np.asarray(r.covariance)],
             "noise": {k: json_float(v) for k, v in r.residual_std.items()},
