@@ -44,7 +44,7 @@ import time
 import warnings as _warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping, NamedTuple, Sequence
 
 import numpy as np
 from scipy import optimize
@@ -638,11 +638,9 @@ def fit_logs(
     msgs.extend(r.warnings)
     # ---- report: training fits, held-out logs simulated from their measured state
     offs = [r.offsets[i].get("q1", (0.0, 0.0))[0] for i in range(len(train_logs))]
-    train_fits = [_log_fit(d, "train", r.times[i], r.measured[i], r.simulated[i], r.weights[i], r.x0[i], offs[i])
-                  for i, d in enumerate(train_logs)]
+    train_fits = [_log_fit(d, "train", _Replayed.of(r, i), offs[i]) for i, d in enumerate(train_logs)]
     for j, (kind, d) in enumerate(others, start=len(train_logs)):
-        train_fits.append(_log_fit(d, "train", r.times[j], r.measured[j], r.simulated[j], r.weights[j], r.x0[j],
-                                   r.offsets[j].get("q1", (0.0, 0.0))[0], kind=kind))
+        train_fits.append(_log_fit(d, "train", _Replayed.of(r, j), r.offsets[j].get("q1", (0.0, 0.0))[0], kind=kind))
     val_off = 0.0 if offset_given else float(np.mean(offs))
     if val_logs and not offset_given:
         msgs.append(f"held-out logs: the pendulum zero offset is taken as the training logs' mean, "
@@ -827,8 +825,8 @@ def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset:
     model = OutputError(plant, [Experiment(dc, x0=x0, estimate_x0=False)], outputs, fitting=False)
     ev = model.evaluate(model.parameters().values())
     p = model.prepared[0]
-    fit = _log_fit(d, "validate", p.t, dict(p.y), model.predictions(ev)[0], dict(p.w), model.states(ev.values)[0],
-                   offset)
+    fit = _log_fit(d, "validate", _Replayed(p.t, dict(p.y), model.predictions(ev)[0], dict(p.w),
+                                            model.states(ev.values)[0]), offset)
     if uncertainty is not None and not p.mean:
         band = prediction_band(plant, uncertainty, input=p.input, x0=x0, t_eval=p.t, signals=outputs,
                                x0_covariance=measured_state_covariance(dc, 0))
@@ -905,17 +903,33 @@ def _as_model_input(d: ExperimentData, model: str, argument: str) -> ExperimentD
     return d
 
 
-def _log_fit(d: ExperimentData, role: str, t, measured, simulated, weights, x0, off, kind: str = "free") -> LogFit:
+class _Replayed(NamedTuple):
+    """One log replayed by the model: its times [s], measured and simulated outputs, their weights (0: held
+    still) and the initial state."""
+
+    t: np.ndarray
+    measured: dict
+    simulated: dict
+    weights: dict
+    x0: np.ndarray
+
+    @classmethod
+    def of(cls, r: RefineResult, i: int) -> "_Replayed":
+        """Experiment ``i`` of a joint fit."""
+        return cls(r.times[i], r.measured[i], r.simulated[i], r.weights[i], r.x0[i])
+
+
+def _log_fit(d: ExperimentData, role: str, run: _Replayed, off: float, kind: str = "free") -> LogFit:
     fit, rms, mx, used = {}, {}, {}, {}
-    for o, y in measured.items():
-        m = weights[o] > 0
+    for o, y in run.measured.items():
+        m = run.weights[o] > 0
         if not m.any():  # a signal this set-up holds still (the clamped pendulum's angle)
             continue
         used[o] = m
-        fit[o] = fit_percent(y[m], simulated[o][m])
-        e = (y - simulated[o])[m]
+        fit[o] = fit_percent(y[m], run.simulated[o][m])
+        e = (y - run.simulated[o])[m]
         rms[o] = float(np.sqrt(np.mean(e ** 2)))
         mx[o] = float(np.max(np.abs(e)))
-    return LogFit(d.source, role, fit, rms, mx, np.asarray(t), {o: measured[o] for o in used},
-                  {o: simulated[o] for o in used}, used, np.asarray(x0, dtype=float), float(off),
+    return LogFit(d.source, role, fit, rms, mx, np.asarray(run.t), {o: run.measured[o] for o in used},
+                  {o: run.simulated[o] for o in used}, used, np.asarray(run.x0, dtype=float), float(off),
                   [g.describe() for g in d.glitches], kind=kind)
