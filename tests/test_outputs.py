@@ -237,6 +237,58 @@ def test_interrupts_while_numba_compiles_raise_and_leave_numba_working(tmp_path,
     assert "Exception ignored" not in done.stderr, done.stderr[-2000:]
 
 
+_DROPPED = """
+import gc, signal, sys, weakref
+from iwp.cli.interrupts import interrupts_as_exceptions
+from iwp.files import staged_dir, atomic_write
+
+
+class Thing:
+    pass
+
+
+def dropped():
+    # the interrupt lands in a weakref callback, where Python prints its exception and drops it
+    t = Thing()
+    weakref.finalize(t, signal.raise_signal, SIGNAL)
+    del t
+    gc.collect()
+
+
+out = []
+with interrupts_as_exceptions():
+    for kind in ("folder", "file"):
+        try:
+            dropped()
+            out.append("ran on")  # the command does not know ...
+            if kind == "folder":
+                with staged_dir(sys.argv[1]) as tmp:
+                    (tmp / "a.txt").write_text("x")
+            else:
+                atomic_write(sys.argv[2], lambda p: p.write_text("x"))
+            out.append("committed")
+        except KeyboardInterrupt as exc:
+            out.append(type(exc).__name__)  # ... but its output is not committed
+print(" ".join(out))
+"""
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_an_interrupt_whose_exception_a_callback_dropped_commits_no_output(tmp_path, sig):
+    """A signal that lands in a weakref or GC callback raises there and Python drops the exception ("Exception
+    ignored in ..."; iwp reproduce then ran to its end and exit 0 in a fresh-clone CI): the interrupt is remembered,
+    the outputs, a staged folder and a file, are not committed, and no traceback is printed for it."""
+    code = _DROPPED.replace("SIGNAL", f"signal.{sig.name}")
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "D"), str(tmp_path / "f.txt")],
+                          capture_output=True, text=True, env=_env(), cwd=tmp_path, timeout=120)
+    name = "Terminated" if sig == signal.SIGTERM else "KeyboardInterrupt"
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split() == ["ran", "on", name, "ran", "on", name], done.stdout + done.stderr[-2000:]
+    # "ran on": the callback dropped the exception, as the test intends; and printed no traceback for it
+    assert "Exception ignored" not in done.stderr and "Traceback" not in done.stderr, done.stderr[-2000:]
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("sig, step", [(signal.SIGINT, "[ 3/12]"), (signal.SIGTERM, "[11/12]")],
                          ids=["SIGINT", "SIGTERM"])
 def test_an_interrupted_reproduction_leaves_nothing(tmp_path, sig, step):

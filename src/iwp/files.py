@@ -17,6 +17,7 @@ from typing import Any, Callable
 import numpy as np
 
 from .errors import InputError, OutputExistsError
+from .interruption import raise_pending
 
 try:
     import fcntl
@@ -238,6 +239,7 @@ def staged_dir(path: str | Path, *, force: bool = False, argument: str = "out"):
                 _name_output(exc, tmp, p)
                 raise
             with signals_held():
+                raise_pending()  # an interrupt whose exception a callback dropped: nothing is committed
                 check_output_dir(p, force=force, argument=argument)  # written meanwhile by something else?
                 if not p.exists():
                     os.replace(tmp, p)
@@ -345,6 +347,7 @@ def write_all(writes, *, force: bool = True) -> list[Path]:
                     _name_output(exc, tmp, p)
                     raise
             with signals_held():
+                raise_pending()  # an interrupt whose exception a callback dropped: nothing is committed
                 if not force:
                     for p, _ in pairs:
                         if p.exists():

@@ -11,6 +11,9 @@ llvmlite's callbacks from LLVM while numba compiles (ctypes prints and drops
 the exception, and the compilation goes on broken). An interrupt that
 arrives there is therefore raised a moment later, when the caller runs
 again (at the next function call or return outside those callbacks).
+Elsewhere Python may still drop it (a weakref or garbage-collection
+callback): every signal is also remembered (:mod:`iwp.interruption`), no
+output is committed after it, and its dropped exception prints nothing.
 """
 
 from __future__ import annotations
@@ -21,16 +24,14 @@ import signal
 import sys
 import threading
 
+from ..interruption import Terminated, forget, received, received_signal
+
 #: Python code run by compiled code that must not raise (path fragments of its files): numba's boxing, and
 #: llvmlite's callbacks from LLVM while numba compiles (an exception there is printed and dropped by ctypes, and
 #: the compilation goes on broken: "no compiled object yet for <Library ...>", exit 1 instead of 130)
 _NO_RAISE = (os.sep.join(("numba", "core", "serialize.py")), os.sep.join(("llvmlite", "binding", "")))
 #: The signal that arrived inside numba's boxing, to be raised when it returns.
 _PENDING: list[int] = []
-
-
-class Terminated(KeyboardInterrupt):
-    """SIGTERM received: unwinds like Ctrl-C, so that every staged output is removed."""
 
 
 def _inside_compiled_return(frame) -> bool:
@@ -42,6 +43,7 @@ def _inside_compiled_return(frame) -> bool:
 
 
 def _on_signal(signum, frame):
+    received(signum)  # an exception raised here may yet be dropped (a weakref or GC callback): outputs check it
     if _inside_compiled_return(frame):
         # raised at the next Python event outside numba's callback (a profile hook: a signal sent again could
         # land there again and again when the caller does little else than call the kernel)
@@ -74,11 +76,21 @@ def interrupts_as_exceptions():
     # a signal the process was started to ignore (nohup, a background job) stays ignored
     old = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)
            if signal.getsignal(s) is not signal.SIG_IGN}
+    hook = sys.unraisablehook
+
+    def unraisable(u):
+        # an interrupt dropped by a callback is remembered and raised where outputs are committed: no traceback
+        if not (isinstance(u.exc_value, KeyboardInterrupt) and received_signal() is not None):
+            hook(u)
+
+    sys.unraisablehook = unraisable
     try:
         yield
     finally:
+        sys.unraisablehook = hook
         for s, h in old.items():
             signal.signal(s, h)
+        forget()
         if _PENDING:
             _PENDING.clear()
             sys.setprofile(None)
