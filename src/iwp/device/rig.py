@@ -54,6 +54,8 @@ REQUEST_TIMEOUT = 1.0
 #: at most half the device's watchdog, so that an ARM whose ACK was lost is repeated (which feeds the watchdog)
 #: before the watchdog stops the motor.
 REQUEST_REPEAT = 0.05
+#: How often HELLO is sent until the device answers IDENT, three times in all [s] (a board may be resetting).
+HELLO_REPEAT = 0.5
 
 
 @dataclass(frozen=True)
@@ -192,19 +194,9 @@ class Rig:
         :data:`REQUEST_REPEAT` s for up to :data:`REQUEST_TIMEOUT` s; a refusal raises :class:`DeviceError`."""
         self._req = self._req % 0xFFFF + 1
         req, want = self._req, MESSAGES[name].id  # the ACK's ``req`` and ``msg`` (the request's type)
-        attempts = 0
-        end = _now() + REQUEST_TIMEOUT
-        while True:
-            left = end - _now()
-            if left <= 0:
-                raise DeviceError(f"port {self.port}: no answer to {what} within {REQUEST_TIMEOUT:g} s (sent "
-                                  f"{attempts} times; is an iwp firmware on it, at the right baud rate?)")
-            self.link.send(name, req=req, **fields)
-            attempts += 1
-            ack = self._poll(lambda m: m.name == "ACK" and m["req"] == req and m["msg"] == want,
-                             min(self._repeat(), left))
-            if ack is not None:
-                break
+        ack = self._exchange(name, dict(fields, req=req),
+                             lambda m: m.name == "ACK" and m["req"] == req and m["msg"] == want,
+                             self._repeat(), REQUEST_TIMEOUT, what)
         if ack["code"] != ACK_CODES["OK"]:
             raise DeviceError(f"{self.port}: the device refused {what}: {name_of(ACK_CODES, ack['code']).lower()}"
                               + (f" (state {self.state_text()})" if ack["code"] in (3, 4, 5) else ""))
@@ -241,27 +233,32 @@ class Rig:
                     self._pending.extendleft(reversed(batch[i + 1:]))
                     return m
 
-    def _wait(self, match, timeout: float, what: str) -> Decoded:
-        """:meth:`_poll`, raising :class:`DeviceError` when nothing matches within ``timeout`` s."""
-        m = self._poll(match, timeout)
-        if m is None:
-            raise DeviceError(f"port {self.port}: no answer to {what} within {timeout:g} s "
-                              "(is an iwp firmware on it, at the right baud rate?)")
-        return m
+    def _exchange(self, name: str, fields: dict, match, repeat: float, timeout: float, what: str) -> Decoded:
+        """Send ``name`` with ``fields`` every ``repeat`` s until a message ``match``es, for up to ``timeout`` s.
+
+        Raises
+        ------
+        DeviceError
+            Nothing matched within ``timeout`` s (the message says how many times it was sent).
+        """
+        attempts = 0
+        end = _now() + timeout
+        while True:
+            left = end - _now()
+            if left <= 0:
+                raise DeviceError(f"port {self.port}: no answer to {what} within {timeout:g} s (sent "
+                                  f"{attempts} times; is an iwp firmware on it, at the right baud rate?)")
+            self.link.send(name, **fields)
+            attempts += 1
+            m = self._poll(match, min(repeat, left))
+            if m is not None:
+                return m
 
     def identify(self) -> DeviceInfo:
         """Ask the device who it is (HELLO), check its protocol, read its parameters."""
         nonce = random.randrange(1, 65536)
-        last = None
-        for _ in range(3):
-            self.link.send("HELLO", nonce=nonce)
-            try:
-                ident = self._wait(lambda m: m.name == "IDENT" and m["nonce"] == nonce, 0.5, "HELLO")
-                break
-            except DeviceError as exc:
-                last = exc
-        else:
-            raise last
+        ident = self._exchange("HELLO", {"nonce": nonce}, lambda m: m.name == "IDENT" and m["nonce"] == nonce,
+                               HELLO_REPEAT, 3 * HELLO_REPEAT, "HELLO")
         if ident["protocol"] != PROTOCOL_VERSION or ident["dict_hash"] != DICTIONARY_HASH:
             raise DeviceError(
                 f"{self.port}: the device speaks protocol {ident['protocol']} (dictionary 0x{ident['dict_hash']:08x}), "
