@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import signal
 
-__all__ = ["Terminated", "received", "received_signal", "raise_pending", "forget"]
+__all__ = ["Terminated", "interrupt", "received", "received_signal", "raise_pending", "forget"]
 
 #: The signal received and not yet forgotten (at most one).
 _RECEIVED: list[int] = []
@@ -21,6 +21,21 @@ _RECEIVED: list[int] = []
 
 class Terminated(KeyboardInterrupt):
     """SIGTERM received: unwinds like Ctrl-C, so that every staged output is removed."""
+
+
+def interrupt(signum: int) -> KeyboardInterrupt:
+    """The exception a signal raises: :class:`Terminated` for SIGTERM, else :class:`KeyboardInterrupt`.
+
+    Parameters
+    ----------
+    signum : int
+        The signal's number.
+
+    Returns
+    -------
+    KeyboardInterrupt
+    """
+    return Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
 def received(signum: int) -> None:
@@ -54,8 +69,7 @@ def raise_pending() -> None:
         A signal was received (also when its first exception was dropped by a callback).
     """
     if _RECEIVED:
-        signum = _RECEIVED[0]
-        raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+        raise interrupt(_RECEIVED[0])
 
 
 def forget() -> None:

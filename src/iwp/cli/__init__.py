@@ -22,8 +22,9 @@ import sys
 import warnings
 
 from ..errors import IwpError
+from ..interruption import Terminated
 from ..threads import one_blas_thread
-from .interrupts import Terminated, interrupts_as_exceptions
+from .interrupts import interrupts_as_exceptions
 
 # One module per subcommand, each defines ``register(subparsers)``.
 _COMMANDS = [

@@ -1,6 +1,6 @@
 """Ctrl-C and ``kill``: one exception at a point where Python can take it, never a signal death.
 
-SIGINT raises :class:`KeyboardInterrupt` and SIGTERM :class:`Terminated`
+SIGINT raises :class:`KeyboardInterrupt` and SIGTERM :class:`~iwp.interruption.Terminated`
 (a ``KeyboardInterrupt``), so that every staged output is removed on the way
 out and the CLI exits 130 with one line. Python runs a signal's handler at
 the next bytecode it executes; while a compiled (numba) kernel returns, numba
@@ -24,7 +24,7 @@ import signal
 import sys
 import threading
 
-from ..interruption import Terminated, forget, received, received_signal
+from ..interruption import forget, interrupt, received, received_signal
 
 #: Python code run by compiled code that must not raise (path fragments of its files): numba's boxing, and
 #: llvmlite's callbacks from LLVM while numba compiles (an exception there is printed and dropped by ctypes, and
@@ -50,23 +50,19 @@ def _on_signal(signum, frame):
         _PENDING[:] = [signum]
         sys.setprofile(_raise_when_safe)
         return
-    _raise(signum)
-
-
-def _raise(signum):
-    raise Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
+    raise interrupt(signum)
 
 
 def _raise_when_safe(frame, event, arg):
     if not _PENDING or _inside_compiled_return(frame):
         return
     sys.setprofile(None)
-    _raise(_PENDING.pop())
+    raise interrupt(_PENDING.pop())
 
 
 @contextlib.contextmanager
 def interrupts_as_exceptions():
-    """While the block runs, SIGINT and SIGTERM raise (:class:`KeyboardInterrupt`, :class:`Terminated`) where safe.
+    """While the block runs, SIGINT and SIGTERM raise where safe (:func:`iwp.interruption.interrupt`).
 
     Outside the main thread (where Python delivers no signal) it does nothing; an ignored signal stays ignored.
     """
