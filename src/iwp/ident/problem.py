@@ -321,14 +321,14 @@ class FitProblem:
         if self.statistics:
             J = obj.jacobian(z)
             optimum = obj.evaluation(z)
-            if np.all(np.isfinite(J)) and np.all(np.isfinite(optimum.r)):
+            broken = ("the residuals at the optimum are" if not np.all(np.isfinite(optimum.r)) else
+                      "the Jacobian at the optimum is" if not np.all(np.isfinite(J)) else None)
+            if broken is None:
                 result = _statistics(self, obj, z, J, optimum, f_scale)
             else:  # a simulation near the optimum failed: no curvature, so no honest interval
                 result = _no_statistics(params, z)
-                result["warnings"].append(
-                    f"the {'Jacobian' if np.all(np.isfinite(optimum.r)) else 'residuals'} at the optimum "
-                    f"{'is' if np.all(np.isfinite(optimum.r)) else 'are'} not finite (a simulation near it "
-                    "failed or diverged): no standard errors or intervals are given")
+                result["warnings"].append(f"{broken} not finite (a simulation near it failed or diverged): no "
+                                          "standard errors or intervals are given")
         else:
             J = np.zeros((self.model.n_rows, 0))
             optimum = obj.evaluation(z)

@@ -263,9 +263,9 @@ def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
         return Selection(best, best, np.full(R, np.nan), np.full(R, np.nan), float("nan"), "BIC (no scoring log)")
     with np.errstate(divide="ignore", invalid="ignore"):
         L = np.log(np.where(S > 0, S, np.nan))
-    # the best by the statistic the rule tests (the mean log score): an arithmetic mean would let one log whose
-    # prediction wandered off (a chaotic swing) outweigh every other log and pick a worse structure as the best
-    best = int(np.argmin(np.where(usable & np.all(np.isfinite(L), axis=1), L.mean(axis=1), np.inf)))
+    # the best by the statistic the rule tests (the geometric mean score): an arithmetic mean would let one log
+    # whose prediction wandered off (a chaotic swing) outweigh every other log and pick a worse structure
+    best = int(np.argmin([o.score if u else math.inf for o, u in zip(outcomes, usable)]))
     D = L - L[best]
     if n == 1:  # no spread to judge by: the simplest within MIN_GAIN of the best
         diff = D[:, 0]
