@@ -1,22 +1,25 @@
-"""An interrupt received: remembered until it is delivered, so that no output is committed after it.
+"""An interrupt whose exception Python dropped: remembered, so that no output is committed after it.
 
 Python runs a signal's handler at the next bytecode, wherever that is; where
 Python itself calls code whose exceptions it cannot pass on (a weakref or
 garbage-collection callback, a ``__del__``, a ctypes callback), the
-handler's exception is printed ("Exception ignored in ...") and dropped, and
-the command would run on to its end as if nothing had happened. The handler
-(:mod:`iwp.cli.interrupts`) therefore also records the signal here, and every
-output is committed only after :func:`raise_pending` (:mod:`iwp.files`).
+handler's exception goes to :data:`sys.unraisablehook` ("Exception ignored
+in ...") and is dropped, and the command would run on to its end as if
+nothing had happened. The CLI's hook (:mod:`iwp.cli.interrupts`) records
+such an interrupt here, and every output is committed only after
+:func:`raise_pending` (:mod:`iwp.files`). An interrupt delivered as an
+exception is not recorded: whoever catches it decides (a rig run keeps its
+log of the run so far).
 """
 
 from __future__ import annotations
 
 import signal
 
-__all__ = ["Terminated", "interrupt", "received", "received_signal", "raise_pending", "forget"]
+__all__ = ["Terminated", "interrupt", "dropped", "raise_pending", "forget"]
 
-#: The signal received and not yet forgotten (at most one).
-_RECEIVED: list[int] = []
+#: The signal of the interrupt dropped and not yet forgotten (at most one).
+_DROPPED: list[int] = []
 
 
 class Terminated(KeyboardInterrupt):
@@ -38,40 +41,29 @@ def interrupt(signum: int) -> KeyboardInterrupt:
     return Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
-def received(signum: int) -> None:
-    """Remember that ``signum`` (SIGINT or SIGTERM) arrived.
+def dropped(exc: KeyboardInterrupt) -> None:
+    """Remember an interrupt whose exception ``exc`` Python dropped.
 
     Parameters
     ----------
-    signum : int
-        The signal's number.
+    exc : KeyboardInterrupt
+        The dropped exception (:class:`Terminated` for SIGTERM).
     """
-    _RECEIVED[:] = [int(signum)]
-
-
-def received_signal() -> int | None:
-    """The signal received and not yet forgotten, or None.
-
-    Returns
-    -------
-    int or None
-        The signal's number.
-    """
-    return _RECEIVED[0] if _RECEIVED else None
+    _DROPPED[:] = [signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT]
 
 
 def raise_pending() -> None:
-    """Raise the interrupt received, if any: :class:`Terminated` for SIGTERM, else :class:`KeyboardInterrupt`.
+    """Raise the interrupt whose exception was dropped, if any (:func:`interrupt` of its signal).
 
     Raises
     ------
     KeyboardInterrupt
-        A signal was received (also when its first exception was dropped by a callback).
+        An interrupt's exception was dropped by a callback.
     """
-    if _RECEIVED:
-        raise interrupt(_RECEIVED[0])
+    if _DROPPED:
+        raise interrupt(_DROPPED[0])
 
 
 def forget() -> None:
-    """Forget the interrupt received (the command that got it has ended)."""
-    _RECEIVED.clear()
+    """Forget the dropped interrupt (the command that got it has ended)."""
+    _DROPPED.clear()

@@ -12,8 +12,8 @@ the exception, and the compilation goes on broken). An interrupt that
 arrives there is therefore raised a moment later, when the caller runs
 again (at the next function call or return outside those callbacks).
 Elsewhere Python may still drop it (a weakref or garbage-collection
-callback): every signal is also remembered (:mod:`iwp.interruption`), no
-output is committed after it, and its dropped exception prints nothing.
+callback): the dropped exception is remembered (:mod:`iwp.interruption`),
+no output is committed after it, and it prints nothing.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import signal
 import sys
 import threading
 
-from ..interruption import forget, interrupt, received, received_signal
+from ..interruption import dropped, forget, interrupt
 
 #: Python code run by compiled code that must not raise (path fragments of its files): numba's boxing, and
 #: llvmlite's callbacks from LLVM while numba compiles (an exception there is printed and dropped by ctypes, and
@@ -43,7 +43,6 @@ def _inside_compiled_return(frame) -> bool:
 
 
 def _on_signal(signum, frame):
-    received(signum)  # an exception raised here may yet be dropped (a weakref or GC callback): outputs check it
     if _inside_compiled_return(frame):
         # raised at the next Python event outside numba's callback (a profile hook: a signal sent again could
         # land there again and again when the caller does little else than call the kernel)
@@ -76,7 +75,9 @@ def interrupts_as_exceptions():
 
     def unraisable(u):
         # an interrupt dropped by a callback is remembered and raised where outputs are committed: no traceback
-        if not (isinstance(u.exc_value, KeyboardInterrupt) and received_signal() is not None):
+        if isinstance(u.exc_value, KeyboardInterrupt):
+            dropped(u.exc_value)
+        else:
             hook(u)
 
     sys.unraisablehook = unraisable

@@ -29,7 +29,6 @@ import numpy as np
 from ..checks import check_finite, check_nonnegative, check_positive
 from ..data import ExperimentData, StaticCurve
 from ..errors import InputError
-from ..interruption import forget
 from ..rig.controller import EncoderHopfController
 from ..rig.described import prbs
 from ..rig.experiments import (
@@ -372,7 +371,6 @@ def _static_curve(rig: Rig, name: str, s: dict, compensated: bool, operator, pro
         try:
             _wait_still(rig, Ts)
         except BaseException as exc:  # noqa: BLE001 (Ctrl-C while waiting: keep the points so far)
-            forget()  # handled here: the points so far are written
             interrupted, reason, error = True, "Ctrl-C" if isinstance(exc, KeyboardInterrupt) else str(exc), exc
             break
     log = None

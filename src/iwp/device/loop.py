@@ -28,7 +28,6 @@ from typing import Callable
 
 import numpy as np
 
-from ..interruption import forget
 from .errors import DeviceError, LinkLost
 from .realtime import realtime_priority
 from .rig import Rig, Sample
@@ -255,7 +254,6 @@ def run_loop(
     except _Stop as stop:
         res.interrupted, res.reason = True, str(stop)
     except KeyboardInterrupt:
-        forget()  # handled here: the log of the run so far is kept, marked as interrupted
         res.interrupted, res.reason = True, "Ctrl-C"
         res.error = KeyboardInterrupt()
     except Terminated as exc:
