@@ -41,3 +41,16 @@ def test_iwp_kernels_are_cached_with_the_tree_stamp():
         locator = dispatcher._cache._impl._locator
         assert isinstance(locator, (jit.SourceTreeLocator, jit.UserDirSourceTreeLocator))
         assert locator.get_source_stamp() == jit.source_tree_stamp(ROOT)
+
+
+def test_the_stamp_follows_the_compile_options(tmp_path, monkeypatch):
+    """numba's cache index holds a kernel's signature and bytecode, not its options (nogil, fastmath): an edit of
+    the options in iwp.jit must recompile every kernel."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "a.py").write_text("@jit\ndef f(x):\n    return x\n")
+    s0 = jit.source_tree_stamp(pkg)
+    edited = tmp_path / "jit.py"
+    edited.write_text(Path(jit.__file__).read_text().replace('"nogil": True', '"nogil": False'))
+    monkeypatch.setattr(jit, "__file__", str(edited))
+    assert jit.source_tree_stamp(pkg) != s0

@@ -17,8 +17,8 @@ The on-disk cache follows the source it compiled
     the kernel of :mod:`iwp.sim.engine` would be loaded stale. Functions of
     iwp are therefore cached by :class:`SourceTreeLocator`, whose stamp is
     the hash of every iwp source file that holds compiled code
-    (:func:`compiled_sources`): an edit of any of them recompiles every
-    kernel, never a stale one.
+    (:func:`compiled_sources`) and of this module (the compile options):
+    an edit of any of them recompiles every kernel, never a stale one.
 """
 
 from __future__ import annotations
@@ -38,7 +38,10 @@ FASTMATH_EXACT = {"contract", "nsz", "arcp"}
 
 
 def jit(func=None, *, inline: bool = False, parallel: bool = False, exact: bool = False, vector: bool = False):
-    """``numba.njit`` with iwp's options: cached on disk, fast math.
+    """``numba.njit`` with iwp's options: cached on disk, fast math, the GIL released.
+
+    Every kernel releases the GIL while it runs, so that simulations run
+    side by side on threads (:func:`iwp.threads.thread_map`).
 
     Parameters
     ----------
@@ -56,7 +59,7 @@ def jit(func=None, *, inline: bool = False, parallel: bool = False, exact: bool 
         :mod:`iwp.sim.lanes`; their results are checked as values, not
         trapped).
     """
-    opts = {"cache": True, "fastmath": FASTMATH_EXACT if exact else FASTMATH}
+    opts = {"cache": True, "nogil": True, "fastmath": FASTMATH_EXACT if exact else FASTMATH}
     if inline:
         opts["inline"] = "always"
     if parallel:
@@ -91,8 +94,9 @@ def compiled_sources(root: str | os.PathLike = _PACKAGE) -> list[Path]:
 
 
 def source_tree_stamp(root: str | os.PathLike = _PACKAGE) -> str:
-    """SHA-256 of the contents of :func:`compiled_sources` (with their paths relative to ``root``)."""
-    h = hashlib.sha256()
+    """SHA-256 of the contents of :func:`compiled_sources` (with their paths relative to ``root``) and of this
+    module, whose options (:func:`jit`) every kernel is compiled with: numba's cache index does not hold them."""
+    h = hashlib.sha256(Path(__file__).read_bytes())
     for p in compiled_sources(root):
         h.update(str(p.relative_to(root)).encode())
         h.update(b"\0")

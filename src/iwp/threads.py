@@ -1,23 +1,104 @@
-"""How many threads the linear algebra under iwp's fits may use.
+"""iwp's threads: the simulations of a fit side by side, and the linear algebra under it on one thread.
 
-iwp's parallel work is its own (the batch engine's lanes on all cores, a
-sweep's chunks on workers). The linear algebra of a fit works on tall,
-narrow Jacobians (thousands of rows, tens of columns), where OpenBLAS's
-threads gain nothing and, on a machine whose cores are busy, spin: one
-singular value decomposition of a 4806 x 24 Jacobian took 0.77 s with
-OpenBLAS's default threads on a loaded 2-core machine and 0.0037 s with
-one. :func:`one_blas_thread` limits the BLAS and LAPACK libraries to one
-thread for the duration of a fit (:mod:`threadpoolctl`, whichever library
-numpy and scipy load); the ``iwp`` command runs under it throughout.
+Simulations side by side
+    A simulation-error fit simulates each of its logs (with forward
+    sensitivities) at every evaluation; the logs are independent. The
+    compiled kernels release the GIL (``nogil``), so :func:`thread_map`
+    runs them on :func:`fit_threads` threads (numba's thread count: all
+    cores, or ``NUMBA_NUM_THREADS``). Each task's result is the same as
+    one after another; only the wall time differs.
+
+BLAS on one thread
+    The linear algebra of a fit works on tall, narrow Jacobians (thousands
+    of rows, tens of columns), where OpenBLAS's threads gain nothing and,
+    on a machine whose cores are busy, spin: one singular value
+    decomposition of a 4806 x 24 Jacobian took 0.77 s with OpenBLAS's
+    default threads on a loaded 2-core machine and 0.0037 s with one.
+    :func:`one_blas_thread` limits the BLAS and LAPACK libraries to one
+    thread for the duration of a fit (:mod:`threadpoolctl`, whichever
+    library numpy and scipy load); the ``iwp`` command runs under it
+    throughout.
 """
 
 from __future__ import annotations
 
+import threading
+from collections.abc import Callable, Iterable
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import TypeVar
+
+import numba
 from threadpoolctl import threadpool_limits
 
-__all__ = ["one_blas_thread"]
+__all__ = ["one_blas_thread", "fit_threads", "thread_map"]
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+_POOL: ThreadPoolExecutor | None = None
+_POOL_LOCK = threading.Lock()
+_LOCAL = threading.local()
 
 
 def one_blas_thread() -> threadpool_limits:
     """A context manager limiting BLAS/LAPACK to one thread (the previous limits restored on exit)."""
     return threadpool_limits(limits=1, user_api="blas")
+
+
+def fit_threads() -> int:
+    """The threads :func:`thread_map` uses: numba's thread count (all cores, or ``NUMBA_NUM_THREADS``)."""
+    return max(1, int(numba.config.NUMBA_NUM_THREADS))
+
+
+def _pool() -> ThreadPoolExecutor:
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            _POOL = ThreadPoolExecutor(max_workers=fit_threads(), thread_name_prefix="iwp-sim",
+                                       initializer=_mark_worker)
+        return _POOL
+
+
+def _mark_worker() -> None:
+    _LOCAL.worker = True
+
+
+def thread_map(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
+    """``[func(x) for x in items]``, the calls on iwp's shared thread pool.
+
+    For calls that spend their time in compiled code that releases the GIL
+    (a simulation). Inline (one after another) for one item, one thread, or
+    when called from the pool itself (no task waits on the pool it runs on).
+    The first exception raised by a call is raised here, after the calls
+    not yet started are cancelled and the running ones have finished; so is
+    an interrupt (Ctrl-C) received while waiting.
+
+    Parameters
+    ----------
+    func : callable
+        Called once per item.
+    items : iterable
+        The arguments, in order.
+
+    Returns
+    -------
+    list
+        The results, in the order of ``items``.
+    """
+    items = list(items)
+    if len(items) <= 1 or fit_threads() == 1 or getattr(_LOCAL, "worker", False):
+        return [func(x) for x in items]
+    pool = _pool()
+    futures: list[Future] = [pool.submit(func, x) for x in items]
+    try:
+        return [f.result() for f in futures]
+    except BaseException:
+        for f in futures:
+            f.cancel()
+        for f in futures:  # the running calls finish before the caller's clean-up (they share its buffers)
+            if not f.cancelled():
+                try:
+                    f.exception()
+                except BaseException:  # noqa: BLE001 - a second interrupt while waiting: stop waiting
+                    break
+        raise

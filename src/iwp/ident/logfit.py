@@ -57,6 +57,7 @@ from ..files import json_float
 from ..models.parameters import TYPICAL, LumpedParameters
 from ..models.plant import Plant
 from ..sim.uncertainty import ParameterUncertainty, prediction_band
+from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
 from .fit import fit_percent
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_state_covariance
@@ -782,38 +783,57 @@ class _Fitting:
         offs = [o.get("q1", (0.0, 0.0))[0] for o in r.offsets[:len(r.offsets) - len(self.others)]]
         off = 0.0 if self.offset_given else float(np.mean(offs))
         plant = Plant(r.params, model=model)
-        return [_held_out(_as_model_input(d, model, "validate"), plant, self.outputs, off, [], None) for d in logs]
+        return thread_map(lambda d: _held_out(_as_model_input(d, model, "validate"), plant, self.outputs, off, [],
+                                              None), logs)
 
     def ladder(self, start: LumpedParameters) -> LadderResult:
-        """Each structure of the ladder fitted (from the fit of the one it extends) and scored."""
+        """Each structure of the ladder fitted (from the fit of the one it extends) and scored.
+
+        A structure starts once every structure it extends is fitted; structures that do not extend each
+        other (the offset and the dead zone, both on the widths) are fitted side by side, as are the
+        cross-validation folds (:func:`iwp.threads.thread_map`).
+        """
         raw = all(d.input_name == "v" for d in self.train + self.held_out)
         folds = len(self.train) >= 2 and not self.held_out
-        outcomes: list[RungOutcome] = []
-        for rg in ladder(raw):
-            parents = [o for o in outcomes if o.rung.flags < rg.flags and o.success]
-            parent = max(parents, key=lambda o: len(o.rung.flags)).result if parents else None
-            opts = self.options.with_rung(rg)
-            # the parameters of the structure this one extends; the initial states from the data again (a
-            # simpler structure's took more iterations to undo: 115 evaluations over the ladder against 87)
-            r = self.joint(opts, opts.starting_values(parent.params if parent else start, self.umax))
-            if self.held_out:
-                scored = self.score(r, opts, self.held_out)
-            elif folds:  # leave one training log out, refit from the joint fit, predict it
-                scored = [self.score(self.joint(opts, r.params, self.train[:k] + self.train[k + 1:],
-                                                x0=[x[:4] for j, x in enumerate(r.x0) if j != k]), opts,
-                                     [self.train[k].window(*opts.window)])[0] for k in range(len(self.train))]
-            else:
-                scored = []
-            scores = np.array([float(np.mean([1.0 - f.fit[o] / 100.0 for o in self.outputs])) for f in scored])
-            fr = r.fit_result
-            aic, bic = information_criteria(fr.cost, fr.dof + len(fr.free), len(fr.free))
-            outcomes.append(RungOutcome(rg, len(r.free), scores, _mean_fit([f.fit for f in scored], self.outputs),
-                                        _mean_fit(r.fit, self.outputs), aic, bic, bool(r.success),
-                                        r.message, r))
+        rungs = ladder(raw)
+        done: dict[str, RungOutcome] = {}
+        with one_blas_thread():  # entered once here, so that the fits side by side all find it at one thread
+            while len(done) < len(rungs):
+                wave = [rg for rg in rungs if rg.name not in done
+                        and all(o.name in done for o in rungs if o.flags < rg.flags)]
+                for o in thread_map(lambda rg: self._rung(rg, [done[o.name] for o in rungs if o.flags < rg.flags],
+                                                          start, folds), wave):
+                    done[o.rung.name] = o
+        outcomes = [done[rg.name] for rg in rungs]
         scored_on = ("held-out logs" if self.held_out else
                      "leave-one-log-out cross-validation" if folds else "training fit")
         n = len(self.held_out) if self.held_out else (len(self.train) if folds else 0)
         return LadderResult(outcomes, select(outcomes), scored_on, n)
+
+    def _rung(self, rg: Rung, extended: list[RungOutcome], start: LumpedParameters, folds: bool) -> RungOutcome:
+        """One structure fitted, from the fit of the richest converged structure it extends, and scored."""
+        parents = [o for o in extended if o.success]
+        parent = max(parents, key=lambda o: len(o.rung.flags)).result if parents else None
+        opts = self.options.with_rung(rg)
+        # the parameters of the structure this one extends; the initial states from the data again (a
+        # simpler structure's took more iterations to undo: 115 evaluations over the ladder against 87)
+        r = self.joint(opts, opts.starting_values(parent.params if parent else start, self.umax))
+        if self.held_out:
+            scored = self.score(r, opts, self.held_out)
+        elif folds:  # leave one training log out, refit from the joint fit, predict it
+            def fold(k: int) -> LogFit:
+                rest = self.train[:k] + self.train[k + 1:]
+                x0 = [x[:4] for j, x in enumerate(r.x0) if j != k]
+                return self.score(self.joint(opts, r.params, rest, x0=x0), opts,
+                                  [self.train[k].window(*opts.window)])[0]
+            scored = thread_map(fold, range(len(self.train)))
+        else:
+            scored = []
+        scores = np.array([float(np.mean([1.0 - f.fit[o] / 100.0 for o in self.outputs])) for f in scored])
+        fr = r.fit_result
+        aic, bic = information_criteria(fr.cost, fr.dof + len(fr.free), len(fr.free))
+        return RungOutcome(rg, len(r.free), scores, _mean_fit([f.fit for f in scored], self.outputs),
+                           _mean_fit(r.fit, self.outputs), aic, bic, bool(r.success), r.message, r)
 
 
 def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset: float, msgs: list[str],

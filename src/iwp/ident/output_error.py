@@ -39,6 +39,7 @@ from ..models.parameters import PARAMETER_INFO
 from ..models.plant import EXPERIMENT_KINDS, Plant, plant_for_kind
 from ..sim.inputs import Input, Sampled
 from ..sim.sensitivity import simulate_sensitivities
+from ..threads import thread_map
 from .differentiate import Differentiator
 from .parameters import Parameter, Parameters
 
@@ -632,13 +633,19 @@ class OutputError:
         nrow = self.n_rows
         r = np.empty(nrow)
         J = np.zeros((nrow, len(wrt))) if wrt else None
+        states, offsets = self.states(values), self.offsets(values)
+
+        def run(i: int):
+            p = self.prepared[i]
+            est = tuple(s for s in p.est if x0_name(s, p.index) in wrt)
+            return est, simulate_sensitivities(plant_for_kind(base, p.spec.kind), t_eval=p.t, t0=float(p.t[0]),
+                                               x0=states[i], input=p.input, wrt=wrt_model, wrt_x0=est,
+                                               rtol=self.rtol, atol=self.atol, check=False)
+
+        sims = thread_map(run, range(len(self.prepared)))  # the experiments side by side (independent)
         Xs, statuses = [], []
         row = 0
-        for p, x0, offs in zip(self.prepared, self.states(values), self.offsets(values)):
-            plant = plant_for_kind(base, p.spec.kind)
-            est = tuple(s for s in p.est if x0_name(s, p.index) in wrt)
-            sim = simulate_sensitivities(plant, t_eval=p.t, t0=float(p.t[0]), x0=x0, input=p.input, wrt=wrt_model,
-                                         wrt_x0=est, rtol=self.rtol, atol=self.atol, check=False)
+        for p, offs, (est, sim) in zip(self.prepared, offsets, sims):
             Xs.append(sim.x)
             statuses.append(sim.status)
             n = p.t.size

@@ -1,0 +1,105 @@
+"""iwp's threads: simulations side by side give the numbers of one after another; failures and interrupts stop
+the map; every kernel releases the GIL."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+from iwp import threads
+from iwp.ident.logfit import LogFitOptions, fit_logs, load_logs
+from iwp.models import equations, table1
+from iwp.models.plant import Plant
+from iwp.rig.described import DescribedRig, write_rig_csv
+from iwp.sim import engine
+from iwp.sim.inputs import Chirp
+from iwp.sim.sensitivity import simulate_sensitivities
+
+from .test_rig_fit import TRUTH, rig_of
+
+
+def test_the_map_keeps_the_order_and_raises_the_first_failure_after_cancelling_the_rest():
+    assert threads.thread_map(lambda x: x * x, range(7)) == [x * x for x in range(7)]
+    started = []
+
+    def work(x):
+        started.append(x)
+        if x == 0:
+            raise ValueError("first")
+        time.sleep(0.05)
+        return x
+
+    with pytest.raises(ValueError, match="first"):
+        threads.thread_map(work, range(40))
+    time.sleep(0.2)
+    assert len(started) < 40  # the calls not started when the failure arrived were cancelled
+
+
+def test_a_call_on_the_pool_maps_inline_instead_of_waiting_on_the_pool():
+    # as many outer calls as threads, each mapping again: would deadlock if the inner maps queued on the pool
+    n = threads.fit_threads() + 1
+    out = threads.thread_map(lambda i: (threading.current_thread().name,
+                                        threads.thread_map(lambda j: threading.current_thread().name, range(3))),
+                             range(n))
+    for outer, inner in out:
+        assert set(inner) == {outer}
+
+
+def test_every_kernel_releases_the_gil():
+    for dispatcher in (engine.kernel(4), engine.integrate, equations.rhs):
+        assert dispatcher.targetoptions.get("nogil") is True
+
+
+def test_simulations_side_by_side_give_the_numbers_of_one_after_another():
+    plant = Plant(table1())
+    t = np.linspace(0.0, 30.0, 3001)
+
+    def run(x0):
+        return simulate_sensitivities(plant, t_eval=t, x0=np.array([x0, 0.0, 0.0, 0.0]), input=Chirp(40, 0.5, 5),
+                                      wrt=("p1", "p2", "p3", "rho", "sigma_v1"), check=False)
+
+    starts = [0.1 * k for k in range(6)]
+    together = threads.thread_map(run, starts)
+    for x0, sim in zip(starts, together):
+        alone = run(x0)
+        np.testing.assert_array_equal(sim.x, alone.x)
+        np.testing.assert_array_equal(sim.S, alone.S)
+
+
+def test_the_ladder_side_by_side_is_the_ladder_one_after_another(tmp_path, monkeypatch):
+    """The same costs and held-out scores to the last bit, cross-validation folds included."""
+    rig = DescribedRig(rig_of(), TRUTH, noise_std=0.002, seed=4)
+    logs = [write_rig_csv(rig.run(Chirp(0.3, 1.0 + i, 6.0), duration=6.0), tmp_path / f"chirp{i}.csv")
+            for i in range(2)]
+
+    def ladder():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = fit_logs(load_logs(logs, rig.rig), warn=False, options=LogFitOptions(select=True))
+        assert r.structures.scored_on == "leave-one-log-out cross-validation"
+        return [(o.rung.name, o.scores.tolist(), o.result.fit_result.cost) for o in r.structures.outcomes]
+
+    together = ladder()
+    monkeypatch.setattr(threads, "fit_threads", lambda: 1)
+    assert ladder() == together
+
+
+def test_ctrl_c_while_waiting_cancels_what_has_not_started_and_lets_the_running_calls_finish():
+    finished, started = [], []
+
+    def work(i):
+        started.append(i)
+        if i == 0:
+            os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.1)
+        finished.append(i)
+
+    with pytest.raises(KeyboardInterrupt):
+        threads.thread_map(work, range(30))
+    assert sorted(finished) == sorted(started) and len(started) < 30
