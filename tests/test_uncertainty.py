@@ -8,6 +8,8 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from iwp.cli import main
 from iwp.data import ExperimentData, write_experiment
@@ -20,7 +22,15 @@ from iwp.models import Plant, quantize, save_params, table1
 from iwp.rig.described import prbs
 from iwp.sim import simulate
 from iwp.sim.inputs import Chirp, Sampled
-from iwp.sim.uncertainty import ParameterUncertainty, load_uncertainty, prediction_band, uncertainty_record
+from iwp.sim.simulate import simulate_batch
+from iwp.sim.uncertainty import (
+    BAND_CHUNK,
+    DrawTails,
+    ParameterUncertainty,
+    load_uncertainty,
+    prediction_band,
+    uncertainty_record,
+)
 
 TS = 0.005
 STEP = 2 * math.pi / 2000
@@ -131,6 +141,36 @@ def test_linear_and_monte_carlo_bands_agree_for_a_small_uncertainty():
         # the widths agree to within the Monte Carlo error of 400 draws and the nonlinearity
         assert np.median(wm[late] / wl[late]) == pytest.approx(1.0, abs=0.15), s
         np.testing.assert_allclose(lin.nominal[s], mc.nominal[s], atol=1e-6 * np.max(np.abs(lin.nominal[s])))
+
+
+@settings(max_examples=60, deadline=None)
+@given(draws=st.integers(1, 300), chunk=st.integers(1, 80), failed=st.integers(0, 100), seed=st.integers(0, 2**31),
+       q=st.sampled_from([(0.025, 0.975), (0.05, 0.95), (0.25, 0.75), (0.5, 0.5)]))
+def test_quantiles_from_the_draws_tails_are_numpys_over_all_draws(draws, chunk, failed, seed, q):
+    Y = np.random.default_rng(seed).standard_t(3, size=(draws, 7))
+    used = Y[: max(1, draws - failed)]  # failed draws are left out: fewer than the tails were sized for
+    tails = DrawTails(draws, q)
+    for a in range(0, used.shape[0], chunk):
+        tails.add(used[a:a + chunk])
+    lo, hi = tails.quantiles()
+    ref = np.quantile(used, q, axis=0)
+    np.testing.assert_allclose(lo, ref[0], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(hi, ref[1], rtol=0, atol=1e-12)
+
+
+def test_a_monte_carlo_band_in_chunks_is_the_band_of_all_draws_at_once():
+    p = table1()
+    u = ParameterUncertainty(p, ("p1", "p3"), np.diag([0.05, 0.0005]) ** 2)
+    t = np.arange(0.0, 10.0 + 1e-9, 0.01)
+    draws = BAND_CHUNK * 2 + 9
+    band = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t, method="monte-carlo",
+                           draws=draws, seed=4, signals=("q1", "q4"))
+    plants = [Plant(p).with_params(q) for q in u.draws(draws, 4)]
+    X = simulate_batch(plants, t_end=10.0, t_eval=t, input=Chirp(60.0, 3.0, 100.0), rtol=1e-8, atol=1e-8).x
+    for s, i in (("q1", 0), ("q4", 3)):
+        ref = np.quantile(X[:, :, i], [0.025, 0.975], axis=0)
+        np.testing.assert_allclose(band.lower[s], ref[0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(band.upper[s], ref[1], rtol=0, atol=1e-12)
 
 
 def test_the_prediction_band_holds_new_measurements():
