@@ -119,7 +119,7 @@ def stages_alone(P_arr, command_arr, k1s, reps):
         for i in range(4):
             for l in range(L):
                 K[0, i, l] = K[N_STAGES, i, l]
-        plain_stages(cps, T, Y, H, K, YT, IP, P, 4, L)
+        plain_stages(cps, (T, Y, H), K, YT, IP, P, 4, (1, N_STAGES + 1, L))
         for i in range(4):
             for l in range(L):
                 Y[i, l] = YT[i, l]

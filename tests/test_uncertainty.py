@@ -22,7 +22,6 @@ from iwp.models import Plant, quantize, save_params, table1
 from iwp.rig.described import prbs
 from iwp.sim import simulate
 from iwp.sim.inputs import Chirp, Sampled
-from iwp.sim.simulate import simulate_batch
 from iwp.sim.uncertainty import (
     BAND_CHUNK,
     DrawTails,
@@ -166,7 +165,8 @@ def test_a_monte_carlo_band_in_chunks_is_the_band_of_all_draws_at_once():
     band = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t, method="monte-carlo",
                            draws=draws, seed=4, signals=("q1", "q4"))
     plants = [Plant(p).with_params(q) for q in u.draws(draws, 4)]
-    X = simulate_batch(plants, t_end=10.0, t_eval=t, input=Chirp(60.0, 3.0, 100.0), rtol=1e-8, atol=1e-8).x
+    X = np.stack([simulate(q, t_end=10.0, t_eval=t, input=Chirp(60.0, 3.0, 100.0), rtol=1e-8, atol=1e-8).x
+                  for q in plants])
     for s, i in (("q1", 0), ("q4", 3)):
         ref = np.quantile(X[:, :, i], [0.025, 0.975], axis=0)
         np.testing.assert_allclose(band.lower[s], ref[0], rtol=0, atol=1e-12)
@@ -254,3 +254,17 @@ def test_intervals_cover_the_truth_over_repeated_experiments_with_noise_correlat
     cover = {m: h / (repeats * len(free)) for m, h in hits.items()}
     assert 0.90 <= cover["auto"] <= 0.99, cover
     assert cover["white"] < 0.80, cover
+
+
+@pytest.mark.parametrize("draws, quantiles, words", [
+    (0, (0.025, 0.975), "draws must be a positive integer, got 0"),
+    (10, (0.6, 0.9), "got 0.6, 0.9"),
+    (10, (0.1,), "got 0.1"),
+])
+def test_draw_tails_refuse_what_has_no_quantile(draws, quantiles, words):
+    with pytest.raises(InputError, match=words):
+        DrawTails(draws, quantiles)
+    tails = DrawTails(5, (0.025, 0.975))
+    tails.add(np.zeros((2, 3)))
+    with pytest.raises(InputError, match=r"got shape \(2, 4\)"):
+        tails.add(np.zeros((2, 4)))

@@ -10,8 +10,9 @@ parameter set, in memory or in a parameter file (``iwp fit`` writes it into
   within their uncertainty -- linearised, ``var y(t) = S(t) C S(t)^T`` with
   the engine's forward sensitivities ``S = dy/dtheta``
   (:func:`~iwp.sim.sensitivity.simulate_sensitivities`), or by Monte Carlo,
-  the quantiles of simulations of parameter draws run side by side
-  (:func:`~iwp.sim.simulate.simulate_batch`);
+  the quantiles of simulations of parameter draws run on all cores
+  (:func:`~iwp.sim.simulate.simulate` on :func:`iwp.threads.thread_map`),
+  of which only the tails are kept (:class:`DrawTails`);
 * the **prediction band**: the parameter band widened by the measurement
   noise, the spread of the fit's residuals per output, where a new
   measurement falls (:meth:`PredictionBand.coverage`).
@@ -33,12 +34,13 @@ from ..errors import InputError
 from ..files import json_float, read_json
 from ..models.parameters import PARAMETER_INFO, LumpedParameters, load_params
 from ..models.plant import Plant
+from ..threads import fit_threads, thread_map
 from .inputs import Input
 from .sensitivity import simulate_sensitivities
-from .simulate import output_times, simulate_batch
+from .simulate import output_times, simulate
 
 __all__ = ["ParameterUncertainty", "PredictionBand", "prediction_band", "uncertainty_record", "load_uncertainty",
-           "BAND_METHODS", "SIGNAL_INDEX"]
+           "DrawTails", "BAND_METHODS", "BAND_CHUNK", "BAND_QUANTILES", "SIGNAL_INDEX"]
 
 #: How a band is computed: linearised with the sensitivities, or by Monte Carlo draws.
 BAND_METHODS = ("linear", "monte-carlo")
@@ -296,8 +298,13 @@ class DrawTails:
     """
 
     def __init__(self, draws: int, quantiles: tuple[float, float]):
-        self.quantiles_ = tuple(float(q) for q in quantiles)
-        lo, hi = self.quantiles_
+        if isinstance(draws, bool) or not isinstance(draws, (int, np.integer)) or draws < 1:
+            raise InputError(f"draws must be a positive integer, got {draws!r}", argument="draws")
+        self.probabilities = tuple(float(q) for q in quantiles)
+        lo, hi = (self.probabilities + (math.nan, math.nan))[:2]
+        if len(self.probabilities) != 2 or not (0.0 <= lo <= 0.5 <= hi <= 1.0):
+            raise InputError(f"quantiles must be a lower one in [0, 0.5] and an upper one in [0.5, 1], got "
+                             f"{', '.join(f'{q:g}' for q in self.probabilities)}", argument="quantiles")
         self.k_low = int(math.floor((draws - 1) * lo)) + 2
         self.k_high = int(math.floor((draws - 1) * (1.0 - hi))) + 2
         self.low: np.ndarray | None = None
@@ -305,28 +312,52 @@ class DrawTails:
         self.n = 0
 
     def add(self, Y: np.ndarray) -> None:
-        """Merge the draws ``Y`` (rows: draws, columns: times)."""
+        """Merge a chunk of draws.
+
+        Parameters
+        ----------
+        Y : array_like, shape (m, n_times)
+            The signal of ``m`` draws (rows) at each time (columns), in the signal's unit.
+        """
         Y = np.asarray(Y, dtype=float)
+        if Y.ndim != 2 or (self.low is not None and Y.shape[1] != self.low.shape[0]):
+            raise InputError(f"draws must be a (draws, times) array with the times of the draws before, got shape "
+                             f"{Y.shape}", argument="Y")
         if Y.shape[0] == 0:
             return
         self.n += Y.shape[0]
-        low = Y if self.low is None else np.concatenate([self.low, Y])
-        high = Y if self.high is None else np.concatenate([self.high, Y])
-        if low.shape[0] > self.k_low:
-            low = np.partition(low, self.k_low - 1, axis=0)[:self.k_low]
-        if high.shape[0] > self.k_high:
-            high = np.partition(high, high.shape[0] - self.k_high, axis=0)[high.shape[0] - self.k_high:]
-        self.low, self.high = low, high
+        # time-major (times, draws): each time's values contiguous, partitioned in slices of the times on all
+        # cores (numpy's partition releases the GIL)
+        low = np.ascontiguousarray(Y.T) if self.low is None else np.concatenate([self.low, Y.T], axis=1)
+        high = low if self.high is None else np.concatenate([self.high, Y.T], axis=1)
+        m_low, m_high = min(self.k_low, low.shape[1]), min(self.k_high, high.shape[1])
+        new_low, new_high = np.empty((low.shape[0], m_low)), np.empty((high.shape[0], m_high))
+        edges = np.linspace(0, low.shape[0], fit_threads() + 1).astype(int)
+
+        def merge(part: tuple[int, int]) -> None:
+            a, b = part
+            new_low[a:b] = np.partition(low[a:b], m_low - 1, axis=1)[:, :m_low]
+            first = high.shape[1] - m_high
+            new_high[a:b] = np.partition(high[a:b], first, axis=1)[:, first:]
+
+        thread_map(merge, [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a])
+        self.low, self.high = new_low, new_high
 
     def quantiles(self) -> tuple[np.ndarray, np.ndarray]:
-        """The lower and upper quantile at each time over the draws added."""
+        """The lower and upper quantile at each time over the draws added.
+
+        Returns
+        -------
+        lower, upper : ndarray, shape (n_times,)
+            :func:`numpy.quantile` (linear) of all the draws added, at the two probabilities.
+        """
         if self.n == 0 or self.low is None or self.high is None:
             raise InputError("no draws to take quantiles of")
         n = self.n
-        low, high = np.sort(self.low, axis=0), np.sort(self.high, axis=0)
+        low, high = np.sort(self.low, axis=1).T, np.sort(self.high, axis=1).T
         # the ascending order statistics x[j] of all n draws: the low tail holds x[0..], the high tail x[n - m..]
-        return (_linear_quantile(low, 0, (n - 1) * self.quantiles_[0]),
-                _linear_quantile(high, n - high.shape[0], (n - 1) * self.quantiles_[1]))
+        return (_linear_quantile(low, 0, (n - 1) * self.probabilities[0]),
+                _linear_quantile(high, n - high.shape[0], (n - 1) * self.probabilities[1]))
 
 
 def _linear_quantile(tail: np.ndarray, first: int, h: float) -> np.ndarray:
@@ -368,7 +399,7 @@ def prediction_band(
     method : {"linear", "monte-carlo"}
         ``"linear"``: ``var y(t) = S(t) C S(t)^T`` from the forward
         sensitivities, normal quantiles; ``"monte-carlo"``: the 2.5 and 97.5 %
-        quantiles over ``draws`` simulations of parameter draws, side by side.
+        quantiles over ``draws`` simulations of parameter draws, on all cores.
     draws, seed : int
         Of the Monte Carlo band.
     signals : sequence of str
@@ -421,15 +452,24 @@ def prediction_band(
             dx = np.random.default_rng(seed + 1).multivariate_normal(np.zeros(4), C0, size=draws, method="eigh")
             x0s = [np.concatenate([mean[:4] + d, mean[4:]]) for d in dx]
         tails = {s: DrawTails(draws, BAND_QUANTILES) for s in signals}
+        cols = [SIGNAL_INDEX[s] for s in signals]
+
+        def run(k: int) -> np.ndarray | None:
+            """Draw ``k`` simulated: its signals at the output times (None: it failed)."""
+            r = simulate(plants[k], x0=x0s[k] if C0 is not None else x0, t0=float(t[0]), t_end=float(t[-1]),
+                         t_eval=t, input=input, rtol=1e-8, atol=1e-8, check=False)
+            return r.x[:, cols].T if r.success else None
+
         n_ok = 0
-        for a in range(0, draws, BAND_CHUNK):  # the draws in chunks: memory for one chunk's samples, not all
-            batch = simulate_batch(plants[a:a + BAND_CHUNK], x0=x0s[a:a + BAND_CHUNK] if C0 is not None else x0s,
-                                   t0=float(t[0]), t_end=float(t[-1]), t_eval=t, input=input, rtol=1e-8, atol=1e-8)
-            ok = batch.status == 0
-            n_ok += int(np.count_nonzero(ok))
-            for s in signals:
-                tails[s].add(batch.x[ok, :, SIGNAL_INDEX[s]])
-            del batch
+        # the draws on all cores (thread_map: the kernels release the GIL; single runs take the lanes' steps and,
+        # for inputs other than the Hopf law, cost less), in chunks: memory for one chunk's samples, not all
+        for a in range(0, draws, BAND_CHUNK):
+            ys = [y for y in thread_map(run, range(a, min(a + BAND_CHUNK, draws))) if y is not None]
+            n_ok += len(ys)
+            if ys:
+                Y = np.stack(ys)  # (draws, signals, times)
+                for j, s in enumerate(signals):
+                    tails[s].add(Y[:, j, :])
         if n_ok < max(10, draws // 2):
             raise InputError(f"{draws - n_ok} of {draws} draws failed to simulate; the band is not defined")
         X = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=input, rtol=1e-8, atol=1e-8).x
