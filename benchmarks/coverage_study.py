@@ -89,7 +89,7 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=40.0)
     ap.add_argument("--noise", type=float, default=2e-3, help="std of the AR(1) noise [rad]")
     ap.add_argument("--tau", type=float, default=0.05, help="correlation time of the noise [s]")
-    ap.add_argument("--pseudo", type=int, default=12, help="noise-free realisations for the pseudo-true value")
+    ap.add_argument("--pseudo", type=int, default=48, help="noise-free realisations for the pseudo-true value")
     ap.add_argument("--logs", type=int, default=1, help="logs per repeat, fitted jointly")
     ap.add_argument("--truth", choices=["twin", "model9"], default="twin",
                     help="the calibrated twin (belt, Coulomb friction, dead zone), or model (9) itself")
