@@ -11,7 +11,8 @@ import pytest
 
 from iwp.errors import InputError
 from iwp.models import Plant, table1
-from iwp.sim import Chirp, HopfController, Sampled, simulate, simulate_batch
+from iwp.sim import Chirp, HopfController, Sampled, lanes, simulate, simulate_batch
+from iwp.sim.simulate import segments_of
 
 
 def _rel(a, b):
@@ -87,3 +88,50 @@ def test_summary_of_a_failed_run_is_nan():
 def test_an_unknown_store_is_refused_by_name():
     with pytest.raises(InputError, match="store must be one of samples, final, summary, got 'all'"):
         simulate_batch(table1(), t_end=1.0, store="all")
+
+
+@pytest.mark.parametrize("case", ["coulomb-hopf", "chirp", "sampled-failing"])
+def test_runs_the_lanes_do_not_vectorise_are_single_runs_to_the_last_bit(case):
+    """Such batches run the single-run kernel per run on all cores (it is 4-5 times cheaper per run than a lane
+    of the general path): each run's samples, input columns, summaries, final state and counts are simulate's."""
+    T = 20.0
+    te = np.arange(0.0, T + 1e-9, 0.25)
+    if case == "coulomb-hopf":
+        plants = [Plant(table1().replace(sigma_c2=0.3))] * 4
+        inputs = [HopfController(k, 0.1) for k in (-12.0, -10.0, -8.0, -6.0)]
+    elif case == "chirp":
+        plants = [Plant(table1().replace(p1=v)) for v in (20.0, 26.0, 30.0)]
+        inputs = [Chirp(60.0, 3.0, 100.0)] * 3
+    else:  # one run diverges: its samples and input columns after the failure are NaN
+        T = 200.0
+        te = np.arange(0.0, T + 1e-9, 0.25)
+        plants = [Plant(table1()), Plant(table1().replace(sigma_v1=-5.0, sigma_a1=0.0, sigma_b1=0.0)),
+                  Plant(table1())]
+        inputs = [Sampled(10.0 * np.sin(np.arange(0.0, T, 0.01)), 0.01)] * 3
+    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=T, t_eval=te, rtol=1e-9, atol=1e-9)
+    assert not lanes.vectorised(plants[0].code, inputs[0].kind, segments_of(inputs[0], 0.0).mode,
+                                np.array([p.packed() for p in plants]), 0, len(plants))
+    b = simulate_batch(plants, input=inputs, **kw)
+    s = simulate_batch(plants, input=inputs, store="summary", **kw)
+    for i, (p, u) in enumerate(zip(plants, inputs)):
+        r = simulate(p, input=u, check=False, **kw)  # a failed run: the samples before the failure
+        m = r.t.size
+        np.testing.assert_array_equal(b.x[i, :m], r.x)
+        np.testing.assert_array_equal(b.u[i, :m], r.u)
+        assert np.all(np.isnan(b.x[i, m:])) and np.all(np.isnan(b.u[i, m:]))
+        assert (b.status[i] == 0) == r.success
+        if r.success:
+            np.testing.assert_array_equal(b.x_final[i], r.x[-1])
+            np.testing.assert_array_equal(s.summary["max"][i], r.x.max(axis=0))
+            np.testing.assert_allclose(s.summary["mean"][i], r.x.mean(axis=0), rtol=1e-12, atol=1e-15)
+    if case == "sampled-failing":
+        assert b.status[1] != 0 and np.isnan(b.x[1, -1, 0]) and np.isnan(b.u[1, -1])
+
+
+def test_the_hopf_law_on_model_9_without_optional_terms_is_vectorised():
+    p = np.array([Plant(table1()).packed()] * 3)
+    hopf = HopfController(-9.0, 0.1)
+    assert lanes.vectorised(Plant(table1()).code, hopf.kind, segments_of(hopf, 0.0).mode, p, 0, 3)
+    p[1] = Plant(table1().replace(sigma_c1=0.1)).packed()  # one run with an optional term: not all of them
+    assert not lanes.vectorised(Plant(table1()).code, hopf.kind, segments_of(hopf, 0.0).mode, p, 0, 3)
+    assert lanes.vectorised(Plant(table1()).code, hopf.kind, segments_of(hopf, 0.0).mode, p, 2, 3)

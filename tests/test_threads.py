@@ -9,6 +9,7 @@ import threading
 import time
 import warnings
 
+import numba
 import numpy as np
 import pytest
 
@@ -103,3 +104,28 @@ def test_ctrl_c_while_waiting_cancels_what_has_not_started_and_lets_the_running_
     with pytest.raises(KeyboardInterrupt):
         threads.thread_map(work, range(30))
     assert sorted(finished) == sorted(started) and len(started) < 30
+
+
+def test_the_map_follows_numbas_thread_count_of_the_caller():
+    """A sweep's --threads, or a Dask worker's one engine thread (numba.set_num_threads), bounds the calls."""
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        assert set(threads.thread_map(lambda _: threading.current_thread().name, range(5))) == \
+            {threading.current_thread().name}
+    finally:
+        numba.set_num_threads(before)
+    if before > 1:  # on the pool, at most `before` calls at once
+        running, most = [], []
+        lock = threading.Lock()
+
+        def work(_):
+            with lock:
+                running.append(1)
+                most.append(len(running))
+            time.sleep(0.02)
+            with lock:
+                running.pop()
+
+        threads.thread_map(work, range(12))
+        assert 1 < max(most) <= before

@@ -46,16 +46,17 @@ def one_blas_thread() -> threadpool_limits:
 
 
 def fit_threads() -> int:
-    """The threads :func:`thread_map` uses: numba's thread count (all cores, or ``NUMBA_NUM_THREADS``)."""
-    return max(1, int(numba.config.NUMBA_NUM_THREADS))
+    """The threads :func:`thread_map` uses: numba's thread count for the calling thread (all cores,
+    ``NUMBA_NUM_THREADS``, or what :func:`numba.set_num_threads` set, e.g. a sweep's ``--threads``)."""
+    return max(1, int(numba.get_num_threads()))
 
 
 def _pool() -> ThreadPoolExecutor:
     global _POOL
     with _POOL_LOCK:
         if _POOL is None:
-            _POOL = ThreadPoolExecutor(max_workers=fit_threads(), thread_name_prefix="iwp-sim",
-                                       initializer=_mark_worker)
+            _POOL = ThreadPoolExecutor(max_workers=max(1, int(numba.config.NUMBA_NUM_THREADS)),
+                                       thread_name_prefix="iwp-sim", initializer=_mark_worker)
         return _POOL
 
 
@@ -86,19 +87,36 @@ def thread_map(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
         The results, in the order of ``items``.
     """
     items = list(items)
-    if len(items) <= 1 or fit_threads() == 1 or getattr(_LOCAL, "worker", False):
+    k = min(len(items), fit_threads())
+    if k <= 1 or getattr(_LOCAL, "worker", False):
         return [func(x) for x in items]
+    results: list = [None] * len(items)
+    order = iter(range(len(items)))
+    lock, stop = threading.Lock(), threading.Event()
+
+    def loop() -> None:  # k of these take the items in turn: at most k calls at once, the fast ones take more
+        while not stop.is_set():
+            with lock:
+                i = next(order, None)
+            if i is None:
+                return
+            try:
+                results[i] = func(items[i])
+            except BaseException:
+                stop.set()
+                raise
+
     pool = _pool()
-    futures: list[Future] = [pool.submit(func, x) for x in items]
+    futures: list[Future] = [pool.submit(loop) for _ in range(k)]
     try:
-        return [f.result() for f in futures]
-    except BaseException:
         for f in futures:
-            f.cancel()
+            f.result()
+        return results
+    except BaseException:
+        stop.set()  # no call starts after a failure or an interrupt
         for f in futures:  # the running calls finish before the caller's clean-up (they share its buffers)
-            if not f.cancelled():
-                try:
-                    f.exception()
-                except BaseException:  # noqa: BLE001 - a second interrupt while waiting: stop waiting
-                    break
+            try:
+                f.exception()
+            except BaseException:  # noqa: BLE001 - a second interrupt while waiting: stop waiting
+                break
         raise

@@ -279,6 +279,32 @@ def general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L):
             plant_rate(fld, T[l] + cs * H[l], lane(YT, l), slab_lane(K, s, l))
 
 
+@jit
+def vectorised(model, kind, seg_mode, P, r0, r1):
+    """True if runs ``r0 .. r1-1`` take the vectorised path: model (9) without optional terms
+    (:func:`~iwp.models.equations.optional_terms_off`) under the continuous Hopf law.
+
+    Parameters
+    ----------
+    model, kind, seg_mode : int
+        The model's code, the input's kind and the segments' mode of the batch.
+    P : ndarray, shape (n_runs, N_PACK)
+        The packed parameters per run.
+    r0, r1 : int
+        The runs ``r0 .. r1-1``.
+
+    Returns
+    -------
+    bool
+    """
+    if kind != I_HOPF or is_held(kind, seg_mode):
+        return False
+    for r in range(r0, r1):
+        if not optional_terms_off(model, P[r]):
+            return False
+    return True
+
+
 @jit(vector=True)
 def run_lanes(n, bt, tol, out, r0, r1):
     """Simulations ``r0 .. r1-1`` of a :class:`Batch`, ``LANES`` at a time, into the :class:`BatchOutput`."""
@@ -291,9 +317,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
     n_out = t_out.size
     cps = to_fixed_tuple(bt.command_params, N_COMMAND)
     held = is_held(bt.kind, seg.mode)
-    plain = bt.kind == I_HOPF and not held
-    for r in range(r0, r1):
-        plain = plain and optional_terms_off(model, bt.P[r])
+    plain = vectorised(model, bt.kind, seg.mode, bt.P, r0, r1)
     h_max = tol.h_max
     xmax = tol.xmax
     tol_t = 1e-9 * max(1.0, abs(t_end))
@@ -716,4 +740,4 @@ def kernel(n_states: int):
     return k
 
 
-__all__ = ["Batch", "BatchOutput", "LANES", "kernel", "run_lanes"]
+__all__ = ["Batch", "BatchOutput", "LANES", "kernel", "run_lanes", "vectorised"]
