@@ -284,9 +284,11 @@ class DrawTails:
     A quantile ``q`` of ``n`` values (numpy's default, linear interpolation)
     needs only the order statistics around position ``(n - 1) q``: for the
     2.5 % quantile of 1,000 draws, the 26 smallest values. Each chunk of
-    draws is merged into the ``k`` smallest and ``k`` largest values so far at
-    every time (:func:`numpy.partition`), so that memory holds ``2 k`` values
-    per time, not all the draws; the quantiles are then exactly
+    draws is copied beside the ``k`` smallest and the ``k`` largest values so
+    far at every time, and the buffers are partitioned in place
+    (:meth:`numpy.ndarray.partition`, in slices of the times on all cores:
+    numpy releases the GIL), so that memory holds ``2 k`` values per time
+    besides one chunk, not all the draws; the quantiles are then exactly
     :func:`numpy.quantile`'s over all the draws.
 
     Parameters
@@ -307,8 +309,12 @@ class DrawTails:
                              f"{', '.join(f'{q:g}' for q in self.probabilities)}", argument="quantiles")
         self.k_low = int(math.floor((draws - 1) * lo)) + 2
         self.k_high = int(math.floor((draws - 1) * (1.0 - hi))) + 2
-        self.low: np.ndarray | None = None
-        self.high: np.ndarray | None = None
+        # time-major buffers: per time, the kept values then room for a chunk; the high side holds -x, so that
+        # both keep their smallest
+        self._low: np.ndarray | None = None
+        self._neg_high: np.ndarray | None = None
+        self._kept = 0  # columns of the buffers holding kept values
+        self._k_valid = (0, 0)  # of which the first ones are each side's smallest
         self.n = 0
 
     def add(self, Y: np.ndarray) -> None:
@@ -320,28 +326,52 @@ class DrawTails:
             The signal of ``m`` draws (rows) at each time (columns), in the signal's unit.
         """
         Y = np.asarray(Y, dtype=float)
-        if Y.ndim != 2 or (self.low is not None and Y.shape[1] != self.low.shape[0]):
+        if Y.ndim != 2:
+            raise InputError(f"draws must be a (draws, times) array, got shape {Y.shape}", argument="Y")
+        self.add_time_major(Y.T)
+
+    def add_time_major(self, Yt: np.ndarray) -> None:
+        """Merge a chunk of draws given time-major (the cheaper layout: no transposition).
+
+        Parameters
+        ----------
+        Yt : array_like, shape (n_times, m)
+            The signal at each time (rows) of ``m`` draws (columns), in the signal's unit.
+        """
+        Yt = np.asarray(Yt, dtype=float)
+        if Yt.ndim != 2 or (self._low is not None and Yt.shape[0] != self._low.shape[0]):
             raise InputError(f"draws must be a (draws, times) array with the times of the draws before, got shape "
-                             f"{Y.shape}", argument="Y")
-        if Y.shape[0] == 0:
+                             f"{Yt.shape[::-1]}", argument="Y")
+        m = Yt.shape[1]
+        if m == 0:
             return
-        self.n += Y.shape[0]
-        # time-major (times, draws): each time's values contiguous, partitioned in slices of the times on all
-        # cores (numpy's partition releases the GIL)
-        low = np.ascontiguousarray(Y.T) if self.low is None else np.concatenate([self.low, Y.T], axis=1)
-        high = low if self.high is None else np.concatenate([self.high, Y.T], axis=1)
-        m_low, m_high = min(self.k_low, low.shape[1]), min(self.k_high, high.shape[1])
-        new_low, new_high = np.empty((low.shape[0], m_low)), np.empty((high.shape[0], m_high))
+        self.n += m
+        f = self._kept
+        width = max(self.k_low, self.k_high) + m
+        if self._low is None or self._low.shape[1] < width:
+            low, neg = np.empty((Yt.shape[0], width)), np.empty((Yt.shape[0], width))
+            if self._low is not None:
+                low[:, :f], neg[:, :f] = self._low[:, :f], self._neg_high[:, :f]
+            self._low, self._neg_high = low, neg
+        low, neg = self._low, self._neg_high
+        low[:, f:f + m] = Yt
+        np.negative(Yt, out=neg[:, f:f + m])
+        total = f + m
+        k_low, k_high = min(self.k_low, total), min(self.k_high, total)
         edges = np.linspace(0, low.shape[0], fit_threads() + 1).astype(int)
 
         def merge(part: tuple[int, int]) -> None:
             a, b = part
-            new_low[a:b] = np.partition(low[a:b], m_low - 1, axis=1)[:, :m_low]
-            first = high.shape[1] - m_high
-            new_high[a:b] = np.partition(high[a:b], first, axis=1)[:, first:]
+            if total > k_low:
+                low[a:b, :total].partition(k_low - 1, axis=1)
+            if total > k_high:
+                neg[a:b, :total].partition(k_high - 1, axis=1)
 
         thread_map(merge, [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a])
-        self.low, self.high = new_low, new_high
+        # both buffers keep max(k_low, k_high) columns: the side with the shorter tail keeps a few more draws than
+        # it needs, which leaves its smallest among them
+        self._kept = min(max(self.k_low, self.k_high), total)
+        self._k_valid = (k_low, k_high)
 
     def quantiles(self) -> tuple[np.ndarray, np.ndarray]:
         """The lower and upper quantile at each time over the draws added.
@@ -351,10 +381,12 @@ class DrawTails:
         lower, upper : ndarray, shape (n_times,)
             :func:`numpy.quantile` (linear) of all the draws added, at the two probabilities.
         """
-        if self.n == 0 or self.low is None or self.high is None:
+        if self.n == 0 or self._low is None or self._neg_high is None:
             raise InputError("no draws to take quantiles of")
         n = self.n
-        low, high = np.sort(self.low, axis=1).T, np.sort(self.high, axis=1).T
+        k_low, k_high = self._k_valid
+        low = np.sort(self._low[:, :k_low], axis=1).T
+        high = (-np.sort(self._neg_high[:, :k_high], axis=1)[:, ::-1]).T  # ascending: the largest last
         # the ascending order statistics x[j] of all n draws: the low tail holds x[0..], the high tail x[n - m..]
         return (_linear_quantile(low, 0, (n - 1) * self.probabilities[0]),
                 _linear_quantile(high, n - high.shape[0], (n - 1) * self.probabilities[1]))
@@ -453,23 +485,30 @@ def prediction_band(
             x0s = [np.concatenate([mean[:4] + d, mean[4:]]) for d in dx]
         tails = {s: DrawTails(draws, BAND_QUANTILES) for s in signals}
         cols = [SIGNAL_INDEX[s] for s in signals]
+        chunk = np.empty((len(signals), t.size, BAND_CHUNK))  # time-major: what DrawTails merges without copying
+        ok = np.zeros(BAND_CHUNK, dtype=bool)
 
-        def run(k: int) -> np.ndarray | None:
-            """Draw ``k`` simulated: its signals at the output times (None: it failed)."""
+        def run(kj: tuple[int, int]) -> None:
+            """Draw ``k`` simulated into column ``j`` of the chunk (``ok[j]`` False: it failed)."""
+            k, j = kj
             r = simulate(plants[k], x0=x0s[k] if C0 is not None else x0, t0=float(t[0]), t_end=float(t[-1]),
                          t_eval=t, input=input, rtol=1e-8, atol=1e-8, check=False)
-            return r.x[:, cols].T if r.success else None
+            ok[j] = r.success
+            if r.success:
+                for i, c in enumerate(cols):
+                    chunk[i, :, j] = r.x[:, c]
 
         n_ok = 0
         # the draws on all cores (thread_map: the kernels release the GIL; single runs take the lanes' steps and,
         # for inputs other than the Hopf law, cost less), in chunks: memory for one chunk's samples, not all
         for a in range(0, draws, BAND_CHUNK):
-            ys = [y for y in thread_map(run, range(a, min(a + BAND_CHUNK, draws))) if y is not None]
-            n_ok += len(ys)
-            if ys:
-                Y = np.stack(ys)  # (draws, signals, times)
-                for j, s in enumerate(signals):
-                    tails[s].add(Y[:, j, :])
+            m = min(BAND_CHUNK, draws - a)
+            thread_map(run, [(a + j, j) for j in range(m)])
+            good = np.flatnonzero(ok[:m])
+            n_ok += good.size
+            if good.size:
+                for i, s in enumerate(signals):
+                    tails[s].add_time_major(chunk[i, :, :m] if good.size == m else chunk[i][:, good])
         if n_ok < max(10, draws // 2):
             raise InputError(f"{draws - n_ok} of {draws} draws failed to simulate; the band is not defined")
         X = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=input, rtol=1e-8, atol=1e-8).x
