@@ -129,3 +129,23 @@ def test_the_map_follows_numbas_thread_count_of_the_caller():
 
         threads.thread_map(work, range(12))
         assert 1 < max(most) <= before
+
+
+def test_a_kernel_asked_for_by_threads_at_once_is_made_once():
+    made = []
+
+    @threads.once_per_argument
+    def make(n):
+        made.append(n)
+        time.sleep(0.05)  # a dispatcher's making, long enough for the other threads to ask meanwhile
+        return object()
+
+    got = []
+    callers = [threading.Thread(target=lambda: got.append(make(4))) for _ in range(6)]
+    for c in callers:
+        c.start()
+    for c in callers:
+        c.join()
+    assert made == [4] and len({id(g) for g in got}) == 1
+    assert make(6) is not got[0] and made == [4, 6]
+    assert engine.kernel(4) is engine.kernel(4) and engine.sensitivity_kernel() is not engine.kernel(4)

@@ -22,15 +22,16 @@ BLAS on one thread
 
 from __future__ import annotations
 
+import functools
 import threading
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Hashable, Iterable
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import TypeVar
 
 import numba
 from threadpoolctl import threadpool_limits
 
-__all__ = ["one_blas_thread", "fit_threads", "thread_map"]
+__all__ = ["one_blas_thread", "fit_threads", "thread_map", "once_per_argument"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -38,6 +39,36 @@ R = TypeVar("R")
 _POOL: ThreadPoolExecutor | None = None
 _POOL_LOCK = threading.Lock()
 _LOCAL = threading.local()
+
+
+def once_per_argument(make: Callable[[Hashable], R]) -> Callable[[Hashable], R]:
+    """``make`` called once per argument, the result kept, also when threads ask for it at once.
+
+    For the factories of compiled kernels: two threads of :func:`thread_map`
+    asking for a kernel first at the same moment would otherwise build two
+    dispatchers of it, and compile it twice.
+
+    Parameters
+    ----------
+    make : callable
+        Of one hashable argument.
+
+    Returns
+    -------
+    callable
+        ``make`` with its results kept per argument (under a lock).
+    """
+    made: dict = {}
+    lock = threading.Lock()
+
+    @functools.wraps(make)
+    def get(key):
+        with lock:
+            if key not in made:
+                made[key] = make(key)
+            return made[key]
+
+    return get
 
 
 def one_blas_thread() -> threadpool_limits:

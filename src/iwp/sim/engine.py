@@ -70,6 +70,7 @@ from ..models.layout import (
     N_PACK,
     SA,
 )
+from ..threads import once_per_argument
 from .controller import (
     LERR_FLOOR,
     accept_factor,
@@ -950,9 +951,7 @@ def input_samples(kind, input_params, command_params, t, X, U, W):
 # --------------------------------------------------------------------------
 # kernels: one per state size and mode, compiled on first use
 # --------------------------------------------------------------------------
-_KERNELS: dict = {}
-
-
+@once_per_argument
 def _make_kernel(n: int | None):
     """:func:`integrate` with the state size ``n`` as a compile-time constant (``None``: sensitivities, any size)."""
     if n is None:
@@ -988,11 +987,7 @@ def kernel(n_states: int):
         The DOP853 run (one stepper, :mod:`iwp.sim.controller` for the step size) for that state size, the same
         object on every call.
     """
-    key = ("plain", int(n_states))
-    k = _KERNELS.get(key)
-    if k is None:
-        k = _KERNELS[key] = _make_kernel(int(n_states))
-    return k
+    return _make_kernel(int(n_states))
 
 
 def sensitivity_kernel():
@@ -1002,10 +997,7 @@ def sensitivity_kernel():
     ``span.x0`` holds the states and the initial sensitivities, ``tol.n_err``
     the number of model states.
     """
-    k = _KERNELS.get("sens")
-    if k is None:
-        k = _KERNELS["sens"] = _make_kernel(None)
-    return k
+    return _make_kernel(None)
 
 
 __all__ = [

@@ -47,6 +47,7 @@ from ..jit import jit
 from ..models.actuator import command
 from ..models.equations import optional_terms_off, rhs_of
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
+from ..threads import once_per_argument
 from .controller import LERR_FLOOR, accept_factor, log_error, next_step_size, reject_factor
 from .dop853 import N_STAGES, dense_coefficients, dense_eval_row, error_norm_lanes, stage_input_lanes
 from .engine import (
@@ -689,6 +690,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
     return 0
 
 
+@once_per_argument
 def _make_kernel(n: int):
     """The batch of runs side by side for ``n`` states (a compile-time constant inside it)."""
 
@@ -714,8 +716,6 @@ def _make_kernel(n: int):
     return jit(lanes_, parallel=True)
 
 
-_KERNELS: dict = {}
-
 
 def kernel(n_states: int):
     """The lane kernel for ``n_states`` states (compiled on first use, then cached on disk).
@@ -734,10 +734,7 @@ def kernel(n_states: int):
     numba dispatcher
         The lanes' run for that state size (the same object on every call).
     """
-    k = _KERNELS.get(int(n_states))
-    if k is None:
-        k = _KERNELS[int(n_states)] = _make_kernel(int(n_states))
-    return k
+    return _make_kernel(int(n_states))
 
 
 __all__ = ["Batch", "BatchOutput", "LANES", "kernel", "run_lanes", "vectorised"]
