@@ -638,7 +638,8 @@ def _single_runs(bt: lanes.Batch, tol: Tolerances, out: lanes.BatchOutput, n: in
                        Segments(seg.mode, seg.period, seg.start, seg.values[r], seg.external), tol,
                        Span(x, bt.t0, bt.t_end, -1.0), o)
         if out.store == engine.STORE_SAMPLES:
-            j = int(np.argmax(np.isnan(out.X[r][:, 0]))) if np.isnan(out.X[r][:, 0]).any() else out.t.size
+            unreached = np.flatnonzero(np.isnan(out.X[r][:, 0]))
+            j = int(unreached[0]) if unreached.size else out.t.size
             if not held:  # a continuous input's columns, from the states reached
                 engine.input_samples(bt.kind, bt.input_params[r], bt.command_params, out.t[:j], out.X[r][:j],
                                      out.U[r][:j], out.W[r][:j])

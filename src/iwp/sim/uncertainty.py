@@ -313,8 +313,6 @@ class DrawTails:
         # both keep their smallest
         self._low: np.ndarray | None = None
         self._neg_high: np.ndarray | None = None
-        self._kept = 0  # columns of the buffers holding kept values
-        self._k_valid = (0, 0)  # of which the first ones are each side's smallest
         self.n = 0
 
     def add(self, Y: np.ndarray) -> None:
@@ -345,8 +343,8 @@ class DrawTails:
         m = Yt.shape[1]
         if m == 0:
             return
+        f = self._kept()
         self.n += m
-        f = self._kept
         width = max(self.k_low, self.k_high) + m
         if self._low is None or self._low.shape[1] < width:
             low, neg = np.empty((Yt.shape[0], width)), np.empty((Yt.shape[0], width))
@@ -368,10 +366,11 @@ class DrawTails:
                 neg[a:b, :total].partition(k_high - 1, axis=1)
 
         thread_map(merge, [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a])
-        # both buffers keep max(k_low, k_high) columns: the side with the shorter tail keeps a few more draws than
-        # it needs, which leaves its smallest among them
-        self._kept = min(max(self.k_low, self.k_high), total)
-        self._k_valid = (k_low, k_high)
+
+    def _kept(self) -> int:
+        """Columns of the buffers holding kept values: both keep max(k_low, k_high), so the side with the shorter
+        tail keeps a few more draws than it needs, its smallest first among them."""
+        return min(max(self.k_low, self.k_high), self.n)
 
     def quantiles(self) -> tuple[np.ndarray, np.ndarray]:
         """The lower and upper quantile at each time over the draws added.
@@ -384,7 +383,7 @@ class DrawTails:
         if self.n == 0 or self._low is None or self._neg_high is None:
             raise InputError("no draws to take quantiles of")
         n = self.n
-        k_low, k_high = self._k_valid
+        k_low, k_high = min(self.k_low, n), min(self.k_high, n)
         low = np.sort(self._low[:, :k_low], axis=1).T
         high = (-np.sort(self._neg_high[:, :k_high], axis=1)[:, ::-1]).T  # ascending: the largest last
         # the ascending order statistics x[j] of all n draws: the low tail holds x[0..], the high tail x[n - m..]
