@@ -2,11 +2,15 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 
 from iwp.errors import InputError, SimulationError
 from iwp.models import BeltParameters, PhysicalParameters, Plant, energy, table1
 from iwp.sim import simulate, simulate_batch, simulate_scipy
+from iwp.sim.engine import kink_ahead
 from iwp.sim.inputs import CallableController, Chirp, HopfController, Sampled, Sine, Step
 
 FRICTIONLESS = table1().replace(p2=0.0, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0)
@@ -333,3 +337,32 @@ def test_a_batch_of_one_run_equals_the_single_run():
     s = simulate(Plant(table1()), input=Chirp(60.0, 3.0, 100.0), t_end=5.0)
     assert r.x.shape == (1, s.t.size, 4)
     np.testing.assert_allclose(r.x[0], s.x, rtol=1e-9, atol=1e-9)
+
+
+@settings(max_examples=300, deadline=None)
+@given(v=st.floats(0.2, 8.0), a=st.floats(-30.0, 30.0), jk=st.floats(-100.0, 100.0), frac=st.floats(0.0, 0.95),
+       H=st.floats(1e-3, 0.1), half_turns=st.integers(-3, 3), sign=st.sampled_from([-1.0, 1.0]))
+def test_the_kink_ahead_is_the_root_of_the_taylor_model(v, a, jk, frac, H, half_turns, sign):
+    """kink_ahead locates where the Taylor model of q1 reaches pi/2 + m pi as brentq does (monotone models)."""
+    v, a, jk = sign * v, sign * a, sign * jk
+    kink = 0.5 * math.pi + math.pi * half_turns
+
+    def q(s, q1):
+        return q1 + s * (v + s * (0.5 * a + s * jk / 6.0))
+
+    def dq(s):
+        return v + s * (a + 0.5 * s * jk)
+
+    # start a fraction of the step before the kink, moving towards it
+    q1 = kink - sign * frac * abs(v) * H
+    s_grid = np.linspace(0.0, H, 201)
+    assume(np.all(sign * dq(s_grid) > 0.1 * abs(v)))  # monotone over the step: one crossing at most
+    s = kink_ahead(q1, v, a, jk, H)
+    if (q(H, q1) - kink) * (q1 - kink) > 0.0 or q1 == kink:
+        assert s == -1.0 or q1 == kink
+        return
+    ref = brentq(lambda x: q(x, q1) - kink, 0.0, H, xtol=1e-16 * H, rtol=4 * np.finfo(float).eps)
+    assert 0.0 < s <= H
+    # the root is defined to the rounding of q near the kink over the slope (at least 0.1 |v|)
+    cond = 8.0 * np.spacing(abs(kink) + abs(q1)) / (0.1 * abs(v))
+    assert s == pytest.approx(ref, abs=1e-13 * H + cond)

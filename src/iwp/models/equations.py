@@ -200,7 +200,7 @@ def rhs_of(model, x, w, P, dx):
     rhs(model, x, w, P, dx)
 
 
-@overload(rhs_of, prefer_literal=True)
+@overload(rhs_of, prefer_literal=True, inline="always")
 def _rhs_of_overload(model, x, w, P, dx):
     if not isinstance(model, types.IntegerLiteral):
         return lambda model, x, w, P, dx: rhs(model, x, w, P, dx)

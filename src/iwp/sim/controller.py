@@ -38,18 +38,29 @@ LERR_FLOOR = math.log(1e-4)
 
 
 @jit
-def accept_factor(err, lerr_prev):
-    """Step-size factor after an accepted step with error norm ``err`` (< 1) and ``lerr_prev = ln err_prev``."""
+def accept_step(err, lerr_prev):
+    """The step-size factor after an accepted step, and the ``lerr_prev`` of the next step.
+
+    Parameters
+    ----------
+    err : float
+        The step's error norm (< 1).
+    lerr_prev : float
+        ``ln err_prev`` of the step before (:data:`LERR_FLOOR` at the first step of a run or segment).
+
+    Returns
+    -------
+    factor : float
+        ``SAFETY err^-(1/8 - 0.75 BETA) err_prev^BETA``, at most ``MAX_FACTOR`` (``MAX_FACTOR`` if ``err`` is 0).
+    lerr : float
+        ``ln max(err, 1e-4)``: one logarithm serves both (libm's ``log`` is monotonic, so
+        ``max(ln err, ln 1e-4)`` is ``ln max(err, 1e-4)`` to the bit).
+    """
     if err == 0.0:
-        return MAX_FACTOR
+        return MAX_FACTOR, LERR_FLOOR
     lerr = math.log(err)
-    return min(MAX_FACTOR, SAFETY * math.exp(-(1.0 / 8.0 - 0.75 * BETA) * lerr + BETA * lerr_prev))
-
-
-@jit
-def log_error(err):
-    """``ln max(err, 1e-4)``: the ``lerr_prev`` of the next step after an accepted one."""
-    return math.log(max(err, 1e-4))
+    factor = min(MAX_FACTOR, SAFETY * math.exp(-(1.0 / 8.0 - 0.75 * BETA) * lerr + BETA * lerr_prev))
+    return factor, max(lerr, LERR_FLOOR)
 
 
 @jit
@@ -112,10 +123,9 @@ __all__ = [
     "MAX_FACTOR",
     "MIN_FACTOR",
     "SAFETY",
-    "accept_factor",
+    "accept_step",
     "first_step_size",
     "first_trial",
-    "log_error",
     "next_step_size",
     "reject_factor",
 ]

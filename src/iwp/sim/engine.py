@@ -73,10 +73,9 @@ from ..models.layout import (
 from ..threads import once_per_argument
 from .controller import (
     LERR_FLOOR,
-    accept_factor,
+    accept_step,
     first_step_size,
     first_trial,
-    log_error,
     next_step_size,
     reject_factor,
 )
@@ -512,11 +511,13 @@ def kink_ahead(q1, v, a, jk, H):
             hi = s
         dp = v + s * (a + 0.5 * s * jk)
         s_new = s - p / dp if dp != 0.0 else 0.5 * (lo + hi)
+        if abs(s_new - s) <= 1e-15 * H:
+            # converged: Newton's last correction is below the tolerance (tested before the bracket, which
+            # a root on its edge would otherwise leave for a bisection, and the iteration for its cap)
+            s = min(max(s_new, lo), hi)
+            break
         if not (lo < s_new < hi):
             s_new = 0.5 * (lo + hi)
-        if abs(s_new - s) <= 1e-15 * H:
-            s = s_new
-            break
         s = s_new
     return s
 
@@ -890,8 +891,7 @@ def integrate(n, system, seg, tol, sens, span, out):
                     continue
                 h_force = -1.0
             # accepted
-            factor = accept_factor(err, lerr_prev)
-            lerr_prev = log_error(err)
+            factor, lerr_prev = accept_step(err, lerr_prev)
             if rejected:
                 factor = min(1.0, factor)
             rejected = False

@@ -1,12 +1,15 @@
 """Many simulations side by side: the batch kernel (internal).
 
 :func:`iwp.sim.simulate.simulate_batch` runs thousands of simulations of one
-model that differ in their plant parameters, inputs (signals, the Hopf law,
-sampled controllers, held sample arrays) or initial states. One simulation
-alone is latency-bound: every Runge-Kutta stage waits for the previous one
-through the right-hand side. This kernel advances ``LANES`` simulations in
-lock step instead, each with its own step size, error control, kinks, held
-input and outputs. Their states are the columns of ``(n, LANES)`` arrays.
+model that differ in their plant parameters, gains or initial states. One
+simulation alone is latency-bound: every Runge-Kutta stage waits for the
+previous one through the right-hand side. For model (9) without optional
+terms under the Hopf law (:func:`vectorised`: the sweeps of closed loops),
+this kernel advances ``LANES`` simulations in lock step instead, each with
+its own step size, error control, kinks and outputs, their right-hand sides
+evaluated as one vector (:func:`plain_stages`). Their states are the columns
+of ``(n, LANES)`` arrays. Any other batch runs as single runs on all cores
+(a lane whose right-hand side does not vectorise costs more than a run alone).
 
 Each step of a block has four parts:
 
@@ -48,7 +51,7 @@ from ..models.actuator import command
 from ..models.equations import optional_terms_off, rhs_of
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
 from ..threads import once_per_argument
-from .controller import LERR_FLOOR, accept_factor, log_error, next_step_size, reject_factor
+from .controller import LERR_FLOOR, accept_step, next_step_size, reject_factor
 from .dop853 import N_STAGES, dense_coefficients, dense_eval_row, error_norm_lanes, stage_input_lanes
 from .engine import (
     BRIDGE,
@@ -81,7 +84,6 @@ from .engine import (
     min_step,
     new_work,
     plan_step,
-    plant_rate,
     put_dense,
     put_near,
     put_sample,
@@ -269,17 +271,6 @@ def new_slots(n):
                       np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.int64))
 
 
-@jit(inline=True)
-def general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L):
-    """Stages 1-12 of every lane, any model and input: one call per lane and stage."""
-    for s in range(1, N_STAGES + 1):
-        stage_input_lanes(s, Y, H, K, YT, n, L)
-        cs = NODES[s]
-        for l in range(L):
-            fld = run_field(bt, RUN[l], held, 0.0, HV[l])
-            plant_rate(fld, T[l] + cs * H[l], lane(YT, l), slab_lane(K, s, l))
-
-
 @jit
 def vectorised(model, kind, seg_mode, P, r0, r1):
     """True if runs ``r0 .. r1-1`` take the vectorised path: model (9) without optional terms
@@ -308,7 +299,12 @@ def vectorised(model, kind, seg_mode, P, r0, r1):
 
 @jit(vector=True)
 def run_lanes(n, bt, tol, out, r0, r1):
-    """Simulations ``r0 .. r1-1`` of a :class:`Batch`, ``LANES`` at a time, into the :class:`BatchOutput`."""
+    """Simulations ``r0 .. r1-1`` of a :class:`Batch`, ``LANES`` at a time, into the :class:`BatchOutput`.
+
+    The runs are those :func:`vectorised` accepts (model (9) without optional
+    terms under the continuous Hopf law): their stages are :func:`plain_stages`.
+    :func:`iwp.sim.simulate.simulate_batch` runs any other batch as single runs.
+    """
     L = LANES
     model = bt.model
     seg = bt.seg
@@ -318,7 +314,6 @@ def run_lanes(n, bt, tol, out, r0, r1):
     n_out = t_out.size
     cps = to_fixed_tuple(bt.command_params, N_COMMAND)
     held = is_held(bt.kind, seg.mode)
-    plain = vectorised(model, bt.kind, seg.mode, bt.P, r0, r1)
     h_max = tol.h_max
     xmax = tol.xmax
     tol_t = 1e-9 * max(1.0, abs(t_end))
@@ -369,7 +364,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
     fs = np.empty(n)
     wk = new_work(n)
     # dense outputs of ordinary steps, deferred and computed LANES at a time
-    defer = plain and out.store == STORE_SAMPLES
+    defer = out.store == STORE_SAMPLES
     # (filled through these names: numba lost writes made through the record's fields here)
     ds = new_slots(n)
     DT, DY, DH, DK, _, DYN, DIPL, DPL, DR, DJ0, DJ1 = ds
@@ -417,8 +412,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         NREJ[l] += 1
                         HF[l] = h_force
                     else:
-                        factor = accept_factor(err, LERRP[l])
-                        LERRP[l] = log_error(err)
+                        factor, LERRP[l] = accept_step(err, LERRP[l])
                         if REJ[l]:
                             factor = min(1.0, factor)
                         REJ[l] = False
@@ -595,10 +589,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
         for i in range(n):
             for l in range(L):
                 K[0, i, l] = F[i, l]
-        if plain:
-            plain_stages(cps, (T, Y, H), K, YT, IPL, PL, n, (1, N_STAGES + 1, L))
-        else:
-            general_stages(bt, held, RUN, HV, T, Y, H, K, YT, n, L)
+        plain_stages(cps, (T, Y, H), K, YT, IPL, PL, n, (1, N_STAGES + 1, L))
         error_norm_lanes(K, H, Y, YT, tol.rtol, tol.atol, n, L, ERR)
         # ---- 3. all lanes: accept the ordinary steps (branch-free but for the controller's factor)
         for l in range(L):
@@ -657,11 +648,10 @@ def run_lanes(n, bt, tol, out, r0, r1):
         for l in range(L):
             # the controller (libm's log and exp: lane by lane)
             if DONE[l]:
-                factor = accept_factor(ERR[l], LERRP[l])
+                factor, LERRP[l] = accept_step(ERR[l], LERRP[l])
                 if REJ[l]:
                     factor = min(1.0, factor)
                 REJ[l] = False
-                LERRP[l] = log_error(ERR[l])
                 HN[l] = next_step_size(H[l], HN[l], factor, PLAN[l] == 0)
         for i in range(n):
             for l in range(L):
