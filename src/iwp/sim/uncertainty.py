@@ -32,6 +32,7 @@ from scipy import stats
 
 from ..errors import InputError
 from ..files import json_float, read_json
+from ..jit import jit
 from ..models.parameters import PARAMETER_INFO, LumpedParameters, load_params
 from ..models.plant import Plant
 from ..threads import fit_threads, thread_map
@@ -278,18 +279,65 @@ BAND_CHUNK = 64
 BAND_QUANTILES = (0.025, 0.975)
 
 
+@jit
+def keep_smallest(kept, n_kept, Yt, sign):
+    """Merge the values ``sign * Yt[i, :]`` into the ascending ``k`` smallest so far of each row ``kept[i]``.
+
+    Each value is compared with the largest kept one and, when smaller, put
+    in its place in the sorted row (insertion), so that most values of many
+    draws cost one comparison. NaN counts as larger than any number (as in
+    :func:`numpy.sort`).
+
+    Parameters
+    ----------
+    kept : ndarray, shape (n_times, k)
+        Per time, the smallest values so far in ascending order (the first ``n_kept`` columns).
+    n_kept : int
+        Values kept per row before this call (at most ``k``).
+    Yt : ndarray, shape (n_times, m)
+        The new values at each time (rows) of ``m`` draws (columns).
+    sign : float
+        1 to keep the smallest values, -1 to keep the largest (negated).
+    """
+    k = kept.shape[1]
+    m = Yt.shape[1]
+    for i in range(Yt.shape[0]):
+        c = n_kept
+        j = 0
+        while c < k and j < m:
+            # the row is not full yet: every value goes in
+            _insert_sorted(kept, i, c, sign * Yt[i, j])
+            c += 1
+            j += 1
+        last = kept[i, k - 1]
+        while j < m:
+            v = sign * Yt[i, j]
+            if v < last or (last != last and v == v):
+                _insert_sorted(kept, i, k - 1, v)
+                last = kept[i, k - 1]
+            j += 1
+
+
+@jit(inline=True)
+def _insert_sorted(kept, i, pos, v):
+    """Put ``v`` into the ascending ``kept[i, :pos + 1]`` whose slot ``pos`` is free (NaN the largest)."""
+    while pos > 0 and (v < kept[i, pos - 1] or (kept[i, pos - 1] != kept[i, pos - 1] and v == v)):
+        kept[i, pos] = kept[i, pos - 1]
+        pos -= 1
+    kept[i, pos] = v
+
+
 class DrawTails:
     """The quantiles of many draws of a signal at each time, from only the draws' tails.
 
     A quantile ``q`` of ``n`` values (numpy's default, linear interpolation)
     needs only the order statistics around position ``(n - 1) q``: for the
-    2.5 % quantile of 1,000 draws, the 26 smallest values. Each chunk of
-    draws is copied beside the ``k`` smallest and the ``k`` largest values so
-    far at every time, and the buffers are partitioned in place
-    (:meth:`numpy.ndarray.partition`, in slices of the times on all cores:
-    numpy releases the GIL), so that memory holds ``2 k`` values per time
-    besides one chunk, not all the draws; the quantiles are then exactly
-    :func:`numpy.quantile`'s over all the draws.
+    2.5 % quantile of 1,000 draws, the 26 smallest values. At every time the
+    ``k`` smallest and the ``k`` largest values so far are kept in order, and
+    each chunk of draws is merged into them (:func:`keep_smallest`, in slices
+    of the times on all cores), so that memory holds ``2 k`` values per time,
+    not all the draws; the quantiles are then exactly :func:`numpy.quantile`'s
+    over all the draws.
 
     Parameters
     ----------
@@ -307,10 +355,9 @@ class DrawTails:
         if len(self.probabilities) != 2 or not (0.0 <= lo <= 0.5 <= hi <= 1.0):
             raise InputError(f"quantiles must be a lower one in [0, 0.5] and an upper one in [0.5, 1], got "
                              f"{', '.join(f'{q:g}' for q in self.probabilities)}", argument="quantiles")
-        self.k_low = int(math.floor((draws - 1) * lo)) + 2
-        self.k_high = int(math.floor((draws - 1) * (1.0 - hi))) + 2
-        # time-major buffers: per time, the kept values then room for a chunk; the high side holds -x, so that
-        # both keep their smallest
+        self.k_low = min(int(math.floor((draws - 1) * lo)) + 2, int(draws))
+        self.k_high = min(int(math.floor((draws - 1) * (1.0 - hi))) + 2, int(draws))
+        # time-major, ascending: the smallest values, and the largest negated
         self._low: np.ndarray | None = None
         self._neg_high: np.ndarray | None = None
         self.n = 0
@@ -343,34 +390,20 @@ class DrawTails:
         m = Yt.shape[1]
         if m == 0:
             return
-        f = self._kept()
-        self.n += m
-        width = max(self.k_low, self.k_high) + m
-        if self._low is None or self._low.shape[1] < width:
-            low, neg = np.empty((Yt.shape[0], width)), np.empty((Yt.shape[0], width))
-            if self._low is not None:
-                low[:, :f], neg[:, :f] = self._low[:, :f], self._neg_high[:, :f]
-            self._low, self._neg_high = low, neg
+        if self._low is None or self._neg_high is None:
+            self._low = np.empty((Yt.shape[0], self.k_low))
+            self._neg_high = np.empty((Yt.shape[0], self.k_high))
         low, neg = self._low, self._neg_high
-        low[:, f:f + m] = Yt
-        np.negative(Yt, out=neg[:, f:f + m])
-        total = f + m
-        k_low, k_high = min(self.k_low, total), min(self.k_high, total)
-        edges = np.linspace(0, low.shape[0], fit_threads() + 1).astype(int)
+        n_low, n_high = min(self.n, self.k_low), min(self.n, self.k_high)
+        edges = np.linspace(0, Yt.shape[0], fit_threads() + 1).astype(int)
 
         def merge(part: tuple[int, int]) -> None:
             a, b = part
-            if total > k_low:
-                low[a:b, :total].partition(k_low - 1, axis=1)
-            if total > k_high:
-                neg[a:b, :total].partition(k_high - 1, axis=1)
+            keep_smallest(low[a:b], n_low, Yt[a:b], 1.0)
+            keep_smallest(neg[a:b], n_high, Yt[a:b], -1.0)
 
         thread_map(merge, [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a])
-
-    def _kept(self) -> int:
-        """Columns of the buffers holding kept values: both keep max(k_low, k_high), so the side with the shorter
-        tail keeps a few more draws than it needs, its smallest first among them."""
-        return min(max(self.k_low, self.k_high), self.n)
+        self.n += m
 
     def quantiles(self) -> tuple[np.ndarray, np.ndarray]:
         """The lower and upper quantile at each time over the draws added.
@@ -383,9 +416,8 @@ class DrawTails:
         if self.n == 0 or self._low is None or self._neg_high is None:
             raise InputError("no draws to take quantiles of")
         n = self.n
-        k_low, k_high = min(self.k_low, n), min(self.k_high, n)
-        low = np.sort(self._low[:, :k_low], axis=1).T
-        high = (-np.sort(self._neg_high[:, :k_high], axis=1)[:, ::-1]).T  # ascending: the largest last
+        low = self._low[:, :min(self.k_low, n)].T
+        high = (-self._neg_high[:, :min(self.k_high, n)][:, ::-1]).T  # ascending: the largest last
         # the ascending order statistics x[j] of all n draws: the low tail holds x[0..], the high tail x[n - m..]
         return (_linear_quantile(low, 0, (n - 1) * self.probabilities[0]),
                 _linear_quantile(high, n - high.shape[0], (n - 1) * self.probabilities[1]))
