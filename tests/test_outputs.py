@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import errno
 import os
 import signal
@@ -14,9 +15,12 @@ from pathlib import Path
 
 import pytest
 
+import iwp.cli as cli
 from iwp.cli import main
+from iwp.cli.interrupts import interrupts_as_exceptions
 from iwp.errors import OutputExistsError
 from iwp.files import output_lock, staged_dir, write_all
+from iwp.interruption import Terminated, deliveries, raise_if_replaced
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
 
@@ -325,3 +329,41 @@ def test_a_full_disk_during_a_reproduction_leaves_nothing(tmp_path, monkeypatch,
     err = capsys.readouterr().err.strip()
     assert err == f"iwp: error: {out}: no space left on device", err
     assert not out.exists() and _litter(tmp_path) == []
+
+
+def _matplotlib_like(sig):
+    """Compiled code that catches the interrupt's exception and raises its own (matplotlib's "Invalid bounding
+    box" when a signal lands while its C code converts a bounding box)."""
+    try:
+        signal.raise_signal(sig)
+    except KeyboardInterrupt:
+        raise ValueError("Invalid bounding box") from None
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_an_error_that_replaced_an_interrupt_is_the_interrupt(sig):
+    expected = Terminated if sig == signal.SIGTERM else KeyboardInterrupt
+    with interrupts_as_exceptions():
+        since = deliveries()
+        with pytest.raises(ValueError) as err:
+            _matplotlib_like(sig)
+        with pytest.raises(expected) as got:
+            raise_if_replaced(since, err.value)
+        assert got.value.__cause__ is err.value
+        assert type(got.value) is expected
+        # an error with no interrupt delivered while its block ran is left to the caller
+        since = deliveries()
+        raise_if_replaced(since, ValueError("a bug"))
+
+
+@pytest.mark.parametrize("sig, word", [(signal.SIGINT, "interrupted"), (signal.SIGTERM, "terminated")])
+def test_the_cli_reports_an_error_that_replaced_an_interrupt_as_the_interrupt(monkeypatch, capsys, sig, word):
+    parser = argparse.ArgumentParser(prog="iwp")
+    parser.set_defaults(func=lambda args: _matplotlib_like(sig), command="fake")
+    monkeypatch.setattr(cli, "build_parser", lambda: parser)
+    assert cli.main([]) == 130
+    assert capsys.readouterr().err.strip().splitlines()[-1] == f"iwp: {word}"
+    # the same error without an interrupt is an internal error (exit 3)
+    parser.set_defaults(func=lambda args: (_ for _ in ()).throw(ValueError("Invalid bounding box")))
+    assert cli.main([]) == 3
+    assert "internal error: ValueError: Invalid bounding box" in capsys.readouterr().err

@@ -16,10 +16,13 @@ from __future__ import annotations
 
 import signal
 
-__all__ = ["Terminated", "interrupt", "dropped", "raise_pending", "forget"]
+__all__ = ["Terminated", "interrupt", "dropped", "raise_pending", "forget", "delivered", "deliveries", "last_signal",
+           "raise_if_replaced"]
 
 #: The signal of the interrupt dropped and not yet forgotten (at most one).
 _DROPPED: list[int] = []
+#: How many interrupts were delivered as exceptions, and the last one's signal.
+_DELIVERED: list[int] = [0, signal.SIGINT]
 
 
 class Terminated(KeyboardInterrupt):
@@ -50,6 +53,53 @@ def dropped(exc: KeyboardInterrupt) -> None:
         The dropped exception (:class:`Terminated` for SIGTERM).
     """
     _DROPPED[:] = [signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT]
+
+
+def delivered(signum: int) -> None:
+    """Count an interrupt about to be raised as an exception (the CLI's signal handler calls this).
+
+    Parameters
+    ----------
+    signum : int
+        The signal's number.
+    """
+    _DELIVERED[:] = [_DELIVERED[0] + 1, signum]
+
+
+def deliveries() -> int:
+    """How many interrupts were delivered as exceptions so far (compare before and after a block)."""
+    return _DELIVERED[0]
+
+
+def last_signal() -> int:
+    """The signal of the last interrupt delivered as an exception (SIGINT if none was)."""
+    return _DELIVERED[1]
+
+
+def raise_if_replaced(since: int, exc: BaseException) -> None:
+    """Raise the interrupt that ``exc`` replaced, if one was delivered after :func:`deliveries` returned ``since``.
+
+    Compiled code that Python calls back into (matplotlib's C code converting
+    a bounding box) may catch the interrupt's exception and raise its own
+    instead ("ValueError: Invalid bounding box"): a block that was
+    interrupted then fails with an error that is not the interrupt's. A
+    caller that records a failure and goes on calls this first, so that the
+    interrupt ends the command as an interrupt.
+
+    Parameters
+    ----------
+    since : int
+        :func:`deliveries` when the block began.
+    exc : BaseException
+        The exception the block raised.
+
+    Raises
+    ------
+    KeyboardInterrupt
+        An interrupt was delivered while the block ran (:func:`interrupt` of its signal, from ``exc``).
+    """
+    if _DELIVERED[0] > since:
+        raise interrupt(_DELIVERED[1]) from exc
 
 
 def raise_pending() -> None:

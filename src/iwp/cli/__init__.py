@@ -18,11 +18,12 @@ import contextlib
 import importlib
 import os
 import re
+import signal
 import sys
 import warnings
 
 from ..errors import IwpError
-from ..interruption import Terminated
+from ..interruption import Terminated, deliveries, last_signal
 from ..threads import one_blas_thread
 from .interrupts import interrupts_as_exceptions
 
@@ -174,6 +175,7 @@ def main(argv: list[str] | None = None) -> int:
         compile_notices(lambda line: print(f"iwp: {line}", file=sys.stderr, flush=True))
     from ..files import output_lock
 
+    signals = deliveries()
     try:
         with contextlib.ExitStack() as stack:
             stack.enter_context(interrupts_as_exceptions())
@@ -203,6 +205,9 @@ def main(argv: list[str] | None = None) -> int:
         print("iwp: error: the input is nested too deeply to read", file=sys.stderr)
         return 2
     except Exception as exc:  # a bug: still one line, no traceback (IWP_TRACEBACK=1 shows it)
+        if deliveries() > signals:  # an interrupt that compiled code turned into its own error
+            print(f"iwp: {'terminated' if last_signal() == signal.SIGTERM else 'interrupted'}", file=sys.stderr)
+            return 130
         if os.environ.get("IWP_TRACEBACK"):
             raise
         print(f"iwp: internal error: {type(exc).__name__}: {_one_line(exc)} "

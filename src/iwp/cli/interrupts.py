@@ -24,7 +24,7 @@ import signal
 import sys
 import threading
 
-from ..interruption import dropped, forget, interrupt
+from ..interruption import delivered, dropped, forget, interrupt
 
 #: Python code run by compiled code that must not raise (path fragments of its files): numba's boxing, and
 #: llvmlite's callbacks from LLVM while numba compiles (an exception there is printed and dropped by ctypes, and
@@ -49,6 +49,7 @@ def _on_signal(signum, frame):
         _PENDING[:] = [signum]
         sys.setprofile(_raise_when_safe)
         return
+    delivered(signum)
     raise interrupt(signum)
 
 
@@ -56,7 +57,9 @@ def _raise_when_safe(frame, event, arg):
     if not _PENDING or _inside_compiled_return(frame):
         return
     sys.setprofile(None)
-    raise interrupt(_PENDING.pop())
+    signum = _PENDING.pop()
+    delivered(signum)
+    raise interrupt(signum)
 
 
 @contextlib.contextmanager

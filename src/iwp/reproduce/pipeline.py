@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import InputError, IwpError
 from ..files import atomic_write, check_output_dir, staged_dir
+from ..interruption import deliveries, raise_if_replaced
 from ..models.parameters import table1
 from ..rig import RigTruth, VirtualRig, default_truth
 from .context import ProgressEvent, ReproduceResult, StepRecord
@@ -168,6 +169,7 @@ def _run_steps(ctx: ReproduceResult, progress, keep_going: bool) -> None:
             continue
         _emit(progress, ProgressEvent("start", name, i, total, title))
         t0 = time.perf_counter()
+        signals = deliveries()
         try:
             msg = step.run(ctx)
             rec.status = "ok"
@@ -177,10 +179,12 @@ def _run_steps(ctx: ReproduceResult, progress, keep_going: bool) -> None:
         except OSError as exc:
             if exc.errno in _OUTPUT_ERRNOS:  # a full disk or a folder that became read-only: nothing is kept
                 raise
+            raise_if_replaced(signals, exc)
             ctx.extra["output-error"] = exc
             _failed(rec, exc, keep_going)
             stop = stop or not keep_going
         except Exception as exc:  # noqa: BLE001 - every failure is recorded with the step's name
+            raise_if_replaced(signals, exc)  # an interrupt that compiled code turned into its own error
             _failed(rec, exc, keep_going)
             stop = stop or not keep_going
         rec.seconds = time.perf_counter() - t0
