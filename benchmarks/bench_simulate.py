@@ -55,13 +55,15 @@ def python_rhs(p, u_of):
     return f
 
 
-@njit(cache=True, fastmath=FASTMATH, inline="always")
+# not cached (here and below): numba caches a file by its own stamp, so a cache would keep the iwp code inlined
+# when it was compiled, not the iwp on the path
+@njit(cache=False, fastmath=FASTMATH, inline="always")
 def _f_chirp(t, y, dx, P, input_params):
     w = input_value(I_CHIRP, input_params, t, y)
     rhs_of(M_COMP, y, w, P, dx)
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=False, fastmath=FASTMATH)
 def rk4_fixed(P_arr, input_params_arr, Ts, m, nout):
     """Plain fixed-step RK4 (m steps per output sample) on iwp's compiled model (9), inlined as in iwp."""
     P = to_fixed_tuple(P_arr, N_PACK)
@@ -96,7 +98,7 @@ def rk4_fixed(P_arr, input_params_arr, Ts, m, nout):
     return X
 
 
-@njit(cache=True, fastmath=FASTMATH)
+@njit(cache=False, fastmath=FASTMATH)
 def stages_alone(P_arr, command_arr, k1s, reps):
     """The DOP853 stages 1-12 of LANES lanes (iwp.sim.lanes.plain_stages), ``reps`` times: no control."""
     L = LANES

@@ -200,6 +200,8 @@ def rhs_of(model, x, w, P, dx):
     rhs(model, x, w, P, dx)
 
 
+# inlined at numba's IR level: a call here is opaque to LLVM, which then leaves the lanes' stage loop
+# (iwp.sim.lanes.plain_stages) scalar; M_PLAIN has no branch, the other codes stay calls
 @overload(rhs_of, prefer_literal=True, inline="always")
 def _rhs_of_overload(model, x, w, P, dx):
     if not isinstance(model, types.IntegerLiteral):
@@ -208,5 +210,11 @@ def _rhs_of_overload(model, x, w, P, dx):
     if code == M_PLAIN:
         return lambda model, x, w, P, dx: rhs_state_space(x, w, P, dx, False)
     if code in (M_RAW, M_COMP):
-        return lambda model, x, w, P, dx: rhs_state_space(x, w, P, dx, True)
+        return lambda model, x, w, P, dx: _rhs_state_space_optional(x, w, P, dx)
     return lambda model, x, w, P, dx: rhs(model, x, w, P, dx)
+
+
+@jit
+def _rhs_state_space_optional(x, w, P, dx):
+    """:func:`rhs_state_space` with its optional terms, called (its branches are not inlined into the caller)."""
+    rhs_state_space(x, w, P, dx, True)
