@@ -12,6 +12,7 @@ import pytest
 from iwp.errors import InputError
 from iwp.models import Plant, table1
 from iwp.sim import Chirp, HopfController, Sampled, lanes, simulate, simulate_batch
+from iwp.sim.inputs import BalanceController, Constant, Sine, Step
 from iwp.sim.simulate import segments_of
 
 
@@ -99,8 +100,8 @@ def test_runs_the_lanes_do_not_vectorise_are_single_runs_to_the_last_bit(case):
     if case == "coulomb-hopf":
         plants = [Plant(table1().replace(sigma_c2=0.3))] * 4
         inputs = [HopfController(k, 0.1) for k in (-12.0, -10.0, -8.0, -6.0)]
-    elif case == "chirp":
-        plants = [Plant(table1().replace(p1=v)) for v in (20.0, 26.0, 30.0)]
+    elif case == "chirp":  # with the pendulum's Coulomb friction (an optional term)
+        plants = [Plant(table1().replace(p1=v, sigma_c1=0.05)) for v in (20.0, 26.0, 30.0)]
         inputs = [Chirp(60.0, 3.0, 100.0)] * 3
     else:  # one run diverges: its samples and input columns after the failure are NaN
         T = 200.0
@@ -135,3 +136,24 @@ def test_the_hopf_law_on_model_9_without_optional_terms_is_vectorised():
     p[1] = Plant(table1().replace(sigma_c1=0.1)).packed()  # one run with an optional term: not all of them
     assert not lanes.vectorised(Plant(table1()).code, hopf.kind, segments_of(hopf, 0.0).mode, p, 0, 3)
     assert lanes.vectorised(Plant(table1()).code, hopf.kind, segments_of(hopf, 0.0).mode, p, 2, 3)
+
+
+def test_constant_sine_and_chirp_inputs_are_vectorised_and_the_step_and_balance_are_not():
+    p = np.array([Plant(table1()).packed()] * 2)
+    code = Plant(table1()).code
+    for u in (Constant(20.0), Sine(30.0, 2.0), Chirp(60.0, 3.0, 100.0), HopfController(-9.0, 0.1)):
+        assert lanes.vectorised(code, u.kind, segments_of(u, 0.0).mode, p, 0, 2), u
+    for u in (Step(1.0, 20.0), BalanceController(-50.0, -5.0, -0.1)):
+        assert not lanes.vectorised(code, u.kind, segments_of(u, 0.0).mode, p, 0, 2), u
+
+
+def test_a_batch_without_its_input_columns_has_the_same_states():
+    plants = [Plant(table1().replace(p1=v)) for v in np.linspace(20.0, 30.0, 20)]
+    kw = dict(input=Sine(40.0, 5.0), t_end=10.0, t_eval=np.linspace(0.0, 10.0, 501), rtol=1e-9, atol=1e-9)
+    full = simulate_batch(plants, **kw)
+    lean = simulate_batch(plants, inputs=False, **kw)
+    assert lean.u is None and lean.command is None and full.u.shape == (20, 501)
+    np.testing.assert_array_equal(lean.x, full.x)
+    np.testing.assert_array_equal(lean.nfev, full.nfev)
+    # the input columns themselves: the sine at the samples
+    np.testing.assert_allclose(full.u, 40.0 * np.sin(5.0 * full.t)[None, :].repeat(20, 0), rtol=0, atol=1e-13)

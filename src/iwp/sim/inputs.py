@@ -27,6 +27,7 @@ from ..checks import check_finite, check_positive
 from ..errors import InputError
 from ..jit import jit
 from ..models.laws import balance_law, hopf_law
+from ..models.mathfn import sincos
 
 __all__ = ["Input", "Constant", "Sine", "Chirp", "Step", "Sampled", "HopfController", "BalanceController",
            "CallableController", "make_input", "input_value"]
@@ -54,9 +55,9 @@ def input_value(kind, input_params, t, x):
     if kind == I_CONST:
         return input_params[0]
     if kind == I_SINE:
-        return input_params[0] * math.sin(input_params[1] * t + input_params[2]) + input_params[3]
+        return input_params[0] * sincos(input_params[1] * t + input_params[2])[0] + input_params[3]
     if kind == I_CHIRP:
-        return input_params[0] * math.sin((input_params[1] + t / input_params[2]) * t) + input_params[3]
+        return input_params[0] * sincos((input_params[1] + t / input_params[2]) * t)[0] + input_params[3]
     if kind == I_STEP:
         if t < input_params[0]:
             return input_params[2]

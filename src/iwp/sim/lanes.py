@@ -4,7 +4,8 @@
 model that differ in their plant parameters, gains or initial states. One
 simulation alone is latency-bound: every Runge-Kutta stage waits for the
 previous one through the right-hand side. For model (9) without optional
-terms under the Hopf law (:func:`vectorised`: the sweeps of closed loops),
+terms under a constant, a sine, a chirp or the Hopf law (:func:`vectorised`:
+the sweeps of closed loops, the draws of a prediction band),
 this kernel advances ``LANES`` simulations in lock step instead, each with
 its own step size, error control, kinks and outputs, their right-hand sides
 evaluated as one vector (:func:`plain_stages`). Their states are the columns
@@ -21,7 +22,7 @@ Each step of a block has four parts:
 3. all lanes at once: accept the ordinary steps (the new state,
    branch-free, vectorised; the controller's factor lane by lane). A step
    with output times inside it needs the dense output: for model (9) without
-   optional terms, the Hopf law and store="samples", the step is put in a slot
+   optional terms, a vectorised input and store="samples", the step is put in a slot
    (:class:`DenseSlots`) and its three extra stages are computed with those of
    ``LANES`` such steps at once (:func:`flush_dense`, also before a run ends);
    otherwise lane by lane (:func:`~iwp.sim.engine.dense_step`);
@@ -35,7 +36,8 @@ the bridge, the held segments and the output writers of :mod:`iwp.sim.engine`
 result up to rounding (the compiler may order sums differently in vector
 code). The right-hand side is that of :mod:`iwp.models`, reached through
 lane views (:mod:`iwp.sim.views`); for model (9) without optional terms and
-the continuous Hopf law it is the branch-free one that vectorises.
+an input of :data:`VECTOR_KINDS` it is the branch-free one that vectorises (the sine of a
+sine or chirp is :func:`iwp.models.mathfn.sincos`, not libm's).
 """
 
 from __future__ import annotations
@@ -92,11 +94,13 @@ from .engine import (
     rk4_bridge,
     switch_of,
 )
-from .inputs import I_HOPF, N_INPUT_PARAMS, input_value
+from .inputs import I_CHIRP, I_CONST, I_HOPF, I_SINE, I_ZERO, N_INPUT_PARAMS, input_value
 from .views import lane, slab_lane
 
 #: simulations per thread advanced together (two 8-wide vectors)
 LANES = 16
+#: the inputs whose value vectorises across lanes: constant, sine, chirp and the Hopf law
+VECTOR_KINDS = (I_ZERO, I_CONST, I_SINE, I_CHIRP, I_HOPF)
 
 #: A batch of runs of one model: the model code, plant parameters per run
 #: (n_runs, N_PACK), initial states (n_runs, n), the input kind, input
@@ -191,11 +195,13 @@ def lane_outputs(out, r, j, step, ys, fld, wk):
 
 
 @jit(inline=True)
-def plain_stages(cps, TYH, K, YT, IPL, PL, n, span):
-    """DOP853 stages of every lane, model (9) without optional terms and the continuous Hopf law (vectorised).
+def plain_stages(kind, cps, TYH, K, YT, IPL, PL, n, span):
+    """DOP853 stages of every lane, model (9) without optional terms and an input of ``kind`` (vectorised).
 
     Parameters
     ----------
+    kind : int
+        The input's kind, one of :data:`VECTOR_KINDS`.
     cps : tuple
         The command vector.
     TYH : tuple
@@ -218,12 +224,12 @@ def plain_stages(cps, TYH, K, YT, IPL, PL, n, span):
         cs = NODES[s]
         for l in range(L):
             x = lane(YT, l)
-            w = command(input_value(I_HOPF, _lane_input_params(IPL, l), T[l] + cs * H[l], x), cps)
+            w = command(input_value(kind, _lane_input_params(IPL, l), T[l] + cs * H[l], x), cps)
             rhs_of(M_PLAIN, x, w, lane(PL, l), slab_lane(K, s, l))
 
 
 @jit(vector=True)
-def flush_dense(cps, ds, nd, X, t_out, F, n):
+def flush_dense(kind, cps, ds, nd, X, t_out, F, n):
     """The dense outputs of the first ``nd`` slots of ``ds``, side by side, into their rows of ``X``.
 
     Stages 13-15 of all slots at once (:func:`plain_stages`), then per slot
@@ -234,6 +240,8 @@ def flush_dense(cps, ds, nd, X, t_out, F, n):
 
     Parameters
     ----------
+    kind : int
+        The input's kind, one of :data:`VECTOR_KINDS`.
     cps : tuple
         The command vector.
     ds : DenseSlots
@@ -251,7 +259,7 @@ def flush_dense(cps, ds, nd, X, t_out, F, n):
     """
     if nd == 0:
         return
-    plain_stages(cps, (ds.T, ds.Y, ds.H), ds.K, ds.YT, ds.IPL, ds.PL, n, (N_STAGES + 1, 16, nd))
+    plain_stages(kind, cps, (ds.T, ds.Y, ds.H), ds.K, ds.YT, ds.IPL, ds.PL, n, (N_STAGES + 1, 16, nd))
     for k in range(nd):
         y = ds.Y[:, k]
         h = ds.H[k]
@@ -274,7 +282,7 @@ def new_slots(n):
 @jit
 def vectorised(model, kind, seg_mode, P, r0, r1):
     """True if runs ``r0 .. r1-1`` take the vectorised path: model (9) without optional terms
-    (:func:`~iwp.models.equations.optional_terms_off`) under the continuous Hopf law.
+    (:func:`~iwp.models.equations.optional_terms_off`) under an input of :data:`VECTOR_KINDS`.
 
     Parameters
     ----------
@@ -289,7 +297,7 @@ def vectorised(model, kind, seg_mode, P, r0, r1):
     -------
     bool
     """
-    if kind != I_HOPF or is_held(kind, seg_mode):
+    if kind not in VECTOR_KINDS or is_held(kind, seg_mode):
         return False
     for r in range(r0, r1):
         if not optional_terms_off(model, P[r]):
@@ -302,7 +310,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
     """Simulations ``r0 .. r1-1`` of a :class:`Batch`, ``LANES`` at a time, into the :class:`BatchOutput`.
 
     The runs are those :func:`vectorised` accepts (model (9) without optional
-    terms under the continuous Hopf law): their stages are :func:`plain_stages`.
+    terms under an input of :data:`VECTOR_KINDS`): their stages are :func:`plain_stages`.
     :func:`iwp.sim.simulate.simulate_batch` runs any other batch as single runs.
     """
     L = LANES
@@ -456,9 +464,9 @@ def run_lanes(n, bt, tol, out, r0, r1):
                             j += 1
                     if nd > 0:
                         # the run's deferred samples first (its input columns follow from them)
-                        flush_dense(cps, ds, nd, out.X, t_out, wk.F, n)
+                        flush_dense(bt.kind, cps, ds, nd, out.X, t_out, wk.F, n)
                         nd = 0
-                    if not held and out.store == STORE_SAMPLES:
+                    if not held and out.store == STORE_SAMPLES and o.U.size == t_out.size:
                         input_samples(bt.kind, fld.input_params, fld.command_params, t_out[:j], o.X[:j], o.U[:j],
                                       o.W[:j])
                     put_unreached(o, j, n)
@@ -589,7 +597,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
         for i in range(n):
             for l in range(L):
                 K[0, i, l] = F[i, l]
-        plain_stages(cps, (T, Y, H), K, YT, IPL, PL, n, (1, N_STAGES + 1, L))
+        plain_stages(bt.kind, cps, (T, Y, H), K, YT, IPL, PL, n, (1, N_STAGES + 1, L))
         error_norm_lanes(K, H, Y, YT, tol.rtol, tol.atol, n, L, ERR)
         # ---- 3. all lanes: accept the ordinary steps (branch-free but for the controller's factor)
         for l in range(L):
@@ -622,7 +630,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     DIPL[k, nd] = IPL[k, l]
                 nd += 1
                 if nd == L:
-                    flush_dense(cps, ds, nd, out.X, t_out, wk.F, n)
+                    flush_dense(bt.kind, cps, ds, nd, out.X, t_out, wk.F, n)
                     nd = 0
                 NFEV[l] += 3
                 J[l] = j
@@ -676,7 +684,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
             BRIDGED[l] = BRIDGED[l] and not plan_here
             mode = M_READY if plan_here else (M_POST if post else M_PLAN)
             MODE[l] = mode if DONE[l] else MODE[l]
-    flush_dense(cps, ds, nd, out.X, t_out, wk.F, n)
+    flush_dense(bt.kind, cps, ds, nd, out.X, t_out, wk.F, n)
     return 0
 
 
@@ -727,4 +735,4 @@ def kernel(n_states: int):
     return _make_kernel(int(n_states))
 
 
-__all__ = ["Batch", "BatchOutput", "LANES", "kernel", "run_lanes", "vectorised"]
+__all__ = ["Batch", "BatchOutput", "LANES", "VECTOR_KINDS", "kernel", "run_lanes", "vectorised"]

@@ -10,8 +10,8 @@ parameter set, in memory or in a parameter file (``iwp fit`` writes it into
   within their uncertainty -- linearised, ``var y(t) = S(t) C S(t)^T`` with
   the engine's forward sensitivities ``S = dy/dtheta``
   (:func:`~iwp.sim.sensitivity.simulate_sensitivities`), or by Monte Carlo,
-  the quantiles of simulations of parameter draws run on all cores
-  (:func:`~iwp.sim.simulate.simulate` on :func:`iwp.threads.thread_map`),
+  the quantiles of simulations of parameter draws run side by side
+  (:func:`~iwp.sim.simulate.simulate_batch`),
   of which only the tails are kept (:class:`DrawTails`);
 * the **prediction band**: the parameter band widened by the measurement
   noise, the spread of the fit's residuals per output, where a new
@@ -38,7 +38,7 @@ from ..models.plant import Plant
 from ..threads import fit_threads, thread_map
 from .inputs import Input
 from .sensitivity import simulate_sensitivities
-from .simulate import output_times, simulate
+from .simulate import output_times, simulate_batch
 
 __all__ = ["ParameterUncertainty", "PredictionBand", "prediction_band", "uncertainty_record", "load_uncertainty",
            "DrawTails", "BAND_METHODS", "BAND_CHUNK", "BAND_QUANTILES", "SIGNAL_INDEX"]
@@ -280,42 +280,63 @@ BAND_QUANTILES = (0.025, 0.975)
 
 
 @jit
-def keep_smallest(kept, n_kept, Yt, sign):
-    """Merge the values ``sign * Yt[i, :]`` into the ascending ``k`` smallest so far of each row ``kept[i]``.
+def keep_tails(low, neg_high, last, n_kept, Yt):
+    """Merge the values ``Yt[i, :]`` into the ascending ``k`` smallest so far of each row ``low[i]`` and the
+    ascending ``k`` smallest of their negatives (the largest values) of each row ``neg_high[i]``.
 
-    Each value is compared with the largest kept one and, when smaller, put
-    in its place in the sorted row (insertion), so that most values of many
-    draws cost one comparison. NaN counts as larger than any number (as in
+    Draw by draw (the columns of ``Yt``) and time by time, each value is read
+    once and compared with the largest value kept on each side, ``last[:, i]``;
+    when it beats one, it is put in its place in that sorted row (insertion),
+    so that most values of many draws cost two comparisons with an array that
+    stays in cache. NaN counts as larger than any number (as in
     :func:`numpy.sort`).
 
     Parameters
     ----------
-    kept : ndarray, shape (n_times, k)
-        Per time, the smallest values so far in ascending order (the first ``n_kept`` columns).
+    low, neg_high : ndarray, shape (n_times, k_low), (n_times, k_high)
+        Per time, the smallest values and the negated largest values so far, each ascending (the first
+        ``min(n_kept, k)`` columns).
+    last : ndarray, shape (2, n_times)
+        ``low[:, k_low - 1]`` and ``neg_high[:, k_high - 1]`` once the rows are full (written here).
     n_kept : int
-        Values kept per row before this call (at most ``k``).
+        The draws merged before this call.
     Yt : ndarray, shape (n_times, m)
-        The new values at each time (rows) of ``m`` draws (columns).
-    sign : float
-        1 to keep the smallest values, -1 to keep the largest (negated).
+        The new values at each time (rows) of ``m`` draws (columns); any strides.
     """
-    k = kept.shape[1]
-    m = Yt.shape[1]
-    for i in range(Yt.shape[0]):
-        c = n_kept
-        j = 0
-        while c < k and j < m:
-            # the row is not full yet: every value goes in
-            _insert_sorted(kept, i, c, sign * Yt[i, j])
-            c += 1
-            j += 1
-        last = kept[i, k - 1]
-        while j < m:
-            v = sign * Yt[i, j]
-            if v < last or (last != last and v == v):
-                _insert_sorted(kept, i, k - 1, v)
-                last = kept[i, k - 1]
-            j += 1
+    k_lo = low.shape[1]
+    k_hi = neg_high.shape[1]
+    for j in range(Yt.shape[1]):
+        c = n_kept + j
+        if c < k_lo or c < k_hi:
+            # a side whose rows are not full yet takes every value
+            for i in range(Yt.shape[0]):
+                v = Yt[i, j]
+                _merge_one(low, last, 0, i, c, k_lo, v)
+                _merge_one(neg_high, last, 1, i, c, k_hi, -v)
+            continue
+        for i in range(Yt.shape[0]):
+            v = Yt[i, j]
+            lo = last[0, i]
+            if v < lo or (lo != lo and v == v):
+                _insert_sorted(low, i, k_lo - 1, v)
+                last[0, i] = low[i, k_lo - 1]
+            w = -v
+            hi = last[1, i]
+            if w < hi or (hi != hi and w == w):
+                _insert_sorted(neg_high, i, k_hi - 1, w)
+                last[1, i] = neg_high[i, k_hi - 1]
+
+
+@jit(inline=True)
+def _merge_one(kept, last, side, i, c, k, v):
+    """Merge ``v`` into the row ``kept[i]`` holding ``min(c, k)`` values (the filling draws)."""
+    if c < k:
+        _insert_sorted(kept, i, c, v)
+        if c == k - 1:
+            last[side, i] = kept[i, k - 1]
+    elif v < last[side, i] or (last[side, i] != last[side, i] and v == v):
+        _insert_sorted(kept, i, k - 1, v)
+        last[side, i] = kept[i, k - 1]
 
 
 @jit(inline=True)
@@ -334,7 +355,7 @@ class DrawTails:
     needs only the order statistics around position ``(n - 1) q``: for the
     2.5 % quantile of 1,000 draws, the 26 smallest values. At every time the
     ``k`` smallest and the ``k`` largest values so far are kept in order, and
-    each chunk of draws is merged into them (:func:`keep_smallest`, in slices
+    each chunk of draws is merged into them (:func:`keep_tails`, in slices
     of the times on all cores), so that memory holds ``2 k`` values per time,
     not all the draws; the quantiles are then exactly :func:`numpy.quantile`'s
     over all the draws.
@@ -360,6 +381,7 @@ class DrawTails:
         # time-major, ascending: the smallest values, and the largest negated
         self._low: np.ndarray | None = None
         self._neg_high: np.ndarray | None = None
+        self._last = np.empty((2, 0))  # per time, the largest value kept on each side
         self.n = 0
 
     def add(self, Y: np.ndarray) -> None:
@@ -393,14 +415,13 @@ class DrawTails:
         if self._low is None or self._neg_high is None:
             self._low = np.empty((Yt.shape[0], self.k_low))
             self._neg_high = np.empty((Yt.shape[0], self.k_high))
-        low, neg = self._low, self._neg_high
-        n_low, n_high = min(self.n, self.k_low), min(self.n, self.k_high)
+            self._last = np.empty((2, Yt.shape[0]))
+        low, neg, last = self._low, self._neg_high, self._last
         edges = np.linspace(0, Yt.shape[0], fit_threads() + 1).astype(int)
 
         def merge(part: tuple[int, int]) -> None:
             a, b = part
-            keep_smallest(low[a:b], n_low, Yt[a:b], 1.0)
-            keep_smallest(neg[a:b], n_high, Yt[a:b], -1.0)
+            keep_tails(low[a:b], neg[a:b], last[:, a:b], self.n, Yt[a:b])
 
         thread_map(merge, [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a])
         self.n += m
@@ -430,7 +451,9 @@ def _linear_quantile(tail: np.ndarray, first: int, h: float) -> np.ndarray:
     g = h - j
     a = tail[j - first]
     b = tail[min(j + 1 - first, tail.shape[0] - 1)]
-    return a + g * (b - a)
+    d = b - a
+    # numpy's lerp to the bit: from the nearer end
+    return b - d * (1.0 - g) if g >= 0.5 else a + d * g
 
 
 def prediction_band(
@@ -515,31 +538,19 @@ def prediction_band(
             dx = np.random.default_rng(seed + 1).multivariate_normal(np.zeros(4), C0, size=draws, method="eigh")
             x0s = [np.concatenate([mean[:4] + d, mean[4:]]) for d in dx]
         tails = {s: DrawTails(draws, BAND_QUANTILES) for s in signals}
-        cols = [SIGNAL_INDEX[s] for s in signals]
-        chunk = np.empty((len(signals), t.size, BAND_CHUNK))  # time-major: what DrawTails merges without copying
-        ok = np.zeros(BAND_CHUNK, dtype=bool)
-
-        def run(kj: tuple[int, int]) -> None:
-            """Draw ``k`` simulated into column ``j`` of the chunk (``ok[j]`` False: it failed)."""
-            k, j = kj
-            r = simulate(plants[k], x0=x0s[k] if C0 is not None else x0, t0=float(t[0]), t_end=float(t[-1]),
-                         t_eval=t, input=input, rtol=1e-8, atol=1e-8, check=False)
-            ok[j] = r.success
-            if r.success:
-                for i, c in enumerate(cols):
-                    chunk[i, :, j] = r.x[:, c]
-
         n_ok = 0
-        # the draws on all cores (thread_map: the kernels release the GIL; single runs take the lanes' steps and,
-        # for inputs other than the Hopf law, cost less), in chunks: memory for one chunk's samples, not all
+        # the draws side by side (simulate_batch: vectorised lanes where the model and input allow, single runs on
+        # all cores otherwise), in chunks: memory for one chunk's samples, not all
         for a in range(0, draws, BAND_CHUNK):
             m = min(BAND_CHUNK, draws - a)
-            thread_map(run, [(a + j, j) for j in range(m)])
-            good = np.flatnonzero(ok[:m])
+            b = simulate_batch(plants[a:a + m], x0=x0s[a:a + m] if C0 is not None else x0, t0=float(t[0]),
+                               t_end=float(t[-1]), t_eval=t, input=input, rtol=1e-8, atol=1e-8, inputs=False)
+            good = np.flatnonzero(b.success)
             n_ok += good.size
-            if good.size:
-                for i, s in enumerate(signals):
-                    tails[s].add_time_major(chunk[i, :, :m] if good.size == m else chunk[i][:, good])
+            for s in signals:
+                Yt = b.x[:, :, SIGNAL_INDEX[s]].T  # (times, draws): a view, merged without a copy
+                if good.size:
+                    tails[s].add_time_major(Yt if good.size == m else Yt[:, good])
         if n_ok < max(10, draws // 2):
             raise InputError(f"{draws - n_ok} of {draws} draws failed to simulate; the band is not defined")
         X = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=input, rtol=1e-8, atol=1e-8).x
