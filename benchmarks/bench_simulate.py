@@ -36,7 +36,7 @@ from iwp.models.equations import rhs_of
 from iwp.models.layout import M_COMP, N_COMMAND, N_PACK
 from iwp.sim import Chirp, HopfController, simulate, simulate_batch, simulate_scipy
 from iwp.sim.dop853 import N_STAGES
-from iwp.sim.inputs import I_CHIRP, input_value
+from iwp.sim.inputs import I_CHIRP, I_HOPF, input_value
 from iwp.sim.lanes import LANES, plain_stages
 from iwp.sim.simulate import command_of
 from iwp.sim.uncertainty import ParameterUncertainty, prediction_band
@@ -121,7 +121,7 @@ def stages_alone(P_arr, command_arr, k1s, reps):
         for i in range(4):
             for l in range(L):
                 K[0, i, l] = K[N_STAGES, i, l]
-        plain_stages(cps, (T, Y, H), K, YT, IP, P, 4, (1, N_STAGES + 1, L))
+        plain_stages(I_HOPF, cps, (T, Y, H), K, YT, IP, P, 4, (1, N_STAGES + 1, L))
         for i in range(4):
             for l in range(L):
                 Y[i, l] = YT[i, l]

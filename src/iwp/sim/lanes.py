@@ -221,11 +221,27 @@ def plain_stages(kind, cps, TYH, K, YT, IPL, PL, n, span):
     s0, s1, L = span
     for s in range(s0, s1):
         stage_input_lanes(s, Y, H, K, YT, n, L)
-        cs = NODES[s]
-        for l in range(L):
-            x = lane(YT, l)
-            w = command(input_value(kind, _lane_input_params(IPL, l), T[l] + cs * H[l], x), cps)
-            rhs_of(M_PLAIN, x, w, lane(PL, l), slab_lane(K, s, l))
+        tc = (T, H, NODES[s])
+        # one loop per kind, each with its kind a constant: a branch on the kind inside the loop over the lanes
+        # would keep the compiler from vectorising it (I_ZERO is a constant input of 0)
+        if kind == I_HOPF:
+            _lanes_rhs(I_HOPF, cps, tc, YT, K, s, IPL, PL, L)
+        elif kind == I_CHIRP:
+            _lanes_rhs(I_CHIRP, cps, tc, YT, K, s, IPL, PL, L)
+        elif kind == I_SINE:
+            _lanes_rhs(I_SINE, cps, tc, YT, K, s, IPL, PL, L)
+        else:
+            _lanes_rhs(I_CONST, cps, tc, YT, K, s, IPL, PL, L)
+
+
+@jit(inline=True)
+def _lanes_rhs(kind, cps, tc, YT, K, s, IPL, PL, L):
+    """Stage ``s`` of every lane: the input of ``kind`` at ``T + c H`` (``tc = (T, H, c)``) and the plain RHS."""
+    T, H, cs = tc
+    for l in range(L):
+        x = lane(YT, l)
+        w = command(input_value(kind, _lane_input_params(IPL, l), T[l] + cs * H[l], x), cps)
+        rhs_of(M_PLAIN, x, w, lane(PL, l), slab_lane(K, s, l))
 
 
 @jit(vector=True)
