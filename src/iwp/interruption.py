@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import signal
 
-__all__ = ["Terminated", "interrupt", "dropped", "raise_pending", "forget", "delivered", "deliveries", "last_signal",
+__all__ = ["Terminated", "interrupt", "dropped", "raise_pending", "forget", "delivered", "deliveries",
            "raise_if_replaced"]
 
 #: The signal of the interrupt dropped and not yet forgotten (at most one).
@@ -69,11 +69,6 @@ def delivered(signum: int) -> None:
 def deliveries() -> int:
     """How many interrupts were delivered as exceptions so far (compare before and after a block)."""
     return _DELIVERED[0]
-
-
-def last_signal() -> int:
-    """The signal of the last interrupt delivered as an exception (SIGINT if none was)."""
-    return _DELIVERED[1]
 
 
 def raise_if_replaced(since: int, exc: BaseException) -> None:

@@ -18,12 +18,11 @@ import contextlib
 import importlib
 import os
 import re
-import signal
 import sys
 import warnings
 
 from ..errors import IwpError
-from ..interruption import Terminated, deliveries, last_signal
+from ..interruption import Terminated, deliveries, raise_if_replaced
 from ..threads import one_blas_thread
 from .interrupts import interrupts_as_exceptions
 
@@ -189,8 +188,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"iwp: error: {user_message(exc, cli_parser)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (kill): the outputs were not moved into place
-        print(f"iwp: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}", file=sys.stderr)
-        return 130
+        return _interrupted(exc)
     except BrokenPipeError:  # the reader of the output stopped reading (iwp rig list | head): nothing is wrong
         with contextlib.suppress(OSError):
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
@@ -205,15 +203,22 @@ def main(argv: list[str] | None = None) -> int:
         print("iwp: error: the input is nested too deeply to read", file=sys.stderr)
         return 2
     except Exception as exc:  # a bug: still one line, no traceback (IWP_TRACEBACK=1 shows it)
-        if deliveries() > signals:  # an interrupt that compiled code turned into its own error
-            print(f"iwp: {'terminated' if last_signal() == signal.SIGTERM else 'interrupted'}", file=sys.stderr)
-            return 130
+        try:
+            raise_if_replaced(signals, exc)  # an interrupt that compiled code turned into its own error
+        except KeyboardInterrupt as intr:
+            return _interrupted(intr)
         if os.environ.get("IWP_TRACEBACK"):
             raise
         print(f"iwp: internal error: {type(exc).__name__}: {_one_line(exc)} "
               "(please report it with the command line)", file=sys.stderr)
         return 3
     return int(status or 0)
+
+
+def _interrupted(exc: KeyboardInterrupt) -> int:
+    """Say that the command was interrupted (Ctrl-C) or terminated (SIGTERM); the exit status 130."""
+    print(f"iwp: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}", file=sys.stderr)
+    return 130
 
 
 __all__ = ["main", "build_parser", "user_message"]
