@@ -730,7 +730,6 @@ def _make_kernel(n: int):
     return jit(lanes_, parallel=True)
 
 
-
 def kernel(n_states: int):
     """The lane kernel for ``n_states`` states (compiled on first use, then cached on disk).
 

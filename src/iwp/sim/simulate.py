@@ -509,8 +509,7 @@ def simulate_batch(
     each with its own step size and error control, vectorised by the
     compiler (:mod:`iwp.sim.lanes`; its result equals that of
     :func:`simulate` up to rounding). Every other batch runs the single-run
-    kernel per run on all cores (:func:`iwp.threads.thread_map`), which is
-    4-5 times cheaper per run than a lane that cannot be vectorised; its
+    kernel per run on all cores (:func:`iwp.threads.thread_map`); its
     results are :func:`simulate`'s to the last bit.
 
     Parameters
@@ -627,12 +626,11 @@ def simulate_batch(
 def _single_runs(bt: lanes.Batch, tol: Tolerances, out: lanes.BatchOutput, n: int) -> None:
     """The runs of a batch that the lanes do not vectorise, each with the single-run kernel, on all cores.
 
-    The lanes advance such runs (any model, input or optional term) one call
-    per lane and stage, which cost 4-5 times a single run's time per run
-    (a chirp: 8.9 ms of CPU against 4.4 ms; the Hopf law with the wheel's
-    Coulomb friction: 1,023 ms against 216 ms); the steps are the same. The
-    runs go to :func:`iwp.threads.thread_map` (the kernel releases the GIL)
-    and write into their rows of ``out``, as the lanes do.
+    A lane whose right-hand side does not vectorise cost 4-5 times a single
+    run with the same steps (when the lanes took such runs: the Hopf law with
+    the wheel's Coulomb friction, 1,023 ms of CPU against 216 ms). The runs go
+    to :func:`iwp.threads.thread_map` (the kernel releases the GIL) and write
+    into their rows of ``out``, as the lanes do.
     """
     kernel = engine.kernel(n)
     held = engine.is_held(bt.kind, bt.seg.mode)
