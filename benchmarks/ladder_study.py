@@ -9,7 +9,11 @@ with ``select=True`` fits and ranks the ladder. Reported per truth: how
 often the true structure is chosen, what else was chosen, and how often the
 chosen fit's 95 % intervals contain the true parameters.
 
-Run: python benchmarks/ladder_study.py [--seeds 10] [--truths 9,coulomb,...] [--held 19] [--cv]
+``--belt-rig`` makes the rig a belt drive (ratio 13.5, so that the ladder has
+the belt's rung); the truth ``belt`` is the ``widths`` truth driven through
+a soft belt with play (always on the belt rig).
+
+Run: python benchmarks/ladder_study.py [--seeds 10] [--truths 9,coulomb,...] [--held 19] [--cv] [--belt-rig]
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ import numpy as np
 
 from iwp.data.rig_description import RigDescription
 from iwp.ident.logfit import LogFitOptions, fit_logs
-from iwp.models.parameters import LumpedParameters
+from iwp.models.parameters import BeltParameters, LumpedParameters
 from iwp.rig.described import DescribedRig, prbs, write_rig_csv
 from iwp.sim.inputs import Chirp
 
@@ -48,14 +52,21 @@ TRUTHS = {
     "widths": _C.replace(eps_c1=0.1, eps_c2=0.5),
     "offset": _C.replace(eps_c1=0.1, eps_c2=0.5, u_offset=0.03),
     "dead-zone": _C.replace(eps_c1=0.1, eps_c2=0.5, v_dz_pos=0.06, v_dz_neg=0.05),
+    "belt": _C.replace(eps_c1=0.1, eps_c2=0.5),
 }
+#: the belt drive's ratio
+BELT_RATIO = 13.5
+#: the truth ``belt``'s belt: resonance sqrt(k/I2) near 1.2 Hz, a play of 0.3 rad, the rigid limit of BASE
+BELT = BeltParameters.from_rigid(BASE.p2 * BASE.rho, BASE.p3 * BASE.rho, k_over_I2=60.0, d=0.3, N=BELT_RATIO,
+                                 b2_over_I2=0.5)
 
 
 def logs(truth: LumpedParameters, seed: int, folder: Path, *, duration: float = 40.0, n_train: int = 3,
-         n_held: int = 8):
+         n_held: int = 8, belt: BeltParameters | None = None, belt_rig: bool = False):
     """The training chirps and held-out PRBS runs of one seed, written as the rig's CSV logs."""
-    rig = RigDescription.from_dict(RIG, where="rig.json")
-    vr = DescribedRig(rig, truth, noise_std=0.002, seed=seed)
+    doc = dict(RIG, drive={"kind": "belt", "ratio": BELT_RATIO}) if belt_rig or belt is not None else RIG
+    rig = RigDescription.from_dict(doc, where="rig.json")
+    vr = DescribedRig(rig, truth, noise_std=0.002, seed=seed, belt=belt)
     rng = np.random.default_rng(seed)
     train = [write_rig_csv(vr.run(Chirp(rng.uniform(0.3, 0.6), rng.uniform(1.5, 3.0), rng.uniform(5.0, 8.0)),
                                   duration=duration), folder / f"chirp{i}.csv") for i in range(n_train)]
@@ -65,10 +76,12 @@ def logs(truth: LumpedParameters, seed: int, folder: Path, *, duration: float = 
     return rig, train, held
 
 
-def one(truth_name: str, seed: int, cv: bool, duration: float, n_held: int):
+def one(truth_name: str, seed: int, cv: bool, duration: float, n_held: int, belt_rig: bool = False):
     truth = TRUTHS[truth_name]
+    belt = BELT if truth_name == "belt" else None
     with tempfile.TemporaryDirectory() as tmp:
-        rig, train, held = logs(truth, seed, Path(tmp), duration=duration, n_held=n_held)
+        rig, train, held = logs(truth, seed, Path(tmp), duration=duration, n_held=n_held, belt=belt,
+                                belt_rig=belt_rig)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             res = fit_logs(train, rig=rig, validate=() if cv else held, options=LogFitOptions(select=True),
@@ -78,7 +91,8 @@ def one(truth_name: str, seed: int, cv: bool, duration: float, n_held: int):
     if chosen == truth_name:
         for n in res.refinement.free:
             pe = res.refinement.parameters[n]
-            true = truth.to_dict()[n] or (0.01 if n.startswith("eps") else 0.0)
+            values = {**truth.to_dict(), **(belt.to_dict() if belt is not None else {})}
+            true = values[n] or (0.01 if n.startswith("eps") else 0.0)
             inside.append(pe.ci95_low <= true <= pe.ci95_high)
     return chosen, inside, res.elapsed
 
@@ -90,16 +104,18 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=40.0)
     ap.add_argument("--held", type=int, default=19, help="held-out logs per seed")
     ap.add_argument("--cv", action="store_true", help="rank by leaving one training log out (no held-out logs)")
+    ap.add_argument("--belt-rig", action="store_true", help="a belt-drive rig (the ladder has the belt's rung)")
     args = ap.parse_args(argv)
     print(f"# ladder study: {args.seeds} seeds, logs of {args.duration:g} s, ranked on "
-          f"{'leave-one-log-out cross-validation' if args.cv else f'{args.held} held-out logs'}\n")
+          f"{'leave-one-log-out cross-validation' if args.cv else f'{args.held} held-out logs'}"
+          f"{' on a belt-drive rig' if args.belt_rig else ''}\n")
     print("| truth | true structure chosen | also chosen | true parameters inside their 95 % intervals | "
           "mean time of fit_logs |")
     print("|---|---:|---|---:|---:|")
     for name in args.truths.split(","):
         picks, inside, times = collections.Counter(), [], []
         for seed in range(args.seeds):
-            chosen, ins, el = one(name, seed, args.cv, args.duration, args.held)
+            chosen, ins, el = one(name, seed, args.cv, args.duration, args.held, args.belt_rig)
             print(f"  truth {name}, seed {seed}: chose {chosen} ({el:.1f} s)", file=sys.stderr, flush=True)
             picks[chosen] += 1
             inside += ins

@@ -3,7 +3,7 @@
 Reads the logs with the rig description (docs/rig-description.md), finds and
 reports glitches, starts from least squares, fits a ladder of model
 structures (model (9), + wheel Coulomb, + pendulum Coulomb, + their widths,
-+ input offset or dead zone) by simulation error on all training logs
++ input offset or dead zone or, for a belt drive, the belt (15)) by simulation error on all training logs
 jointly, ranks them on the held-out logs (or by leaving one training log out)
 and keeps the simplest within noise of the best (--model, or the term flags,
 fit one structure), with initial
@@ -45,6 +45,8 @@ def register(sub) -> None:
     p.add_argument("--input-offset", action="store_true", help="fit an offset of the input (u_offset)")
     p.add_argument("--widths", action="store_true",
                    help="fit the smoothing widths of the Coulomb terms that are on (eps_c2, eps_c1)")
+    p.add_argument("--belt", action="store_true",
+                   help="fit the belt (15) between motor and wheel in place of p2, p3 (a rig whose drive is a belt)")
     p.add_argument("--loss", default="linear", choices=["linear", "soft_l1", "huber", "cauchy", "arctan"],
                    help="loss of the simulation-error fit (default linear)")
     p.add_argument("--t-start", type=float, metavar="S", help="window start of every training log [s]")
@@ -62,7 +64,7 @@ def run(args) -> int:
 
     check_output_dir(args.out, force=args.force)  # refuse before the work, not after
     flags = {"dead_zone": args.dead_zone, "coulomb": args.coulomb, "pendulum_coulomb": args.pendulum_coulomb,
-             "input_offset": args.input_offset, "widths": args.widths}
+             "input_offset": args.input_offset, "widths": args.widths, "belt": args.belt}
     if args.model is not None and any(flags.values()):
         given = next(k for k, v in flags.items() if v).replace("_", "-")
         raise InputError(f"--model {args.model} and --{given} both set the structure; give one of them",

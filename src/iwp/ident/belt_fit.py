@@ -38,7 +38,7 @@ from ..errors import InputError
 from ..models.plant import MODELS, Plant
 from .output_error import Experiment, OutputError
 from .problem import FitProblem, SolverOptions
-from .refinement import RefineResult, as_experiments, refine_report
+from .refinement import BELT_OPTIONS, RefineResult, as_experiments, belt_difference_step, refine_report
 
 __all__ = ["refine_belt", "BELT_FREE", "BELT_PARAMETERS", "BELT_OPTIONS"]
 
@@ -46,13 +46,6 @@ __all__ = ["refine_belt", "BELT_FREE", "BELT_PARAMETERS", "BELT_OPTIONS"]
 BELT_PARAMETERS = MODELS["belt"].parameters
 #: What it fits by default: the five of the paper's eq. (15) besides the measured N.
 BELT_FREE = ("k_over_I2", "d", "b2_over_I2", "k_over_gamma", "kTbeta_over_Rgamma")
-#: Its default options: simulations at 1e-6 (the simulated disk velocity is then far more accurate than the one
-#: differentiated from the encoder, whose step is 3.1e-3 rad; tighter tolerances cost ten times more, for the
-#: play's kinks), at most 50 iterations per free parameter.
-BELT_OPTIONS = SolverOptions(rtol=1e-6, atol=1e-6)
-#: forward-difference step on the log scale, per square root of the simulation's rtol (the step's
-#: truncation error against the simulation's error)
-STEP_PER_SQRT_RTOL = 3.0
 
 
 def _check_logs(exps: list[Experiment]) -> None:
@@ -127,8 +120,8 @@ def refine_belt(
             raise InputError(f"bounds[{n!r}] = ({a}, {c}): need 0 < low < high")
     exps = as_experiments(experiments, windows=windows, estimate_x0=False, kind="clamped")
     _check_logs(exps)
-    step = max(STEP_PER_SQRT_RTOL * math.sqrt(options.rtol), 1e-6)
-    model = OutputError(start, exps, ("q4",), rtol=options.rtol, atol=options.atol, differences=step)
+    model = OutputError(start, exps, ("q4",), rtol=options.rtol, atol=options.atol,
+                        differences=belt_difference_step(options.rtol))
     if options.max_nfev is None:
         options = SolverOptions(tol=options.tol, max_nfev=50 * (len(free) + 1), tr_solver=options.tr_solver,
                                 rtol=options.rtol, atol=options.atol)

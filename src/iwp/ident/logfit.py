@@ -54,15 +54,16 @@ from ..data.rig_description import RigDescription, load_rig
 from ..data.rig_log import read_rig_log
 from ..errors import InputError
 from ..files import json_float
-from ..models.parameters import TYPICAL, LumpedParameters
+from ..models.parameters import PARAMETER_INFO, TYPICAL, BeltParameters, LumpedParameters
 from ..models.plant import Plant
 from ..sim.uncertainty import ParameterUncertainty, prediction_band
 from ..threads import one_blas_thread, thread_map
+from .belt_fit import BELT_FREE
 from .differentiate import Differentiator
 from .fit import fit_percent
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_state_covariance
-from .problem import Loss
-from .refinement import RefineResult, as_experiments, refine
+from .problem import Loss, SolverOptions
+from .refinement import BELT_OPTIONS, RefineResult, as_experiments, refine
 from .regressors import columns, q3_row, row_sum
 from .structure import LadderResult, Rung, RungOutcome, information_criteria, ladder, select
 
@@ -75,6 +76,8 @@ MIN_SAMPLES_PER_PERIOD = 8
 SG_SECONDS = 0.15
 #: the parameters of model (9) that every fit frees
 BASE_FREE = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1")
+#: How each model of ``iwp fit`` is described in its summary and report.
+MODEL_LABELS = {"compensated": "(9)", "raw": "(6) with dead zone", "belt-full": "(4a) with the belt (15)"}
 
 
 @dataclass
@@ -142,7 +145,7 @@ class LogFitResult:
     least_squares : dict
         The least-squares values and notes.
     model : str
-        ``"compensated"`` (9) or ``"raw"`` (6).
+        ``"compensated"`` (9), ``"raw"`` (6) or ``"belt-full"`` ((4a) with the belt (15)).
     outputs : tuple of str
     options : dict
         The model options used (dead zone, Coulomb terms, widths, input offset).
@@ -153,6 +156,12 @@ class LogFitResult:
         Wall time [s].
     structures : LadderResult or None
         The ladder of structures fitted and ranked (``select``), or None.
+
+    Notes
+    -----
+    With the belt (15), ``p2`` and ``p3`` do not enter the model; ``params``
+    holds its belt's rigid limit (:attr:`BeltParameters.rigid_p2rho` and
+    :attr:`~BeltParameters.rigid_p3rho` over ``rho``) and :attr:`belt` the belt.
     """
 
     params: LumpedParameters
@@ -169,6 +178,16 @@ class LogFitResult:
     rig: RigDescription | None = None
     elapsed: float = 0.0
     structures: LadderResult | None = None
+
+    @property
+    def belt(self) -> BeltParameters | None:
+        """The fitted belt (15), or None for a model without it."""
+        return self.refinement.belt
+
+    def start_value(self, name: str) -> float:
+        """The value parameter ``name`` started from (a belt's parameter: from the belt's start)."""
+        owner = PARAMETER_INFO[name].owner
+        return float(getattr(self.refinement.belt_start if owner == "belt" else self.start, name))
 
     @property
     def validation_fit(self) -> dict[str, float]:
@@ -213,12 +232,13 @@ class LogFitResult:
             "warnings": list(self.warnings),
             "elapsed_s": json_float(self.elapsed),
             "lumped": self.params.to_dict(),
+            "belt": None if self.belt is None else self.belt.to_dict(),
         }
 
     def summary(self, warnings: bool = True) -> str:
         """Readable lines: parameters, fits per log and signal, (with ``warnings``) the warnings."""
         lines = [self.structures.table()] if self.structures is not None else []
-        lines.append(f"model {self.model} ({'(6) with dead zone' if self.model == 'raw' else '(9)'}), free: "
+        lines.append(f"model {self.model} {MODEL_LABELS[self.model]}, free: "
                      f"{', '.join(self.refinement.free)}; outputs {', '.join(self.outputs)}, start: "
                      f"{self.start_method}")
         for n in self.refinement.free:
@@ -486,6 +506,11 @@ class LogFitOptions:
     dead_zone : bool
         Model (6) with the dead zone (5) (thresholds ``v_dz_pos``, ``v_dz_neg``
         fitted); the logs must hold the raw command ``v``. Default: model (9).
+    belt : bool
+        The belt (15) between motor and wheel (model ``"belt-full"``):
+        :data:`~iwp.ident.belt_fit.BELT_FREE` (the belt's parameters but its
+        measured ratio and ``gain_neg``) in place of ``p2`` and ``p3``, its ratio ``N`` the rig
+        description's ``drive.ratio`` (a rig whose drive is a belt only).
     coulomb, pendulum_coulomb, input_offset : bool
         Also fit Coulomb friction of the wheel (``sigma_c2``), of the pendulum
         (``sigma_c1``), and an offset of the input (``u_offset``).
@@ -509,6 +534,7 @@ class LogFitOptions:
     pendulum_coulomb: bool = False
     input_offset: bool = False
     widths: bool = False
+    belt: bool = False
     select: bool = False
     loss: str = "linear"
     start: LumpedParameters | None = None
@@ -516,20 +542,24 @@ class LogFitOptions:
 
     def __post_init__(self) -> None:
         Loss(self.loss)
+        if self.belt and self.dead_zone:
+            raise InputError("the belt model (15) takes the compensated input; fit the belt or the dead zone, "
+                             "not both", argument="belt")
         if self.start is not None and not isinstance(self.start, LumpedParameters):
             raise InputError(f"start must be LumpedParameters, got {type(self.start).__name__}", argument="start")
 
     @property
     def model(self) -> str:
-        """``"raw"`` (6) with the dead zone, or ``"compensated"`` (9)."""
-        return "raw" if self.dead_zone else "compensated"
+        """``"raw"`` (6) with the dead zone, ``"belt-full"`` with the belt, or ``"compensated"`` (9)."""
+        return "belt-full" if self.belt else "raw" if self.dead_zone else "compensated"
 
     def free(self) -> tuple[str, ...]:
-        """The parameters fitted: model (9)'s and the options' terms."""
+        """The parameters fitted: model (9)'s (with the belt's in place of p2, p3) and the options' terms."""
+        base = tuple(n for n in BASE_FREE if n not in ("p2", "p3")) + BELT_FREE if self.belt else BASE_FREE
         extra = [(self.dead_zone, ("v_dz_pos", "v_dz_neg")), (self.coulomb, ("sigma_c2",)),
                  (self.pendulum_coulomb, ("sigma_c1",)), (self.input_offset, ("u_offset",)),
                  (self.widths and self.coulomb, ("eps_c2",)), (self.widths and self.pendulum_coulomb, ("eps_c1",))]
-        return BASE_FREE + tuple(n for on, names in extra if on for n in names)
+        return base + tuple(n for on, names in extra if on for n in names)
 
     def with_rung(self, rung: Rung) -> "LogFitOptions":
         """These options with the structure of ``rung`` (and no ladder)."""
@@ -542,6 +572,9 @@ class LogFitOptions:
             start = start.replace(v_dz_pos=0.05 * umax, v_dz_neg=0.05 * umax)
         if self.coulomb and start.sigma_c2 == 0:
             start = start.replace(sigma_c2=0.02 * start.p3 * umax)
+        if self.belt:  # a rigid fit may have dropped the wheel's Coulomb friction for the play it could not model;
+            # started at 0 the belt's fit stays there (measured: held-out fits 90/95 % against 99/99.6 %)
+            start = start.replace(sigma_c2=max(start.sigma_c2, 0.02 * start.p3 * umax))
         if self.pendulum_coulomb and start.sigma_c1 == 0:
             start = start.replace(sigma_c1=0.01 * start.p1)
         return start
@@ -549,7 +582,7 @@ class LogFitOptions:
     def to_dict(self, offset_given: bool) -> dict[str, Any]:
         return {"dead_zone": bool(self.dead_zone), "coulomb": bool(self.coulomb),
                 "pendulum_coulomb": bool(self.pendulum_coulomb), "input_offset": bool(self.input_offset),
-                "widths": bool(self.widths), "loss": self.loss,
+                "widths": bool(self.widths), "belt": bool(self.belt), "loss": self.loss,
                 "q1_offset": "given by the rig" if offset_given else "estimated per log"}
 
 
@@ -613,6 +646,11 @@ def fit_logs(
             raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
     outputs = ("q1", "q2") if all(d.q2 is not None for d in train_logs + val_logs) else ("q1", "q4")
     offset_given = rig_d is not None and rig_d.pendulum.offset is not None
+    belt_ratio = rig_d.drive.ratio if rig_d is not None and rig_d.drive.kind == "belt" else None
+    if options.belt and belt_ratio is None:
+        drive = "no rig description" if rig_d is None else f"a {rig_d.drive.kind} drive"
+        raise InputError("belt: the belt model (15) needs a rig description with \"drive\": {\"kind\": \"belt\", "
+                         f"\"ratio\": N}} (N motor turns per wheel turn); the logs have {drive}", argument="belt")
     # ---- prepare: the start
     wtrain = [d.window(*options.window) for d in train_logs]
     umax = max(float(np.max(np.abs(d.input))) for d in wtrain)
@@ -623,7 +661,7 @@ def fit_logs(
     else:
         start_p, method, ls_details = options.start, "given", {}
     # ---- solve: the joint simulation-error fit (of each structure of the ladder, or of the one asked for)
-    fitting = _Fitting(options, train_logs, val_logs, outputs, offset_given, umax, others)
+    fitting = _Fitting(options, train_logs, val_logs, outputs, offset_given, umax, others, belt_ratio)
     structures = None
     if options.select:
         structures = fitting.ladder(start_p)
@@ -632,6 +670,9 @@ def fit_logs(
         start_p = options.starting_values(start_p, umax)
     else:
         start_p = options.starting_values(start_p, umax)
+        if options.belt:  # from the fit of the rigid structure, as the ladder's belt rung starts
+            rigid = replace(options, belt=False)
+            start_p = options.starting_values(fitting.joint(rigid, start_p).params, umax)
         r = fitting.joint(options, start_p)
     model = options.model
     train_logs = [_as_model_input(d, model, "train") for d in train_logs]
@@ -647,12 +688,20 @@ def fit_logs(
         msgs.append(f"held-out logs: the pendulum zero offset is taken as the training logs' mean, "
                     f"{val_off:+.4g} rad (offsets of the training logs: "
                     + ", ".join(f"{o:+.4g}" for o in offs) + ")")
-    uncertainty = ParameterUncertainty.from_refinement(r) if np.all(np.isfinite(r.covariance)) else None
-    if val_logs and uncertainty is None:
+    uncertainty = (ParameterUncertainty.from_refinement(r) if r.belt is None and np.all(np.isfinite(r.covariance))
+                   else None)
+    if val_logs and r.belt is not None:
+        msgs.append("held-out logs: no prediction band for the belt model (15): the bands draw lumped parameters "
+                    "and simulate them in the batch engine, which has no belt")
+    elif val_logs and uncertainty is None:
         msgs.append("held-out logs: no prediction band, for the fit did not determine every free parameter")
-    val_fits = [_held_out(d, Plant(r.params, model=model), outputs, val_off, msgs, uncertainty) for d in val_logs]
+    val_fits = [_held_out(d, fitting.plant(options, r.params, r.belt), outputs, val_off, msgs, uncertainty)
+                for d in val_logs]
+    params = r.params
+    if r.belt is not None:  # p2 and p3 do not enter the belt model: its rigid limit stands for them
+        params = params.replace(p2=r.belt.rigid_p2rho / params.rho, p3=r.belt.rigid_p3rho / params.rho)
     msgs.extend(poor_prediction_advice(val_fits, outputs, chose=structures is not None))
-    res = LogFitResult(params=r.params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
+    res = LogFitResult(params=params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
                        model=model, outputs=outputs, options=options.to_dict(offset_given), train=train_fits,
                        validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0,
                        structures=structures)
@@ -752,19 +801,88 @@ def poor_prediction_advice(fits: Sequence[LogFit], outputs: Sequence[str], *, ch
             + "; ".join(tries)]
 
 
+#: The budget of each fit of the ladder (the optimiser's evaluations of the residuals). Its 54 fits on the virtual
+#: rigs of ``benchmarks/ladder_study.py`` (three truths, three seeds) took 5 to 62; one that crept along a valley
+#: (the widths freed where the Coulomb term they shape had dropped to 0) took 2,500 and 290 s. A fit stopped by
+#: the budget has not converged and is not chosen.
+LADDER_MAX_NFEV = 200
+#: the play half-width a belt's fit starts from [rad]
+BELT_START_PLAY = 0.05
+#: a belt's fit keeps its resonance ``sqrt(k/I2)`` and its motor's relaxation rate ``(k/gamma)/N^2`` below this
+#: many times the logs' Nyquist frequency ``pi/Ts``
+BELT_BAND = 4.0
+
+
+def belt_start(params: LumpedParameters, *, ratio: float, Ts: float) -> BeltParameters:
+    """The belt (15) a fit with the belt starts from: its rigid limit is ``params``' disk.
+
+    Parameters
+    ----------
+    params : LumpedParameters
+        A rigid structure's fit: the rigid limit's damping and gain are its ``p2 rho`` and ``p3 rho``.
+    ratio : float
+        The drive's ratio ``N`` [-] (the rig description's ``drive.ratio``).
+    Ts : float
+        The logs' sample period [s].
+
+    Returns
+    -------
+    BeltParameters
+        ``k/I2`` puts ``sqrt(k/I2)`` at a quarter of the logs' Nyquist frequency
+        (``pi / (4 Ts)`` rad/s), or lower where the motor's relaxation rate
+        ``(k/gamma)/N^2 = (k/I2)/(p2 rho - b2/I2)`` would exceed the Nyquist
+        frequency: stiff enough to keep the slower motion the rigid fit found,
+        inside the band the logs resolve (:func:`belt_bounds`); the play
+        :data:`BELT_START_PLAY`; ``b2/I2`` a tenth of the rigid damping.
+    """
+    p2rho, p3rho = params.p2 * params.rho, params.p3 * params.rho
+    b2 = 0.1 * p2rho
+    nyquist = math.pi / Ts
+    k = min((nyquist / 4.0) ** 2, (p2rho - b2) * nyquist)
+    return BeltParameters.from_rigid(p2rho, p3rho, k_over_I2=k, d=BELT_START_PLAY, N=ratio, b2_over_I2=b2)
+
+
+def belt_bounds(*, ratio: float, Ts: float) -> dict[str, tuple[float, float]]:
+    """The bounds of a belt's fit on logs sampled every ``Ts`` [s] with the drive ratio ``ratio``.
+
+    A belt whose resonance ``sqrt(k/I2)`` or whose motor's relaxation rate
+    ``(k/gamma)/N^2`` is far above the logs' Nyquist frequency ``pi/Ts`` looks
+    rigid in them, and the rigid rungs cover it; there its stiffness is not
+    determined, and the simulations' cost grows with it (a fit that drifted
+    there took minutes per evaluation). Both are kept below :data:`BELT_BAND`
+    times ``pi/Ts``; the lower bounds are the parameters' fit ranges.
+    """
+    top = BELT_BAND * math.pi / Ts
+    return {"k_over_I2": (PARAMETER_INFO["k_over_I2"].fit_range[0], top ** 2),
+            "k_over_gamma": (PARAMETER_INFO["k_over_gamma"].fit_range[0], top * ratio ** 2)}
+
+
 class _Fitting:
     """The joint fits of one call of :func:`fit_logs`: one structure, or the ladder of them ranked on held-out data."""
 
     def __init__(self, options: LogFitOptions, train: list[ExperimentData], held_out: list[ExperimentData],
                  outputs: tuple[str, ...], offset_given: bool, umax: float,
-                 others: list[tuple[str, ExperimentData]]):
+                 others: list[tuple[str, ExperimentData]], belt_ratio: float | None):
         self.options, self.train, self.held_out = options, train, held_out
         self.outputs, self.offset_given, self.umax = outputs, offset_given, umax
         self.others = others
+        self.belt_ratio = belt_ratio  # the rig's drive ratio when its drive is a belt, else None
 
-    def joint(self, options: LogFitOptions, start: LumpedParameters, logs=None, x0=None) -> RefineResult:
+    def plant(self, options: LogFitOptions, params: LumpedParameters, belt: BeltParameters | None = None) -> Plant:
+        """The plant of ``options``' structure with ``params`` (and ``belt``; without it a belt structure starts
+        from :func:`belt_start`)."""
+        if not options.belt:
+            return Plant(params, model=options.model)
+        if belt is None:
+            belt = belt_start(params, ratio=self.belt_ratio, Ts=float(self.train[0].Ts))
+        return Plant(params, model=options.model, belt=belt)
+
+    def joint(self, options: LogFitOptions, start: LumpedParameters, logs=None, x0=None,
+              belt: BeltParameters | None = None, max_nfev: int | None = None) -> RefineResult:
         """The joint simulation-error fit of ``options``' structure on ``logs`` (default: the training logs) and
-        the logs of the other set-ups; ``x0``: initial-state guesses per experiment (a simpler structure's)."""
+        the logs of the other set-ups; ``x0``: initial-state guesses per experiment (a simpler structure's);
+        ``belt``: the belt's start (a belt structure's); ``max_nfev``: the optimiser's budget (default
+        :class:`~iwp.ident.problem.SolverOptions`')."""
         model = options.model
         logs = [_as_model_input(d, model, "train") for d in (self.train if logs is None else logs)]
         guesses = list(x0) if x0 is not None else [None] * (len(logs) + len(self.others))
@@ -774,15 +892,18 @@ class _Fitting:
             moves_q1 = kind != "clamped"
             exps.append(Experiment(_as_model_input(d, model, f"--{kind}"), kind=kind, window=tuple(options.window),
                                    x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else ()))
-        return refine(exps, Plant(start, model=model), free=options.free(), outputs=self.outputs,
-                      loss=options.loss, warn=False)
+        plant = self.plant(options, start, belt)
+        bounds = belt_bounds(ratio=plant.belt.N, Ts=float(self.train[0].Ts)) if options.belt else None
+        solver = replace(BELT_OPTIONS if options.belt else SolverOptions(), max_nfev=max_nfev)
+        return refine(exps, plant, free=options.free(), outputs=self.outputs, bounds=bounds, loss=options.loss,
+                      options=solver, warn=False)
 
     def score(self, r: RefineResult, options: LogFitOptions, logs: list[ExperimentData]) -> list[LogFit]:
         """``logs`` simulated from their measured state with the fit ``r`` (the training logs' mean offset)."""
         model = options.model
         offs = [o.get("q1", (0.0, 0.0))[0] for o in r.offsets[:len(r.offsets) - len(self.others)]]
         off = 0.0 if self.offset_given else float(np.mean(offs))
-        plant = Plant(r.params, model=model)
+        plant = self.plant(options, r.params, r.belt)
         return thread_map(lambda d: _held_out(_as_model_input(d, model, "validate"), plant, self.outputs, off, [],
                                               None), logs)
 
@@ -795,7 +916,7 @@ class _Fitting:
         """
         raw = all(d.input_name == "v" for d in self.train + self.held_out)
         folds = len(self.train) >= 2 and not self.held_out
-        rungs = ladder(raw)
+        rungs = ladder(raw, belt_drive=self.belt_ratio is not None)
         done: dict[str, RungOutcome] = {}
         with one_blas_thread():  # entered once here, so that the fits side by side all find it at one thread
             while len(done) < len(rungs):
@@ -817,14 +938,15 @@ class _Fitting:
         opts = self.options.with_rung(rg)
         # the parameters of the structure this one extends; the initial states from the data again (a
         # simpler structure's took more iterations to undo: 115 evaluations over the ladder against 87)
-        r = self.joint(opts, opts.starting_values(parent.params if parent else start, self.umax))
+        r = self.joint(opts, opts.starting_values(parent.params if parent else start, self.umax),
+                       max_nfev=LADDER_MAX_NFEV)
         if self.held_out:
             scored = self.score(r, opts, self.held_out)
         elif folds:  # leave one training log out, refit from the joint fit, predict it
             def fold(k: int) -> LogFit:
                 rest = self.train[:k] + self.train[k + 1:]
                 x0 = [x[:4] for j, x in enumerate(r.x0) if j != k]
-                return self.score(self.joint(opts, r.params, rest, x0=x0), opts,
+                return self.score(self.joint(opts, r.params, rest, x0=x0, belt=r.belt, max_nfev=LADDER_MAX_NFEV), opts,
                                   [self.train[k].window(*opts.window)])[0]
             scored = thread_map(fold, range(len(self.train)))
         else:
@@ -914,8 +1036,9 @@ def _unique(msgs: list[str]) -> list[str]:
 
 
 def _as_model_input(d: ExperimentData, model: str, argument: str) -> ExperimentData:
-    """The log with the input the model takes: model (9) reads a raw ``v`` as its ``u`` (no dead zone)."""
-    if model == "compensated" and d.input_name == "v":
+    """The log with the input the model takes: model (9) and the belt model read a raw ``v`` as their ``u`` (no
+    dead zone)."""
+    if model in ("compensated", "belt-full") and d.input_name == "v":
         return replace(d, u=d.v, v=None)
     if model == "raw" and d.input_name == "u":
         raise InputError(f"{argument}: {d.source} logs the compensated input u (the rig compensates its dead "

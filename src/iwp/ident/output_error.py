@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any, Collection, Mapping, Sequence
 
 import numpy as np
 
@@ -420,8 +420,8 @@ def prepare(spec: Experiment, index: int, plant: Plant, outputs: Sequence[str],
     moving = variant.info.moving if not variant.pendulum_locked else (1, 3)
     est: tuple[int, ...] = ()
     if spec.estimate_x0:
-        # q2 enters no right-hand side: estimate it only when it is an output
-        est = tuple(s for s in moving if s != 1 or "q2" in outputs)
+        # q2 enters no right-hand side: estimate it only when it is an output; the belt's states start relaxed
+        est = tuple(s for s in moving if s < 4 and (s != 1 or "q2" in outputs))
     mean = tuple(o for o in outputs if o == "q4" and data.q4 is not None and data.q4_sampling == "mean")
     weights = {}
     for o in outputs:
@@ -555,12 +555,12 @@ class OutputError:
 
     # ------------------------------------------------------------- parameters
     def parameters(self, free: Sequence[str] = (), bounds: Mapping[str, tuple] | None = None, *,
-                   log: bool = False) -> Parameters:
+                   log: bool | Collection[str] = False) -> Parameters:
         """The fit's parameters: the plant's (``free`` varied, within ``bounds`` or the physical defaults),
         every experiment's estimated initial states and sensor offsets.
 
-        ``log``: the free model parameters are varied on a log scale within
-        their :attr:`~iwp.models.parameters.ParameterInfo.fit_range`.
+        ``log``: the free model parameters (True) or those named are varied on a
+        log scale within their :attr:`~iwp.models.parameters.ParameterInfo.fit_range`.
         """
         free = (free,) if isinstance(free, str) else tuple(free)
         names = self.model_parameter_names()
@@ -584,8 +584,9 @@ class OutputError:
                 out.append(Parameter(n, self.plant.value(n), vary=False, unit=info.unit))
                 continue
             v = self.plant.value_in_effect(n)
-            lo, hi = _bounds(n, bounds.get(n), info.default_bounds(log))
-            if log:
+            on_log = log if isinstance(log, bool) else n in log
+            lo, hi = _bounds(n, bounds.get(n), info.default_bounds(on_log))
+            if on_log:
                 out.append(Parameter(n, v, min=lo, max=hi, unit=info.unit, log=True))
             else:
                 scale = max(abs(v), info.typical * 1e-3) if v != 0 else info.typical

@@ -16,11 +16,16 @@ rung                    terms freed on top of the rung before
 ``offset``              an offset of the input, u_offset
 ``dead-zone``           model (6) with the dead zone (5), v_dz_pos and v_dz_neg
                         (for a raw command only)
+``belt``                the belt (15) between motor and wheel with the play of
+                        figure 5, model ``"belt-full"``: k/I2, d, b2/I2,
+                        k/gamma, kT beta/(R gamma) in place of p2 and p3 (for a
+                        rig whose drive is a belt only)
 ======================  =====================================================
 
-``offset`` and ``dead-zone`` both build on ``widths``. A belt drive's belt
-(15) is not a rung: it needs the motor's angle, which such logs do not hold
-(:func:`iwp.ident.belt_fit.refine_belt` fits it from the paper's set-ups).
+``offset``, ``dead-zone`` and ``belt`` all build on ``widths``. The belt's
+rung needs no motor angle: its simulation error compares the wheel's own
+signal, as :func:`iwp.ident.belt_fit.refine_belt` does with the pendulum
+locked; its ratio ``N`` is the rig description's ``drive.ratio``.
 
 The rule (:func:`select`): each rung's score per scoring log is its
 simulation error there, the mean over the outputs of ``1 - fit/100`` (the
@@ -54,7 +59,7 @@ from scipy import stats
 
 from ..errors import InputError
 
-__all__ = ["Rung", "RUNGS", "MIN_GAIN", "ladder", "rung", "RungOutcome", "LadderResult", "Selection", "select",
+__all__ = ["Rung", "RUNGS", "TERMS", "MIN_GAIN", "ladder", "rung", "RungOutcome", "LadderResult", "Selection", "select",
            "information_criteria"]
 
 
@@ -74,7 +79,7 @@ class Rung:
         What the summary's table prints.
     flags : frozenset of str
         The terms on (the fields of :class:`~iwp.ident.logfit.LogFitOptions`):
-        ``coulomb``, ``pendulum_coulomb``, ``widths``, ``input_offset``, ``dead_zone``.
+        ``coulomb``, ``pendulum_coulomb``, ``widths``, ``input_offset``, ``dead_zone``, ``belt``.
     """
 
     name: str
@@ -83,9 +88,11 @@ class Rung:
 
     def options(self) -> dict[str, bool]:
         """The flags as keyword arguments of :class:`~iwp.ident.logfit.LogFitOptions`."""
-        return {f: f in self.flags for f in ("coulomb", "pendulum_coulomb", "widths", "input_offset", "dead_zone")}
+        return {f: f in self.flags for f in TERMS}
 
 
+#: the terms a rung can switch on (fields of :class:`~iwp.ident.logfit.LogFitOptions`)
+TERMS = ("coulomb", "pendulum_coulomb", "widths", "input_offset", "dead_zone", "belt")
 _C2 = frozenset({"coulomb"})
 _C12 = _C2 | {"pendulum_coulomb"}
 _W = _C12 | {"widths"}
@@ -97,23 +104,28 @@ RUNGS: dict[str, Rung] = {r.name: r for r in (
     Rung("widths", "+ Coulomb widths (eps_c1, eps_c2)", _W),
     Rung("offset", "+ input offset (u_offset)", _W | {"input_offset"}),
     Rung("dead-zone", "+ dead zone (v_dz_pos, v_dz_neg), model (6)", _W | {"dead_zone"}),
+    Rung("belt", "+ belt (15) in place of p2, p3 (5 terms)", _W | {"belt"}),
 )}
 
 
-def ladder(raw_command: bool) -> tuple[Rung, ...]:
-    """The rungs for logs whose input is a raw command ``v`` (with the dead zone rung) or a compensated ``u``.
+def ladder(raw_command: bool, belt_drive: bool = False) -> tuple[Rung, ...]:
+    """The rungs for logs whose input is a raw command ``v`` (with the dead zone rung) or a compensated ``u``,
+    of a rig with a belt drive (with the belt's rung) or not.
 
     Parameters
     ----------
     raw_command : bool
-        True for logs of ``v`` (all rungs), False for logs of ``u`` (the rungs without the dead zone).
+        True for logs of ``v`` (with the dead zone's rung), False for logs of ``u`` (without it).
+    belt_drive : bool
+        True for a rig whose drive is a belt (with the belt's rung).
 
     Returns
     -------
     tuple of Rung
         The rungs, simplest first (the order of :data:`RUNGS`).
     """
-    return tuple(r for r in RUNGS.values() if raw_command or "dead_zone" not in r.flags)
+    return tuple(r for r in RUNGS.values()
+                 if (raw_command or "dead_zone" not in r.flags) and (belt_drive or "belt" not in r.flags))
 
 
 def rung(name: str, *, argument: str = "model") -> Rung:

@@ -49,6 +49,7 @@ __all__ = [
     "save_params",
     "named_params",
     "stored_model",
+    "stored_belt",
 ]
 
 
@@ -657,6 +658,19 @@ def save_params(params, path: str | Path, *, force: bool = False, extra: dict[st
 _OTHER_FILES = {"iwp-fit": "iwp fit's fit.json"}
 
 
+def _parameter_file(path_or_name: str | Path) -> dict | None:
+    """The JSON object of a parameter file, or None (a built-in set, a file that does not read: :func:`load_params`
+    reports it)."""
+    path = Path(str(path_or_name))
+    if str(path_or_name) in _NAMED or not path.is_file():
+        return None
+    try:
+        doc = read_json(path)
+    except InputError:
+        return None
+    return doc if isinstance(doc, dict) else None
+
+
 def stored_model(path_or_name: str | Path) -> str | None:
     """The model a parameter file says its parameters were fitted with (its ``"model"`` entry, or that of its
     ``"refinement"``), or None (a built-in set, no such entry, a file that does not read).
@@ -671,20 +685,48 @@ def stored_model(path_or_name: str | Path) -> str | None:
     str or None
         The model name stored in the file, or None. Never raises for a bad file: :func:`load_params` reports it.
     """
-    path = Path(str(path_or_name))
-    if str(path_or_name) in _NAMED or not path.is_file():
-        return None
-    try:
-        doc = read_json(path)
-    except InputError:
-        return None  # load_params reports it
-    if not isinstance(doc, dict):
+    doc = _parameter_file(path_or_name)
+    if doc is None:
         return None
     m = doc.get("model")
     ref = doc.get("refinement")
     if m is None and isinstance(ref, dict):  # written by iwp identify --refine --out
         m = ref.get("model")
     return m if isinstance(m, str) else None
+
+
+def stored_belt(path_or_name: str | Path) -> "BeltParameters | None":
+    """The belt (15) a parameter file of a fit with the belt holds (its ``"belt"`` entry, as ``iwp fit`` writes
+    it beside the lumped parameters), or None (a built-in set, a file without one).
+
+    Parameters
+    ----------
+    path_or_name : str or path-like
+        Path of a parameter file (JSON), or the name of a built-in set (which gives None).
+
+    Returns
+    -------
+    BeltParameters or None
+
+    Raises
+    ------
+    InputError
+        A ``"belt"`` entry that is not a belt's parameters (naming the file and the field).
+    """
+    path = Path(str(path_or_name))
+    doc = _parameter_file(path_or_name)
+    entry = None if doc is None else doc.get("belt")
+    if entry is None:
+        return None
+    names = {f.name for f in fields(BeltParameters)}
+    if not isinstance(entry, dict) or not set(entry) <= names:
+        bad = sorted(set(entry) - names)[0] if isinstance(entry, dict) else None
+        raise InputError(f"{path}: 'belt' must be an object of the belt's parameters"
+                         + (f"; unknown {bad!r} (known: {', '.join(sorted(names))})" if bad else ""))
+    for name, val in entry.items():
+        if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
+            raise InputError(f"{path}: belt parameter {name!r} must be a finite number, got {val!r}")
+    return BeltParameters(**{k: float(v) for k, v in entry.items()})
 
 
 def load_params(path_or_name: str | Path, *, physical_check: bool = True):

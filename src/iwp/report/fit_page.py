@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..files import jsonable, staged_dir
+from ..ident.logfit import MODEL_LABELS
 from ..models.parameters import save_params
 from ..plotting.report import plot_comparisons
 from ..plotting.validation import plot_correlation
@@ -132,7 +133,7 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
             pe = r.parameters[n]
             ls = result.least_squares.get(n)
             rows.append([n, fmt(pe.value, 6), fmt(pe.stderr, 2), f"[{fmt(pe.ci95_low, 5)}, {fmt(pe.ci95_high, 5)}]",
-                         fmt(getattr(result.start, n), 5), fmt(ls, 5) if ls is not None else "-"])
+                         fmt(result.start_value(n), 5), fmt(ls, 5) if ls is not None else "-"])
         ptab = Table("Parameters (simulation-error fit on all training logs)",
                      ["parameter", "value", "stderr", "95 % interval", "start", "least squares"], rows,
                      note=("no uncertainty estimated" if r.reliability is None else r.reliability.describe())
@@ -174,7 +175,7 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         span = result.validation_range()
         rep = Report(
             title="Model fitted to a rig's logs and validated on held-out logs",
-            subtitle=f"model {result.model} ({'(6) with dead zone' if result.model == 'raw' else '(9)'}), "
+            subtitle=f"model {result.model} {MODEL_LABELS[result.model]}, "
                      f"outputs {', '.join(result.outputs)}",
             summary=[("rig", result.rig.name or result.rig.source if result.rig is not None else "(iwp logs)"),
                      ("training logs", ", ".join(Path(f.source).name for f in result.train)),
@@ -193,6 +194,7 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         (tmp / "fit.json").write_text(json.dumps(jsonable(doc), indent=2) + "\n")
         save_params(result.params, tmp / "parameters.json", force=True,
                     extra={"model": result.model, "source": "iwp fit",
+                           **({"belt": result.belt.to_dict()} if result.belt is not None else {}),
                            "stderr": {n: r.parameters[n].stderr for n in r.free},
                            "covariance": uncertainty_record(r)})
     return {"folder": out, "report": out / "report.html", "json": out / "fit.json",

@@ -29,7 +29,7 @@ from ..checks import check_nonnegative, check_positive
 from ..data.rig_description import RigDescription, load_rig
 from ..errors import InputError
 from ..files import atomic_write, prepare_output_file
-from ..models.parameters import LumpedParameters
+from ..models.parameters import BeltParameters, LumpedParameters
 from ..models.plant import Plant, plant_for_kind
 from ..sim.inputs import Input, Sampled
 from ..sim.simulate import simulate
@@ -88,6 +88,11 @@ class DescribedRig:
         Current per motor torque over ``I1_hat`` [A per rad s^-2] (:func:`~iwp.rig.sensors.motor_current`).
     p2_emf_fraction : float
         Share of ``p2`` that is back-emf (the rest is viscous friction) for the current.
+    belt : BeltParameters, optional
+        A belt drive's belt (15) between motor and wheel: the truth is then model
+        ``"belt-full"`` ((4a) with (15)), whose disk is driven through the belt
+        (``p2`` and ``p3`` do not enter; the belt's rigid limit gives them); its
+        ratio ``N`` must be the description's ``drive.ratio``.
     """
 
     rig: RigDescription
@@ -101,6 +106,7 @@ class DescribedRig:
     amps_per_accel: float = 0.05
     p2_emf_fraction: float = 0.8
     rtol: float = 1e-10
+    belt: BeltParameters | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "rig", load_rig(self.rig))
@@ -110,14 +116,25 @@ class DescribedRig:
             raise InputError(f"DescribedRig: params must be LumpedParameters, got {type(self.params).__name__}")
         self.params.check_physical("DescribedRig.params")
         check_nonnegative("noise_std", self.noise_std)
+        if self.belt is not None:
+            if not isinstance(self.belt, BeltParameters):
+                raise InputError(f"DescribedRig: belt must be BeltParameters, got {type(self.belt).__name__}")
+            if self.params.v_dz_pos > 0 or self.params.v_dz_neg > 0:
+                raise InputError("DescribedRig: the belt model (15) takes the compensated input; give no dead zone")
+            if not math.isclose(self.belt.N, self.rig.drive.ratio, rel_tol=1e-12):
+                raise InputError(f"DescribedRig: belt.N = {self.belt.N:g} but the rig's drive.ratio is "
+                                 f"{self.rig.drive.ratio:g}")
 
     @property
     def Ts(self) -> float:
         return float(self.rig.sample_period)
 
     def plant(self) -> Plant:
-        """The truth plant: model (6) with its dead zone when the parameters have one, else (9)."""
+        """The truth plant: the belt model with a belt, model (6) with its dead zone when the parameters have one,
+        else (9)."""
         p = self.params
+        if self.belt is not None:
+            return Plant(p, model="belt-full", belt=self.belt)
         dz = p.v_dz_pos > 0 or p.v_dz_neg > 0
         return Plant(p, model="raw", dead_zone=dz)
 
@@ -166,9 +183,11 @@ class DescribedRig:
         plant = plant_for_kind(self.plant(), kind)
         if plant.wheel_held:
             x0a[1] = x0a[3] = 0.0
+        if plant.n_states > 4:  # the belt's stretch and play output start relaxed
+            x0a = np.concatenate([x0a, np.zeros(plant.n_states - 4)])
         res = simulate(plant, x0=x0a, t_end=(n - 1) * Ts, Ts=Ts,
                        input=None if plant.wheel_held else Sampled(w, Ts, 0.0), rtol=self.rtol, atol=self.rtol)
-        X = np.asarray(res.x, dtype=float)[:n]
+        X = np.asarray(res.x, dtype=float)[:n, :4]
         rng = np.random.default_rng(self.seed)
         noise = rng.normal(0.0, self.noise_std, n) if self.noise_std > 0 else None
         rig = self.rig

@@ -163,11 +163,16 @@ def uncertainty_record(r) -> dict[str, Any]:
         deviation per output, in its unit), ``method``, ``reliable`` and ``notes`` of the reliability verdict;
         :func:`load_uncertainty` reads it back.
     """
-    u = ParameterUncertainty.from_refinement(r) if np.all(np.isfinite(r.covariance)) else None
+    finite = bool(np.all(np.isfinite(r.covariance)))
+    if r.belt is not None:  # the belt's parameters are not lumped ones: the fit's own verdict
+        reliable = finite and r.reliability is not None and bool(r.reliability.reliable)
+    else:
+        u = ParameterUncertainty.from_refinement(r) if finite else None
+        reliable = bool(u.reliable) if u is not None else False
     return {"free": list(r.free), "matrix": [[json_float(v) for v in row] for row in np.asarray(r.covariance)],
             "noise": {k: json_float(v) for k, v in r.residual_std.items()},
             "method": "" if r.reliability is None else r.reliability.method,
-            "reliable": bool(u.reliable) if u is not None else False,
+            "reliable": reliable,
             "notes": [] if r.reliability is None else list(r.reliability.notes)}
 
 
@@ -196,6 +201,9 @@ def load_uncertainty(path, *, argument: str = "params") -> ParameterUncertainty:
     if not isinstance(params, LumpedParameters):
         raise InputError(f"{path}: a band needs lumped parameters", argument=argument)
     doc = read_json(path) if not str(path) == "table1" else {}
+    if isinstance(doc, dict) and doc.get("belt") is not None:
+        raise InputError(f"{path}: a fit with the belt (15); bands and parameter draws are for the rigid models' "
+                         "lumped parameters (fit the rig with another --model for them)", argument=argument)
     rec = doc.get("covariance") if isinstance(doc, dict) else None
     if not isinstance(rec, dict):
         raise InputError(f"{path}: holds no covariance of its parameters; bands and parameter draws need the "
