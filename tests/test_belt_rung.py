@@ -127,6 +127,11 @@ def test_the_ladder_fits_the_belt_of_a_belt_drive_and_predicts_held_out_logs(tmp
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("iwp: error: --belt: the belt model") and "a direct drive" in err[0]
     assert not (tmp_path / "o2").exists()
+    # nor on a belt drive whose wheel is measured at the motor shaft (the belt's stretch lies between)
+    rig_path.write_text(json.dumps(dict(BELT_RIG, wheel=dict(BELT_RIG["wheel"], at="motor"))))
+    assert main(["fit", str(train[0]), "--rig", str(rig_path), "--belt", "--out", str(tmp_path / "o3")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "wheel.at 'motor'" in err[0] and not (tmp_path / "o3").exists()
 
 
 def test_a_parameter_file_s_belt_is_read_back_or_refused_by_name(tmp_path):

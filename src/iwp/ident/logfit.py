@@ -646,7 +646,14 @@ def fit_logs(
             raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
     outputs = ("q1", "q2") if all(d.q2 is not None for d in train_logs + val_logs) else ("q1", "q4")
     offset_given = rig_d is not None and rig_d.pendulum.offset is not None
-    belt_ratio = rig_d.drive.ratio if rig_d is not None and rig_d.drive.kind == "belt" else None
+    belt_drive = rig_d is not None and rig_d.drive.kind == "belt"
+    # the belt's model compares the wheel's own signal: a sensor at the motor shaft reads q2 less the belt's stretch
+    at_motor = belt_drive and rig_d.wheel is not None and rig_d.wheel.at == "motor"
+    belt_ratio = rig_d.drive.ratio if belt_drive and not at_motor else None
+    if options.belt and at_motor:
+        raise InputError("belt: the belt model (15) compares the wheel's own signal, but the rig description "
+                         "measures it at the motor shaft (wheel.at 'motor'), which the belt's stretch separates from "
+                         "the wheel", argument="belt")
     if options.belt and belt_ratio is None:
         drive = "no rig description" if rig_d is None else f"a {rig_d.drive.kind} drive"
         raise InputError("belt: the belt model (15) needs a rig description with \"drive\": {\"kind\": \"belt\", "
