@@ -506,17 +506,17 @@ class LogFitOptions:
     dead_zone : bool
         Model (6) with the dead zone (5) (thresholds ``v_dz_pos``, ``v_dz_neg``
         fitted); the logs must hold the raw command ``v``. Default: model (9).
-    belt : bool
-        The belt (15) between motor and wheel (model ``"belt-full"``):
-        :data:`~iwp.ident.belt_fit.BELT_FREE` (the belt's parameters but its
-        measured ratio and ``gain_neg``) in place of ``p2`` and ``p3``, its ratio ``N`` the rig
-        description's ``drive.ratio`` (a rig whose drive is a belt only).
     coulomb, pendulum_coulomb, input_offset : bool
         Also fit Coulomb friction of the wheel (``sigma_c2``), of the pendulum
         (``sigma_c1``), and an offset of the input (``u_offset``).
     widths : bool
         Also fit the smoothing widths of the Coulomb signs that are on
         (``eps_c2`` with ``coulomb``, ``eps_c1`` with ``pendulum_coulomb``).
+    belt : bool
+        The belt (15) between motor and wheel (model ``"belt-full"``):
+        :data:`~iwp.ident.belt_fit.BELT_FREE` (the belt's parameters but its
+        measured ratio and ``gain_neg``) in place of ``p2`` and ``p3``, its ratio ``N`` the rig
+        description's ``drive.ratio`` (a rig whose drive is a belt only).
     select : bool
         Fit the ladder of structures (:mod:`iwp.ident.structure`) and keep the
         simplest within noise of the best on held-out data (``iwp fit``'s
