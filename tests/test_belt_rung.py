@@ -76,14 +76,21 @@ def test_the_belt_rung_is_on_the_ladder_of_a_belt_drive_only_and_frees_the_belt_
 
 
 def test_the_belt_start_has_the_rigid_fit_as_its_limit_inside_the_bounds():
-    for Ts, p in ((0.05, TRUTH), (0.01, TRUTH), (0.05, TRUTH.replace(p2=0.005))):
+    # a rigid fit with little or almost no disk damping still gives a start inside the bounds (another rigid limit)
+    for p2 in (0.005, 1e-9):
+        b = belt_start(TRUTH.replace(p2=p2), ratio=13.5, Ts=0.05)
+        for name, (lo, hi) in belt_bounds(ratio=13.5, Ts=0.05, speed_per_input=b.kTbeta_over_Rgamma).items():
+            assert lo < getattr(b, name) < hi
+    # whatever the input's unit (duty, or DAC counts: p3 a thousand times smaller)
+    for Ts, p in ((0.05, TRUTH), (0.01, TRUTH), (0.05, TRUTH.replace(p2=0.03, p3=20.0)),
+                  (0.05, TRUTH.replace(p3=0.012))):
         b = belt_start(p, ratio=13.5, Ts=Ts)
         assert b.rigid_p2rho == pytest.approx(p.p2 * p.rho, rel=1e-12)
         assert b.rigid_p3rho == pytest.approx(p.p3 * p.rho, rel=1e-12)
         nyquist = math.pi / Ts
         assert math.sqrt(b.k_over_I2) <= nyquist / 4 * (1 + 1e-12)
         assert b.k_over_gamma / b.N ** 2 <= nyquist * (1 + 1e-12)  # the motor's relaxation rate
-        for name, (lo, hi) in belt_bounds(ratio=13.5, Ts=Ts).items():
+        for name, (lo, hi) in belt_bounds(ratio=13.5, Ts=Ts, speed_per_input=b.kTbeta_over_Rgamma).items():
             assert lo < getattr(b, name) < hi
 
 

@@ -818,6 +818,8 @@ BELT_START_PLAY = 0.05
 #: a belt's fit keeps its resonance ``sqrt(k/I2)`` and its motor's relaxation rate ``(k/gamma)/N^2`` below this
 #: many times the logs' Nyquist frequency ``pi/Ts``
 BELT_BAND = 4.0
+#: a belt's fit keeps its motor's speed per input unit within this factor of its start's
+BELT_SPEED_RANGE = 1000.0
 
 
 def belt_start(params: LumpedParameters, *, ratio: float, Ts: float) -> BeltParameters:
@@ -840,28 +842,56 @@ def belt_start(params: LumpedParameters, *, ratio: float, Ts: float) -> BeltPara
         ``(k/gamma)/N^2 = (k/I2)/(p2 rho - b2/I2)`` would exceed the Nyquist
         frequency: stiff enough to keep the slower motion the rigid fit found,
         inside the band the logs resolve (:func:`belt_bounds`); the play
-        :data:`BELT_START_PLAY`; ``b2/I2`` a tenth of the rigid damping.
+        :data:`BELT_START_PLAY`; ``b2/I2`` a tenth of the rigid damping. A
+        rigid fit with so little damping that this belt would lie outside
+        :func:`belt_bounds` gives a start moved inside them (whose rigid limit
+        then differs from the fit's).
     """
     p2rho, p3rho = params.p2 * params.rho, params.p3 * params.rho
     b2 = 0.1 * p2rho
     nyquist = math.pi / Ts
-    k = min((nyquist / 4.0) ** 2, (p2rho - b2) * nyquist)
-    return BeltParameters.from_rigid(p2rho, p3rho, k_over_I2=k, d=BELT_START_PLAY, N=ratio, b2_over_I2=b2)
+    top = BELT_BAND * nyquist
+    k = min(max(min((nyquist / 4.0) ** 2, (p2rho - b2) * nyquist), 2.0 * PARAMETER_INFO["k_over_I2"].fit_range[0]),
+            0.5 * top ** 2)
+    # BeltParameters.from_rigid's relations; the motor's relaxation rate k / gamma / N^2 at most half its bound
+    gamma_over_I2 = max((p2rho - b2) / ratio ** 2, 2.0 * k / (top * ratio ** 2))
+    values = {"k_over_I2": k, "d": BELT_START_PLAY, "b2_over_I2": b2, "k_over_gamma": k / gamma_over_I2,
+              "kTbeta_over_Rgamma": p3rho / ratio / gamma_over_I2}
+    bounds = belt_bounds(ratio=ratio, Ts=Ts, speed_per_input=values["kTbeta_over_Rgamma"])
+    return BeltParameters(N=ratio, **{n: min(max(values[n], 2.0 * lo), 0.5 * hi) for n, (lo, hi) in bounds.items()})
 
 
-def belt_bounds(*, ratio: float, Ts: float) -> dict[str, tuple[float, float]]:
+def belt_bounds(*, ratio: float, Ts: float, speed_per_input: float) -> dict[str, tuple[float, float]]:
     """The bounds of a belt's fit on logs sampled every ``Ts`` [s] with the drive ratio ``ratio``.
 
-    A belt whose resonance ``sqrt(k/I2)`` or whose motor's relaxation rate
-    ``(k/gamma)/N^2`` is far above the logs' Nyquist frequency ``pi/Ts`` looks
-    rigid in them, and the rigid rungs cover it; there its stiffness is not
-    determined, and the simulations' cost grows with it (a fit that drifted
-    there took minutes per evaluation). Both are kept below :data:`BELT_BAND`
-    times ``pi/Ts``; the lower bounds are the parameters' fit ranges.
+    Parameters
+    ----------
+    ratio : float
+        The drive's ratio ``N`` [-].
+    Ts : float
+        The logs' sample period [s].
+    speed_per_input : float
+        The start's ``kTbeta_over_Rgamma`` [rad/s per input unit] (its rigid limit's).
+
+    Returns
+    -------
+    dict of str to (float, float)
+        For each of :data:`~iwp.ident.belt_fit.BELT_FREE`: its fit range,
+        except that a belt whose resonance ``sqrt(k/I2)`` or whose motor's
+        relaxation rate ``(k/gamma)/N^2`` is far above the logs' Nyquist
+        frequency ``pi/Ts`` looks rigid in them, and the rigid rungs cover it;
+        there its stiffness is not determined, and the simulations' cost grows
+        with it (a fit that drifted there took minutes per evaluation): both are
+        kept below :data:`BELT_BAND` times ``pi/Ts``. The motor's speed per input
+        unit depends on the input's unit (duty, volts, DAC counts): it is kept
+        within a factor :data:`BELT_SPEED_RANGE` of the start's.
     """
     top = BELT_BAND * math.pi / Ts
-    return {"k_over_I2": (PARAMETER_INFO["k_over_I2"].fit_range[0], top ** 2),
-            "k_over_gamma": (PARAMETER_INFO["k_over_gamma"].fit_range[0], top * ratio ** 2)}
+    out = {n: PARAMETER_INFO[n].fit_range for n in BELT_FREE}
+    out["k_over_I2"] = (out["k_over_I2"][0], top ** 2)
+    out["k_over_gamma"] = (out["k_over_gamma"][0], top * ratio ** 2)
+    out["kTbeta_over_Rgamma"] = (speed_per_input / BELT_SPEED_RANGE, speed_per_input * BELT_SPEED_RANGE)
+    return out
 
 
 class _Fitting:
@@ -900,7 +930,8 @@ class _Fitting:
             exps.append(Experiment(_as_model_input(d, model, f"--{kind}"), kind=kind, window=tuple(options.window),
                                    x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else ()))
         plant = self.plant(options, start, belt)
-        bounds = belt_bounds(ratio=plant.belt.N, Ts=float(self.train[0].Ts)) if options.belt else None
+        bounds = (belt_bounds(ratio=plant.belt.N, Ts=float(self.train[0].Ts),
+                              speed_per_input=plant.belt.kTbeta_over_Rgamma) if options.belt else None)
         solver = replace(BELT_OPTIONS if options.belt else SolverOptions(), max_nfev=max_nfev)
         return refine(exps, plant, free=options.free(), outputs=self.outputs, bounds=bounds, loss=options.loss,
                       options=solver, warn=False)
