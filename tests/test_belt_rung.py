@@ -147,8 +147,11 @@ def test_a_parameter_file_s_belt_is_read_back_or_refused_by_name(tmp_path):
     assert stored_belt(path) == BELT
     assert stored_belt("table1") is None
     path.write_text(json.dumps({"kind": "lumped", "parameters": TRUTH.to_dict(), "belt": {"stiffness": 3.0}}))
-    with pytest.raises(InputError, match=r"p.json: 'belt' must be .*unknown 'stiffness'"):
+    with pytest.raises(InputError, match=r"p.json: unknown parameter 'stiffness' for a belt set; known: N, b2_over_I2"):
         stored_belt(path)
     path.write_text(json.dumps({"kind": "lumped", "parameters": TRUTH.to_dict(), "belt": {"d": float("nan")}}))
-    with pytest.raises(InputError, match="belt parameter 'd' must be a finite number"):
+    with pytest.raises(InputError, match=r"p.json: parameter 'd' must be finite, got nan"):
+        stored_belt(path)
+    path.write_text(json.dumps({"kind": "lumped", "parameters": TRUTH.to_dict(), "belt": [60.0, 0.3]}))
+    with pytest.raises(InputError, match=r"p.json: 'belt' must be an object of the belt's parameters"):
         stored_belt(path)

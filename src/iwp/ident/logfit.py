@@ -570,11 +570,12 @@ class LogFitOptions:
         allow (terms a simpler structure fitted keep their values)."""
         if self.dead_zone and start.v_dz_pos == 0 and start.v_dz_neg == 0:
             start = start.replace(v_dz_pos=0.05 * umax, v_dz_neg=0.05 * umax)
-        if self.coulomb and start.sigma_c2 == 0:
-            start = start.replace(sigma_c2=0.02 * start.p3 * umax)
+        sigma_c2 = 0.02 * start.p3 * umax
         if self.belt:  # a rigid fit may have dropped the wheel's Coulomb friction for the play it could not model;
             # started at 0 the belt's fit stays there (measured: held-out fits 90/95 % against 99/99.6 %)
-            start = start.replace(sigma_c2=max(start.sigma_c2, 0.02 * start.p3 * umax))
+            start = start.replace(sigma_c2=max(start.sigma_c2, sigma_c2))
+        elif self.coulomb and start.sigma_c2 == 0:
+            start = start.replace(sigma_c2=sigma_c2)
         if self.pendulum_coulomb and start.sigma_c1 == 0:
             start = start.replace(sigma_c1=0.01 * start.p1)
         return start
@@ -904,6 +905,7 @@ class _Fitting:
         self.outputs, self.offset_given, self.umax = outputs, offset_given, umax
         self.others = others
         self.belt_ratio = belt_ratio  # the rig's drive ratio when its drive is a belt, else None
+        self.Ts = float(train[0].Ts)  # the logs' sample period, for a belt's start and bounds
 
     def plant(self, options: LogFitOptions, params: LumpedParameters, belt: BeltParameters | None = None) -> Plant:
         """The plant of ``options``' structure with ``params`` (and ``belt``; without it a belt structure starts
@@ -911,7 +913,7 @@ class _Fitting:
         if not options.belt:
             return Plant(params, model=options.model)
         if belt is None:
-            belt = belt_start(params, ratio=self.belt_ratio, Ts=float(self.train[0].Ts))
+            belt = belt_start(params, ratio=self.belt_ratio, Ts=self.Ts)
         return Plant(params, model=options.model, belt=belt)
 
     def joint(self, options: LogFitOptions, start: LumpedParameters, logs=None, x0=None,
@@ -930,8 +932,8 @@ class _Fitting:
             exps.append(Experiment(_as_model_input(d, model, f"--{kind}"), kind=kind, window=tuple(options.window),
                                    x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else ()))
         plant = self.plant(options, start, belt)
-        bounds = (belt_bounds(ratio=plant.belt.N, Ts=float(self.train[0].Ts),
-                              speed_per_input=plant.belt.kTbeta_over_Rgamma) if options.belt else None)
+        bounds = (belt_bounds(ratio=plant.belt.N, Ts=self.Ts, speed_per_input=plant.belt.kTbeta_over_Rgamma)
+                  if options.belt else None)
         solver = replace(BELT_OPTIONS if options.belt else SolverOptions(), max_nfev=max_nfev)
         return refine(exps, plant, free=options.free(), outputs=self.outputs, bounds=bounds, loss=options.loss,
                       options=solver, warn=False)

@@ -718,15 +718,34 @@ def stored_belt(path_or_name: str | Path) -> "BeltParameters | None":
     entry = None if doc is None else doc.get("belt")
     if entry is None:
         return None
-    names = {f.name for f in fields(BeltParameters)}
-    if not isinstance(entry, dict) or not set(entry) <= names:
-        bad = sorted(set(entry) - names)[0] if isinstance(entry, dict) else None
-        raise InputError(f"{path}: 'belt' must be an object of the belt's parameters"
-                         + (f"; unknown {bad!r} (known: {', '.join(sorted(names))})" if bad else ""))
-    for name, val in entry.items():
-        if isinstance(val, bool) or not isinstance(val, (int, float)) or not math.isfinite(val):
-            raise InputError(f"{path}: belt parameter {name!r} must be a finite number, got {val!r}")
-    return BeltParameters(**{k: float(v) for k, v in entry.items()})
+    if not isinstance(entry, dict):
+        raise InputError(f"{path}: 'belt' must be an object of the belt's parameters, got {entry!r}")
+    try:
+        return BeltParameters(**_checked_values(path, entry, "belt"))
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(str(path)) else f"{path}: {msg}") from None
+
+
+def _checked_values(path: Path, values: dict, kind: str) -> dict[str, float]:
+    """The ``values`` of a parameter set of ``kind`` (a key of :data:`_KINDS`) read from ``path``, as floats: an
+    error naming the file and the parameter for an unknown or missing name or a value that is not a finite number."""
+    cls = _KINDS[kind]
+    names = {f.name for f in fields(cls)}
+    required = {f.name for f in fields(cls) if f.default is dataclasses.MISSING}
+    unknown = sorted(set(values) - names)
+    if unknown:
+        known = ", ".join(sorted(names))
+        raise InputError(f"{path}: unknown parameter {unknown[0]!r} for a {kind} set; known: {known}")
+    missing = sorted(required - set(values))
+    if missing:
+        raise InputError(f"{path}: missing parameter {missing[0]!r}")
+    for name, val in values.items():
+        if isinstance(val, bool) or not isinstance(val, (int, float)):
+            raise InputError(f"{path}: parameter {name!r} must be a number, got {val!r}")
+        if not math.isfinite(val):
+            raise InputError(f"{path}: parameter {name!r} must be finite, got {val!r}")
+    return {k: float(v) for k, v in values.items()}
 
 
 def load_params(path_or_name: str | Path, *, physical_check: bool = True):
@@ -782,23 +801,10 @@ def load_params(path_or_name: str | Path, *, physical_check: bool = True):
     if not isinstance(values, dict):
         raise InputError(f"{path}: 'parameters' must be an object of name: value")
     cls = _KINDS[kind]
-    names = {f.name for f in fields(cls)}
-    required = {f.name for f in fields(cls) if f.default is dataclasses.MISSING}
-    unknown = sorted(set(values) - names)
-    if unknown:
-        known = ", ".join(sorted(names))
-        raise InputError(f"{path}: unknown parameter {unknown[0]!r} for a {kind} set; known: {known}")
-    missing = sorted(required - set(values))
-    if missing:
-        raise InputError(f"{path}: missing parameter {missing[0]!r}")
-    for name, val in values.items():
-        if isinstance(val, bool) or not isinstance(val, (int, float)):
-            raise InputError(f"{path}: parameter {name!r} must be a number, got {val!r}")
-        if not math.isfinite(val):
-            raise InputError(f"{path}: parameter {name!r} must be finite, got {val!r}")
+    values = _checked_values(path, values, kind)
     unconstrained = doc.get("unconstrained_fit") is True
     try:
-        params = cls(**{k: float(v) for k, v in values.items()})
+        params = cls(**values)
         if physical_check and isinstance(params, LumpedParameters):
             try:
                 params.check_physical(where=str(path))
