@@ -61,6 +61,26 @@ def test_lanes_with_their_own_plants_equal_single_runs(case):
         np.testing.assert_allclose(br.x_final[i], r.x[-1], rtol=1e-9, atol=1e-12)
 
 
+def test_lanes_that_cross_the_rolling_frictions_kink_equal_single_runs():
+    """Hopf loops that swing past |q1| = pi/2, the kink of sigma_a1 |cos q1| q3 (section 3.1), many times:
+    the lanes cross it with RK4 bridges computed side by side, the single runs one at a time. Samples every
+    millisecond, so that some fall inside a bridge (about 1 ms long) and are interpolated there."""
+    n = 24
+    t_end = 30.0
+    te = np.arange(0.0, t_end + 1e-9, 1e-3)
+    # (k1 above about -10.4 keeps this swing inside |q1| < pi/2 for 30 s)
+    inputs = [HopfController(float(k1), 0.1) for k1 in np.linspace(-14.0, -10.5, n)]
+    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=t_end, t_eval=te, rtol=1e-9, atol=1e-7)
+    br = simulate_batch(table1(), input=inputs, **kw)
+    assert np.all(br.success)
+    for i in (0, 5, 17, 23):
+        r = simulate(table1(), input=inputs[i], **kw)
+        crossings = np.count_nonzero(np.diff(np.sign(np.cos(r.x[:, 0]))) != 0)
+        assert crossings >= 3, (i, crossings)
+        assert _rel(br.x[i], r.x) < 1e-9, i
+        assert abs(br.nfev[i] - r.nfev) <= 0.01 * r.nfev
+
+
 def test_store_final_and_summary_agree_with_the_samples():
     ctrls = [HopfController(float(k1), 0.1) for k1 in np.linspace(-12, -6, 20)]
     kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=30.0, t_eval=np.arange(0.0, 30.0 + 1e-9, 0.05), input=ctrls)
