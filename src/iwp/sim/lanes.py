@@ -232,17 +232,7 @@ def plain_stages(kind, cps, TYH, K, YT, IPL, PL, n, span):
     s0, s1, L = span
     for s in range(s0, s1):
         stage_input_lanes(s, Y, H, K, YT, n, L)
-        tc = (T, H, NODES[s])
-        # one loop per kind, each with its kind a constant: a branch on the kind inside the loop over the lanes
-        # would keep the compiler from vectorising it (I_ZERO is a constant input of 0)
-        if kind == I_HOPF:
-            _lanes_rhs(I_HOPF, cps, tc, YT, K, s, IPL, PL, L)
-        elif kind == I_CHIRP:
-            _lanes_rhs(I_CHIRP, cps, tc, YT, K, s, IPL, PL, L)
-        elif kind == I_SINE:
-            _lanes_rhs(I_SINE, cps, tc, YT, K, s, IPL, PL, L)
-        else:
-            _lanes_rhs(I_CONST, cps, tc, YT, K, s, IPL, PL, L)
+        _plain_rhs(kind, cps, (T, H, NODES[s]), YT, K, s, IPL, PL, L)
 
 
 @jit(inline=True)
