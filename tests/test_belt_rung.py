@@ -10,11 +10,13 @@ import numpy as np
 import pytest
 
 from iwp.cli import main
+from iwp.data import ExperimentData
 from iwp.data.rig_description import RigDescription
 from iwp.errors import InputError
 from iwp.ident.belt_fit import BELT_FREE
 from iwp.ident.logfit import LogFitOptions, belt_bounds, belt_start
 from iwp.ident.structure import RUNGS, ladder
+from iwp.ident.validation import validation_plant
 from iwp.models.parameters import BeltParameters, LumpedParameters, stored_belt
 from iwp.rig.described import DescribedRig, prbs, write_rig_csv
 from iwp.sim.inputs import Chirp
@@ -155,3 +157,14 @@ def test_a_parameter_file_s_belt_is_read_back_or_refused_by_name(tmp_path):
     path.write_text(json.dumps({"kind": "lumped", "parameters": TRUTH.to_dict(), "belt": [60.0, 0.3]}))
     with pytest.raises(InputError, match=r"p.json: 'belt' must be an object of the belt's parameters"):
         stored_belt(path)
+
+
+def test_the_validating_plant_of_a_belt_model_takes_the_fits_belt_or_is_refused_by_name():
+    t = np.arange(0.0, 1.0, 0.01)
+    data = ExperimentData(t=t, q1=np.zeros_like(t), q2=np.zeros_like(t), u=np.zeros_like(t))
+    plant = validation_plant(TRUTH, data, "belt-full", belt=BELT)
+    assert plant.model == "belt-full" and plant.belt == BELT and plant.params == TRUTH
+    with pytest.raises(InputError, match=r"^--params p.json: model 'belt-full' needs the belt's parameters \(15\)"):
+        validation_plant(TRUTH, data, "belt-full", source="--params p.json")
+    # a rigid model ignores a belt
+    assert validation_plant(TRUTH, data, "compensated", belt=BELT).model == "compensated"

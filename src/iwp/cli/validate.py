@@ -70,9 +70,9 @@ def run(args) -> int:
     from ..data import read_experiment
     from ..errors import DataFormatError, InputError
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
-    from ..ident.validation import choose_model, validate
+    from ..ident.validation import choose_model, validate, validation_plant
     from ..models.parameters import stored_belt, stored_model
-    from ..models.plant import MODELS, Plant
+    from ..models.plant import MODELS
     from ..plotting import savefig
     from ..sim.inputs import HopfController
     from ..sim.uncertainty import load_uncertainty
@@ -93,13 +93,9 @@ def run(args) -> int:
     model = choose_model(data, args.model, stored=stored_model(args.params), closed_loop=args.controller is not None,
                          source=args.params, log=args.file)
     if MODELS[model].n_states > 4:  # a belt model: the belt comes from the file, as iwp fit --belt writes it
-        belt = stored_belt(args.params)
-        if belt is None:
-            raise InputError(f"--params {args.params}: model {model!r} needs the belt's parameters (15), which the "
-                             "file does not hold; give the parameters.json of a fit with the belt")
         if args.band:
             raise InputError("--band: the prediction bands are for lumped parameters; a belt model has none")
-        params = Plant(params, model=model, belt=belt)
+        params = validation_plant(params, data, model, belt=stored_belt(args.params), source=f"--params {args.params}")
     controller = None
     if args.controller == "hopf":
         controller = HopfController(args.k1, args.k2, args.controller_ts)

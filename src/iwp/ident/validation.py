@@ -36,7 +36,7 @@ import numpy as np
 from ..data import ExperimentData
 from ..errors import InputError
 from ..files import json_float
-from ..models.parameters import LumpedParameters, PhysicalParameters
+from ..models.parameters import BeltParameters, LumpedParameters, PhysicalParameters
 from ..models.plant import MODELS, Plant
 from ..plotting.validation import plot_validation
 from ..sim.inputs import Input
@@ -246,13 +246,17 @@ def choose_model(data: ExperimentData, model: str = "auto", *, stored: str | Non
     return model
 
 
-def validation_plant(params, data: ExperimentData, model: str = "compensated") -> Plant:
+def validation_plant(params, data: ExperimentData, model: str = "compensated", *, belt: BeltParameters | None = None,
+                     source: str = "params") -> Plant:
     """The plant that validates ``params`` on the log ``data``.
 
-    ``model`` is one of :data:`~iwp.ident.refinement.REFINE_MODELS`, or
-    ``"auto"`` (:func:`auto_model`); the pendulum of ``"compensated"`` and
-    ``"raw"`` is clamped when the log says so (metadata ``pendulum: locked``).
-    A :class:`~iwp.models.plant.Plant` is taken as it is.
+    ``model`` is one of :data:`~iwp.ident.refinement.REFINE_MODELS`, a belt
+    model (``"belt-full"``, (15), with the ``belt`` of the fit, as
+    :func:`~iwp.models.parameters.stored_belt` reads it from the parameter
+    file of ``iwp fit --belt``), or ``"auto"`` (:func:`auto_model`); the
+    pendulum of ``"compensated"`` and ``"raw"`` is clamped when the log says
+    so (metadata ``pendulum: locked``). A :class:`~iwp.models.plant.Plant` is
+    taken as it is.
 
     Parameters
     ----------
@@ -261,7 +265,11 @@ def validation_plant(params, data: ExperimentData, model: str = "compensated") -
     data : ExperimentData
         The log (its input, and metadata ``pendulum``).
     model : str, default "compensated"
-        One of :data:`~iwp.ident.refinement.REFINE_MODELS`, or ``"auto"``; ignored for a plant.
+        One of :data:`~iwp.ident.refinement.REFINE_MODELS`, a belt model, or ``"auto"``; ignored for a plant.
+    belt : BeltParameters, optional
+        The belt (15) of a belt model; required for one, ignored for the others.
+    source : str, default "params"
+        How the error of a belt model without a belt names the parameters (``iwp validate``: the file).
 
     Returns
     -------
@@ -271,7 +279,7 @@ def validation_plant(params, data: ExperimentData, model: str = "compensated") -
     Raises
     ------
     InputError
-        ``params`` of another type, or an unknown model.
+        ``params`` of another type, an unknown model, or a belt model without ``belt``.
     """
     if isinstance(params, Plant):
         return params
@@ -279,6 +287,11 @@ def validation_plant(params, data: ExperimentData, model: str = "compensated") -
         params = params.to_lumped()
     if not isinstance(params, LumpedParameters):
         raise InputError(f"params must be LumpedParameters, got {type(params).__name__}")
+    if model in MODELS and MODELS[model].n_states > 4:
+        if belt is None:
+            raise InputError(f"{source}: model {model!r} needs the belt's parameters (15), which it does not hold; "
+                             "give the parameters.json of a fit with the belt")
+        return Plant(params, model=model, belt=belt)
     if model == "auto":
         model = auto_model(data)
     if model not in REFINE_MODELS:
