@@ -391,37 +391,14 @@ def rk4_bridge(fld, t, y, f, hb, wk, n, tol):
     rate(fld, t + hb, ytmp, dx)
     for i in range(n):
         K[3, i] = dx[i]
-        y_new[i] = rk4_state(y[i], hb, f[i], K[1, i], K[2, i], dx[i])
+        y_new[i] = y[i] + hb / 6.0 * (f[i] + 2.0 * (K[1, i] + K[2, i]) + dx[i])
     rate(fld, t + hb, y_new, dx)
     n_err = min(n, tol.n_err)
     eb = 0.0
     for i in range(n_err):
-        eb += bridge_error_term(hb, K[3, i], dx[i], y[i], y_new[i], tol.atol[i], tol.rtol)
+        d = hb / 6.0 * (K[3, i] - dx[i]) / (tol.atol[i] + max(abs(y[i]), abs(y_new[i])) * tol.rtol)
+        eb += d * d
     return eb / n_err
-
-
-@jit(inline=True)
-def rk4_state(y, hb, f, k1, k2, k3):
-    """One component of the classical RK4 step's new state: ``y + hb/6 (f + 2 (k1 + k2) + k3)``.
-
-    ``f`` is the rate at the step's start, ``k1``, ``k2`` at its middle and
-    ``k3`` at its end (:func:`rk4_bridge`; the lanes' bridge,
-    :func:`iwp.sim.lanes.bridge_slots`).
-    """
-    return y + hb / 6.0 * (f + 2.0 * (k1 + k2) + k3)
-
-
-@jit(inline=True)
-def bridge_error_term(hb, k3, dx, y, y_new, atol, rtol):
-    """One component's squared, scaled error of an RK4 bridge of size ``hb`` [s].
-
-    The embedded third-order estimate ``hb/6 (k3 - dx)``: the last stage
-    ``k3`` replaced by the rate ``dx`` at the new state, over the DOP853
-    error scale ``atol + max(|y|, |y_new|) rtol``. The bridge's error is the
-    mean of these over the first ``n_err`` states.
-    """
-    d = hb / 6.0 * (k3 - dx) / (atol + max(abs(y), abs(y_new)) * rtol)
-    return d * d
 
 
 @jit

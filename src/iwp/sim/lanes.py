@@ -16,9 +16,8 @@ Each step of a block has four parts:
 
 1. lane by lane, the lanes that need it: start and finish runs, begin a held
    segment, conclude a step that was not ordinary (rejected, clipped to a
-   segment end, landed on or crossing a kink), plan a step near a kink. The
-   RK4 bridges across kinks of all lanes that plan one are computed side by
-   side (:func:`bridge_slots`), then concluded lane by lane;
+   segment end, landed on or crossing a kink), plan a step near a kink (with
+   the RK4 bridge);
 2. all lanes at once: the DOP853 stages and error norms (vectorised);
 3. all lanes at once: accept the ordinary steps (the new state,
    branch-free, vectorised; the controller's factor lane by lane). A step
@@ -72,7 +71,6 @@ from .engine import (
     Segments,
     Tolerances,
     beyond,
-    bridge_error_term,
     dense_step,
     end_hold,
     first_step,
@@ -93,7 +91,7 @@ from .engine import (
     put_sample,
     put_unreached,
     rate,
-    rk4_state,
+    rk4_bridge,
     switch_of,
 )
 from .inputs import I_CHIRP, I_CONST, I_HOPF, I_SINE, I_ZERO, N_INPUT_PARAMS, input_value
@@ -125,21 +123,12 @@ BatchOutput = namedtuple(
 #: output samples ``J0 .. J1-1``.
 DenseSlots = namedtuple("DenseSlots", ["T", "Y", "H", "K", "YT", "YN", "IPL", "PL", "R", "J0", "J1"])
 
-#: RK4 bridges across a kink (:func:`~iwp.sim.engine.rk4_bridge`) of the lanes that need one, one
-#: bridge per slot, computed side by side by :func:`bridge_slots`: per slot the bridge's start time T,
-#: state Y (n, L), rate there F (n, L) and size H; its stages K (5, n, L) (K[1..3] the RK4 stages,
-#: K[4] the rate at the new state), scratch YT (n, L), new state YN (n, L) and error E; the input
-#: and plant parameters IPL, PL.
-BridgeSlots = namedtuple("BridgeSlots", ["T", "Y", "F", "H", "K", "YT", "YN", "E", "IPL", "PL"])
-
 # what a lane waits for before its next vector step
 M_READY = 0  #: its next step is planned
 M_DECIDE = 1  #: its last step was not an ordinary one: concluded lane by lane
 M_POST = 2  #: its last step was accepted: outputs at the step end, divergence
 M_PLAN = 3  #: its next step is planned lane by lane (kink, segment end, run end)
 M_IDLE = 4  #: no run left for it
-M_BRIDGE = 5  #: its next step is an RK4 bridge across a kink: computed with the other lanes' bridges
-M_BRIDGED = 6  #: its bridge is computed: concluded lane by lane
 
 
 @jit(inline=True)
@@ -232,22 +221,17 @@ def plain_stages(kind, cps, TYH, K, YT, IPL, PL, n, span):
     s0, s1, L = span
     for s in range(s0, s1):
         stage_input_lanes(s, Y, H, K, YT, n, L)
-        _plain_rhs(kind, cps, (T, H, NODES[s]), YT, K, s, IPL, PL, L)
-
-
-@jit(inline=True)
-def _plain_rhs(kind, cps, tc, YT, K, s, IPL, PL, L):
-    """``K[s]`` of lanes ``0 .. L-1``: the plain RHS at the states ``YT`` and times ``T + c H`` (``tc = (T, H, c)``)."""
-    # one loop per kind, each with its kind a constant: a branch on the kind inside the loop over the lanes
-    # would keep the compiler from vectorising it (I_ZERO is a constant input of 0)
-    if kind == I_HOPF:
-        _lanes_rhs(I_HOPF, cps, tc, YT, K, s, IPL, PL, L)
-    elif kind == I_CHIRP:
-        _lanes_rhs(I_CHIRP, cps, tc, YT, K, s, IPL, PL, L)
-    elif kind == I_SINE:
-        _lanes_rhs(I_SINE, cps, tc, YT, K, s, IPL, PL, L)
-    else:
-        _lanes_rhs(I_CONST, cps, tc, YT, K, s, IPL, PL, L)
+        tc = (T, H, NODES[s])
+        # one loop per kind, each with its kind a constant: a branch on the kind inside the loop over the lanes
+        # would keep the compiler from vectorising it (I_ZERO is a constant input of 0)
+        if kind == I_HOPF:
+            _lanes_rhs(I_HOPF, cps, tc, YT, K, s, IPL, PL, L)
+        elif kind == I_CHIRP:
+            _lanes_rhs(I_CHIRP, cps, tc, YT, K, s, IPL, PL, L)
+        elif kind == I_SINE:
+            _lanes_rhs(I_SINE, cps, tc, YT, K, s, IPL, PL, L)
+        else:
+            _lanes_rhs(I_CONST, cps, tc, YT, K, s, IPL, PL, L)
 
 
 @jit(inline=True)
@@ -300,73 +284,6 @@ def flush_dense(kind, cps, ds, nd, X, t_out, F, n):
         rh = 1.0 / h
         for j in range(ds.J0[k], ds.J1[k]):
             dense_eval_row(F, y, (t_out[j] - ds.T[k]) * rh, Xr, j, n)
-
-
-@jit(inline=True)
-def bridge_slots(kind, cps, TYFH, K, YT, YN, E, IPL, PL, tol, span):
-    """The RK4 bridges of slots ``0 .. nb-1``, side by side (:func:`~iwp.sim.engine.rk4_bridge`).
-
-    The same stages, new state and error as :func:`~iwp.sim.engine.rk4_bridge`
-    computes for one run (with :func:`~iwp.sim.engine.rk4_state` and
-    :func:`~iwp.sim.engine.bridge_error_term`), the right-hand sides those of
-    :func:`plain_stages`, vectorised across the slots. Inlined, and given
-    arrays rather than the :class:`BridgeSlots` record: a call with a record
-    of arrays costs their reference counting, more than the bridges' arithmetic.
-
-    Parameters
-    ----------
-    kind : int
-        The input's kind, one of :data:`VECTOR_KINDS`.
-    cps : tuple
-        The command vector.
-    TYFH : tuple
-        ``(T, Y, F, H)`` of :class:`BridgeSlots`: per slot the start time, state, rate and size; read only.
-    K : ndarray
-        Stages (5, n, L), filled: ``K[1 .. 3]`` the RK4 stages, ``K[4]`` the rate at the new state.
-    YT, YN : ndarray
-        Scratch and the new states (n, L), filled.
-    E : ndarray
-        The bridges' errors (L,), filled (accept below 1).
-    IPL, PL : ndarray
-        Input parameters (N_INPUT_PARAMS, L) and packed plant parameters (N_PACK, L) per slot.
-    tol : Tolerances
-        The engine's tolerances (``atol``, ``rtol``, ``n_err``).
-    span : tuple
-        ``(nb, n)``: slots filled (at most ``LANES``) and number of states.
-    """
-    T, Y, F, H = TYFH
-    nb, n = span
-    for i in range(n):
-        for k in range(nb):
-            YT[i, k] = Y[i, k] + 0.5 * H[k] * F[i, k]
-    _plain_rhs(kind, cps, (T, H, 0.5), YT, K, 1, IPL, PL, nb)
-    for i in range(n):
-        for k in range(nb):
-            YT[i, k] = Y[i, k] + 0.5 * H[k] * K[1, i, k]
-    _plain_rhs(kind, cps, (T, H, 0.5), YT, K, 2, IPL, PL, nb)
-    for i in range(n):
-        for k in range(nb):
-            YT[i, k] = Y[i, k] + H[k] * K[2, i, k]
-    _plain_rhs(kind, cps, (T, H, 1.0), YT, K, 3, IPL, PL, nb)
-    for i in range(n):
-        for k in range(nb):
-            YN[i, k] = rk4_state(Y[i, k], H[k], F[i, k], K[1, i, k], K[2, i, k], K[3, i, k])
-    _plain_rhs(kind, cps, (T, H, 1.0), YN, K, 4, IPL, PL, nb)
-    n_err = min(n, tol.n_err)
-    for k in range(nb):
-        e = 0.0
-        for i in range(n_err):
-            e += bridge_error_term(H[k], K[3, i, k], K[4, i, k], Y[i, k], YN[i, k], tol.atol[i], tol.rtol)
-        E[k] = e / n_err
-
-
-@jit
-def new_bridge_slots(n):
-    """Empty :class:`BridgeSlots` of ``LANES`` slots for ``n`` states."""
-    L = LANES
-    return BridgeSlots(np.zeros(L), np.zeros((n, L)), np.zeros((n, L)), np.ones(L), np.zeros((5, n, L)),
-                       np.zeros((n, L)), np.zeros((n, L)), np.zeros(L), np.zeros((N_INPUT_PARAMS, L)),
-                       np.zeros((N_PACK, L)))
 
 
 @jit
@@ -466,61 +383,209 @@ def run_lanes(n, bt, tol, out, r0, r1):
     KINKED = np.zeros(L, dtype=np.bool_)
     NEWSEG = np.zeros(L, dtype=np.bool_)
     DONE = np.zeros(L, dtype=np.bool_)
-    FAILED = np.zeros(L, dtype=np.bool_)  # its bridge failed: the next plan looks for no kink
-    BSLOT = np.zeros(L, dtype=np.int64)  # its slot in the bridges
     # one lane's state, for the lane-by-lane work
     ys = np.empty(n)
     fs = np.empty(n)
-    yb = np.empty(n)  # its bridge's end: state and rate (not in wk's fields: numba lost writes made through them)
-    fb = np.empty(n)
     wk = new_work(n)
     # dense outputs of ordinary steps, deferred and computed LANES at a time
     defer = out.store == STORE_SAMPLES
     # (filled through these names: numba lost writes made through the record's fields here)
     ds = new_slots(n)
     DT, DY, DH, DK, _, DYN, DIPL, DPL, DR, DJ0, DJ1 = ds
-    bs = new_bridge_slots(n)
-    BT, BY, BF, BH, BK, BYT, BYN, BE, BIPL, BPL = bs
     nd = 0
     nxt = r0
     n_active = 0
     while True:
-        # ---- 1. lane by lane, where needed; the bridges across kinks side by side, then concluded lane by lane
-        while True:
-            nb = 0
-            for l in range(L):
-                mode = MODE[l]
-                if mode == M_READY or mode == M_IDLE:
-                    continue
-                r = RUN[l]
-                for i in range(n):
-                    ys[i] = Y[i, l]
-                    fs[i] = F[i, l]
-                if mode == M_BRIDGED:
-                    # conclude a bridge (as integrate does): outputs inside it on the cubic Hermite
-                    k = BSLOT[l]
-                    t = T[l]
-                    hb = H[l]
-                    NFEV[l] += 4
-                    mode = M_PLAN
-                    if BE[k] < 1.0:
+        # ---- 1. lane by lane, where needed
+        for l in range(L):
+            mode = MODE[l]
+            if mode == M_READY or mode == M_IDLE:
+                continue
+            r = RUN[l]
+            for i in range(n):
+                ys[i] = Y[i, l]
+                fs[i] = F[i, l]
+            if mode == M_DECIDE:
+                # conclude a step that was not an ordinary one (as integrate does)
+                t = T[l]
+                h = H[l]
+                err = ERR[l]
+                NFEV[l] += N_STAGES
+                mode = M_PLAN
+                if not (err < 1.0):
+                    NREJ[l] += 1
+                    HN[l] = h * reject_factor(err)
+                    REJ[l] = True
+                    if HN[l] < min_step(t):
+                        STAT[l] = ST_STEP_TOO_SMALL
+                else:
+                    g_cur = switch_of(KINKED[l], ys[0])
+                    g_new = switch_of(KINKED[l], YT[0, l])
+                    crossing = PLAN[l] & FORCED == 0 and g_cur * g_new < 0.0
+                    t_new = TB[l] if PLAN[l] & CLIPPED != 0 else t + h
+                    dense = crossing or TNEXT[l] < t_new - tol_t
+                    h_force = -1.0
+                    if dense:
+                        fld = run_field(bt, r, held, UV[l], HV[l])
+                        lane_step_into(K, YT, l, wk.K, wk.y_new, n)
+                        dense_step(fld, t, ys, h, wk, n)
+                        NFEV[l] += 3
+                        if crossing:
+                            h_force = kink_step(model, fld.P, wk.F, ys, h, t, g_cur, g_new, wk.yo, n)
+                    if h_force > 0.0 and h_force < h:
+                        NREJ[l] += 1
+                        HF[l] = h_force
+                    else:
+                        factor, LERRP[l] = accept_step(err, LERRP[l])
+                        if REJ[l]:
+                            factor = min(1.0, factor)
+                        REJ[l] = False
+                        HN[l] = next_step_size(h, HN[l], factor, PLAN[l] == 0)
+                        NACC[l] += 1
+                        if dense:
+                            J[l] = lane_outputs(out, r, J[l], (t, h, t_new - tol_t), ys, fld, wk)
+                        ALAST[l] = F[2, l]
+                        HLAST[l] = t_new - t
                         for i in range(n):
-                            yb[i] = BYN[i, k]
-                            fb[i] = BK[4, i, k]
+                            fs[i] = K[N_STAGES, i, l]
+                            ys[i] = YT[i, l]
+                            F[i, l] = fs[i]
+                            Y[i, l] = ys[i]
+                        T[l] = t_new
+                        mode = M_POST
+            if mode == M_POST:
+                # after an accepted step: divergence, outputs exactly at an interior step end
+                mode = M_PLAN
+                if beyond(ys, n, xmax):
+                    STAT[l] = ST_DIVERGED
+                elif T[l] < TB[l] - tol_t and J[l] < n_out and t_out[J[l]] <= T[l] + tol_t:
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
+                    j = J[l]
+                    while j < n_out and t_out[j] <= T[l] + tol_t:
+                        put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
+                        j += 1
+                    J[l] = j
+            # ---- plan the next step (several when it bridges a kink); finish and start runs
+            while mode == M_PLAN:
+                if ACTIVE[l] and (STAT[l] != ST_OK or T[l] >= t_end - tol_t):
+                    # ---- the run in this lane is done
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
+                    j = J[l]
+                    if STAT[l] == ST_OK:
+                        fld = held_field(fld, end_hold(fld, seg, seg.values[r], KSEG[l] + 1, T[l], ys))
+                        while j < n_out and t_out[j] <= t_end + tol_t:
+                            put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
+                            j += 1
+                    if nd > 0:
+                        # the run's deferred samples first (its input columns follow from them)
+                        flush_dense(bt.kind, cps, ds, nd, out.X, t_out, wk.F, n)
+                        nd = 0
+                    if not held and out.store == STORE_SAMPLES and o.U.size == t_out.size:
+                        input_samples(bt.kind, fld.input_params, fld.command_params, t_out[:j], o.X[:j], o.U[:j],
+                                      o.W[:j])
+                    put_unreached(o, j, n)
+                    for i in range(n):
+                        out.x_final[r, i] = ys[i]
+                    out.status[r] = STAT[l]
+                    out.nfev[r] = NFEV[l]
+                    out.n_steps[r] = NACC[l]
+                    out.n_rejected[r] = NREJ[l]
+                    ACTIVE[l] = False
+                    n_active -= 1
+                if not ACTIVE[l]:
+                    if nxt >= r1:
+                        mode = M_IDLE
+                        H[l] = 0.0
+                        break
+                    # ---- start the next run in this lane
+                    r = nxt
+                    nxt += 1
+                    RUN[l] = r
+                    ACTIVE[l] = True
+                    n_active += 1
+                    for k in range(N_PACK):
+                        PL[k, l] = bt.P[r, k]
+                    for k in range(N_INPUT_PARAMS):
+                        IPL[k, l] = bt.input_params[r, k]
+                    for i in range(n):
+                        ys[i] = bt.X0[r, i]
+                        Y[i, l] = ys[i]
+                    KINKED[l] = has_kink(model, to_fixed_tuple(bt.P[r], N_PACK))
+                    T[l] = t0
+                    KSEG[l] = 0
+                    if seg.mode != SEG_CONT:
+                        KSEG[l] = int(np.floor((t0 - seg.start) / seg.period + 1e-9))
+                    HN[l] = -1.0
+                    STAT[l] = ST_OK
+                    J[l] = 0
+                    NFEV[l] = 0
+                    NACC[l] = 0
+                    NREJ[l] = 0
+                    NEWSEG[l] = True
+                    if beyond(ys, n, xmax):
+                        STAT[l] = ST_DIVERGED
+                        continue
+                if NEWSEG[l] or T[l] >= TB[l] - tol_t:
+                    # ---- a held segment begins (the first one of the run, or the next)
+                    if not NEWSEG[l]:
+                        KSEG[l] += 1
+                    NEWSEG[l] = False
+                    o = run_output(out, r)
+                    fld = run_field(bt, r, held, UV[l], HV[l])
+                    hold = hold_of(fld, seg, seg.values[r], KSEG[l], T[l], ys, t_end, tol_t)
+                    TB[l] = hold.t_b
+                    UV[l] = hold.uval
+                    HV[l] = hold.hval
+                    fld = held_field(fld, hold)
+                    rate(fld, T[l], ys, fs)
+                    NFEV[l] += 1
+                    for i in range(n):
+                        F[i, l] = fs[i]
+                    j = J[l]
+                    while j < n_out and t_out[j] <= T[l] + tol_t:
+                        put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
+                        j += 1
+                    J[l] = j
+                    if HN[l] <= 0.0:
+                        HN[l] = first_step(fld, T[l], ys, fs, wk, n, tol)
+                        NFEV[l] += 1
+                    REJ[l] = False
+                    HF[l] = -1.0
+                    LERRP[l] = LERR_FLOOR
+                    HLAST[l] = -1.0
+                    ALAST[l] = 0.0
+                    BRIDGED[l] = False
+                if NACC[l] + NREJ[l] >= tol.max_steps:
+                    STAT[l] = ST_MAX_STEPS
+                    continue
+                t = T[l]
+                jk = (fs[2] - ALAST[l]) / HLAST[l] if HLAST[l] > 0.0 else 0.0
+                taylor = (ys[0], fs[0], fs[2], jk)
+                plan = plan_step(t, TB[l], HN[l], h_max, HF[l], KINKED[l] and not BRIDGED[l], taylor, tol_t)
+                HF[l] = -1.0
+                BRIDGED[l] = False
+                if plan.flags == BRIDGE:
+                    # ---- an RK4 step across a kink close ahead
+                    fld = run_field(bt, r, held, UV[l], HV[l])
+                    hb = plan.h
+                    eb = rk4_bridge(fld, t, ys, fs, hb, wk, n, tol)
+                    NFEV[l] += 4
+                    if eb < 1.0:
                         j = J[l]
                         if j < n_out and t_out[j] < t + hb - tol_t:
-                            # (the records only when there are outputs: building them costs reference counting)
+                            # (the output record only for samples: building it costs reference counting)
                             o = run_output(out, r)
-                            fld = run_field(bt, r, held, UV[l], HV[l])
                             while j < n_out and t_out[j] < t + hb - tol_t:
-                                hermite(ys, yb, fs, fb, hb, (t_out[j] - t) / hb, wk.yo, n)
+                                hermite(ys, wk.y_new, fs, wk.dx, hb, (t_out[j] - t) / hb, wk.yo, n)
                                 put_sample(o, j, t_out[j], wk.yo, n, fld)
                                 j += 1
                         ALAST[l] = fs[2]
                         HLAST[l] = hb
                         for i in range(n):
-                            fs[i] = fb[i]
-                            ys[i] = yb[i]
+                            fs[i] = wk.dx[i]
+                            ys[i] = wk.y_new[i]
                             F[i, l] = fs[i]
                             Y[i, l] = ys[i]
                         t = t + hb
@@ -531,208 +596,20 @@ def run_lanes(n, bt, tol, out, r0, r1):
                             STAT[l] = ST_DIVERGED
                         elif j < n_out and t_out[j] <= t + tol_t:
                             o = run_output(out, r)
-                            fld = run_field(bt, r, held, UV[l], HV[l])
                             while j < n_out and t_out[j] <= t + tol_t:
                                 put_near(o, j, t_out[j], ys, fs, t, n, fld, wk.yo)
                                 j += 1
                         J[l] = j
-                    else:
-                        FAILED[l] = True
-                if mode == M_DECIDE:
-                    # conclude a step that was not an ordinary one (as integrate does)
-                    t = T[l]
-                    h = H[l]
-                    err = ERR[l]
-                    NFEV[l] += N_STAGES
-                    mode = M_PLAN
-                    if not (err < 1.0):
-                        NREJ[l] += 1
-                        HN[l] = h * reject_factor(err)
-                        REJ[l] = True
-                        if HN[l] < min_step(t):
-                            STAT[l] = ST_STEP_TOO_SMALL
-                    else:
-                        g_cur = switch_of(KINKED[l], ys[0])
-                        g_new = switch_of(KINKED[l], YT[0, l])
-                        crossing = PLAN[l] & FORCED == 0 and g_cur * g_new < 0.0
-                        t_new = TB[l] if PLAN[l] & CLIPPED != 0 else t + h
-                        dense = crossing or TNEXT[l] < t_new - tol_t
-                        h_force = -1.0
-                        if dense:
-                            fld = run_field(bt, r, held, UV[l], HV[l])
-                            lane_step_into(K, YT, l, wk.K, wk.y_new, n)
-                            dense_step(fld, t, ys, h, wk, n)
-                            NFEV[l] += 3
-                            if crossing:
-                                h_force = kink_step(model, fld.P, wk.F, ys, h, t, g_cur, g_new, wk.yo, n)
-                        if h_force > 0.0 and h_force < h:
-                            NREJ[l] += 1
-                            HF[l] = h_force
-                        else:
-                            factor, LERRP[l] = accept_step(err, LERRP[l])
-                            if REJ[l]:
-                                factor = min(1.0, factor)
-                            REJ[l] = False
-                            HN[l] = next_step_size(h, HN[l], factor, PLAN[l] == 0)
-                            NACC[l] += 1
-                            if dense:
-                                J[l] = lane_outputs(out, r, J[l], (t, h, t_new - tol_t), ys, fld, wk)
-                            ALAST[l] = F[2, l]
-                            HLAST[l] = t_new - t
-                            for i in range(n):
-                                fs[i] = K[N_STAGES, i, l]
-                                ys[i] = YT[i, l]
-                                F[i, l] = fs[i]
-                                Y[i, l] = ys[i]
-                            T[l] = t_new
-                            mode = M_POST
-                if mode == M_POST:
-                    # after an accepted step: divergence, outputs exactly at an interior step end
-                    mode = M_PLAN
-                    if beyond(ys, n, xmax):
-                        STAT[l] = ST_DIVERGED
-                    elif T[l] < TB[l] - tol_t and J[l] < n_out and t_out[J[l]] <= T[l] + tol_t:
-                        o = run_output(out, r)
-                        fld = run_field(bt, r, held, UV[l], HV[l])
-                        j = J[l]
-                        while j < n_out and t_out[j] <= T[l] + tol_t:
-                            put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
-                            j += 1
-                        J[l] = j
-                # ---- plan the next step (several when it bridges a kink); finish and start runs
-                while mode == M_PLAN:
-                    if ACTIVE[l] and (STAT[l] != ST_OK or T[l] >= t_end - tol_t):
-                        # ---- the run in this lane is done
-                        o = run_output(out, r)
-                        fld = run_field(bt, r, held, UV[l], HV[l])
-                        j = J[l]
-                        if STAT[l] == ST_OK:
-                            fld = held_field(fld, end_hold(fld, seg, seg.values[r], KSEG[l] + 1, T[l], ys))
-                            while j < n_out and t_out[j] <= t_end + tol_t:
-                                put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
-                                j += 1
-                        if nd > 0:
-                            # the run's deferred samples first (its input columns follow from them)
-                            flush_dense(bt.kind, cps, ds, nd, out.X, t_out, wk.F, n)
-                            nd = 0
-                        if not held and out.store == STORE_SAMPLES and o.U.size == t_out.size:
-                            input_samples(bt.kind, fld.input_params, fld.command_params, t_out[:j], o.X[:j], o.U[:j],
-                                          o.W[:j])
-                        put_unreached(o, j, n)
-                        for i in range(n):
-                            out.x_final[r, i] = ys[i]
-                        out.status[r] = STAT[l]
-                        out.nfev[r] = NFEV[l]
-                        out.n_steps[r] = NACC[l]
-                        out.n_rejected[r] = NREJ[l]
-                        ACTIVE[l] = False
-                        n_active -= 1
-                    if not ACTIVE[l]:
-                        if nxt >= r1:
-                            mode = M_IDLE
-                            H[l] = 0.0
-                            break
-                        # ---- start the next run in this lane
-                        r = nxt
-                        nxt += 1
-                        RUN[l] = r
-                        ACTIVE[l] = True
-                        n_active += 1
-                        for k in range(N_PACK):
-                            PL[k, l] = bt.P[r, k]
-                        for k in range(N_INPUT_PARAMS):
-                            IPL[k, l] = bt.input_params[r, k]
-                        for i in range(n):
-                            ys[i] = bt.X0[r, i]
-                            Y[i, l] = ys[i]
-                        KINKED[l] = has_kink(model, to_fixed_tuple(bt.P[r], N_PACK))
-                        T[l] = t0
-                        KSEG[l] = 0
-                        if seg.mode != SEG_CONT:
-                            KSEG[l] = int(np.floor((t0 - seg.start) / seg.period + 1e-9))
-                        HN[l] = -1.0
-                        STAT[l] = ST_OK
-                        J[l] = 0
-                        NFEV[l] = 0
-                        NACC[l] = 0
-                        NREJ[l] = 0
-                        NEWSEG[l] = True
-                        if beyond(ys, n, xmax):
-                            STAT[l] = ST_DIVERGED
-                            continue
-                    if NEWSEG[l] or T[l] >= TB[l] - tol_t:
-                        # ---- a held segment begins (the first one of the run, or the next)
-                        if not NEWSEG[l]:
-                            KSEG[l] += 1
-                        NEWSEG[l] = False
-                        o = run_output(out, r)
-                        fld = run_field(bt, r, held, UV[l], HV[l])
-                        hold = hold_of(fld, seg, seg.values[r], KSEG[l], T[l], ys, t_end, tol_t)
-                        TB[l] = hold.t_b
-                        UV[l] = hold.uval
-                        HV[l] = hold.hval
-                        fld = held_field(fld, hold)
-                        rate(fld, T[l], ys, fs)
-                        NFEV[l] += 1
-                        for i in range(n):
-                            F[i, l] = fs[i]
-                        j = J[l]
-                        while j < n_out and t_out[j] <= T[l] + tol_t:
-                            put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
-                            j += 1
-                        J[l] = j
-                        if HN[l] <= 0.0:
-                            HN[l] = first_step(fld, T[l], ys, fs, wk, n, tol)
-                            NFEV[l] += 1
-                        REJ[l] = False
-                        HF[l] = -1.0
-                        LERRP[l] = LERR_FLOOR
-                        HLAST[l] = -1.0
-                        ALAST[l] = 0.0
-                        BRIDGED[l] = False
-                    if NACC[l] + NREJ[l] >= tol.max_steps:
-                        STAT[l] = ST_MAX_STEPS
                         continue
-                    t = T[l]
-                    jk = (fs[2] - ALAST[l]) / HLAST[l] if HLAST[l] > 0.0 else 0.0
-                    taylor = (ys[0], fs[0], fs[2], jk)
-                    # (after a failed bridge, an ordinary step of the natural size)
-                    look = KINKED[l] and not BRIDGED[l] and not FAILED[l]
-                    plan = plan_step(t, TB[l], HN[l], h_max, HF[l], look, taylor, tol_t)
-                    HF[l] = -1.0
-                    BRIDGED[l] = False
-                    FAILED[l] = False
-                    if plan.flags == BRIDGE:
-                        # ---- an RK4 step across a kink close ahead: computed with the other lanes' bridges
-                        H[l] = plan.h
-                        mode = M_BRIDGE
-                        break
-                    if plan.h < min_step(t):
-                        STAT[l] = ST_STEP_TOO_SMALL
-                        continue
-                    H[l] = plan.h
-                    PLAN[l] = plan.flags
-                    mode = M_READY
-                MODE[l] = mode
-                TNEXT[l] = t_out[J[l]] if J[l] < n_out else np.inf
-                if mode == M_BRIDGE:
-                    # ---- into a slot: the RK4 bridges of all lanes that need one are computed together
-                    BSLOT[l] = nb
-                    BT[nb] = T[l]
-                    BH[nb] = H[l]
-                    for i in range(n):
-                        BY[i, nb] = ys[i]
-                        BF[i, nb] = fs[i]
-                    for k in range(N_PACK):
-                        BPL[k, nb] = PL[k, l]
-                    for k in range(N_INPUT_PARAMS):
-                        BIPL[k, nb] = IPL[k, l]
-                    nb += 1
-            if nb == 0:
-                break
-            bridge_slots(bt.kind, cps, (BT, BY, BF, BH), BK, BYT, BYN, BE, BIPL, BPL, tol, (nb, n))
-            for l in range(L):
-                MODE[l] = M_BRIDGED if MODE[l] == M_BRIDGE else MODE[l]
+                    plan = plan_step(t, TB[l], HN[l], h_max, -1.0, False, taylor, tol_t)
+                if plan.h < min_step(t):
+                    STAT[l] = ST_STEP_TOO_SMALL
+                    continue
+                H[l] = plan.h
+                PLAN[l] = plan.flags
+                mode = M_READY
+            MODE[l] = mode
+            TNEXT[l] = t_out[J[l]] if J[l] < n_out else np.inf
         if n_active == 0:
             break
         # ---- 2. all lanes: the stages and the error norms
