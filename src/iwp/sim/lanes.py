@@ -14,10 +14,9 @@ of ``(n, LANES)`` arrays. Any other batch runs as single runs on all cores
 
 Each step of a block has four parts:
 
-1. lane by lane, the lanes that need it: start and finish runs, begin a held
-   segment, conclude a step that was not ordinary (rejected, clipped to a
-   segment end, landed on or crossing a kink), plan a step near a kink (with
-   the RK4 bridge);
+1. lane by lane, the lanes that need it: start and finish runs, conclude a
+   step that was not ordinary (rejected, clipped to the run's end, landed on
+   or crossing a kink), plan a step near a kink (with the RK4 bridge);
 2. all lanes at once: the DOP853 stages and error norms (vectorised);
 3. all lanes at once: accept the ordinary steps (the new state,
    branch-free, vectorised; the controller's factor lane by lane). A step
@@ -27,11 +26,15 @@ Each step of a block has four parts:
    ``LANES`` such steps at once (:func:`flush_dense`, also before a run ends);
    otherwise lane by lane (:func:`~iwp.sim.engine.dense_step`);
 4. all lanes at once: plan the next ordinary steps; a lane near a kink or at
-   a segment end is left to part 1.
+   the run's end is left to part 1.
+
+The inputs are continuous (:func:`vectorised` refuses held ones), so a run
+is one segment from ``t0`` to ``t_end``: none of the engine's held-segment
+bookkeeping is needed here.
 
 Parts 1, 3 and 4 are made of the pieces :func:`iwp.sim.engine.integrate`
 uses -- the controller (:mod:`iwp.sim.controller`), :func:`~iwp.sim.engine.plan_step`,
-the bridge, the held segments and the output writers of :mod:`iwp.sim.engine`
+the bridge and the output writers of :mod:`iwp.sim.engine`
 -- so a simulation takes the same steps here as alone and gives the same
 result up to rounding (the compiler may order sums differently in vector
 code). The right-hand side is that of :mod:`iwp.models`, reached through
@@ -60,7 +63,6 @@ from .engine import (
     CLIPPED,
     FORCED,
     NODES,
-    SEG_CONT,
     ST_DIVERGED,
     ST_MAX_STEPS,
     ST_OK,
@@ -72,12 +74,9 @@ from .engine import (
     Tolerances,
     beyond,
     dense_step,
-    end_hold,
     first_step,
     has_kink,
-    held_field,
     hermite,
-    hold_of,
     input_samples,
     is_held,
     kink_possible,
@@ -148,10 +147,10 @@ def run_output(out, r):
 
 
 @jit(inline=True)
-def run_field(bt, r, held, uval, hval):
-    """The :class:`~iwp.sim.engine.Field` of run ``r`` of a batch with its held values."""
+def run_field(bt, r):
+    """The :class:`~iwp.sim.engine.Field` of run ``r`` of a batch (its input is never held: see :func:`vectorised`)."""
     return Field(bt.model, to_fixed_tuple(bt.P[r], N_PACK), bt.kind, to_fixed_tuple(bt.input_params[r], N_INPUT_PARAMS),
-                 to_fixed_tuple(bt.command_params, N_COMMAND), held, uval, hval, None)
+                 to_fixed_tuple(bt.command_params, N_COMMAND), False, 0.0, 0.0, None)
 
 
 @jit(inline=True)
@@ -331,13 +330,11 @@ def run_lanes(n, bt, tol, out, r0, r1):
     """
     L = LANES
     model = bt.model
-    seg = bt.seg
     t0 = bt.t0
     t_end = bt.t_end
     t_out = out.t
     n_out = t_out.size
     cps = to_fixed_tuple(bt.command_params, N_COMMAND)
-    held = is_held(bt.kind, seg.mode)
     h_max = tol.h_max
     xmax = tol.xmax
     tol_t = 1e-9 * max(1.0, abs(t_end))
@@ -359,10 +356,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
     H = np.zeros(L)
     ERR = np.zeros(L)
     T = np.full(L, t0)
-    TB = np.full(L, t_end)  # end of the held segment
     TNEXT = np.full(L, np.inf)  # next output time
-    HV = np.zeros(L)  # held command
-    UV = np.zeros(L)  # held ideal input
     HN = np.zeros(L)  # natural step size
     HF = np.full(L, -1.0)  # forced step size (a kink landed on)
     LERRP = np.zeros(L)  # log of the previous error (PI control)
@@ -372,7 +366,6 @@ def run_lanes(n, bt, tol, out, r0, r1):
     ACTIVE = np.zeros(L, dtype=np.bool_)
     MODE = np.full(L, M_PLAN)
     PLAN = np.zeros(L, dtype=np.int64)
-    KSEG = np.zeros(L, dtype=np.int64)
     J = np.zeros(L, dtype=np.int64)
     NFEV = np.zeros(L, dtype=np.int64)
     NACC = np.zeros(L, dtype=np.int64)
@@ -381,7 +374,6 @@ def run_lanes(n, bt, tol, out, r0, r1):
     REJ = np.zeros(L, dtype=np.bool_)
     BRIDGED = np.zeros(L, dtype=np.bool_)
     KINKED = np.zeros(L, dtype=np.bool_)
-    NEWSEG = np.zeros(L, dtype=np.bool_)
     DONE = np.zeros(L, dtype=np.bool_)
     # one lane's state, for the lane-by-lane work
     ys = np.empty(n)
@@ -422,11 +414,11 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     g_cur = switch_of(KINKED[l], ys[0])
                     g_new = switch_of(KINKED[l], YT[0, l])
                     crossing = PLAN[l] & FORCED == 0 and g_cur * g_new < 0.0
-                    t_new = TB[l] if PLAN[l] & CLIPPED != 0 else t + h
+                    t_new = t_end if PLAN[l] & CLIPPED != 0 else t + h
                     dense = crossing or TNEXT[l] < t_new - tol_t
                     h_force = -1.0
                     if dense:
-                        fld = run_field(bt, r, held, UV[l], HV[l])
+                        fld = run_field(bt, r)
                         lane_step_into(K, YT, l, wk.K, wk.y_new, n)
                         dense_step(fld, t, ys, h, wk, n)
                         NFEV[l] += 3
@@ -458,9 +450,9 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 mode = M_PLAN
                 if beyond(ys, n, xmax):
                     STAT[l] = ST_DIVERGED
-                elif T[l] < TB[l] - tol_t and J[l] < n_out and t_out[J[l]] <= T[l] + tol_t:
+                elif T[l] < t_end - tol_t and J[l] < n_out and t_out[J[l]] <= T[l] + tol_t:
                     o = run_output(out, r)
-                    fld = run_field(bt, r, held, UV[l], HV[l])
+                    fld = run_field(bt, r)
                     j = J[l]
                     while j < n_out and t_out[j] <= T[l] + tol_t:
                         put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
@@ -471,10 +463,9 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 if ACTIVE[l] and (STAT[l] != ST_OK or T[l] >= t_end - tol_t):
                     # ---- the run in this lane is done
                     o = run_output(out, r)
-                    fld = run_field(bt, r, held, UV[l], HV[l])
+                    fld = run_field(bt, r)
                     j = J[l]
                     if STAT[l] == ST_OK:
-                        fld = held_field(fld, end_hold(fld, seg, seg.values[r], KSEG[l] + 1, T[l], ys))
                         while j < n_out and t_out[j] <= t_end + tol_t:
                             put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
                             j += 1
@@ -482,7 +473,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         # the run's deferred samples first (its input columns follow from them)
                         flush_dense(bt.kind, cps, ds, nd, out.X, t_out, wk.F, n)
                         nd = 0
-                    if not held and out.store == STORE_SAMPLES and o.U.size == t_out.size:
+                    if out.store == STORE_SAMPLES and o.U.size == t_out.size:
                         input_samples(bt.kind, fld.input_params, fld.command_params, t_out[:j], o.X[:j], o.U[:j],
                                       o.W[:j])
                     put_unreached(o, j, n)
@@ -514,31 +505,19 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         Y[i, l] = ys[i]
                     KINKED[l] = has_kink(model, to_fixed_tuple(bt.P[r], N_PACK))
                     T[l] = t0
-                    KSEG[l] = 0
-                    if seg.mode != SEG_CONT:
-                        KSEG[l] = int(np.floor((t0 - seg.start) / seg.period + 1e-9))
                     HN[l] = -1.0
                     STAT[l] = ST_OK
                     J[l] = 0
                     NFEV[l] = 0
                     NACC[l] = 0
                     NREJ[l] = 0
-                    NEWSEG[l] = True
                     if beyond(ys, n, xmax):
                         STAT[l] = ST_DIVERGED
                         continue
-                if NEWSEG[l] or T[l] >= TB[l] - tol_t:
-                    # ---- a held segment begins (the first one of the run, or the next)
-                    if not NEWSEG[l]:
-                        KSEG[l] += 1
-                    NEWSEG[l] = False
+                    # the run's first rate, its outputs at t0 and its first step (the input is not held: one
+                    # segment to t_end)
                     o = run_output(out, r)
-                    fld = run_field(bt, r, held, UV[l], HV[l])
-                    hold = hold_of(fld, seg, seg.values[r], KSEG[l], T[l], ys, t_end, tol_t)
-                    TB[l] = hold.t_b
-                    UV[l] = hold.uval
-                    HV[l] = hold.hval
-                    fld = held_field(fld, hold)
+                    fld = run_field(bt, r)
                     rate(fld, T[l], ys, fs)
                     NFEV[l] += 1
                     for i in range(n):
@@ -548,9 +527,8 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         put_near(o, j, t_out[j], ys, fs, T[l], n, fld, wk.yo)
                         j += 1
                     J[l] = j
-                    if HN[l] <= 0.0:
-                        HN[l] = first_step(fld, T[l], ys, fs, wk, n, tol)
-                        NFEV[l] += 1
+                    HN[l] = first_step(fld, T[l], ys, fs, wk, n, tol)
+                    NFEV[l] += 1
                     REJ[l] = False
                     HF[l] = -1.0
                     LERRP[l] = LERR_FLOOR
@@ -563,12 +541,12 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 t = T[l]
                 jk = (fs[2] - ALAST[l]) / HLAST[l] if HLAST[l] > 0.0 else 0.0
                 taylor = (ys[0], fs[0], fs[2], jk)
-                plan = plan_step(t, TB[l], HN[l], h_max, HF[l], KINKED[l] and not BRIDGED[l], taylor, tol_t)
+                plan = plan_step(t, t_end, HN[l], h_max, HF[l], KINKED[l] and not BRIDGED[l], taylor, tol_t)
                 HF[l] = -1.0
                 BRIDGED[l] = False
                 if plan.flags == BRIDGE:
                     # ---- an RK4 step across a kink close ahead
-                    fld = run_field(bt, r, held, UV[l], HV[l])
+                    fld = run_field(bt, r)
                     hb = plan.h
                     eb = rk4_bridge(fld, t, ys, fs, hb, wk, n, tol)
                     NFEV[l] += 4
@@ -601,7 +579,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                                 j += 1
                         J[l] = j
                         continue
-                    plan = plan_step(t, TB[l], HN[l], h_max, -1.0, False, taylor, tol_t)
+                    plan = plan_step(t, t_end, HN[l], h_max, -1.0, False, taylor, tol_t)
                 if plan.h < min_step(t):
                     STAT[l] = ST_STEP_TOO_SMALL
                     continue
@@ -657,7 +635,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
             elif DONE[l] and TNEXT[l] < T[l] + H[l] - tol_t:
                 for i in range(n):
                     ys[i] = Y[i, l]
-                fld = run_field(bt, RUN[l], held, UV[l], HV[l])
+                fld = run_field(bt, RUN[l])
                 lane_step_into(K, YT, l, wk.K, wk.y_new, n)
                 dense_step(fld, T[l], ys, H[l], wk, n)
                 NFEV[l] += 3
@@ -692,8 +670,8 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 bad = bad | (not (abs(Y[i, l]) < xmax))
             post = DONE[l] & (bad | (TNEXT[l] <= t + tol_t))
             h = min(HN[l], h_max)
-            clip = t + h > TB[l]
-            h = TB[l] - t if clip else h
+            clip = t + h > t_end
+            h = t_end - t if clip else h
             jk = (F[2, l] - ALAST[l]) / HLAST[l] if HLAST[l] > 0.0 else 0.0
             near = KINKED[l] & (not BRIDGED[l]) & kink_possible(Y[0, l], F[0, l], F[2, l], jk, h)
             slow = (h < 2.3e-15 * abs(t) + 1e-300) | (NACC[l] + NREJ[l] >= tol.max_steps)
