@@ -367,3 +367,22 @@ def test_the_cli_reports_an_error_that_replaced_an_interrupt_as_the_interrupt(mo
     parser.set_defaults(func=lambda args: (_ for _ in ()).throw(ValueError("Invalid bounding box")))
     assert cli.main([]) == 3
     assert "internal error: ValueError: Invalid bounding box" in capsys.readouterr().err
+
+
+def test_an_interrupt_while_the_command_loads_is_one_line_and_130():
+    """Ctrl-C before the command runs (the parser and numba loading) is reported like any other interrupt,
+    and importing the CLI loads no numerical library, so the window before main can report it is short."""
+    code = textwrap.dedent("""
+        import os, signal, sys
+        import iwp.cli as c
+        assert "numba" not in sys.modules and "scipy" not in sys.modules, "the CLI's import loads numba or scipy"
+        build = c.build_parser
+        def interrupted_build():
+            os.kill(os.getpid(), signal.SIGINT)
+            return build()
+        c.build_parser = interrupted_build
+        raise SystemExit(c.main(["fit", "a.csv", "--out", "D"]))
+    """)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=_env(), timeout=120)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.strip().splitlines() == ["iwp: interrupted"], done.stderr

@@ -23,7 +23,6 @@ import warnings
 
 from ..errors import IwpError
 from ..interruption import Terminated, deliveries, raise_if_replaced
-from ..threads import one_blas_thread
 from .interrupts import interrupts_as_exceptions
 
 # One module per subcommand, each defines ``register(subparsers)``.
@@ -162,6 +161,18 @@ def main(argv: list[str] | None = None) -> int:
         3 an internal error, 130 interrupted or terminated. Set ``IWP_TRACEBACK=1`` to see the traceback of an
         internal error instead.
     """
+    try:
+        return _run(argv)
+    except KeyboardInterrupt as exc:  # Ctrl-C while the parser or the numerical libraries load: nothing written yet
+        return _interrupted(exc)
+
+
+def _run(argv: list[str] | None) -> int:
+    """:func:`main` itself: parse, run the command, turn its errors into one line and an exit status."""
+    # numba (through iwp.threads) takes a third of a second to load: here, not at the module's import, so
+    # that an interrupt while it loads is reported by main like any other
+    from ..threads import one_blas_thread
+
     parser = build_parser()
     args = parser.parse_args(argv)
     cli_parser = getattr(args, "cli_parser", None)
