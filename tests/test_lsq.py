@@ -9,7 +9,7 @@ import pytest
 from scipy.signal import fftconvolve
 
 from iwp.errors import IdentificationError, InputError
-from iwp.ident.covariance import hac_bandwidth
+from iwp.ident.covariance import correlation_messages, hac_bandwidth
 from iwp.ident.lsq import (
     LeastSquaresResult,
     solve_least_squares,
@@ -356,3 +356,35 @@ def test_the_bandwidth_leaves_out_score_columns_that_overflow_or_are_not_finite(
     assert hac_bandwidth(H) == alone
     H[:, [0, 2]] = np.nan
     assert hac_bandwidth(H) == 0  # nothing left to judge by
+
+
+def _collinear_pair(eps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Columns x and x + eps y: theta1 and theta2 alone are poorly determined, their sum is not."""
+    rng = np.random.default_rng(5)
+    x, y = rng.standard_normal((2, 1000))
+    return np.column_stack([x, x + eps * y]), np.column_stack([x, eps * y])
+
+
+def test_a_determined_sum_of_a_collinear_pair_is_given_with_its_standard_error() -> None:
+    J, J_sum = _collinear_pair(1e-2)
+    cov = np.linalg.inv(J.T @ J)
+    msgs = correlation_messages(["a", "b"], np.array([2.0, 1.0]), cov, ["1/s", "1/s"], J)
+    # the sum's standard error from the well-conditioned columns of (a + b, b)
+    sd_sum = np.sqrt(np.linalg.inv(J_sum.T @ J_sum)[0, 0])
+    assert len(msgs) == 1 and "a and b cannot be told apart" in msgs[0]
+    assert f"a + b = 3 +- {sd_sum:.2g} is determined" in msgs[0], msgs
+
+
+def test_a_sum_whose_variance_is_lost_in_rounding_is_not_called_determined() -> None:
+    J, J_sum = _collinear_pair(1e-7)
+    cov = np.linalg.inv(J.T @ J)  # entries near 1e11: the sum's variance (near 1e-3) is below their rounding
+    msgs = correlation_messages(["a", "b"], np.array([2.0, 1.0]), cov, ["1/s", "1/s"], J)
+    assert len(msgs) == 1 and "a and b cannot be told apart" in msgs[0]
+    assert "determined" not in msgs[0] and "+-" not in msgs[0], msgs
+
+
+def test_a_sum_known_no_better_than_its_value_is_not_called_determined() -> None:
+    J, _ = _collinear_pair(1e-2)
+    cov = np.linalg.inv(J.T @ J) * 1e4  # the sum's standard error near 3, its value 3
+    msgs = correlation_messages(["a", "b"], np.array([2.0, 1.0]), cov, ["1/s", "1/s"], J)
+    assert len(msgs) == 1 and "is determined" not in msgs[0], msgs

@@ -157,7 +157,8 @@ def correlation_messages(free: Sequence[str], values: np.ndarray, cov: np.ndarra
     that has a component along it, even one that is determined to 1 %. The
     pairs of which neither member is determined to within 5 % are named as
     "cannot be told apart" (most collinear Jacobian columns ``Jp`` first), with
-    their sum or difference when it is determined and the units agree; when
+    their sum or difference when it is determined (to 5 %, and its variance,
+    which cancels the pair's, above their rounding) and the units agree; when
     there is none, the most collinear pair is named as strongly correlated;
     the other correlated pairs are listed in one line.
 
@@ -190,6 +191,9 @@ def correlation_messages(free: Sequence[str], values: np.ndarray, cov: np.ndarra
     cn = np.linalg.norm(Jp, axis=0)
     cn[cn == 0] = 1.0
     Q = (Jp / cn).T @ (Jp / cn)
+    # the relative rounding of a covariance computed from these columns: eps times their condition number squared
+    sv = np.linalg.svd(Jp / cn, compute_uv=False)
+    rounding = np.finfo(float).eps * (sv[0] / sv[-1]) ** 2 if sv.size and sv[-1] > 0 else math.inf
     msgs, others = [], []
     rel = sd / np.maximum(np.abs(values), 1e-300)
     ranked = sorted(cand, key=lambda p: -abs(Q[p[0], p[1]]))
@@ -211,8 +215,11 @@ def correlation_messages(free: Sequence[str], values: np.ndarray, cov: np.ndarra
             if units[i] == units[j]:
                 sign = 1.0 if c < 0 else -1.0
                 val = values[i] + sign * values[j]
-                s_comb = math.sqrt(max(cov[i, i] + cov[j, j] + 2 * sign * cov[i, j], 0.0))
-                text += f"; {a} {'+' if sign > 0 else '-'} {b} = {val:.4g} +- {s_comb:.2g} is determined"
+                var = cov[i, i] + cov[j, j] + 2 * sign * cov[i, j]
+                # the variance of the sum cancels the pair's; below their rounding (relative cond^2 eps of the
+                # covariance) it is not known, and then neither is whether the sum is determined
+                if var > rounding * (cov[i, i] + cov[j, j] + 2 * abs(cov[i, j])) and math.sqrt(var) <= 0.05 * abs(val):
+                    text += f"; {a} {'+' if sign > 0 else '-'} {b} = {val:.4g} +- {math.sqrt(var):.2g} is determined"
             text += "; excite larger amplitudes or fix one of them"
             msgs.append(text)
         else:
