@@ -563,6 +563,22 @@ def test_a_fast_wheels_real_corners_are_no_glitches_but_a_garbage_first_sample_i
     assert [(g.index, g.kind) for g in found] == [(0, "spike"), (333, "spike")]
 
 
+def test_a_chirps_quiet_start_is_no_glitch_but_a_spike_in_it_is(tmp_path):
+    # a smooth input leaves the regression on its steps ill-conditioned: extrapolated to the log's start it
+    # once made the second sample of every such chirp a "q1 spike" of a count or two
+    rig = rig_of(sample_period=0.05, pendulum={"counts_per_rev": 20000})
+    truth = TRUTH.replace(sigma_c1=0.4, sigma_c2=0.3, eps_c1=0.1, eps_c2=0.5)
+    for seed in range(4):
+        run = DescribedRig(rig, truth, q1_offset=0.02, noise_std=0.001, seed=seed).run(Chirp(0.2, 3.0, 20.0),
+                                                                                         duration=40.0)
+        d = read_rig_log(write_rig_csv(run, tmp_path / f"c{seed}.csv"), rig, glitches=False)
+        assert find_glitches(d.t, {"q1": d.q1, "q4": d.q4}, input=d.input) == [], seed
+    q1 = d.q1.copy()
+    q1[200] += 0.3 * np.ptp(d.q1)
+    found = find_glitches(d.t, {"q1": q1, "q4": d.q4}, input=d.input)
+    assert [(g.column, g.index, g.kind) for g in found] == [("q1", 200, "spike")]
+
+
 def test_a_poor_held_out_prediction_is_a_warning_with_what_to_try():
     from iwp.ident.logfit import LogFit, poor_prediction_advice
 

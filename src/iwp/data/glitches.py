@@ -24,7 +24,8 @@ mean is ``e[k] = y[k] - (y[k-1] + y[k+1]) / 2`` (at the first sample: from the
 linear extrapolation of the two next samples; the last sample is not
 checked, a step there looks the same). With the logged input, the part of
 ``e`` its steps explain is removed first (a driven speed's real corner where
-the input reverses, :func:`find_glitches`). ``s`` is 1.4826 times the
+the input reverses, :func:`find_glitches`), and a sample must stick out both
+with and without it (the input's part excuses a corner, never makes one). ``s`` is 1.4826 times the
 median absolute ``e`` over the signal (the spread of a smooth signal's
 curvature plus its noise). A spike is a sample with
 
@@ -170,15 +171,16 @@ def _spikes(y: np.ndarray, u: np.ndarray | None = None) -> list[int]:
     n = y.size
     if n < 5:
         return []
-    e = _deviation(y)
-    if u is not None:
-        e = _input_explained(e, u)
+    raw = _deviation(y)
+    # the input's part only excuses a deviation (a real corner), never makes one: fitted to a smooth input
+    # (a chirp) the regression is ill-conditioned and its extrapolation at the log's start is no measurement
+    e = _input_explained(raw, u) if u is not None else raw
     s = _robust_spread(e[1:-1])
     lo, hi = np.percentile(y, [1.0, 99.0])
     floor = SPIKE_FLOOR * float(hi - lo)
     thr = max(SPIKE_SIGMAS * s, floor, 1e-12)
     out = []
-    for k in np.flatnonzero(np.abs(e) > thr):
+    for k in np.flatnonzero((np.abs(e) > thr) & (np.abs(raw) > thr)):
         k = int(k)
         if k == n - 1:  # a step at the last sample looks the same: not told apart, not reported
             continue
