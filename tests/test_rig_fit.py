@@ -386,6 +386,29 @@ def test_iwp_fit_command_writes_the_report_and_refuses_bad_input(tmp_path, capsy
     assert not (tmp_path / "o2").exists()
 
 
+def test_iwp_validate_of_a_held_out_log_gives_the_fits_own_numbers(tmp_path, capsys):
+    # the rig's pendulum offset is estimated per log and its input is a duty (a raw v that the fit reads as u):
+    # validate takes the fit's offset and input as the fit did, and the same one-sided initial state
+    rig = rig_of()
+    rig_path = tmp_path / "rig.json"
+    rig_path.write_text(json.dumps(BASE))
+    files, held = write_logs(tmp_path, rig, duration=20.0, q1_offset=0.02)
+    out = tmp_path / "out"
+    assert main(["fit", *map(str, files), "--rig", str(rig_path), "--validate", str(held), "--out", str(out),
+                 "--model", "9"]) == 0
+    stored = json.loads((out / "parameters.json").read_text())
+    assert stored["q1_offset"] == pytest.approx(0.02, abs=2e-3) and stored["reads_v_as_u"] is True
+    expected = json.loads((out / "fit.json").read_text())["validation"][0]["fit"]
+    converted = tmp_path / "held.csv"
+    assert main(["convert", str(held), "--rig", str(rig_path), "--out", str(converted)]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(converted), "--params", str(out / "parameters.json"), "--signals", "q1,q4",
+                 "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)["fit"]
+    assert got["q1"] == pytest.approx(expected["q1"], abs=1e-6) and got["q4"] == pytest.approx(expected["q4"], abs=1e-6)
+    assert expected["q1"] > 95.0
+
+
 # --------------------------------------------------------------------------
 # model options of other rigs, against analytic references
 # --------------------------------------------------------------------------

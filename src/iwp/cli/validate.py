@@ -70,8 +70,8 @@ def run(args) -> int:
     from ..data import read_experiment
     from ..errors import DataFormatError, InputError
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
-    from ..ident.validation import choose_model, validate, validation_plant
-    from ..models.parameters import stored_belt, stored_model
+    from ..ident.validation import choose_model, held_out_q1_offset, model_input, validate, validation_plant
+    from ..models.parameters import stored_belt, stored_model, stored_q1_offset, stored_reads_v_as_u
     from ..models.plant import MODELS
     from ..plotting import savefig
     from ..sim.inputs import HopfController
@@ -90,23 +90,30 @@ def run(args) -> int:
         if args.format is None and _looks_like_angle_log(args.file):
             raise DataFormatError(f"{exc}; this looks like an angle log: give --format angle-log") from None
         raise
+    reads_v_as_u = stored_reads_v_as_u(args.params)
     model = choose_model(data, args.model, stored=stored_model(args.params), closed_loop=args.controller is not None,
-                         source=args.params, log=args.file)
+                         source=args.params, log=args.file, reads_v_as_u=reads_v_as_u)
+    if reads_v_as_u:  # as iwp fit read the logs
+        data = model_input(data, model, args.file)
     if MODELS[model].n_states > 4:  # a belt model: the belt comes from the file, as iwp fit --belt writes it
         if args.band:
             raise InputError("--band: the prediction bands are for lumped parameters; a belt model has none")
         params = validation_plant(params, data, model, belt=stored_belt(args.params), source=f"--params {args.params}")
+    offset = held_out_q1_offset(data, stored_q1_offset(args.params))
     controller = None
     if args.controller == "hopf":
         controller = HopfController(args.k1, args.k2, args.controller_ts)
     v = validate(data, params, model=model, estimate_x0=args.estimate_x0, window=(args.t_start, args.t_end),
-                 restart_times=args.restart or (), controller=controller, signals=signals)
+                 restart_times=args.restart or (), controller=controller, signals=signals, q1_offset=offset)
     if args.plot is not None:
         fig = v.plot()["figure"]
         write_all([(args.plot, lambda tmp: savefig(fig, tmp))])
     if args.json:
         print(json.dumps(v.to_dict(), indent=2))
     else:
+        if offset:
+            print(f"q1 less the pendulum zero offset {offset:+.4g} rad of {args.params} (the training logs' mean, "
+                  "as iwp fit took it off its held-out logs)")
         print(v.summary())
         if args.plot is not None:
             print(f"wrote {args.plot}")

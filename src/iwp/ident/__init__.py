@@ -37,7 +37,16 @@ from .problem import FitProblem, FitResult, Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, fit_plant, refine, refine_identification
 from .result import IdentificationResult
 from .setups import PARAMETER_NAMES, PARAMETER_UNITS, SETUPS, Setup, get_setup
-from .validation import UninformativeValidation, ValidationResult, auto_model, validate, validation_plant
+from .validation import (
+    READS_V_AS_U,
+    UninformativeValidation,
+    ValidationResult,
+    auto_model,
+    held_out_q1_offset,
+    model_input,
+    validate,
+    validation_plant,
+)
 
 __all__ = [
     "Differentiator",
@@ -62,6 +71,9 @@ __all__ = [
     "ValidationResult",
     "as_experiments",
     "auto_model",
+    "held_out_q1_offset",
+    "model_input",
+    "READS_V_AS_U",
     "default_differentiator",
     "fit_percent",
     "fit_plant",

@@ -23,7 +23,7 @@ description, :func:`iwp.data.rig_log.read_rig_log`, or iwp logs) and
    initial state and, unless the rig gives it, the pendulum angle's zero
    offset estimated per log;
 4. **validates** on held-out logs without re-fitting: each is simulated from
-   its measured initial state (:func:`measured_initial_state`) with the
+   its measured initial state (:func:`~iwp.ident.output_error.measured_initial_state`) with the
    pendulum offset of the rig, or else the
    mean of the training logs' offsets (one encoder reset position), and
    compared per signal (fit in percent, RMS and largest error).
@@ -61,14 +61,15 @@ from ..threads import one_blas_thread, thread_map
 from .belt_fit import BELT_FREE
 from .differentiate import Differentiator
 from .fit import fit_percent
-from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_state_covariance
+from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_initial_state, measured_state_covariance
 from .problem import Loss, SolverOptions
 from .refinement import BELT_OPTIONS, RefineResult, as_experiments, refine
 from .regressors import columns, q3_row, row_sum
 from .structure import LadderResult, Rung, RungOutcome, information_criteria, ladder, select
+from .validation import model_input
 
 __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresStart", "least_squares_start",
-           "load_logs", "measured_initial_state", "MIN_SAMPLES_PER_PERIOD"]
+           "load_logs", "MIN_SAMPLES_PER_PERIOD"]
 
 #: Least squares on differentiated data needs at least this many samples per pendulum period.
 MIN_SAMPLES_PER_PERIOD = 8
@@ -156,6 +157,10 @@ class LogFitResult:
         Wall time [s].
     structures : LadderResult or None
         The ladder of structures fitted and ranked (``select``), or None.
+    held_out_offset : float
+        The pendulum zero offset [rad] taken off a held-out log's ``q1``: the
+        training logs' mean offset when the offset is estimated per log, 0
+        when the rig description gives it (its logs are corrected when read).
 
     Notes
     -----
@@ -178,6 +183,7 @@ class LogFitResult:
     rig: RigDescription | None = None
     elapsed: float = 0.0
     structures: LadderResult | None = None
+    held_out_offset: float = 0.0
 
     @property
     def belt(self) -> BeltParameters | None:
@@ -215,6 +221,7 @@ class LogFitResult:
             "model": self.model,
             "outputs": list(self.outputs),
             "options": dict(self.options),
+            "held_out_q1_offset": json_float(self.held_out_offset),
             "rig": None if self.rig is None else self.rig.to_dict(),
             "parameters": {k: v.to_dict() for k, v in r.parameters.items()},
             "free": list(r.free),
@@ -683,8 +690,8 @@ def fit_logs(
             start_p = options.starting_values(fitting.joint(rigid, start_p).params, umax)
         r = fitting.joint(options, start_p)
     model = options.model
-    train_logs = [_as_model_input(d, model, "train") for d in train_logs]
-    val_logs = [_as_model_input(d, model, "validate") for d in val_logs]
+    train_logs = [model_input(d, model, "train") for d in train_logs]
+    val_logs = [model_input(d, model, "validate") for d in val_logs]
     msgs.extend(r.warnings)
     # ---- report: training fits, held-out logs simulated from their measured state
     offs = [r.offsets[i].get("q1", (0.0, 0.0))[0] for i in range(len(train_logs))]
@@ -712,7 +719,7 @@ def fit_logs(
     res = LogFitResult(params=params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
                        model=model, outputs=outputs, options=options.to_dict(offset_given), train=train_fits,
                        validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0,
-                       structures=structures)
+                       structures=structures, held_out_offset=val_off)
     if warn:
         for m in res.warnings:
             _warnings.warn(m, stacklevel=2)
@@ -923,13 +930,13 @@ class _Fitting:
         ``belt``: the belt's start (a belt structure's); ``max_nfev``: the optimiser's budget (default
         :class:`~iwp.ident.problem.SolverOptions`')."""
         model = options.model
-        logs = [_as_model_input(d, model, "train") for d in (self.train if logs is None else logs)]
+        logs = [model_input(d, model, "train") for d in (self.train if logs is None else logs)]
         guesses = list(x0) if x0 is not None else [None] * (len(logs) + len(self.others))
         exps = as_experiments(logs, windows=tuple(options.window), offsets=() if self.offset_given else ("q1",),
                               x0=guesses[:len(logs)])
         for (kind, d), g in zip(self.others, guesses[len(logs):]):
             moves_q1 = kind != "clamped"
-            exps.append(Experiment(_as_model_input(d, model, f"--{kind}"), kind=kind, window=tuple(options.window),
+            exps.append(Experiment(model_input(d, model, f"--{kind}"), kind=kind, window=tuple(options.window),
                                    x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else ()))
         plant = self.plant(options, start, belt)
         bounds = (belt_bounds(ratio=plant.belt.N, Ts=self.Ts, speed_per_input=plant.belt.kTbeta_over_Rgamma)
@@ -944,7 +951,7 @@ class _Fitting:
         offs = [o.get("q1", (0.0, 0.0))[0] for o in r.offsets[:len(r.offsets) - len(self.others)]]
         off = 0.0 if self.offset_given else float(np.mean(offs))
         plant = self.plant(options, r.params, r.belt)
-        return thread_map(lambda d: _held_out(_as_model_input(d, model, "validate"), plant, self.outputs, off, [],
+        return thread_map(lambda d: _held_out(model_input(d, model, "validate"), plant, self.outputs, off, [],
                                               None), logs)
 
     def ladder(self, start: LumpedParameters) -> LadderResult:
@@ -1018,54 +1025,6 @@ def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset:
     return fit
 
 
-#: the measured initial state: a quadratic fitted to the first samples over about this long [s]
-X0_SECONDS = 0.1
-
-
-def measured_initial_state(d: ExperimentData) -> np.ndarray:
-    """The state ``[q1, q2, q3, q4]`` a log measures at its first sample.
-
-    ``q1`` and ``q3``: a quadratic fitted by least squares to the first
-    ``max(5, 0.1 s / Ts)`` samples of the angle (a short one-sided window: a
-    longer filter at the start of a log is biased by the input's steps),
-    its value and slope at ``t[0]``; ``q2``: the same, or 0 without a wheel
-    angle; ``q4``: the measured speed at ``t[0]`` (a glitch replaced: the
-    quadratic through the next samples), or for a speed sampled as the mean
-    over the preceding period, the next two means extrapolated to ``t[0]``
-    (``1.5 y[1] - 0.5 y[2]``).
-
-    Parameters
-    ----------
-    d : ExperimentData
-        The log.
-
-    Returns
-    -------
-    ndarray, shape (4,)
-        ``[q1, q2, q3, q4]`` at ``t[0]`` [rad, rad, rad/s, rad/s].
-    """
-    m = max(5, int(round(X0_SECONDS / d.Ts)) + 1)
-    m = min(m, d.n_samples)
-    tt = d.t[:m] - d.t[0]
-
-    def value_slope(y):
-        c = np.polyfit(tt, y[:m], 2)
-        return float(c[2]), float(c[1])
-
-    q1, q3 = value_slope(d.q1)
-    q2, q4 = value_slope(d.q2) if d.q2 is not None else (0.0, 0.0)
-    if d.q4 is not None:
-        y = np.asarray(d.q4, dtype=float)
-        if d.q4_sampling == "mean":
-            q4 = 1.5 * y[1] - 0.5 * y[2]
-        elif d.glitch_mask("q4")[0]:
-            c = np.polyfit(tt[1:], y[1:m], 2)
-            q4 = float(c[2])
-        else:
-            q4 = float(y[0])
-    return np.array([q1, q2, q3, q4])
-
-
 def _unique(msgs: list[str]) -> list[str]:
     seen, out = set(), []
     for m in msgs:
@@ -1073,17 +1032,6 @@ def _unique(msgs: list[str]) -> list[str]:
             seen.add(m)
             out.append(m)
     return out
-
-
-def _as_model_input(d: ExperimentData, model: str, argument: str) -> ExperimentData:
-    """The log with the input the model takes: model (9) and the belt model read a raw ``v`` as their ``u`` (no
-    dead zone)."""
-    if model in ("compensated", "belt-full") and d.input_name == "v":
-        return replace(d, u=d.v, v=None)
-    if model == "raw" and d.input_name == "u":
-        raise InputError(f"{argument}: {d.source} logs the compensated input u (the rig compensates its dead "
-                         "zone); the dead-zone model (6) needs the raw command v", argument="dead_zone")
-    return d
 
 
 class _Replayed(NamedTuple):

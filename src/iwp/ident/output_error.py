@@ -44,12 +44,14 @@ from .differentiate import Differentiator
 from .parameters import Parameter, Parameters
 
 __all__ = [
+    "measured_initial_state",
     "EXPERIMENT_KINDS",
     "Experiment",
     "Evaluation",
     "OutputError",
     "PreparedExperiment",
     "initial_state",
+    "plant_state",
     "measured_signals",
     "measured_state",
     "measured_state_covariance",
@@ -274,6 +276,54 @@ def measured_state_covariance(data: ExperimentData, index: int) -> np.ndarray:
     return C
 
 
+#: the measured initial state: a quadratic fitted to the first samples over about this long [s]
+X0_SECONDS = 0.1
+
+
+def measured_initial_state(d: ExperimentData) -> np.ndarray:
+    """The state ``[q1, q2, q3, q4]`` a log measures at its first sample.
+
+    ``q1`` and ``q3``: a quadratic fitted by least squares to the first
+    ``max(5, 0.1 s / Ts)`` samples of the angle (a short one-sided window: a
+    longer filter at the start of a log is biased by the input's steps),
+    its value and slope at ``t[0]``; ``q2``: the same, or 0 without a wheel
+    angle; ``q4``: the measured speed at ``t[0]`` (a glitch replaced: the
+    quadratic through the next samples), or for a speed sampled as the mean
+    over the preceding period, the next two means extrapolated to ``t[0]``
+    (``1.5 y[1] - 0.5 y[2]``).
+
+    Parameters
+    ----------
+    d : ExperimentData
+        The log.
+
+    Returns
+    -------
+    ndarray, shape (4,)
+        ``[q1, q2, q3, q4]`` at ``t[0]`` [rad, rad, rad/s, rad/s].
+    """
+    m = max(5, int(round(X0_SECONDS / d.Ts)) + 1)
+    m = min(m, d.n_samples)
+    tt = d.t[:m] - d.t[0]
+
+    def value_slope(y):
+        c = np.polyfit(tt, y[:m], 2)
+        return float(c[2]), float(c[1])
+
+    q1, q3 = value_slope(d.q1)
+    q2, q4 = value_slope(d.q2) if d.q2 is not None else (0.0, 0.0)
+    if d.q4 is not None:
+        y = np.asarray(d.q4, dtype=float)
+        if d.q4_sampling == "mean":
+            q4 = 1.5 * y[1] - 0.5 * y[2]
+        elif d.glitch_mask("q4")[0]:
+            c = np.polyfit(tt[1:], y[1:m], 2)
+            q4 = float(c[2])
+        else:
+            q4 = float(y[0])
+    return np.array([q1, q2, q3, q4])
+
+
 def initial_state(data: ExperimentData, index: int, plant: Plant,
                   differentiator: Differentiator | None = None) -> np.ndarray:
     """The measured state of a log at sample ``index`` as the state of ``plant``.
@@ -298,7 +348,26 @@ def initial_state(data: ExperimentData, index: int, plant: Plant,
     ndarray, shape (4,)
         ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s].
     """
-    x = measured_state(data, index, differentiator)
+    return plant_state(measured_state(data, index, differentiator), plant)
+
+
+def plant_state(x, plant: Plant) -> np.ndarray:
+    """A measured state ``[q1, q2, q3, q4]`` as the state of ``plant``: ``q4 = 0`` for a held wheel (the
+    free-pendulum models), ``q1 = q3 = 0`` for a locked pendulum.
+
+    Parameters
+    ----------
+    x : array_like, shape (4,)
+        The measured state [rad, rad, rad/s, rad/s].
+    plant : Plant
+        The plant the state is for.
+
+    Returns
+    -------
+    ndarray, shape (4,)
+        A new array.
+    """
+    x = np.array(x, dtype=float)
     if plant.wheel_held:
         x[3] = 0.0
     if plant.pendulum_locked:

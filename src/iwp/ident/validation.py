@@ -42,12 +42,20 @@ from ..plotting.validation import plot_validation
 from ..sim.inputs import Input
 from ..sim.uncertainty import ParameterUncertainty, PredictionBand, prediction_band
 from .fit import fit_percent
-from .output_error import Experiment, OutputError, measured_signals, measured_state_covariance, x0_name
+from .output_error import (
+    Experiment,
+    OutputError,
+    measured_initial_state,
+    measured_signals,
+    measured_state_covariance,
+    plant_state,
+    x0_name,
+)
 from .problem import FitProblem, SolverOptions
 from .refinement import REFINE_MODELS
 
 __all__ = ["validate", "fit_percent", "ValidationResult", "auto_model", "choose_model", "validation_plant",
-           "VALIDATION_OPTIONS", "UninformativeValidation"]
+           "VALIDATION_OPTIONS", "UninformativeValidation", "READS_V_AS_U", "model_input", "held_out_q1_offset"]
 
 
 class UninformativeValidation(UserWarning):
@@ -70,7 +78,7 @@ class ValidationResult:
     measured, simulated, error : dict of str to ndarray
         Per signal: the measured signal, the simulation and ``measured - simulated``.
     fit : dict of str to float
-        Fit per signal [%] (:func:`fit_percent`); NaN for a constant measured signal.
+        Fit per signal [%] (:func:`fit_percent`) over the samples compared; NaN for a constant measured signal.
     x0 : ndarray, shape (4,)
         Initial state of the simulation at ``t[0]``.
     restart_times : tuple of float
@@ -99,16 +107,23 @@ class ValidationResult:
     band: PredictionBand | None = None
     #: per signal, the share of the measured samples inside the prediction band
     coverage: dict[str, float] | None = None
+    #: per signal, the samples compared (as a fit weighs them: not a replaced glitch, nor a mean speed's first
+    #: sample, which has no preceding period; all of a signal the set-up holds still); None: all
+    used: dict[str, np.ndarray] | None = None
+
+    def _compared(self, k: str) -> np.ndarray:
+        e = self.error[k]
+        return e if self.used is None or k not in self.used else e[self.used[k]]
 
     @property
     def rms(self) -> dict[str, float]:
-        """Root-mean-square error per signal."""
-        return {k: float(np.sqrt(np.mean(e ** 2))) for k, e in self.error.items()}
+        """Root-mean-square error per signal over the samples compared."""
+        return {k: float(np.sqrt(np.mean(self._compared(k) ** 2))) for k in self.error}
 
     @property
     def max_abs_error(self) -> dict[str, float]:
-        """Largest absolute error per signal."""
-        return {k: float(np.max(np.abs(e))) for k, e in self.error.items()}
+        """Largest absolute error per signal over the samples compared."""
+        return {k: float(np.max(np.abs(self._compared(k)))) for k in self.error}
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able summary: ``{"fit": {signal: percent}, "x0": [...], "samples": n, ...}`` (NaN -> None)."""
@@ -189,11 +204,12 @@ VALIDATION_OPTIONS = SolverOptions(rtol=1e-10, atol=1e-10)
 
 
 def choose_model(data: ExperimentData, model: str = "auto", *, stored: str | None = None, closed_loop: bool = False,
-                 source: str = "the parameter file", log: str = "the log") -> str:
+                 source: str = "the parameter file", log: str = "the log", reads_v_as_u: bool = False) -> str:
     """The model that validates a parameter file on a log (``iwp validate --model``).
 
     ``"auto"``: the model the parameters were fitted with (``stored``) when it
-    takes the log's input, else :func:`auto_model` with a warning naming
+    takes the log's input (a raw command ``v`` too, for a model of
+    :data:`READS_V_AS_U` that read it as ``u`` in its fit), else :func:`auto_model` with a warning naming
     ``source``. A model given explicitly must take the log's input (none,
     ``u`` or ``v``), unless the loop is closed by a simulated controller.
 
@@ -211,6 +227,10 @@ def choose_model(data: ExperimentData, model: str = "auto", *, stored: str | Non
         How the warning and errors name the parameter file.
     log : str, default "the log"
         How the error names the log.
+    reads_v_as_u : bool, default False
+        The parameters were fitted reading a raw command ``v`` as ``u``
+        (``iwp fit``: :func:`~iwp.models.parameters.stored_reads_v_as_u`); the
+        log then goes through :func:`model_input`.
 
     Returns
     -------
@@ -234,16 +254,81 @@ def choose_model(data: ExperimentData, model: str = "auto", *, stored: str | Non
         chosen = auto_model(data)
         if stored is not None and MODELS.get(stored) is not None and MODELS[stored].input == data.input_name:
             return stored
+        if reads_v_as_u and stored in READS_V_AS_U and data.input_name == "v":
+            return stored
         if stored is not None:
             has = f"input {data.input_name}" if data.input_name else "no input"
             warnings.warn(f"{source} was fitted with model {stored!r}, which does not take a log with {has}; "
                           f"simulating model {chosen!r} (give --model to choose)", UserWarning, stacklevel=2)
         return chosen
     if (model in MODELS and data.input_name is not None and MODELS[model].input != data.input_name
-            and not closed_loop):
+            and not closed_loop and not (reads_v_as_u and model in READS_V_AS_U and data.input_name == "v")):
         raise InputError(f"--model {model} does not take the input {data.input_name} of {log}; "
                          f"use --model {auto_model(data)}")
     return model
+
+
+#: the models that read a logged raw command ``v`` as their input ``u`` in ``iwp fit`` (no dead zone)
+READS_V_AS_U = ("compensated", "belt-full")
+
+
+def model_input(d: ExperimentData, model: str, argument: str) -> ExperimentData:
+    """The log with the input ``model`` takes, as ``iwp fit`` reads it.
+
+    Model (9) and the belt model read a raw command ``v`` as their ``u``
+    (:data:`READS_V_AS_U`: no dead zone between them); the dead-zone model
+    (6) needs the raw command.
+
+    Parameters
+    ----------
+    d : ExperimentData
+        The log.
+    model : str
+        The model that will simulate it.
+    argument : str
+        How an error names the log's argument (``"train"``, ``"validate"``, ``"FILE"``).
+
+    Returns
+    -------
+    ExperimentData
+        The log, its ``v`` moved to ``u`` for a model of :data:`READS_V_AS_U`.
+
+    Raises
+    ------
+    InputError
+        A log of the compensated input ``u`` for the raw model (6).
+    """
+    if model in READS_V_AS_U and d.input_name == "v":
+        return replace(d, u=d.v, v=None)
+    if model == "raw" and d.input_name == "u":
+        raise InputError(f"{argument}: {d.source} logs the compensated input u (the rig compensates its dead "
+                         "zone); the dead-zone model (6) needs the raw command v", argument="dead_zone")
+    return d
+
+
+def held_out_q1_offset(data: ExperimentData, stored: float) -> float:
+    """The pendulum zero offset [rad] to take off a log validated with a fit's parameters.
+
+    ``iwp fit`` estimates the offset of each training log when the rig
+    description does not give it, and takes the training logs' mean off its
+    held-out logs (stored as ``q1_offset`` in its ``parameters.json``:
+    :func:`~iwp.models.parameters.stored_q1_offset`). A log converted from
+    such a rig says so (metadata ``q1_offset: estimate``) and gets the same
+    offset; any other log (corrected when read, or not a rig's) none.
+
+    Parameters
+    ----------
+    data : ExperimentData
+        The log.
+    stored : float
+        The fit's offset for held-out logs [rad].
+
+    Returns
+    -------
+    float
+        ``stored`` for a log whose offset is to be estimated, else 0.
+    """
+    return float(stored) if data.metadata.get("q1_offset") == "estimate" else 0.0
 
 
 def validation_plant(params, data: ExperimentData, model: str = "compensated", *, belt: BeltParameters | None = None,
@@ -342,6 +427,7 @@ def validate(
     restart_times: Sequence[float] = (),
     controller: Input | None = None,
     estimate_x0: bool = False,
+    q1_offset: float = 0.0,
 ) -> ValidationResult:
     """Simulate a model against a log and measure how well it predicts it.
 
@@ -374,6 +460,9 @@ def validate(
     estimate_x0 : bool
         Estimate the initial state by a simulation-error fit (parameters
         fixed) instead of taking the measured one.
+    q1_offset : float
+        A pendulum zero offset [rad] taken off the log's ``q1`` first (the
+        one ``iwp fit`` took off its held-out logs: :func:`held_out_q1_offset`).
 
     Returns
     -------
@@ -387,6 +476,10 @@ def validate(
     """
     if not isinstance(experiment, ExperimentData):
         raise InputError(f"experiment must be an ExperimentData, got {type(experiment).__name__}")
+    if isinstance(q1_offset, bool) or not isinstance(q1_offset, (int, float)) or not math.isfinite(q1_offset):
+        raise InputError(f"q1_offset must be a finite number of radians, got {q1_offset!r}")
+    if q1_offset:
+        experiment = replace(experiment, q1=experiment.q1 - q1_offset)
     uncertainty = params if isinstance(params, ParameterUncertainty) else None
     plant = validation_plant(params.params if uncertainty is not None else params, experiment, model)
     signals = (signals,) if isinstance(signals, str) else tuple(signals)
@@ -409,6 +502,10 @@ def validate(
                        controller=controller) for a, b in zip(starts, ends)]
     x0_cov = [measured_state_covariance(experiment, int(np.searchsorted(experiment.t, e.window[0])))
               for e in exps]
+    if not estimate_x0 and t[0] <= experiment.t[0]:
+        # at the log's first sample, the one-sided estimate iwp fit takes for its held-out logs (a smoothing
+        # filter is biased there: on a 50 ms log, q3 -0.34 rad/s for a pendulum at rest)
+        exps[0] = replace(exps[0], x0=plant_state(measured_initial_state(experiment), plant))
     if estimate_x0:
         x0, x0_cov[0] = _estimated_x0(replace(exps[0], estimate_x0=True), plant, signals)
         exps[0] = replace(exps[0], x0=x0[:4])
@@ -419,11 +516,14 @@ def validate(
     measured = {s: np.concatenate([p.y[s] for p in model_.prepared]) for s in signals}
     simulated = {s: np.concatenate([q[s] for q in pred]) for s in signals}
     x0s = model_.states(ev.values)
+    weighed = {s: np.concatenate([p.w[s] > 0 for p in model_.prepared]) for s in signals}
+    # a signal the set-up holds still (a held wheel's angle) is compared as it is
+    used = {s: w if w.any() else np.ones_like(w) for s, w in weighed.items()}
     band = coverage = None
     if uncertainty is not None:
         band = _band(model_, x0s, x0_cov, uncertainty, signals)
-        coverage = band.coverage(measured, {s: np.concatenate([p.w[s] > 0 for p in model_.prepared]) for s in signals})
-    fits = {s: fit_percent(measured[s], simulated[s]) for s in signals}
+        coverage = band.coverage(measured, weighed)
+    fits = {s: fit_percent(measured[s][used[s]], simulated[s][used[s]]) for s in signals}
     _warn_uninformative(experiment.source, measured, fits)
     return ValidationResult(
         t=t, measured=measured, simulated=simulated, error={s: measured[s] - simulated[s] for s in signals},
@@ -431,7 +531,7 @@ def validate(
         restart_times=tuple(float(t[k]) for k in starts[1:]), model=plant.model, params=plant.lumped,
         source=experiment.source, estimate_x0=bool(estimate_x0), closed_loop=controller is not None,
         locked=bool(plant.locked), restart_states=[np.asarray(x, dtype=float) for x in x0s[1:]], band=band,
-        coverage=coverage,
+        coverage=coverage, used=used,
     )
 
 

@@ -695,6 +695,51 @@ def stored_model(path_or_name: str | Path) -> str | None:
     return m if isinstance(m, str) else None
 
 
+def stored_q1_offset(path_or_name: str | Path) -> float:
+    """The pendulum zero offset [rad] a parameter file of ``iwp fit`` holds for held-out logs (its
+    ``"q1_offset"``: the training logs' mean, when the rig description did not give the offset), or 0.
+
+    Parameters
+    ----------
+    path_or_name : str or path-like
+        Path of a parameter file (JSON), or the name of a built-in set (which gives 0).
+
+    Returns
+    -------
+    float
+        The offset [rad], 0 without one.
+
+    Raises
+    ------
+    InputError
+        A ``"q1_offset"`` entry that is not a finite number (naming the file and the field).
+    """
+    doc = _parameter_file(path_or_name)
+    entry = None if doc is None else doc.get("q1_offset")
+    if entry is None:
+        return 0.0
+    if isinstance(entry, bool) or not isinstance(entry, (int, float)) or not math.isfinite(entry):
+        raise InputError(f"{path_or_name}: 'q1_offset' must be a finite number of radians, got {entry!r}")
+    return float(entry)
+
+
+def stored_reads_v_as_u(path_or_name: str | Path) -> bool:
+    """True if a parameter file says its fit read a logged raw command ``v`` as the input ``u`` (its
+    ``"reads_v_as_u"``, as ``iwp fit`` writes it for model (9) and the belt model).
+
+    Parameters
+    ----------
+    path_or_name : str or path-like
+        Path of a parameter file (JSON), or the name of a built-in set (which gives False).
+
+    Returns
+    -------
+    bool
+    """
+    doc = _parameter_file(path_or_name)
+    return doc is not None and doc.get("reads_v_as_u") is True
+
+
 def stored_belt(path_or_name: str | Path) -> "BeltParameters | None":
     """The belt (15) a parameter file of a fit with the belt holds (its ``"belt"`` entry, as ``iwp fit`` writes
     it beside the lumped parameters), or None (a built-in set, a file without one).

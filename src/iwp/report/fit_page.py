@@ -28,6 +28,7 @@ import numpy as np
 
 from ..files import jsonable, staged_dir
 from ..ident.logfit import MODEL_LABELS
+from ..ident.validation import READS_V_AS_U
 from ..models.parameters import save_params
 from ..plotting.report import plot_comparisons
 from ..plotting.validation import plot_correlation
@@ -195,6 +196,9 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         save_params(result.params, tmp / "parameters.json", force=True,
                     extra={"model": result.model, "source": "iwp fit",
                            **({"belt": result.belt.to_dict()} if result.belt is not None else {}),
+                           # what iwp validate takes off a log whose offset is to be estimated, as fit did
+                           **({"q1_offset": result.held_out_offset} if result.held_out_offset else {}),
+                           **({"reads_v_as_u": True} if result.model in READS_V_AS_U else {}),
                            "stderr": {n: r.parameters[n].stderr for n in r.free},
                            "covariance": uncertainty_record(r)})
     return {"folder": out, "report": out / "report.html", "json": out / "fit.json",
