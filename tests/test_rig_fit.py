@@ -602,6 +602,24 @@ def test_a_chirps_quiet_start_is_no_glitch_but_a_spike_in_it_is(tmp_path):
     assert [(g.column, g.index, g.kind) for g in found] == [("q1", 200, "spike")]
 
 
+def test_a_log_whose_motion_contradicts_its_kind_is_named(tmp_path):
+    from iwp.ident.logfit import kind_mismatches
+
+    rig = rig_of()
+    vr = DescribedRig(rig, TRUTH, noise_std=0.001, seed=2)
+    free = write_rig_csv(vr.run(Chirp(0.3, 2.0, 15.0), duration=20.0), tmp_path / "free.csv")
+    clamp = write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0, kind="clamped"), tmp_path / "clamp.csv")
+    free_log, clamp_log = load_logs([free, clamp], rig)
+    assert kind_mismatches([free_log], [("clamped", clamp_log)]) == []  # each as it is
+    swapped = kind_mismatches([clamp_log], [("clamped", free_log)])
+    assert len(swapped) == 2
+    assert swapped[0].startswith("train ") and "clamp.csv: the pendulum angle spans" in swapped[0]
+    assert "--clamped" in swapped[0]
+    assert swapped[1].startswith("--clamped ") and "free.csv" in swapped[1] and "was not clamped" in swapped[1]
+    span = float(re.search(r"spans ([\d.]+) rad", swapped[1]).group(1))
+    assert span == pytest.approx(float(np.ptp(free_log.q1)), rel=1e-2) and span > 0.1
+
+
 def test_a_poor_held_out_prediction_is_a_warning_with_what_to_try():
     from iwp.ident.logfit import LogFit, poor_prediction_advice
 

@@ -69,7 +69,7 @@ from .structure import LadderResult, Rung, RungOutcome, information_criteria, la
 from .validation import model_input
 
 __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresStart", "least_squares_start",
-           "load_logs", "MIN_SAMPLES_PER_PERIOD"]
+           "load_logs", "MIN_SAMPLES_PER_PERIOD", "kind_mismatches"]
 
 #: Least squares on differentiated data needs at least this many samples per pendulum period.
 MIN_SAMPLES_PER_PERIOD = 8
@@ -649,6 +649,7 @@ def fit_logs(
             raise InputError(f"validate: {v.source} is also a training log; a held-out log must be one the fit has "
                              "not seen, or its fit says nothing about prediction", argument="validate") from None
     msgs.extend(disagreeing_logs(train_logs, window=options.window))
+    msgs.extend(kind_mismatches(train_logs, others))
     for d in train_logs + val_logs:
         if d.q2 is None and d.q4 is None:
             raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
@@ -745,6 +746,54 @@ def _other_kinds(kinds: Mapping[str, Any] | None, rig: RigDescription | None) ->
                              f"{', '.join(OTHER_KINDS)} ({what})", argument="kinds")
         out += [(kind, d) for d in load_logs(items, rig, argument=f"--{kind}")]
     return out
+
+
+#: a free training log whose pendulum angle spans less than this [rad] while the wheel turns looks clamped ...
+STILL_PENDULUM = 0.01
+#: ... and a log given as clamped whose angle spans more than this [rad] is not
+MOVING_PENDULUM = 0.1
+#: the wheel turns: its angle spans more than this [rad], or its speed more than this [rad/s]
+TURNING_WHEEL = 1.0
+
+
+def kind_mismatches(train: Sequence[ExperimentData], others: Sequence[tuple[str, ExperimentData]]) -> list[str]:
+    """Warnings for logs whose motion contradicts their kind, or none.
+
+    A free training log whose pendulum angle spans less than
+    :data:`STILL_PENDULUM` while its wheel turns (:data:`TURNING_WHEEL`)
+    looks like a clamped one (its angle then tells the fit nothing about
+    the gravity term); a log given as clamped whose angle spans more than
+    :data:`MOVING_PENDULUM` is not clamped, and the fit, which compares
+    only its wheel, would take a moving pendulum for a fixed one.
+
+    Parameters
+    ----------
+    train : sequence of ExperimentData
+        The free training logs.
+    others : sequence of (str, ExperimentData)
+        The logs of other kinds, with their kind (``"clamped"``, ``"wheel-locked"``).
+
+    Returns
+    -------
+    list of str
+    """
+    msgs = []
+
+    def span(y):
+        return float(np.ptp(y)) if y is not None and np.size(y) else 0.0
+
+    for d in train:
+        turning = span(d.q2) > TURNING_WHEEL or span(d.q4) > TURNING_WHEEL
+        if turning and span(d.q1) < STILL_PENDULUM:
+            msgs.append(f"train {d.source}: the pendulum angle spans {span(d.q1):.3g} rad while the wheel turns: a "
+                        "log of the clamped pendulum? give it with --clamped (kinds={'clamped': [...]}), or the fit "
+                        "takes it as a free pendulum that did not move")
+    for kind, d in others:
+        if kind == "clamped" and span(d.q1) > MOVING_PENDULUM:
+            msgs.append(f"--clamped {d.source}: the pendulum angle spans {span(d.q1):.3g} rad, so the pendulum was "
+                        "not clamped; the fit compares only its wheel as if it were: give a free log as a training "
+                        "log")
+    return msgs
 
 
 #: logs whose gravity terms differ by more than this factor (and beyond their spread) cannot share one model
