@@ -185,6 +185,30 @@ def test_log_maps_units_zero_sign_and_input(tmp_path):
     assert d.metadata["input_saturated"].startswith(f"{int(np.sum((dac < 48) | (dac > 4048)))} samples")
 
 
+def test_counts_declared_as_degrees_are_refused_but_a_wrapping_sensor_is_not(tmp_path):
+    rig = rig_of(sample_period=0.05, pendulum={"counts_per_rev": 20000})
+    run = DescribedRig(rig, TRUTH).run(Chirp(0.4, 3.0, 10.0), duration=20.0)  # swings of about half a turn
+    counts = write_rig_csv(run, tmp_path / "counts.csv")
+    assert read_rig_log(counts, rig).q1.size == 401  # as described
+    as_deg = rig_of(sample_period=0.05, pendulum={"unit": "deg"})
+    with pytest.raises(DataFormatError) as err:
+        read_rig_log(counts, as_deg)
+    msg = str(err.value)
+    assert "column 'theta'" in msg and "steps by" in msg and "deg in one sample" in msg
+    assert "'pendulum.unit' in rig.json" in msg
+    # a pendulum spun over the top, logged in degrees that wrap at +-180: unwrapped, not refused
+    t = 0.05 * np.arange(401)
+    q1 = 6.0 * t  # a steady spin, 0.3 rad a sample
+    deg = (np.degrees(q1) + 180.0) % 360.0 - 180.0
+    spun = _csv(tmp_path / "spun.csv", ["t", "theta", "phidot", "I", "u"],
+                np.column_stack([t, deg, np.zeros_like(t), np.zeros_like(t), np.zeros_like(t)]))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        d = read_rig_log(spun, as_deg, glitches=False)
+    assert any("q1 unwrapped at" in str(w.message) for w in caught)
+    np.testing.assert_allclose(d.q1 - d.q1[0], q1 - q1[0], atol=1e-9)
+
+
 def test_mat_log_and_classdef_objects_are_refused_clearly(tmp_path, monkeypatch):
     from scipy.io import savemat
     from scipy.io.matlab import MatlabOpaque

@@ -53,12 +53,15 @@ from .plausibility import SAMPLE_PERIOD_RANGE
 from .rig_description import CURRENT_UNITS, TIME_UNITS, RigDescription, load_rig
 from .tables import Table, check_input_file, check_read_options, fail, finish_log, warn_if_degrees
 
-__all__ = ["read_rig_log", "MAX_WHEEL_SPEED", "MAX_CURRENT", "INPUT_LOGGED_COLUMN"]
+__all__ = ["read_rig_log", "MAX_WHEEL_SPEED", "MAX_CURRENT", "MAX_ODD_STEPS", "INPUT_LOGGED_COLUMN"]
 
 #: A wheel (or motor) speed above this [rad/s] cannot be right (about 29,000 rpm).
 MAX_WHEEL_SPEED = 3000.0
 #: A motor current above this [A] cannot be right for a rig of this kind.
 MAX_CURRENT = 100.0
+#: More pendulum steps than this share of the samples (and than 2) that are neither motion nor a wrap around a
+#: turn (between a half and one and a half turns in one sample) make the angle's unit wrong.
+MAX_ODD_STEPS = 0.01
 #: The logged input before clipping to its limits, kept as an extra column when something was clipped.
 INPUT_LOGGED_COLUMN = "input_logged"
 
@@ -343,7 +346,18 @@ def read_rig_log(
     q1 = ps.sign * x * ps.factor + ps.zero
     notes = []
     steps = np.diff(q1)
-    wraps = int(np.count_nonzero(np.abs(steps) > math.pi))
+    big = np.flatnonzero(np.abs(steps) > math.pi)
+    # a sensor that wraps steps by about a whole turn; a step of a half to one and a half turns is neither that
+    # nor motion (a quarter turn in one sample), and many of them are a wrong unit (counts read as degrees)
+    odd = big[np.abs(np.abs(steps[big]) - 2.0 * math.pi) > 0.5 * math.pi]
+    if odd.size > max(2, MAX_ODD_STEPS * steps.size):
+        k = int(odd[0])
+        raw_step = float(x[k + 1] - x[k])
+        raise fail(f"{raw.locate(k + 1, ps.column)}: the pendulum angle steps by {raw_step:.4g} {ps.unit} in one "
+                   f"sample, and so at {odd.size} of {steps.size} samples: neither motion nor a sensor's wrap "
+                   f"around a turn; is the unit right? (set 'pendulum.unit' in {where}: rad, deg or counts with "
+                   "'counts_per_rev')")
+    wraps = big.size
     if wraps:
         q1 = np.unwrap(q1)
         notes.append(f"q1 unwrapped at {wraps} sample(s) (the sensor wraps around a turn)")
