@@ -209,6 +209,20 @@ def test_counts_declared_as_degrees_are_refused_but_a_wrapping_sensor_is_not(tmp
     np.testing.assert_allclose(d.q1 - d.q1[0], q1 - q1[0], atol=1e-9)
 
 
+def test_a_sample_period_in_ms_and_an_empty_or_cell_matrix_are_named_as_a_user_knows_them(tmp_path):
+    from scipy.io import savemat
+
+    with pytest.raises(InputError, match=r"rig.json: key 'sample_period' is 10 s, .*0.01 for 10 ms"):
+        rig_of(sample_period=10, time={"column": None})
+    rig = rig_of(matrix={"variable": "data", "columns": ["t", "theta", "phidot", "I", "u"]})
+    savemat(tmp_path / "empty.mat", {"data": np.zeros((0, 5))})
+    savemat(tmp_path / "cell.mat", {"data": np.array(["a", "bc"], dtype=object)})
+    with pytest.raises(DataFormatError, match=r"variable 'data' is not a numeric matrix \(an empty array\)$"):
+        read_rig_log(tmp_path / "empty.mat", rig)
+    with pytest.raises(DataFormatError, match=r"variable 'data' is not a numeric matrix \(a 1x2 cell array\)$"):
+        read_rig_log(tmp_path / "cell.mat", rig)
+
+
 def test_mat_log_and_classdef_objects_are_refused_clearly(tmp_path, monkeypatch):
     from scipy.io import savemat
     from scipy.io.matlab import MatlabOpaque

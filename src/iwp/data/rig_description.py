@@ -29,6 +29,7 @@ from typing import Any, Mapping
 
 from ..errors import InputError
 from ..files import read_json
+from .plausibility import SAMPLE_PERIOD_RANGE
 
 __all__ = [
     "RigDescription",
@@ -336,6 +337,11 @@ class RigDescription:
         Ts = doc.get("sample_period")
         if Ts is not None:
             Ts = _num(where, "sample_period", Ts, positive=True)
+            lo, hi = SAMPLE_PERIOD_RANGE
+            if not lo <= Ts <= hi:
+                hint = f" (in seconds: {Ts / 1000:g} for {Ts:g} ms)" if Ts > hi else ""
+                raise InputError(f"{_where(where, 'sample_period')} is {Ts:g} s, which cannot be the sample period "
+                                 f"of a rig ({lo:g} to {hi:g} s){hint}")
         # time
         tdoc = _obj(where, "time", doc.get("time", {}), ("column", "unit"))
         time = TimeSpec(_column(where, "time.column", tdoc.get("column", "t"), optional=True),

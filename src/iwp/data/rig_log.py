@@ -185,6 +185,22 @@ def _read_mat_raw(path: str | os.PathLike, rig: RigDescription, struct: str | No
     return _Raw(src, cols, locate, {}, "mat", tuple(others))
 
 
+#: what MATLAB calls the contents of an array, by numpy's kind
+_MATLAB_KINDS = {"b": "logical", "i": "integer", "u": "integer", "f": "numeric", "c": "complex", "O": "cell",
+                 "U": "text", "S": "text", "V": "struct"}
+
+
+def _what_array(arr: np.ndarray) -> str:
+    """How a MATLAB user calls an array: ``an empty array``, ``a 2x3 cell array``, ``a text scalar``."""
+    if arr.size == 0:
+        return "an empty array"
+    kind = _MATLAB_KINDS.get(arr.dtype.kind, "non-numeric")
+    if arr.ndim == 0:
+        return f"a {kind} scalar"
+    shape = arr.shape if arr.ndim > 1 else (1, arr.size)  # MATLAB's arrays have two dimensions at least
+    return f"a {'x'.join(map(str, shape))} {kind} array"
+
+
 def _matrix_raw(src: str, container: dict, prefix: str, rig: RigDescription) -> _Raw:
     """The columns of the numeric matrix the rig description's ``matrix`` names (one column per signal, or one
     row per signal when only that orientation fits)."""
@@ -203,8 +219,7 @@ def _matrix_raw(src: str, container: dict, prefix: str, rig: RigDescription) -> 
                        f"found: {held}")
         if spec.variable not in mats:
             arr = np.asarray(container[spec.variable])
-            raise fail(f"{src}: variable {prefix + spec.variable!r} is not a numeric matrix (a "
-                       f"{'x'.join(map(str, arr.shape)) or 'scalar'} {arr.dtype.kind} array)")
+            raise fail(f"{src}: variable {prefix + spec.variable!r} is not a numeric matrix ({_what_array(arr)})")
         name = spec.variable
     else:
         if len(mats) != 1:

@@ -300,8 +300,8 @@ def finish_log(
     if bad.size:
         i = int(bad[0]) + 1
         raise fail(
-            f"{locate(i, tname)}: time not strictly increasing (t = {float(t[i])!r} s after "
-            f"{float(t[i - 1])!r} s)"
+            f"{locate(i, tname)}: time not strictly increasing (t = {float(t[i]):.12g} s after "
+            f"{float(t[i - 1]):.12g} s)"
         )
     if not resample:
         med = float(np.median(dt))
@@ -310,8 +310,8 @@ def finish_log(
         if bad.size:
             i = int(bad[0]) + 1
             raise fail(
-                f"{locate(i, tname)}: irregular sampling: step {float(dt[i - 1])!r} s differs from the "
-                f"median step {med!r} s by {100 * dev[i - 1]:.3g}% (tolerance "
+                f"{locate(i, tname)}: irregular sampling: step {float(dt[i - 1]):.6g} s differs from the "
+                f"median step {med:.6g} s by {100 * dev[i - 1]:.3g}% (tolerance "
                 f"{100 * sampling_tol:.3g}%); interpolate it onto a uniform grid with iwp convert --resample "
                 "(resample=True in Python)"
             )
