@@ -424,6 +424,17 @@ def test_iwp_fit_command_writes_the_report_and_refuses_bad_input(tmp_path, capsy
     assert not (tmp_path / "o2").exists()
 
 
+def test_a_window_that_leaves_too_few_samples_names_the_flag(tmp_path, capsys):
+    rig_path = tmp_path / "rig.json"
+    rig_path.write_text(json.dumps(BASE))
+    files, _held = write_logs(tmp_path, rig_of(), duration=10.0)
+    assert main(["fit", str(files[0]), "--rig", str(rig_path), "--out", str(tmp_path / "o"), "--model", "9",
+                 "--t-start", "9.95"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "too few" in err[0] and "--t-start=9.95 s keeps 3 of chirp0.csv" in err[0], err
+    assert not (tmp_path / "o").exists()
+
+
 def test_iwp_validate_of_a_held_out_log_gives_the_fits_own_numbers(tmp_path, capsys):
     # the rig's pendulum offset is estimated per log and its input is a duty (a raw v that the fit reads as u):
     # validate takes the fit's offset and input as the fit did, and the same one-sided initial state

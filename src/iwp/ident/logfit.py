@@ -671,7 +671,15 @@ def fit_logs(
     wtrain = [d.window(*options.window) for d in train_logs]
     umax = max(float(np.max(np.abs(d.input))) for d in wtrain)
     if options.start is None:
-        ls = least_squares_start(wtrain)
+        try:
+            ls = least_squares_start(wtrain)
+        except InputError as exc:
+            if options.window == (None, None):
+                raise
+            given = ", ".join(f"{n}={v:g} s" for n, v in zip(("t_start", "t_end"), options.window) if v is not None)
+            raise InputError(f"{exc} (the window {given} keeps "
+                             + ", ".join(f"{d.n_samples} of {Path(d.source).name}" for d in wtrain) + ")",
+                             argument=("t_start", "t_end")) from None
         msgs.extend(ls.notes)
         start_p, method, ls_details = ls.params, ls.method, ls.details
     else:
