@@ -456,6 +456,12 @@ def test_iwp_validate_of_a_held_out_log_gives_the_fits_own_numbers(tmp_path, cap
     got = json.loads(capsys.readouterr().out)["fit"]
     assert got["q1"] == pytest.approx(expected["q1"], abs=1e-6) and got["q4"] == pytest.approx(expected["q4"], abs=1e-6)
     assert expected["q1"] > 95.0
+    # and iwp report, on a rig that logs the wheel's speed only
+    assert main(["report", str(converted), "--params", str(out / "parameters.json"), "--out", str(tmp_path / "r")]) == 0
+    compared = json.loads((tmp_path / "r" / "comparison.json").read_text())["logs"][0]
+    assert compared["model"] == "compensated" and set(compared["fit"]) == {"q1", "q4"}
+    assert compared["fit"]["q1"] == pytest.approx(expected["q1"], abs=1e-6)
+    assert compared["fit"]["q4"] == pytest.approx(expected["q4"], abs=1e-6)
 
 
 # --------------------------------------------------------------------------

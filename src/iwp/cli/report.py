@@ -2,9 +2,13 @@
 
 Each log (CSV, Parquet, MAT; see docs/data-format.md) is simulated with the
 compensated model (9) and the parameter set, from the log's first measured
-state: logged inputs are replayed, logs whose metadata give k1 and k2 are run
+state: logged inputs are replayed (compared on q1 and the wheel's q2, or its
+speed q4 when only that is logged), logs whose metadata give k1 and k2 are run
 in closed loop with the Hopf law, logs without input are a free pendulum,
-logs marked ``# pendulum: locked`` are compared on the disk velocity. Static
+logs marked ``# pendulum: locked`` are compared on the disk velocity. With
+the parameters.json of ``iwp fit``, a log converted with the rig
+description gets the fit's pendulum offset and its raw command v is read as
+u, as the fit did. Static
 curves (``v,q4`` or ``u,q4``) are drawn against the model's static line.
 Writes ``DIR/report.html`` (self-contained), ``DIR/figures/*`` and
 ``DIR/comparison.json``.
@@ -28,10 +32,12 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from ..models.parameters import stored_q1_offset, stored_reads_v_as_u
     from ..report.logs import report_logs
 
     params = load_lumped(args.params)
     res = report_logs(args.files, params, args.out, force=args.force, progress=lambda m: print(m, flush=True),
-                      params_name=str(args.params))
+                      params_name=str(args.params), q1_offset=stored_q1_offset(args.params),
+                      reads_v_as_u=stored_reads_v_as_u(args.params))
     print(f"wrote {res['report']} ({len(res['comparisons'])} log(s))")
     return 0

@@ -19,7 +19,7 @@ from ..data import StaticCurve, read_experiment, read_static_curve
 from ..errors import DataFormatError, InputError
 from ..files import check_output_dir, jsonable, staged_dir
 from ..ident.fit import fit_percent
-from ..ident.validation import auto_model, validate
+from ..ident.validation import auto_model, held_out_q1_offset, model_input, validate
 from ..models.parameters import LumpedParameters
 from ..models.plant import Plant
 from ..plotting.report import plot_comparisons, plot_static_curve
@@ -55,6 +55,8 @@ def report_logs(
     force: bool = False,
     progress: Callable[[str], None] | None = None,
     params_name: str = "",
+    q1_offset: float = 0.0,
+    reads_v_as_u: bool = False,
 ) -> dict:
     """Compare a user's experiment logs with a model; write ``out/report.html`` and the figures.
 
@@ -78,6 +80,14 @@ def report_logs(
         Called with one line of text per log.
     params_name : str
         Where the parameters came from (shown on the page).
+    q1_offset : float
+        The pendulum zero offset [rad] of ``iwp fit``'s held-out logs, taken
+        off a log whose offset is to be estimated
+        (:func:`~iwp.ident.validation.held_out_q1_offset`).
+    reads_v_as_u : bool
+        The parameters were fitted reading a raw command ``v`` as ``u``
+        (``iwp fit``): a log of ``v`` is simulated so (model (9)), not with
+        the dead zone of model (6).
 
     Returns
     -------
@@ -114,7 +124,9 @@ def report_logs(
             if isinstance(log, StaticCurve):
                 comp, fig, caption = _compare_static(p, log, params, plot_static_curve)
             else:
-                comp, fig, caption = _compare_series(p, log, params, plot_comparisons)
+                log = model_input(log, "compensated", str(p)) if reads_v_as_u else log
+                comp, fig, caption = _compare_series(p, log, params, plot_comparisons,
+                                                     held_out_q1_offset(log, q1_offset))
             png, written = save_figure(fig, out_dir, stem)
             comp.figure = stem
             fig_paths += written
@@ -204,7 +216,7 @@ def _fit_percent(y, yh) -> float:
     return float(fit_percent(y, yh))
 
 
-def _compare_series(p: Path, log, params, plot_comparisons):
+def _compare_series(p: Path, log, params, plot_comparisons, q1_offset: float):
     meta = log.metadata
     locked = meta.get("pendulum", "").strip().lower() == "locked"
     controller = None
@@ -223,9 +235,12 @@ def _compare_series(p: Path, log, params, plot_comparisons):
         kind, signals = f"closed loop k1 = {controller.k1:g}, k2 = {controller.k2:g}", ("q1",)
     elif log.input_name is None:
         kind, signals = "free pendulum (no input)", ("q1",)
-    else:
-        kind, signals = f"open loop, input {log.input_name}", ("q1", "q2")
-    model, comp = _simulate_log(log, params, locked=locked, controller=controller, signals=signals)
+    else:  # the wheel's own signal: its angle, or the speed a rig logs without it
+        kind, signals = f"open loop, input {log.input_name}", ("q1", "q2" if log.q2 is not None else "q4")
+    if q1_offset:
+        note = "; ".join(n for n in (note, f"q1 less the pendulum zero offset {q1_offset:+.4g} rad of the fit") if n)
+    model, comp = _simulate_log(log, params, locked=locked, controller=controller, signals=signals,
+                                q1_offset=q1_offset)
     panels = []
     for s in signals:
         t, ym, ys = comp["t"], comp["measured"][s], comp["simulated"][s]
@@ -241,11 +256,11 @@ def _compare_series(p: Path, log, params, plot_comparisons):
     return lc, res["figure"], cap
 
 
-def _simulate_log(log, params, *, locked, controller, signals):
+def _simulate_log(log, params, *, locked, controller, signals, q1_offset):
     """Simulate ``log`` with :func:`iwp.ident.validation.validate`, the model chosen by ``auto_model``."""
     model = auto_model(log)
     plant = Plant(params, model=model, locked=locked and model in ("compensated", "raw"))
-    r = validate(log, plant, controller=controller, signals=tuple(signals))
+    r = validate(log, plant, controller=controller, signals=tuple(signals), q1_offset=q1_offset)
     return model, {"t": np.asarray(r.t), "measured": {s: np.asarray(r.measured[s]) for s in signals},
                    "simulated": {s: np.asarray(r.simulated[s]) for s in signals},
                    "fit": {s: float(r.fit[s]) for s in signals}}
