@@ -451,11 +451,13 @@ def test_iwp_validate_of_a_held_out_log_gives_the_fits_own_numbers(tmp_path, cap
     converted = tmp_path / "held.csv"
     assert main(["convert", str(held), "--rig", str(rig_path), "--out", str(converted)]) == 0
     capsys.readouterr()
-    assert main(["validate", str(converted), "--params", str(out / "parameters.json"), "--signals", "q1,q4",
-                 "--json"]) == 0
-    got = json.loads(capsys.readouterr().out)["fit"]
+    assert main(["validate", str(converted), "--params", str(out / "parameters.json"), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)["fit"]  # q1 and, the log holding only the wheel's speed, q4
     assert got["q1"] == pytest.approx(expected["q1"], abs=1e-6) and got["q4"] == pytest.approx(expected["q4"], abs=1e-6)
     assert expected["q1"] > 95.0
+    assert main(["validate", str(converted), "--params", str(out / "parameters.json"), "--signals", "q1,q2"]) == 2
+    err = capsys.readouterr().err
+    assert "has no wheel angle q2" in err and "compare q4 instead: --signals=q1,q4" in err
     # and iwp report, on a rig that logs the wheel's speed only
     assert main(["report", str(converted), "--params", str(out / "parameters.json"), "--out", str(tmp_path / "r")]) == 0
     compared = json.loads((tmp_path / "r" / "comparison.json").read_text())["logs"][0]

@@ -40,8 +40,9 @@ def register(sub) -> None:
     p.add_argument("--t-end", type=float, default=None, help="end of the window [s]")
     p.add_argument("--restart", type=float_list, default=None, metavar="T1,T2",
                    help="restart the simulation from the measured state at these times [s] (figure 9b)")
-    p.add_argument("--signals", default="q1,q2", help="signals compared (default q1,q2; q3,q4 differentiated "
-                                                     "when not logged)")
+    p.add_argument("--signals", default=None, help="signals compared (default q1 and the wheel's q2, or q4 when "
+                                                  "the log holds only the wheel speed; q3,q4 differentiated when "
+                                                  "not logged)")
     p.add_argument("--controller", choices=["hopf"], default=None,
                    help="simulate in closed loop with u = k1 q3 + k2 q3^3 instead of replaying the logged u")
     p.add_argument("--k1", type=float, default=-10.0, help="Hopf gain k1 (default -10)")
@@ -80,9 +81,11 @@ def run(args) -> int:
 
     if args.plot is not None:
         check_output_file(args.plot, force=args.force, argument="plot", suffixes=FIGURE_SUFFIXES)
-    signals = tuple(s.strip() for s in args.signals.split(",") if s.strip())
-    if not signals:
-        raise InputError("--signals: give at least one of q1,q2,q3,q4")
+    signals = None
+    if args.signals is not None:
+        signals = tuple(s.strip() for s in args.signals.split(",") if s.strip())
+        if not signals:
+            raise InputError("--signals: give at least one of q1,q2,q3,q4")
     params = load_uncertainty(args.params) if args.band else load_lumped(args.params)
     try:
         data = read_experiment(args.file, format=args.format)

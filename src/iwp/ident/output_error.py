@@ -165,7 +165,8 @@ def measured_signals(data: ExperimentData, names: Sequence[str], differentiator:
             raise InputError(f"unknown signal {n!r}; choose among q1, q2, q3, q4")
         if n in ("q1", "q2"):
             if getattr(data, n) is None:
-                raise InputError(f"{data.source} has no wheel angle q2 (only the wheel speed q4); use the output q4")
+                raise InputError(f"{data.source} has no wheel angle q2 (only the wheel speed q4); compare q4 "
+                                 "instead: signals=q1,q4", argument="signals")
             out[n] = np.asarray(getattr(data, n), dtype=float)
         else:
             col = getattr(data, n)

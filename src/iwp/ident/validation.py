@@ -422,7 +422,7 @@ def validate(
     params,
     *,
     model: str = "compensated",
-    signals: Sequence[str] = ("q1", "q2"),
+    signals: Sequence[str] | None = None,
     window: tuple[float | None, float | None] = (None, None),
     restart_times: Sequence[float] = (),
     controller: Input | None = None,
@@ -446,9 +446,11 @@ def validate(
         ``"motor-disk"``, ``"motor-disk-raw"`` (14), ``"free"`` (free
         pendulum, wheel held) or ``"free-nowheel"``; ``"auto"``:
         :func:`auto_model` (see :func:`validation_plant`).
-    signals : sequence of str
+    signals : sequence of str, optional
         Signals compared, among ``q1, q2, q3, q4``; velocities missing from
-        the log are differentiated from the positions.
+        the log are differentiated from the positions. Default: ``q1`` and
+        the wheel's own signal, ``q2``, or ``q4`` when the log holds only
+        the wheel's speed.
     window : (float or None, float or None)
         Time window [s].
     restart_times : sequence of float
@@ -482,6 +484,8 @@ def validate(
         experiment = replace(experiment, q1=experiment.q1 - q1_offset)
     uncertainty = params if isinstance(params, ParameterUncertainty) else None
     plant = validation_plant(params.params if uncertainty is not None else params, experiment, model)
+    if signals is None:
+        signals = ("q1", "q2" if experiment.q2 is not None or experiment.q4 is None else "q4")
     signals = (signals,) if isinstance(signals, str) else tuple(signals)
     if not signals:
         raise InputError("signals is empty")
