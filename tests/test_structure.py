@@ -10,7 +10,17 @@ from scipy import stats
 
 from iwp.errors import InputError
 from iwp.ident.logfit import LogFitOptions
-from iwp.ident.structure import MIN_GAIN, RUNGS, RungOutcome, information_criteria, ladder, rung, select
+from iwp.ident.structure import (
+    MIN_GAIN,
+    NOTABLE_FIT_GAIN,
+    RUNGS,
+    LadderResult,
+    RungOutcome,
+    information_criteria,
+    ladder,
+    rung,
+    select,
+)
 
 
 def outcome(name, scores, *, bic=0.0, success=True):
@@ -79,6 +89,23 @@ def test_an_inconsistent_improvement_is_noise():
     base = np.array([0.1, 0.1, 0.1, 0.1])
     outs = [outcome("9", base), outcome("coulomb", base * np.array([0.7, 1.3, 0.75, 1.2]))]
     assert select(outs).chosen == 0
+
+
+def test_a_best_structure_kept_out_by_few_logs_is_named_when_its_gain_is_notable():
+    # two scoring logs: far better on one, a little on the other: the rule keeps (9), and says so
+    def with_fit(o, q1):
+        return RungOutcome(o.rung, o.n_params, o.scores, {"q1": q1, "q4": 99.0}, {}, o.aic, o.bic, True, "")
+
+    base = np.array([0.3, 0.1])
+    outs = [with_fit(outcome("9", base), 67.0), with_fit(outcome("widths", base * np.array([0.2, 0.98])), 94.0)]
+    lad = LadderResult(outs, select(outs), "held-out logs", 2)
+    assert lad.selection.chosen == 0 and lad.selection.best == 1
+    (msg,) = lad.kept_simpler_advice()
+    assert "kept '9' (q1 67.0 %, q4 99.0 % on held-out logs, 2 logs)" in msg and "'widths'" in msg
+    assert "--model widths" in msg
+    # a gain below NOTABLE_FIT_GAIN points is not worth a word
+    outs[1] = with_fit(outs[1], 67.0 + 0.9 * NOTABLE_FIT_GAIN)
+    assert LadderResult(outs, select(outs), "held-out logs", 2).kept_simpler_advice() == []
 
 
 def test_one_scoring_log_keeps_the_simplest_within_the_least_gain_and_none_falls_back_on_bic():

@@ -725,6 +725,8 @@ def fit_logs(
     if r.belt is not None:  # p2 and p3 do not enter the belt model: its rigid limit stands for them
         params = params.replace(p2=r.belt.rigid_p2rho / params.rho, p3=r.belt.rigid_p3rho / params.rho)
     msgs.extend(poor_prediction_advice(val_fits, outputs, chose=structures is not None))
+    if structures is not None:
+        msgs.extend(structures.kept_simpler_advice())
     res = LogFitResult(params=params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
                        model=model, outputs=outputs, options=options.to_dict(offset_given), train=train_fits,
                        validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0,

@@ -59,12 +59,15 @@ from scipy import stats
 
 from ..errors import InputError
 
-__all__ = ["Rung", "RUNGS", "TERMS", "MIN_GAIN", "ladder", "rung", "RungOutcome", "LadderResult", "Selection", "select",
-           "information_criteria"]
+__all__ = ["Rung", "RUNGS", "TERMS", "MIN_GAIN", "NOTABLE_FIT_GAIN", "ladder", "rung", "RungOutcome", "LadderResult",
+           "Selection", "select", "information_criteria"]
 
 
 #: the least mean relative cut of the held-out error for which a richer structure is kept
 MIN_GAIN = 0.01
+#: a best structure that predicts some signal of the scored logs better than the one kept by this many
+#: percentage points of fit is named in a warning (the rule keeps the simpler one when the gain is not consistent)
+NOTABLE_FIT_GAIN = 5.0
 
 
 @dataclass(frozen=True)
@@ -338,6 +341,32 @@ class LadderResult:
         lines.append(f"* chosen: {self.chosen.rung.label} (the simplest not significantly worse than the best"
                      + (f", {self.outcomes[sel.best].rung.label}" if sel.best != sel.chosen else "") + ")")
         return "\n".join(lines)
+
+    def kept_simpler_advice(self) -> list[str]:
+        """A warning when the structure kept predicts the scored logs notably worse than the best one, or none.
+
+        The rule keeps the simpler structure when the best one's gain is not
+        consistent across the logs (few of them, or a gain on some only);
+        when the best one's mean fit of a signal is higher by
+        :data:`NOTABLE_FIT_GAIN` points or more, the user is told, with what
+        to do about it.
+        """
+        sel = self.selection
+        if sel.best == sel.chosen:
+            return []
+        kept, best = self.chosen, self.outcomes[sel.best]
+        gains = {o: best.fit[o] - kept.fit[o] for o in best.fit
+                 if o in kept.fit and math.isfinite(best.fit[o]) and math.isfinite(kept.fit[o])}
+        if not gains or max(gains.values()) < NOTABLE_FIT_GAIN:
+            return []
+
+        def fits(r):
+            return ", ".join(f"{o} {r.fit[o]:.1f} %" for o in gains)
+
+        return [f"the ladder kept {kept.rung.name!r} ({fits(kept)} on {self.scored_on}, {self.n_scored} logs); "
+                f"{best.rung.name!r} predicts them better ({fits(best)}) but not consistently enough over "
+                f"{self.n_scored} logs to be preferred ({sel.method}): give more held-out logs, or take it with "
+                f"--model {best.rung.name}"]
 
     def to_dict(self) -> dict[str, Any]:
         sel = self.selection
