@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
+import socket
+import threading
 
 import numpy as np
 import pytest
@@ -175,6 +178,75 @@ def test_an_interrupted_sweep_resumes_with_only_the_missing_chunks(tmp_path):
     before = res.results.stat().st_mtime_ns
     again = run_sweep(spec, out)
     assert again.computed == [] and res.results.stat().st_mtime_ns == before
+
+
+def test_damaged_chunk_files_are_set_aside_and_computed_again(tmp_path):
+    spec = _hopf_spec()
+    whole = run_sweep(spec, tmp_path / "whole")
+    out = tmp_path / "hurt"
+    shutil.copytree(tmp_path / "whole", out)
+    (out / "results.csv").unlink()
+    chunks = out / "chunks"
+    (chunks / "chunk-000000.csv").write_text("")  # emptied
+    text = (chunks / "chunk-000001.csv").read_text()
+    (chunks / "chunk-000001.csv").write_text(text[:len(text) // 2])  # cut in the middle of a line
+    lines = (chunks / "chunk-000002.csv").read_text().splitlines(keepends=True)
+    (chunks / "chunk-000002.csv").write_text("".join(lines[:2]))  # a row lost at a line's end
+    with pytest.warns(UserWarning, match="is not the table of its chunk") as caught:
+        res = run_sweep(spec, out)
+    assert sorted(str(w.message).split("chunks/")[1].split(" ")[0] for w in caught
+                  if "is not the table" in str(w.message)) == [f"chunk-00000{i}.csv" for i in range(3)]
+    assert res.computed == [0, 1, 2]
+    _same_table(res.table, whole.table)
+    assert (out / "results.csv").read_bytes() == (tmp_path / "whole" / "results.csv").read_bytes()
+    assert sorted(p.name for p in chunks.iterdir() if p.name.endswith(".damaged")) == [
+        f"chunk-00000{i}.csv.damaged" for i in range(3)]
+    assert (chunks / "chunk-000002.csv.damaged").read_text() == "".join(lines[:2])  # kept, not lost
+    # a finished sweep whose results table was cut: written again from its chunks
+    (out / "results.csv").write_text((out / "results.csv").read_text()[:200])
+    with pytest.warns(UserWarning, match="results.csv is not the sweep's table"):
+        again = run_sweep(spec, out)
+    assert again.computed == [] and (out / "results.csv").read_bytes() == (tmp_path / "whole" / "results.csv").read_bytes()
+
+
+@pytest.mark.parametrize("failure", [InputError("only 0.0 % of the parameter draws are physical"), KeyboardInterrupt()],
+                         ids=["error", "interrupt"])
+def test_a_fresh_sweep_stopped_before_its_first_chunk_leaves_nothing(tmp_path, monkeypatch, failure):
+    import iwp.sweep.executors as executors
+
+    def fail(*args, **kwargs):
+        raise failure
+
+    monkeypatch.setattr(executors, "run_chunk", fail)
+    with pytest.raises(type(failure)):
+        run_sweep(_hopf_spec(samples=1, t_end=20.0), tmp_path / "new")
+    assert not (tmp_path / "new").exists()
+    mine = tmp_path / "mine"  # a folder the user made stays, empty
+    mine.mkdir()
+    with pytest.raises(type(failure)):
+        run_sweep(_hopf_spec(samples=1, t_end=20.0), mine)
+    assert mine.is_dir() and list(mine.iterdir()) == []
+    monkeypatch.undo()
+    assert run_sweep(_hopf_spec(samples=1, t_end=20.0), tmp_path / "new").computed == [0]  # nothing in the way
+
+
+def test_a_service_that_is_not_a_dask_scheduler_is_an_error_not_a_hang(tmp_path, monkeypatch):
+    pytest.importorskip("distributed")
+    import iwp.sweep.executors as executors
+
+    monkeypatch.setattr(executors, "CONNECT_SECONDS", 2.0)
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    held = []
+    threading.Thread(target=lambda: held.append(server.accept()), daemon=True).start()  # accepts, never answers
+    try:
+        with pytest.raises(InputError, match="no Dask scheduler answered within 2 s"):
+            run_sweep(_hopf_spec(samples=1, t_end=20.0), tmp_path / "o",
+                      scheduler=f"tcp://127.0.0.1:{server.getsockname()[1]}")
+    finally:
+        server.close()
+    assert not (tmp_path / "o").exists()
 
 
 def test_the_folder_of_another_sweep_is_refused_without_force(tmp_path):

@@ -20,7 +20,7 @@ from ..sim.simulate import output_times
 from .metrics import closed_loop_metrics
 from .spec import LaneSet, SweepSpec, lanes_of_chunk
 
-__all__ = ["ChunkResult", "run_chunk", "STATUS_UNPHYSICAL"]
+__all__ = ["ChunkResult", "run_chunk", "STATUS_UNPHYSICAL", "METRIC_COLUMNS", "column_names"]
 
 #: Status of a lane whose drawn or gridded parameters leave the physical range (not simulated).
 STATUS_UNPHYSICAL = -1
@@ -111,6 +111,25 @@ def run_chunk(spec: SweepSpec, index: int, *, threads: int | None = None) -> Chu
                        cpu_seconds=time.process_time() - cpu)
 
 
+#: The metric columns of a chunk's table, after ``lane``, the varied values and ``status``; ``nfev`` last.
+METRIC_COLUMNS = ("q1_end", "q2_end", "q3_end", "q4_end", "max_abs_q1", "amplitude", "amplitude_change", "period",
+                  "rotating", "captured")
+
+
+def column_names(spec: SweepSpec) -> list[str]:
+    """The header of every chunk's table of ``spec``: ``lane``, the varied values, ``status``, the metrics, ``nfev``.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+
+    Returns
+    -------
+    list of str
+    """
+    return ["lane", *lanes_of_chunk(spec, 0).values, "status", *METRIC_COLUMNS, "nfev"]
+
+
 def _columns(spec: SweepSpec, index: int) -> dict:
     ls = lanes_of_chunk(spec, index)
     m = ls.lanes.size
@@ -134,8 +153,7 @@ def _columns(spec: SweepSpec, index: int) -> dict:
         metrics.update(rotating=np.zeros(m, dtype=np.int64), captured=np.zeros(m, dtype=np.int64))
     columns = {"lane": ls.lanes.astype(np.int64), **{k: np.asarray(v, dtype=float) for k, v in ls.values.items()},
                "status": status}
-    for k in ("q1_end", "q2_end", "q3_end", "q4_end", "max_abs_q1", "amplitude", "amplitude_change", "period",
-              "rotating", "captured"):
+    for k in METRIC_COLUMNS:
         columns[k] = metrics[k]
     columns["nfev"] = nfev
     return columns

@@ -9,6 +9,7 @@ worker thread runs one chunk at a time with one engine thread.
 from __future__ import annotations
 
 import importlib.util
+import threading
 from collections.abc import Iterator, Sequence
 
 import numba
@@ -18,7 +19,11 @@ from ..models.parameters import table1
 from .chunk import ChunkResult, run_chunk
 from .spec import Grid, SweepSpec
 
-__all__ = ["LocalExecutor", "DaskExecutor", "make_executor", "warm_up_worker"]
+__all__ = ["LocalExecutor", "DaskExecutor", "make_executor", "warm_up_worker", "CONNECT_SECONDS"]
+
+#: A scheduler that has not answered within this long [s] is not one (Dask's own timeout does not cover a
+#: service that accepts the connection and never speaks Dask's protocol: the client then waits for ever)
+CONNECT_SECONDS = 20.0
 
 
 def warm_up_worker() -> None:
@@ -86,10 +91,7 @@ class DaskExecutor:
             raise InputError("a Dask run needs dask distributed: pip install 'iwp[dask]'",
                              argument="scheduler" if self.scheduler else "workers") from None
         if self.scheduler is not None:
-            try:
-                self.client = Client(self.scheduler, timeout="10s")
-            except (OSError, TimeoutError, ValueError) as exc:
-                raise InputError(f"scheduler {self.scheduler}: cannot connect ({exc})", argument="scheduler") from None
+            self.client = _connect(Client, self.scheduler)
         else:
             n = self.workers or numba.config.NUMBA_NUM_THREADS
             self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
@@ -134,6 +136,35 @@ class DaskExecutor:
         finally:
             for fut in futures:
                 fut.cancel()
+
+
+def _connect(client_class, address: str):
+    """A Dask client of the scheduler at ``address``, or an :class:`~iwp.errors.InputError` naming it.
+
+    The client is made in a daemon thread given :data:`CONNECT_SECONDS`: one
+    that has not connected by then is abandoned (the process can still
+    exit). Whatever the client raises (an unreachable host, a refused port,
+    a service that is not Dask's, even a ``MemoryError`` from a reply that
+    is not Dask's) is the address's error.
+    """
+    box: dict = {}
+
+    def connect() -> None:
+        try:
+            box["client"] = client_class(address, timeout=f"{CONNECT_SECONDS / 2:g}s")
+        except BaseException as exc:  # noqa: BLE001 - reported to the caller as the address's error
+            box["error"] = exc
+
+    th = threading.Thread(target=connect, name="iwp-dask-connect", daemon=True)
+    th.start()
+    th.join(CONNECT_SECONDS)
+    if "client" in box:
+        return box["client"]
+    if th.is_alive():
+        raise InputError(f"scheduler {address}: no Dask scheduler answered within {CONNECT_SECONDS:g} s (is it a "
+                         "Dask scheduler's address, tcp://host:8786?)", argument="scheduler")
+    exc = box.get("error")
+    raise InputError(f"scheduler {address}: cannot connect ({type(exc).__name__}: {exc})", argument="scheduler")
 
 
 def make_executor(*, scheduler: str | None = None, workers: int | None = None, threads: int | None = None):

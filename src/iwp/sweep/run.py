@@ -208,6 +208,7 @@ def run_sweep(
     try:
         store.open()
         store.write_manifest()
+        completed = False
         try:
             if missing:
                 describe, cores = ex.describe(), ex.cores
@@ -226,17 +227,26 @@ def run_sweep(
                         progress(SweepProgress(chunk=res.index, done=len(on_disk) + len(computed), total=spec.n_chunks,
                                                computed=len(computed), lanes_done=lanes_done,
                                                seconds=time.perf_counter() - start))
+            completed = True
         finally:
-            # the record of what this run did, even when it was interrupted
-            run = {"started": started, "executor": describe, "cores": cores, "computed": len(computed),
-                   "seconds": round(time.perf_counter() - start, 3), "cpu_seconds": round(cpu_seconds, 3)}
-            store.write_manifest(run=run)
+            if not completed and not computed and not store.resumable:
+                store.discard()  # a fresh start that failed or was stopped before its first chunk: nothing to keep
+            else:
+                # the record of what this run did, even when it was interrupted
+                run = {"started": started, "executor": describe, "cores": cores, "computed": len(computed),
+                       "seconds": round(time.perf_counter() - start, 3), "cpu_seconds": round(cpu_seconds, 3)}
+                store.write_manifest(run=run)
     finally:
         if missing and own:
             ex.__exit__(None, None, None)
     seconds = time.perf_counter() - start
     results = store.path / f"results.{format}"
-    if computed or not results.is_file():  # a finished sweep run again: its table stays as it is
+    # a finished sweep run again keeps its table, unless it is not every lane's (cut, edited)
+    problem = None if computed else store.results_problem(format)
+    if computed or problem is not None:
+        if problem is not None and results.is_file():
+            warnings.warn(f"out {store.path}: {results.name} is not the sweep's table ({problem}); it is written "
+                          "again from the chunks", UserWarning, stacklevel=2)
         store.write_results(format)
     store.write_manifest(results=results.name)
     return SweepResult(spec=spec, out=Path(out), results=results, table=store.read_results(format), computed=computed,

@@ -9,8 +9,12 @@ Layout of ``OUT/``::
 
 Every file is written through a temporary file and renamed (never half
 written). A chunk file on disk is a finished chunk: a run that was killed
-resumes from the chunk files and computes only the missing chunks. A folder
-that holds another spec's sweep, or other files, is refused unless ``force``.
+resumes from the chunk files and computes only the missing chunks. A chunk
+file that is not its chunk's table (emptied, cut, edited: not the header,
+lanes or numbers it must hold) is set aside as ``chunk-NNNNNN.csv.damaged``
+and computed again, with a warning; a results table that is not every
+lane's in order is written again from the chunks. A folder that holds
+another spec's sweep, or other files, is refused unless ``force``.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ import numpy as np
 from .. import __version__
 from ..errors import DataFormatError, InputError, OutputExistsError
 from ..files import atomic_write, check_output_dir, jsonable, read_json
-from .chunk import ChunkResult
+from .chunk import ChunkResult, column_names
 from .spec import SweepSpec
 
 __all__ = ["SweepStore", "RESULT_FORMATS", "MANIFEST", "INT_COLUMNS", "read_table"]
@@ -91,7 +95,9 @@ def read_table(path) -> dict[str, np.ndarray]:
             warnings.simplefilter("ignore")  # an empty body is a table of no rows
             data = np.loadtxt(p, delimiter=",", skiprows=1, ndmin=2, dtype=float)
     except ValueError as exc:
-        raise DataFormatError(f"{p}: not a sweep table ({exc})") from None
+        # numpy's message, without its advice on its own arguments
+        why = str(exc).split(";")[0].strip().rstrip(".")
+        raise DataFormatError(f"{p}: not a sweep table ({why})") from None
     if data.size == 0:
         data = np.zeros((0, len(names)))
     if data.shape[1] != len(names):
@@ -132,16 +138,74 @@ class SweepStore:
         if not resumable:
             check_output_dir(self.path, force=force, argument="out")
         self.resumable = resumable
+        self.created = not self.path.exists()  # a failed fresh start removes what it made, not the user's folder
+        #: chunk files found on disk that are not their chunk's table: index -> why (set aside by :meth:`open`)
+        self.damaged: dict[int, str] = self._damaged_chunks() if resumable else {}
         self.runs: list = list(old.get("runs", [])) if resumable and isinstance(old.get("runs"), list) else []
         self.opened = False
 
     def open(self) -> None:
-        """Create the folder (a fresh start: remove this sweep's own earlier files); the checks were made before."""
+        """Create the folder (a fresh start: remove this sweep's own earlier files; a resumed one: set its damaged
+        chunk files aside, with a warning); the checks were made before."""
         if not self.resumable:
             self._clear()
         self.path.mkdir(parents=True, exist_ok=True)
         (self.path / CHUNKS).mkdir(exist_ok=True)
+        for i, why in sorted(self.damaged.items()):
+            p = self.path / CHUNKS / _chunk_name(i)
+            p.replace(p.with_name(p.name + ".damaged"))
+            warnings.warn(f"out {self.path}: {CHUNKS}/{p.name} is not the table of its chunk ({why}); it is set "
+                          f"aside as {p.name}.damaged and the chunk computed again", UserWarning, stacklevel=3)
+        self.damaged = {}
         self.opened = True
+
+    def discard(self) -> None:
+        """Remove what :meth:`open` made for a fresh start that computed nothing (a failure, an interrupt before
+        the first chunk): the manifest, the empty chunks folder, the folder if this sweep made it."""
+        if self.resumable:
+            return
+        manifest = self.path / MANIFEST
+        if manifest.is_file():
+            manifest.unlink()
+        chunks = self.path / CHUNKS
+        if chunks.is_dir() and not any(chunks.iterdir()):
+            chunks.rmdir()
+        if self.created and self.path.is_dir() and not any(self.path.iterdir()):
+            self.path.rmdir()
+
+    def _chunk_problem(self, index: int, names: list[str]) -> str | None:
+        """Why chunk file ``index`` is not its chunk's table (header ``names``, the chunk's lanes in order), or None."""
+        try:
+            tab = read_table(self.path / CHUNKS / _chunk_name(index))
+        except (DataFormatError, OSError, UnicodeDecodeError) as exc:
+            return str(exc).split(": ", 1)[-1]
+        if list(tab) != names:
+            return "its header is not the sweep's columns"
+        lanes = self.spec.chunk_range(index)
+        if not np.array_equal(tab["lane"], np.arange(lanes.start, lanes.stop)):
+            return f"{tab['lane'].size} rows where its lanes {lanes.start}..{lanes.stop - 1} are {len(lanes)}"
+        return None
+
+    def _damaged_chunks(self) -> dict[int, str]:
+        """The chunk files on disk that are not their chunk's table, with why (read only)."""
+        names = column_names(self.spec)
+        out = {}
+        for i in sorted(self._chunk_files()):
+            why = self._chunk_problem(i, names)
+            if why is not None:
+                out[i] = why
+        return out
+
+    def _chunk_files(self) -> set[int]:
+        chunks = self.path / CHUNKS
+        if not chunks.is_dir():
+            return set()
+        out = set()
+        for p in chunks.iterdir():
+            m = _CHUNK_RE.match(p.name)
+            if m and int(m.group(1)) < self.spec.n_chunks:
+                out.add(int(m.group(1)))
+        return out
 
     def _clear(self) -> None:
         """Remove this sweep's own files (a --force restart)."""
@@ -157,16 +221,8 @@ class SweepStore:
 
     # ---------------------------------------------------------------- chunks
     def done(self) -> set[int]:
-        """Indices of the chunks on disk (a chunk file is written whole or not at all)."""
-        chunks = self.path / CHUNKS
-        if not chunks.is_dir():
-            return set()
-        out = set()
-        for p in chunks.iterdir():
-            m = _CHUNK_RE.match(p.name)
-            if m and int(m.group(1)) < self.spec.n_chunks:
-                out.add(int(m.group(1)))
-        return out
+        """Indices of the chunks on disk (a chunk file is written whole or not at all), less the damaged ones."""
+        return self._chunk_files() - set(self.damaged)
 
     def missing(self) -> list[int]:
         """The chunks still to compute, in order."""
@@ -240,6 +296,21 @@ class SweepStore:
                 cols = {n: np.concatenate([c[n] for c in parts]) for n in parts[0]}
                 pq.write_table(pa.table(cols), tmp)
         return atomic_write(target, write)
+
+    def results_problem(self, format: str = "csv") -> str | None:
+        """Why the results table on disk is not every lane's row in order (missing, cut, edited), or None."""
+        path = self.path / f"results.{format}"
+        if not path.is_file():
+            return "there is none"
+        try:
+            tab = self.read_results(format)
+        except (DataFormatError, OSError, UnicodeDecodeError, ValueError) as exc:
+            return str(exc).split(": ", 1)[-1]
+        if list(tab) != column_names(self.spec):
+            return "its header is not the sweep's columns"
+        if not np.array_equal(tab["lane"], np.arange(self.spec.n_lanes)):
+            return f"{tab['lane'].size} rows where the sweep's lanes are {self.spec.n_lanes}"
+        return None
 
     def read_results(self, format: str = "csv") -> dict[str, np.ndarray]:
         """The results table's columns (written by :meth:`write_results`)."""
