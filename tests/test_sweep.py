@@ -418,3 +418,38 @@ def test_a_sweep_killed_with_sigkill_resumes(tmp_path):
     res = run_sweep(load_spec(spec), out)
     assert len(res.computed) == 30 - len(done)
     _same_table(res.table, run_sweep(load_spec(spec), tmp_path / "whole").table)
+
+
+def test_ctrl_c_on_a_local_cluster_run_is_one_line_and_resumes(tmp_path):
+    # Ctrl-C reaches the whole process group: the cluster's workers too, which leave it to the command
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    pytest.importorskip("distributed")
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps({"t_end": 300, "window": 10, "seed": 5, "chunk_size": 2, "samples": 100,
+                                "vary": {"k1": {"uniform": [-12, -8]}}}))
+    out = tmp_path / "cut"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen([sys.executable, "-m", "iwp", "sweep", str(spec), "--out", str(out), "--workers", "2"],
+                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    chunks = out / "chunks"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if chunks.is_dir() and len([p for p in chunks.iterdir() if p.name.startswith("chunk-")]) >= 2:
+            break
+        time.sleep(0.01)
+    assert proc.poll() is None, "the sweep ended before it could be interrupted"
+    os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the command and its cluster's workers
+    _out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "WARNING" not in err, err
+    assert err.strip().splitlines()[-1] == "iwp: interrupted"
+    done = len([p for p in chunks.iterdir() if p.name.startswith("chunk-")])
+    assert 2 <= done < 50
+    res = run_sweep(load_spec(spec), out)
+    assert len(res.computed) == 50 - done

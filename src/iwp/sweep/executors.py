@@ -9,6 +9,7 @@ worker thread runs one chunk at a time with one engine thread.
 from __future__ import annotations
 
 import importlib.util
+import logging
 import threading
 from collections.abc import Iterator, Sequence
 
@@ -94,7 +95,10 @@ class DaskExecutor:
             self.client = _connect(Client, self.scheduler)
         else:
             n = self.workers or numba.config.NUMBA_NUM_THREADS
-            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
+            # the workers leave an interrupt to this process, which stops them (iwp.sweep.dask_worker); their
+            # logs below errors (a cancelled task's warning when interrupted) are not the user's business
+            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                                        preload=["iwp.sweep.dask_worker"], silence_logs=logging.ERROR)
             self.client = Client(self.cluster)
         return self
 
