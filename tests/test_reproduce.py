@@ -12,7 +12,7 @@ import pytest
 from iwp import reproduce as R
 from iwp.cli import main
 from iwp.models import load_params
-from iwp.report import PLOT_POINTS, decimate, prepare_output_dir
+from iwp.report import PLOT_POINTS, decimate, fmt_interval, prepare_output_dir
 from iwp.rig import default_truth
 from tests.helpers import EXPECTED_FIGURES
 
@@ -459,3 +459,13 @@ def test_the_report_fills_every_row_it_has_a_value_for(quick_run):
     steps = json.loads((quick_run["out"] / "results.json").read_text())["steps"]
     assert {s["name"]: s["status"] for s in steps}["report"] == "ok"
     assert re.search(r"<td>report</td><td[^>]*></td><td>ok</td>", text)
+
+
+def test_an_interval_is_printed_with_the_digits_that_tell_its_ends_apart():
+    # the free pendulum's p1: 26.36 +- 0.00022 once read [26.36, 26.36]
+    lo, hi = 26.3600 - 0.00043, 26.3600 + 0.00043
+    text = fmt_interval(lo, hi)
+    a, b = (float(x) for x in text.strip("[]").split(", "))
+    assert a < b and abs((b - a) - (hi - lo)) < 0.05 * (hi - lo)  # the width to two digits
+    assert fmt_interval(250.0, 253.4) == "[250, 253.4]"  # a wide one keeps four digits
+    assert fmt_interval(None, 1.0) == "[-, 1]"

@@ -110,6 +110,9 @@ class ValidationResult:
     #: per signal, the samples compared (as a fit weighs them: not a replaced glitch, nor a mean speed's first
     #: sample, which has no preceding period; all of a signal the set-up holds still); None: all
     used: dict[str, np.ndarray] | None = None
+    #: why the simulation did not reach the end of the window (it diverged, or took too many steps), or None; its
+    #: samples after that are NaN and the fits are not defined
+    failed: str | None = None
 
     def _compared(self, k: str) -> np.ndarray:
         e = self.error[k]
@@ -139,6 +142,7 @@ class ValidationResult:
             "locked": self.locked,
             "estimate_x0": self.estimate_x0,
             "closed_loop": self.closed_loop,
+            "failed": self.failed,
             "restart_times": [float(r) for r in self.restart_times],
             "band": None if self.band is None else {
                 "method": self.band.method, "level": self.band.level,
@@ -159,6 +163,8 @@ class ValidationResult:
                 cov = f", {100 * self.coverage[k]:.1f} % of the samples in the 95 % prediction band"
             lines.append(f"  {k}: fit {self.fit[k]:.2f} %, rms error {self.rms[k]:.4g}, "
                          f"max |error| {self.max_abs_error[k]:.4g}{cov}")
+        if self.failed:
+            lines.append(f"  {self.failed}")
         return "\n".join(lines)
 
     def __str__(self) -> str:
@@ -528,14 +534,22 @@ def validate(
         band = _band(model_, x0s, x0_cov, uncertainty, signals)
         coverage = band.coverage(measured, weighed)
     fits = {s: fit_percent(measured[s][used[s]], simulated[s][used[s]]) for s in signals}
-    _warn_uninformative(experiment.source, measured, fits)
+    failed = None
+    if any(st != 0 for st in ev.status):
+        lost = ~np.all([np.isfinite(simulated[s]) for s in signals], axis=0)
+        when = f" at t = {t[int(np.argmax(lost))]:.4g} s" if lost.any() else ""
+        failed = f"the simulation stopped{when} (it diverged, or took too many steps): the fit is not defined"
+        fits = {s: math.nan for s in signals}
+        warnings.warn(f"{experiment.source}: {failed}", UserWarning, stacklevel=2)
+    else:
+        _warn_uninformative(experiment.source, measured, fits)
     return ValidationResult(
         t=t, measured=measured, simulated=simulated, error={s: measured[s] - simulated[s] for s in signals},
         fit=fits, x0=np.asarray(x0s[0], dtype=float),
         restart_times=tuple(float(t[k]) for k in starts[1:]), model=plant.model, params=plant.lumped,
         source=experiment.source, estimate_x0=bool(estimate_x0), closed_loop=controller is not None,
         locked=bool(plant.locked), restart_states=[np.asarray(x, dtype=float) for x in x0s[1:]], band=band,
-        coverage=coverage, used=used,
+        coverage=coverage, used=used, failed=failed,
     )
 
 

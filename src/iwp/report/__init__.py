@@ -17,7 +17,7 @@ the page through the DOM.
 from __future__ import annotations
 
 from .folder import PLOT_POINTS, decimate, prepare_output_dir, save_figure
-from .page import FigureEntry, Report, Section, Statement, Table, fmt, render_html, write_html
+from .page import FigureEntry, Report, Section, Statement, Table, fmt, fmt_interval, render_html, write_html
 
 __all__ = [
     "PLOT_POINTS",
@@ -28,6 +28,7 @@ __all__ = [
     "Table",
     "decimate",
     "fmt",
+    "fmt_interval",
     "prepare_output_dir",
     "render_html",
     "save_figure",

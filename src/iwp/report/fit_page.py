@@ -34,7 +34,7 @@ from ..plotting.report import plot_comparisons
 from ..plotting.validation import plot_correlation
 from ..sim.uncertainty import uncertainty_record
 from .folder import decimate, save_figure
-from .page import FigureEntry, Report, Section, Table, fmt, write_html
+from .page import FigureEntry, Report, Section, Table, fmt, fmt_interval, write_html
 
 __all__ = ["write_fit_report"]
 
@@ -133,7 +133,7 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         for n in r.free:
             pe = r.parameters[n]
             ls = result.least_squares.get(n)
-            rows.append([n, fmt(pe.value, 6), fmt(pe.stderr, 2), f"[{fmt(pe.ci95_low, 5)}, {fmt(pe.ci95_high, 5)}]",
+            rows.append([n, fmt(pe.value, 6), fmt(pe.stderr, 2), fmt_interval(pe.ci95_low, pe.ci95_high, 5),
                          fmt(result.start_value(n), 5), fmt(ls, 5) if ls is not None else "-"])
         ptab = Table("Parameters (simulation-error fit on all training logs)",
                      ["parameter", "value", "stderr", "95 % interval", "start", "least squares"], rows,

@@ -22,7 +22,8 @@ from typing import Any, Sequence
 
 from ..files import jsonable, prepare_output_file
 
-__all__ = ["Statement", "Table", "FigureEntry", "Section", "Report", "render_html", "write_html", "fmt"]
+__all__ = ["Statement", "Table", "FigureEntry", "Section", "Report", "render_html", "write_html", "fmt",
+           "fmt_interval"]
 
 
 # --------------------------------------------------------------------------
@@ -144,6 +145,35 @@ def fmt(x: Any, digits: int = 4) -> str:
     if abs(v) >= 1e5 or abs(v) < 1e-4:
         return f"{v:.{digits - 1}e}"
     return f"{v:.{digits}g}"
+
+
+def fmt_interval(low: Any, high: Any, digits: int = 4) -> str:
+    """An interval ``[low, high]`` for a table, with the digits that show its width (at least ``digits``).
+
+    A narrow interval of a large value keeps the significant digits that
+    tell its ends apart, its width to two digits: ``[26.3596, 26.3604]``,
+    not ``[26.36, 26.36]``.
+
+    Parameters
+    ----------
+    low, high : float or None
+        The ends.
+    digits : int, default 4
+        The least significant digits.
+
+    Returns
+    -------
+    str
+    """
+    try:
+        lo, hi = float(low), float(high)
+    except (TypeError, ValueError):
+        return f"[{fmt(low, digits)}, {fmt(high, digits)}]"
+    width = hi - lo
+    scale = max(abs(lo), abs(hi))
+    if math.isfinite(width) and width > 0 and math.isfinite(scale) and scale > 0:
+        digits = max(digits, min(15, math.ceil(math.log10(scale / width)) + 2))
+    return f"[{fmt(lo, digits)}, {fmt(hi, digits)}]"
 
 
 

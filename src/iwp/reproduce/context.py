@@ -10,6 +10,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..errors import SimulationError
 from ..files import jsonable
 from ..ident.fit import fit_percent
 from ..ident.validation import UninformativeValidation, validate
@@ -262,10 +263,13 @@ def series(t, y, label: str | None = None):
 
 def compare(data, params, *, model: str, signals, restart_times=(), controller=None):
     """Run :func:`iwp.ident.validation.validate` and return ``(t, measured, simulated, fit)`` as plain arrays."""
-    with warnings.catch_warnings():  # the report tabulates every fit
+    with warnings.catch_warnings():  # the report tabulates every fit, and says when a simulation failed
         warnings.simplefilter("ignore", UninformativeValidation)
+        warnings.filterwarnings("ignore", message=".*the simulation stopped", category=UserWarning)
         r = validate(data, params, model=model, signals=tuple(signals), restart_times=tuple(restart_times),
                      controller=controller)
+    if r.failed:
+        raise SimulationError(r.failed)
     t = np.asarray(r.t, dtype=float)
     meas = {s: np.asarray(r.measured[s], dtype=float) for s in signals}
     sim = {s: np.asarray(r.simulated[s], dtype=float) for s in signals}

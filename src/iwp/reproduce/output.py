@@ -11,7 +11,7 @@ from typing import Any
 
 from .. import __version__
 from ..files import jsonable
-from ..report import FigureEntry, Report, Section, Table, fmt, write_html
+from ..report import FigureEntry, Report, Section, Table, fmt, fmt_interval, write_html
 from ..rig import default_truth, truth_record
 from .context import ReproduceResult
 from .paper import PAPER
@@ -129,7 +129,7 @@ def _identification_table(ctx: ReproduceResult):
             continue
         for name, est in res.parameters.items():
             rows.append([setup, name, fmt(est.value), fmt(est.stderr, 2),
-                         f"[{fmt(est.ci95_low)}, {fmt(est.ci95_high)}]", fmt(paper.get(setup, {}).get(name))])
+                         fmt_interval(est.ci95_low, est.ci95_high), fmt(paper.get(setup, {}).get(name))])
         if setup == "two-step":
             n = ctx.numbers.get("two-step", {})
             for k, pv in (("rho_1", PAPER["rho_1"]), ("rho_2", PAPER["rho_2"])):
