@@ -231,6 +231,11 @@ def test_cli_hopf_draws_write_the_distribution(tmp_path, capsys):
     _one_line_error(capsys, "--force")
     assert main(["design", "hopf", "--amplitude", "1.5", "--draws", "3"]) == 2
     _one_line_error(capsys, "--draws needs --out")
+    # too short to measure an orbit over the last 20 s: refused, not a table of NaN
+    assert main(["design", "hopf", "--amplitude", "1.5", "--params", str(fit), "--draws", "3", "--t-end", "2",
+                 "--out", str(tmp_path / "short")]) == 2
+    _one_line_error(capsys, "--t-end = 2 s must be at least twice the window (10 s)")
+    assert not (tmp_path / "short").exists()
 
 
 def test_cli_lqr_and_swingup_draws_write_their_probabilities(tmp_path, capsys):

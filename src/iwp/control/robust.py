@@ -285,9 +285,11 @@ class RobustHopf:
         why = ", ".join(f"{v} {k}" for k, v in counts.items() if v)
         lines = [f"Hopf design (k1 = {d.k1:.6g}, k2 = {d.k2:.6g}, amplitude {d.amplitude:g} rad) over "
                  f"{self.amplitudes.size} parameter draws ({self.t_end:g} s closed loops):",
-                 f"  nominal amplitude {self.nominal_amplitude:.5g} rad",
-                 f"  amplitude median {a.median:.5g} rad, {100 * a.level:g} % interval "
-                 f"[{a.low:.5g}, {a.high:.5g}] rad over {a.count} draws with an orbit",
+                 (f"  nominal amplitude {self.nominal_amplitude:.5g} rad" if math.isfinite(self.nominal_amplitude)
+                  else f"  nominal: no stable orbit reached within {self.t_end:g} s"),
+                 (f"  amplitude median {a.median:.5g} rad, {100 * a.level:g} % interval "
+                  f"[{a.low:.5g}, {a.high:.5g}] rad over {a.count} draws with an orbit" if a.count
+                  else "  amplitude: no draw reached an orbit"),
                  f"  no stable orbit reached within {self.t_end:g} s: {self.no_orbit}" + (f" -- {why}" if why else "")]
         return "\n".join(lines + _reliability_line_of(self))
 
@@ -449,7 +451,8 @@ def robust_hopf(
     window = check_positive("window", window)
     Ts = check_positive("Ts", Ts)
     if t_end < 2 * window:
-        raise InputError(f"t_end = {t_end:g} s must be at least twice the window ({window:g} s)", argument="t_end")
+        raise InputError(f"t_end = {t_end:g} s must be at least twice the window ({window:g} s) the orbit's "
+                         "amplitude is measured over", argument="t_end")
     nominal = uncertainty.params
     if design is None:
         if amplitude is None:
