@@ -453,3 +453,13 @@ def test_ctrl_c_on_a_local_cluster_run_is_one_line_and_resumes(tmp_path):
     assert 2 <= done < 50
     res = run_sweep(load_spec(spec), out)
     assert len(res.computed) == 50 - done
+
+
+def test_a_spec_error_names_the_spec_once_and_a_folder_is_not_called_bad_json(tmp_path, capsys):
+    spec = tmp_path / "spec.json"
+    spec.write_text(json.dumps({"t_end": 10, "window": 2, "vary": {"k1": {"linspace": [-12, -8, 0]}}}))
+    assert main(["sweep", str(spec), "--out", str(tmp_path / "o")]) == 2
+    err = _one_line_error(capsys)
+    assert err.count(str(spec)) == 1 and "'vary.k1.linspace' count must be a positive integer" in err
+    assert main(["sweep", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
+    assert _one_line_error(capsys) == f"iwp: error: spec {tmp_path}: is a folder, expected a JSON file"

@@ -286,6 +286,8 @@ def read_json(path: str | Path, *, argument: str | None = None) -> Any:
                              f"(at most {MAX_JSON_BYTES // 2**20} MB)", argument=argument)
         text = p.read_bytes().decode("utf-8-sig")
         return json.loads(text, parse_int=_json_int)
+    except InputError:  # said above (an InputError is a ValueError: not the last clause's)
+        raise
     except _HugeInteger as exc:
         raise InputError(f"{where}: an integer of {exc.args[0]} digits is beyond any number iwp reads (at most "
                          f"{_MAX_INT_DIGITS})", argument=argument) from None

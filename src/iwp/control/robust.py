@@ -650,7 +650,7 @@ def robust_balance(
     tolerance = check_positive("tolerance", tolerance)
     hold = check_positive("hold", hold)
     if hold >= t_end:
-        raise InputError(f"hold = {hold:g} s must be shorter than t_end = {t_end:g} s", argument="hold")
+        raise InputError(f"hold = {hold:g} s must be shorter than t_end = {t_end:g} s", argument=("hold", "t_end"))
     fall = check_positive("fall", fall)
     nominal = uncertainty.params
     ctl = lqr if lqr is not None else lqr_balance(nominal, u_max=u_max, Ts=Ts)

@@ -540,7 +540,8 @@ def spec_from_dict(doc, *, where: str = "spec", base: Path | None = None, **over
             raise InputError(f"k1, k2 and controller_Ts are the Hopf law's; law is {law!r}")
         return SweepSpec(**kw, source=source)
     except InputError as exc:
-        raise InputError(f"{where}: {exc}") from None
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
 
 
 def load_spec(path, *, argument: str = "spec", **overrides) -> SweepSpec:
