@@ -52,6 +52,9 @@ def _one_line_error(capsys):
         (["--input", "sine", "--t-end", "1", "--ts", "0"], "--ts must be > 0"),
         (["--input", "sine", "--t-end", "1", "--x0", "1,2"], "x0 must have 4 values"),
         (["--input", "sine", "--t-end", "1", "--params", "nope.json"], "no such parameter file"),
+        (["--input", "sine", "--t-end", "1", "--draws", "50"], "--draws is for the draws of --band monte-carlo"),
+        (["--input", "sine", "--t-end", "1", "--band", "linear", "--seed", "3"],
+         "--seed is for the draws of --band monte-carlo"),
     ],
 )
 def test_simulate_bad_input_exit_2(tmp_path, capsys, args, match):

@@ -463,3 +463,11 @@ def test_a_spec_error_names_the_spec_once_and_a_folder_is_not_called_bad_json(tm
     assert err.count(str(spec)) == 1 and "'vary.k1.linspace' count must be a positive integer" in err
     assert main(["sweep", str(tmp_path), "--out", str(tmp_path / "o")]) == 2
     assert _one_line_error(capsys) == f"iwp: error: spec {tmp_path}: is a folder, expected a JSON file"
+
+
+def test_a_key_given_twice_in_a_json_file_is_refused(tmp_path, capsys):
+    spec = tmp_path / "spec.json"
+    spec.write_text('{"t_end": 10, "window": 2, "vary": {"k1": [-10, -9], "k1": [-8]}}')  # json keeps the last
+    assert main(["sweep", str(spec), "--out", str(tmp_path / "o")]) == 2
+    assert "key 'k1' is given twice in one object" in _one_line_error(capsys)
+    assert not (tmp_path / "o").exists()

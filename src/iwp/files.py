@@ -262,6 +262,20 @@ class _HugeInteger(Exception):
     pass
 
 
+class _DuplicateKey(Exception):
+    pass
+
+
+def _unique_keys(pairs: list) -> dict:
+    """A JSON object's pairs as a dict, refusing a key given twice (json keeps the last one without a word)."""
+    out: dict = {}
+    for k, v in pairs:
+        if k in out:
+            raise _DuplicateKey(k)
+        out[k] = v
+    return out
+
+
 def _json_int(text: str) -> int:
     digits = len(text.lstrip("-"))
     if digits > _MAX_INT_DIGITS:
@@ -285,9 +299,12 @@ def read_json(path: str | Path, *, argument: str | None = None) -> Any:
             raise InputError(f"{where}: {p.stat().st_size / 2**20:.0f} MB is too large for a JSON file of iwp "
                              f"(at most {MAX_JSON_BYTES // 2**20} MB)", argument=argument)
         text = p.read_bytes().decode("utf-8-sig")
-        return json.loads(text, parse_int=_json_int)
+        return json.loads(text, parse_int=_json_int, object_pairs_hook=_unique_keys)
     except InputError:  # said above (an InputError is a ValueError: not the last clause's)
         raise
+    except _DuplicateKey as exc:
+        raise InputError(f"{where}: key {exc.args[0]!r} is given twice in one object (only one would count); give it "
+                         "once", argument=argument) from None
     except _HugeInteger as exc:
         raise InputError(f"{where}: an integer of {exc.args[0]} digits is beyond any number iwp reads (at most "
                          f"{_MAX_INT_DIGITS})", argument=argument) from None

@@ -38,8 +38,9 @@ def register(sub) -> None:
     p.add_argument("--band", choices=["linear", "monte-carlo"], default=None,
                    help="also write the 95 %% parameter and prediction bands (columns q1_lo, q1_hi, q1_plo, q1_phi, "
                         "...) from the covariance in --params (the parameters.json of iwp fit)")
-    p.add_argument("--draws", type=int, default=1000, help="parameter draws of a monte-carlo band (default 1000)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the parameter draws (default 0)")
+    p.add_argument("--draws", type=int, default=None,
+                   help="parameter draws of a monte-carlo band (default 1000; --band monte-carlo)")
+    p.add_argument("--seed", type=int, default=None, help="seed of the parameter draws (default 0; --band monte-carlo)")
     p.add_argument("--out", required=True, help="output CSV file")
     p.add_argument("--plot", default=None, help="also save a figure (PNG/SVG/PDF)")
     add_force_arg(p)
@@ -47,6 +48,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from ..errors import InputError
     from ..models.plant import Plant
     from ..sim.inputs import make_input
     from ..sim.tasks import SimulationTask, write_simulation
@@ -58,10 +60,14 @@ def run(args) -> int:
     else:
         inp = make_input(args.input or "zero", amplitude=args.amplitude, omega=args.omega, w0=args.w0, tau=args.tau,
                          t_step=args.t_step)
+    for flag, value in (("--draws", args.draws), ("--seed", args.seed)):
+        if value is not None and args.band != "monte-carlo":
+            raise InputError(f"{flag} is for the draws of --band monte-carlo; without it, it would do nothing")
     uncertainty = load_uncertainty(args.params) if args.band is not None else None
     params = uncertainty.params if uncertainty is not None else load_lumped(args.params)
     task = SimulationTask(Plant(params, model=args.model), inp, x0=args.x0, t0=args.t0, t_end=args.t_end, Ts=args.ts,
                           feedforward=args.feedforward, saturation=args.saturation, rtol=args.rtol, atol=args.atol,
-                          uncertainty=uncertainty, band=args.band, draws=args.draws, seed=args.seed)
+                          uncertainty=uncertainty, band=args.band, draws=1000 if args.draws is None else args.draws,
+                          seed=0 if args.seed is None else args.seed)
     print(write_simulation(task, args.out, plot=args.plot, force=args.force))
     return 0

@@ -63,7 +63,9 @@ class _Progress:
             return
         self.last = now
         rate = pr.computed / pr.seconds if pr.seconds > 0 else 0.0
-        eta = f", about {(pr.total - pr.done) / rate:.0f} s left" if rate > 0 and pr.done < pr.total else ""
+        # from the second chunk on (the first one's time holds the start-up: loading the engine, a cluster's)
+        eta = (f", about {(pr.total - pr.done) / rate:.0f} s left" if rate > 0 and pr.computed >= 2
+               and pr.done < pr.total else "")
         print(f"iwp: sweep: {pr.done}/{pr.total} chunks ({pr.lanes_done} lanes), {pr.seconds:.1f} s{eta}",
               file=sys.stderr, flush=True)
 

@@ -51,7 +51,7 @@ class LocalExecutor:
         return self.threads or numba.get_num_threads()
 
     def describe(self) -> str:
-        return f"local, {self.cores} threads"
+        return f"local, {self.cores} thread{'s' if self.cores != 1 else ''}"
 
     def map(self, spec: SweepSpec, indices: Sequence[int]) -> Iterator[ChunkResult]:
         """Run the chunks ``indices`` and yield their results as they finish."""

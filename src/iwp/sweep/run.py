@@ -115,7 +115,8 @@ class SweepResult:
         status = tab["status"]
         failed = int(np.count_nonzero(status > 0))
         unphys = int(np.count_nonzero(status < 0))
-        head = f"{self.results}: {n} closed loops ({s.law}, {s.t_end:g} s each) in {s.n_chunks} chunks; "
+        chunks = f"{s.n_chunks} chunk{'s' if s.n_chunks != 1 else ''}"
+        head = f"{self.results}: {n} closed loops ({s.law}, {s.t_end:g} s each) in {chunks}; "
         if self.computed:
             head = (f"wrote {head}{len(self.computed)} computed in {self.seconds:.1f} s on {self.executor}"
                     + (f", {len(self.resumed)} resumed from disk" if self.resumed else ""))
