@@ -189,7 +189,7 @@ def test_counts_declared_as_degrees_are_refused_but_a_wrapping_sensor_is_not(tmp
     rig = rig_of(sample_period=0.05, pendulum={"counts_per_rev": 20000})
     run = DescribedRig(rig, TRUTH).run(Chirp(0.4, 3.0, 10.0), duration=20.0)  # swings of about half a turn
     counts = write_rig_csv(run, tmp_path / "counts.csv")
-    assert read_rig_log(counts, rig, glitches=False).q1.size == 401  # as described
+    assert read_rig_log(counts, rig).q1.size == 401  # as described (its fast swings no "jumps")
     as_deg = rig_of(sample_period=0.05, pendulum={"unit": "deg"})
     with pytest.raises(DataFormatError) as err:
         read_rig_log(counts, as_deg)
@@ -675,6 +675,19 @@ def test_a_log_whose_motion_contradicts_its_kind_is_named(tmp_path):
     assert swapped[1].startswith("--clamped ") and "free.csv" in swapped[1] and "was not clamped" in swapped[1]
     span = float(re.search(r"spans ([\d.]+) rad", swapped[1]).group(1))
     assert span == pytest.approx(float(np.ptp(free_log.q1)), rel=1e-2) and span > 0.1
+
+
+@pytest.mark.parametrize("noise", [0.0, 0.001])
+def test_a_coarsely_sampled_fast_swing_is_no_jump_but_a_step_in_it_is(tmp_path, noise):
+    # half-turn swings at 50 ms: the angle's curvature changes fast, alike at a sample and beside it (without
+    # noise, five such samples were once "jumps")
+    rig = rig_of(sample_period=0.05, pendulum={"counts_per_rev": 20000})
+    for jumps in ((), ((300, 0.03),)):
+        run = DescribedRig(rig, TRUTH, jumps=jumps, noise_std=noise, seed=1).run(Chirp(0.4, 3.0, 10.0), duration=20.0)
+        d = read_rig_log(write_rig_csv(run, tmp_path / f"swing{len(jumps)}.csv"), rig, glitches=False)
+        assert np.ptp(d.q1) > 3.0  # the swings of the test: over half a turn each way
+        found = find_glitches(d.t, {"q1": d.q1, "q4": d.q4}, input=d.input)
+        assert [(g.index, g.kind) for g in found] == [(k, "jump") for k, _ in jumps]
 
 
 def test_a_poor_held_out_prediction_is_a_warning_with_what_to_try():

@@ -36,7 +36,9 @@ signal's robust range (1st to 99th percentile). A jump of an angle is an
 outlier of the first difference ``d[k] = y[k+1] - y[k]`` against its
 neighbours' mean, beyond ``JUMP_SIGMAS`` robust spreads and
 ``jump_floor`` [rad], that is not followed by the opposite step (which would
-make it a spike).
+make it a spike), and whose neighbours deviate as a step's do (by half of it
+the other way, against the deviations two samples away: a coarsely sampled
+fast swing deviates alike at a sample and beside it).
 """
 
 from __future__ import annotations
@@ -221,6 +223,13 @@ def _jumps(y: np.ndarray, floor: float, skip: set[int]) -> list[tuple[int, float
             continue  # a step's neighbours deviate by half of it: keep the largest
         if any(np.sign(e[j]) == -np.sign(e[k]) and a[j] > 0.7 * a[k] for j in (k - 1, k + 1)):
             continue  # up and down again (deviations -1.5A, +1.5A): a spike, not a step
+        if 2 <= k < d.size - 3:
+            # a step A leaves the deviations two samples away alone and those next to it at -A/2 from them; a
+            # fast smooth motion (a swing sampled coarsely) deviates alike at k and beside it: no step
+            base = 0.5 * (e[k - 2] + e[k + 2])
+            step = e[k] - base
+            if any(abs(e[j] - base + 0.5 * step) > 0.25 * abs(step) for j in (k - 1, k + 1)):
+                continue
         out.append((k + 1, float(e[k])))
     return out
 
