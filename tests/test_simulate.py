@@ -304,7 +304,8 @@ def test_atol_per_state():
 
 
 def test_continuous_inputs_are_evaluated_on_demand_from_t_and_x():
-    r = simulate(table1(), input=HopfController(-9.0, 0.1), x0=[0.1, 0, 0, 0], t_end=10.0, feedforward=True)
+    r = simulate(table1(), model="raw", input=HopfController(-9.0, 0.1), x0=[0.1, 0, 0, 0], t_end=10.0,
+                 feedforward=True)
     u = -9.0 * r.q3 + 0.1 * r.q3**3
     np.testing.assert_allclose(r.u, u, rtol=1e-13, atol=1e-13)
     v = np.where(u > 0, u + 31.0, np.where(u < 0, u - 31.0, 0.0))
@@ -366,3 +367,11 @@ def test_the_kink_ahead_is_the_root_of_the_taylor_model(v, a, jk, frac, H, half_
     # the root is defined to the rounding of q near the kink over the slope (at least 0.1 |v|)
     cond = 8.0 * np.spacing(abs(kink) + abs(q1)) / (0.1 * abs(v))
     assert s == pytest.approx(ref, abs=1e-13 * H + cond)
+
+
+def test_a_feedforward_on_a_plant_without_dead_zone_is_refused():
+    # model (9) takes the compensated u: the thresholds would be added a second time (u = sin +- 31)
+    with pytest.raises(InputError, match="feedforward compensates the dead zone .* model 'compensated' has none"):
+        simulate(table1(), input=Sine(40.0, 5.0), t_end=1.0, feedforward=True)
+    r = simulate(table1(), model="raw", input=Sine(40.0, 5.0), t_end=1.0, feedforward=True)
+    assert r.status == 0

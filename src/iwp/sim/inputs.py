@@ -403,6 +403,9 @@ def make_input(name: str, argument: str = "input", **kw) -> Input | None:
     choices = CONTROLLER_NAMES if argument == "controller" else INPUT_NAMES + CONTROLLER_NAMES
     if name not in choices:
         raise InputError(f"{argument} {name!r}: unknown; choose one of: {', '.join(choices)}", argument=argument)
+    if name in CONTROLLER_NAMES and (kw.get("k1") is None or kw.get("k2") is None):
+        raise InputError(f"{argument} {name!r} is a feedback law with gains k1 and k2: give controller={name} "
+                         "with k1 and k2", argument=(argument, "controller", "k1", "k2"))
     if name == "zero":
         return None
     if name == "constant":

@@ -199,6 +199,10 @@ def command_of(plant: Plant, feedforward=None, saturation=None) -> np.ndarray:
                 raise InputError("feedforward must be True, False or a pair (v_dz_pos, v_dz_neg)") from None
         check_finite("feedforward v_dz_pos", pair[0])
         check_finite("feedforward v_dz_neg", pair[1])
+        if not plant.dead_zone_active:
+            raise InputError(f"feedforward compensates the dead zone (7)-(8) of the raw command; model "
+                             f"{plant.model!r} has none (its input is the compensated u), so the feedforward would "
+                             "add the thresholds to it a second time: simulate model='raw'", argument="feedforward")
     sat = None if saturation is None else check_positive("saturation", saturation)
     return command_vector(pair, sat)
 
