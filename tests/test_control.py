@@ -364,3 +364,16 @@ def test_cli_swingup_bad_x0_is_refused_before_writing(tmp_path, capsys):
     out = tmp_path / "never"
     assert main(["control", "swingup", "--out", str(out), "--x0", "1,2"]) == 2
     assert "--x0 must have 4 values" in capsys.readouterr().err and not out.exists()
+
+
+def test_json_output_is_strict_json_without_nan(tmp_path, capsys):
+    # a value that is not defined is null: NaN is not JSON (jq and browsers refuse it)
+    def strict(text):
+        return json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in the JSON output"))
+
+    assert main(["design", "hopf", "--amplitude", "2", "--k1", "-20", "--json"]) == 0
+    assert strict(capsys.readouterr().out)["k1_normal_form"] is None
+    assert main(["control", "swingup", "--no-animation", "--out", str(tmp_path / "su"), "--t-end", "2", "--json"]) == 1
+    doc = strict(capsys.readouterr().out)
+    assert doc["t_catch"] is None and doc["t_balanced"] is None
+    assert strict((tmp_path / "su" / "swingup.json").read_text())["t_catch"] is None

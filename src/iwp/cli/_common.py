@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import json
 import re
 from collections.abc import Sequence
 
@@ -35,6 +36,14 @@ class LazyChoices(Sequence):
 
     def __contains__(self, value) -> bool:
         return value in self._load()
+
+
+def json_text(obj, **kw) -> str:
+    """``obj`` as strict JSON (NaN and inf as null, numpy values as numbers): what ``--json`` prints and the
+    commands' JSON files hold, readable by any parser (``jq``, a browser)."""
+    from ..files import jsonable  # numpy: loaded with the command, not with the parser
+
+    return json.dumps(jsonable(obj), allow_nan=False, **kw)
 
 
 def plain(doc: str) -> str:
@@ -114,14 +123,13 @@ def draws_uncertainty(args):
 def write_robust(robust, args) -> dict:
     """Write a robust design's robust.json and robust.png into ``--out`` (staged); its summary for the JSON
     output, without the runs, with the files written."""
-    import json
     from pathlib import Path
 
     from ..files import staged_dir
     from ..plotting import savefig
 
     with staged_dir(args.out, force=args.force, argument="out") as tmp:
-        (tmp / "robust.json").write_text(json.dumps(robust.to_dict(), indent=2))
+        (tmp / "robust.json").write_text(json_text(robust.to_dict(), indent=2))
         savefig(robust.plot()["figure"], tmp / "robust.png")
     summary = {k: v for k, v in robust.to_dict().items() if k != "runs"}
     summary["files"] = {"json": str(Path(args.out) / "robust.json"), "figure": str(Path(args.out) / "robust.png")}

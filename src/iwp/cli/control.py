@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from ..errors import InputError
@@ -13,6 +12,7 @@ from ._common import (
     add_params_arg,
     draws_uncertainty,
     float_list,
+    json_text,
     load_lumped,
     load_uncertainty_arg,
     write_robust,
@@ -146,15 +146,15 @@ def run_swingup(args) -> int:
         summary["robust"] = {k: v for k, v in robust.to_dict().items() if k != "runs"}
     with staged_dir(out, force=args.force, argument="out") as tmp:
         if robust is not None:
-            (tmp / names["robust_json"]).write_text(json.dumps(robust.to_dict(), indent=2))
+            (tmp / names["robust_json"]).write_text(json_text(robust.to_dict(), indent=2))
             savefig(robust.plot()["figure"], tmp / names["robust_figure"])
         res.result.to_csv(tmp / names["csv"], force=True)
         savefig(res.plot()["figure"], tmp / names["png"])
         if "gif" in names:
             res.animate(tmp / names["gif"], frames=args.frames, force=True)
-        (tmp / names["json"]).write_text(json.dumps(summary, indent=2))
+        (tmp / names["json"]).write_text(json_text(summary, indent=2))
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print(json_text(summary, indent=2))
     else:
         state = "balanced" if res.success else "NOT balanced"
         print(f"swing-up ({res.conditions}): {state}; catch at t = {res.t_catch:.3f} s, within "
@@ -193,7 +193,7 @@ def run_lqr(args) -> int:
                                 t_end=args.t_end)
         d["robust"] = write_robust(robust, args)
     if args.json:
-        print(json.dumps(d, indent=2))
+        print(json_text(d, indent=2))
         return 0
     print(f"LQR at the upright on (q1 - pi, q3, q4) ({'discrete, Ts = %g s' % L.Ts if L.Ts else 'continuous'}, "
           f"{L.backend}):")

@@ -3,12 +3,19 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_draws_args, add_force_arg, add_params_arg, draws_uncertainty, load_lumped, write_robust
+from ._common import (
+    add_draws_args,
+    add_force_arg,
+    add_params_arg,
+    draws_uncertainty,
+    json_text,
+    load_lumped,
+    write_robust,
+)
 
 _HOPF_DESCRIPTION = """\
 Gains of u = k1 q3 + k2 q3^3 (section 5.3) that make the pendulum oscillate
@@ -117,7 +124,7 @@ def run_hopf(args) -> int:
         write_all([(args.plot, lambda tmp: savefig(fig, tmp))])
         out["plot"] = str(args.plot)
     if args.json:
-        print(json.dumps(out, indent=2))
+        print(json_text(out, indent=2))
         return 0
     fl = sorted(abs(m) for m in d.orbit.floquet)
     print(f"Hopf design on model (9): amplitude max q1 = {d.amplitude:g} rad")
@@ -181,7 +188,7 @@ def run_branch(args) -> int:
     if args.json:
         d = branch.to_dict()
         d["simulations"] = [{"k1": s.k1, "amplitude": s.amplitude, "period": s.period} for s in sims]
-        print(json.dumps(d, indent=2))
+        print(json_text(d, indent=2))
         return 0
     lo, hi = branch.amplitude_range
     print(f"Hopf branch (k2 = {args.k2:g}): k1* = {branch.hopf.k1:.6g} ({branch.hopf.criticality}), "

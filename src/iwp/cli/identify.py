@@ -15,11 +15,10 @@ result), dead-zone (v+, v- from a static curve).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from ..errors import InputError
-from ._common import LazyChoices, add_force_arg, plain
+from ._common import LazyChoices, add_force_arg, json_text, plain
 
 
 def register(sub) -> None:
@@ -156,7 +155,7 @@ def run(args) -> int:
             write_all([(out_path, lambda tmp: save_params(
                 r.params, tmp, force=True, extra={"identification": res.to_dict(), "refinement": r.to_dict()}))])
         if args.json:
-            print(json.dumps(r.to_dict()))
+            print(json_text(r.to_dict()))
         else:
             print(res.summary())
             print()
@@ -177,7 +176,7 @@ def run(args) -> int:
                   "iwp simulate will use it with a warning", file=sys.stderr)
         write_all([(out_path, lambda tmp: save_params(params, tmp, force=True, extra=extra))])
     if args.json:
-        print(json.dumps(res.to_dict()))
+        print(json_text(res.to_dict()))
     else:
         print(res.summary())
         if out_path is not None:

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 
-from ._common import add_force_arg, float_list
+from ._common import add_force_arg, float_list, json_text
 
 _DESCRIPTION = """\
 Simulate the model from the log's initial state with the logged input
@@ -112,7 +111,7 @@ def run(args) -> int:
         fig = v.plot()["figure"]
         write_all([(args.plot, lambda tmp: savefig(fig, tmp))])
     if args.json:
-        print(json.dumps(v.to_dict(), indent=2))
+        print(json_text(v.to_dict(), indent=2))
     else:
         if offset:
             print(f"q1 less the pendulum zero offset {offset:+.4g} rad of {args.params} (the training logs' mean, "
