@@ -57,6 +57,9 @@ class HopfDesign:
     stable_amplitude_max : float
         Largest amplitude of the stable orbits met on the way (from the Hopf
         point up to the design) [rad]; NaN if not known.
+    unstable_amplitude_min : float
+        Amplitude of the first unstable orbit met after them [rad] (the
+        stability limit lies between the two); NaN if none was met.
     """
 
     amplitude: float
@@ -68,6 +71,7 @@ class HopfDesign:
     hopf: HopfPoint
     k1_normal_form: float = float("nan")
     stable_amplitude_max: float = float("nan")
+    unstable_amplitude_min: float = float("nan")
 
     @property
     def stable(self) -> bool:
@@ -145,8 +149,9 @@ def design_hopf(
             f"(largest Floquet multiplier |mu| = {mult:.4g}); "
             + ("the Hopf bifurcation is subcritical for this k2 (raise k2 above "
                f"{design.hopf.k2_critical:.4g})" if design.hopf.criticality == "subcritical" else
-               (f"stable orbits of this branch reach amplitudes up to {design.stable_amplitude_max:.4g} rad; "
-                if math.isfinite(design.stable_amplitude_max) else "")
+               (f"the orbits of this branch are stable up to an amplitude between {design.stable_amplitude_max:.4g} "
+                f"and {min(design.unstable_amplitude_min, amplitude):.4g} rad (the last stable and the first unstable "
+                "orbit the continuation met); " if math.isfinite(design.stable_amplitude_max) else "")
                + "lower the amplitude or change k2"))
     return design
 
@@ -156,7 +161,7 @@ def _design_k1(params, amplitude, k2, a_start) -> HopfDesign:
     if hp.criticality == "degenerate":
         raise InputError(f"k2 = {k2:g} makes the Hopf bifurcation degenerate (l1 = 0); choose another k2")
     k1_nf = hp.predicted_k1(amplitude)
-    stable_max = float("nan")
+    stable_max = unstable_min = float("nan")
     shooter = OrbitShooter(params, "k1", k2)
     if amplitude <= a_start:
         orbit = shooter.orbit(hopf_start(shooter, hp, amplitude))
@@ -173,10 +178,12 @@ def _design_k1(params, amplitude, k2, a_start) -> HopfDesign:
         orbit = shooter.orbit(res)
         for o in run.orbits:
             if not o.stable:
+                unstable_min = o.amplitude
                 break
             stable_max = o.amplitude
     return HopfDesign(amplitude=amplitude, k1=orbit.k1, k2=orbit.k2, solved_for="k1", period=orbit.period,
-                      orbit=orbit, hopf=hp, k1_normal_form=float(k1_nf), stable_amplitude_max=stable_max)
+                      orbit=orbit, hopf=hp, k1_normal_form=float(k1_nf), stable_amplitude_max=stable_max,
+                      unstable_amplitude_min=unstable_min)
 
 
 def _design_k2(params, amplitude, k1) -> HopfDesign:
