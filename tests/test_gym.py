@@ -150,7 +150,8 @@ def test_balance_controller_in_the_env():
 @pytest.mark.parametrize(
     "kwargs,match",
     [({"dead_zone": "x"}, "dead_zone"), ({"counts_per_rev": -1}, "counts_per_rev"), ({"Ts": 0}, "Ts"),
-     ({"randomize": 1.5}, "randomize"), ({"init": "side"}, "init"), ({"render_mode": "human"}, "render_mode")],
+     ({"randomize": 1.5}, "randomize"), ({"init": "side"}, "init"), ({"render_mode": "human"}, "render_mode"),
+     ({"reward_weights": (float("nan"), 1, 1, 1)}, "reward_weights must hold 4 finite weights")],
 )
 def test_bad_options(kwargs, match):
     with pytest.raises(InputError, match=match):
@@ -163,3 +164,23 @@ def test_render_rgb_array():
     img = env.render()
     assert img.ndim == 3 and img.shape[2] == 3 and img.dtype == np.uint8
     env.close()
+
+
+@pytest.mark.parametrize("action", [np.array([np.nan], dtype=np.float32), np.array([0.3, -0.9]), [], "up"],
+                         ids=["nan", "two", "none", "text"])
+def test_an_action_that_is_not_one_number_is_refused_and_the_state_kept(action):
+    env = InertiaWheelPendulumEnv()
+    env.reset(seed=0)
+    before = env.state.copy()
+    with pytest.raises(InputError, match=r"action must be one number in \[-1, 1\]"):
+        env.step(action)
+    np.testing.assert_array_equal(env.state, before)
+    _, reward, terminated, _, info = env.step(np.array([2.0], dtype=np.float32))  # beyond [-1, 1]: saturated
+    assert info["u"] == env.u_max and np.isfinite(reward) and not terminated
+
+
+@pytest.mark.parametrize("x0", ["abc", [0.0, 0.0, 0.0, 1e9], [0.0, np.nan, 0.0, 0.0], [1.0, 2.0]])
+def test_a_bad_initial_state_is_refused(x0):
+    env = InertiaWheelPendulumEnv()
+    with pytest.raises(InputError, match=r"options\['x0'\] must be 4 finite numbers"):
+        env.reset(options={"x0": x0})

@@ -21,7 +21,9 @@ Task: swing up from the bottom and balance at the upright (``q1 = pi``).
 
 Observation (float32): ``[cos q1, sin q1, q3, q4]`` (measured), clipped to
 ``|q3| <= 40`` rad/s and ``|q4| <= 600`` rad/s.
-Action (float32): ``a`` in ``[-1, 1]``, the ideal input ``u = u_max a``.
+Action (float32): ``a`` in ``[-1, 1]``, the ideal input ``u = u_max a``; one number (an action
+of another shape, or NaN, is refused with :class:`~iwp.errors.InputError`), beyond ``[-1, 1]``
+clipped to it, as the driver saturates.
 Reward: ``-(theta^2 + w_v q3^2 + w_d (q4/100)^2 + w_u a^2)`` with
 ``theta = wrap(q1 - pi)``; weights ``reward_weights = (1, w_v, w_d, w_u)``.
 Episodes are truncated after 2000 steps (10 s) by the registration.
@@ -44,7 +46,7 @@ from .models import LumpedParameters, PhysicalParameters, Plant, load_params
 from .models.actuator import command_vector
 from .models.encoder import encoder_step, quantize
 from .sim.engine import ST_OK
-from .sim.simulate import integrate_held, tolerances
+from .sim.simulate import X_MAX, integrate_held, tolerances
 
 __all__ = ["ENV_ID", "InertiaWheelPendulumEnv", "register_envs"]
 
@@ -140,8 +142,10 @@ class InertiaWheelPendulumEnv(gym.Env):
             raise InputError(f"randomize must be in [0, 1), got {randomize!r}")
         if init not in ("bottom", "random", "top"):
             raise InputError(f"init must be 'bottom', 'random' or 'top', got {init!r}")
-        if len(reward_weights) != 4:
-            raise InputError("reward_weights must hold 4 weights (theta^2, q3^2, (q4/100)^2, a^2)")
+        if len(reward_weights) != 4 or not all(isinstance(w, (int, float, np.number)) and math.isfinite(w)
+                                               for w in reward_weights):
+            raise InputError("reward_weights must hold 4 finite weights (theta^2, q3^2, (q4/100)^2, a^2), got "
+                             f"{tuple(reward_weights)!r}")
         if int(substeps) != substeps or substeps < 1:
             raise InputError(f"substeps must be a positive integer, got {substeps!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -208,9 +212,13 @@ class InertiaWheelPendulumEnv(gym.Env):
             self.params = pr
         x0 = None if options is None else options.get("x0")
         if x0 is not None:
-            x = np.array(x0, dtype=float).ravel()
-            if x.shape != (4,) or not np.all(np.isfinite(x)):
-                raise InputError(f"options['x0'] must be 4 finite numbers [q1, q2, q3, q4], got {x0!r}")
+            try:
+                x = np.array(x0, dtype=float).ravel()
+            except (TypeError, ValueError):
+                x = np.full(0, np.nan)
+            if x.shape != (4,) or not np.all(np.abs(x) < X_MAX):
+                raise InputError(f"options['x0'] must be 4 finite numbers [q1, q2, q3, q4] below {X_MAX:g} in "
+                                 f"magnitude, got {x0!r}")
         elif self.init == "bottom":
             x = np.array([rng.uniform(-0.05, 0.05), 0.0, rng.uniform(-0.05, 0.05), 0.0])
         elif self.init == "top":
@@ -227,7 +235,14 @@ class InertiaWheelPendulumEnv(gym.Env):
         return obs, self._info(0.0)
 
     def step(self, action):
-        a = float(np.clip(np.asarray(action, dtype=float).reshape(-1)[0], -1.0, 1.0))
+        try:
+            arr = np.asarray(action, dtype=float)
+        except (TypeError, ValueError):
+            arr = np.full(0, np.nan)
+        if arr.size != 1 or np.isnan(arr).any():
+            shown = arr.tolist() if arr.size else action
+            raise InputError(f"action must be one number in [-1, 1] (the action space's shape (1,)), got {shown!r}")
+        a = float(np.clip(arr.reshape(-1)[0], -1.0, 1.0))
         u = self.u_max * a
         x = self.state.copy()
         # u held over one sample; the command is the feedforward (7)-(8) of u (dead zone on)
