@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from ..checks import check_finite
 from ..control import RigConditions, SwingUpController, lqr_balance
 from ..control.balance import wrap_angle
 from ..errors import InputError
@@ -92,6 +93,11 @@ def run_control(rig: Rig, what: str, *, where: str = "device", params: LumpedPar
     if where not in CONTROLLERS[what]:
         raise InputError(f"{what} runs on the {' or the '.join(CONTROLLERS[what])}, not on the {where}",
                          argument="where")
+    if x0 is not None:
+        q1_x0 = check_finite("x0", float(np.ravel([x0])[0]))
+        if not abs(q1_x0) < rig.info.params["q1_max"]:
+            raise InputError(f"x0 = {q1_x0:g} rad is beyond the rig's angle limit q1_max = "
+                             f"{rig.info.params['q1_max']:g} rad: the device would not arm", argument="x0")
     if what == "hopf":
         return run_on_rig(rig, "closed-loop", controller=where, fast=fast, operator=operator, progress=progress,
                           limits=limits, k1=k1, k2=k2, duration=duration, x0=0.3 if x0 is None else x0)
