@@ -389,6 +389,38 @@ def test_ctrl_c_leaves_a_complete_readable_log_marked_interrupted(emulator, tmp_
     assert {"jitter_p50_ms", "jitter_max_ms", "device_overruns", "late_ticks", "host_overruns"} <= set(timing)
 
 
+def test_a_second_interrupt_during_the_stop_still_writes_the_log(emulator, tmp_path):
+    # GNU timeout sends its signal to the command and then to its process group: two SIGINTs a moment apart,
+    # the second while the host waits for the emergency stop's acknowledgement
+    port, err = emulator
+    out = tmp_path / "twice.csv"
+    seen = err.read_text().count("device ARMED")
+    p = subprocess.Popen([sys.executable, "-m", "iwp", "rig", "run", "sine-60", "--port", port, "--out", str(out)],
+                         env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 60.0
+    while err.read_text().count("device ARMED") == seen and time.monotonic() < deadline and p.poll() is None:
+        time.sleep(0.05)
+    time.sleep(1.0)
+    p.send_signal(signal.SIGINT)
+    os.killpg(p.pid, signal.SIGINT)
+    _, stderr = p.communicate(timeout=30)
+    assert p.returncode == 130 and stderr.strip().splitlines()[-1] == "iwp: interrupted", stderr
+    log = read_experiment(out)
+    assert log.metadata["interrupted"] == "true" and log.metadata["stop_reason"] == "Ctrl-C" and log.t[-1] > 0.5
+
+
+def test_the_host_side_hopf_law_runs_in_real_time_without_tripping_the_watchdog(emulator, tmp_path):
+    # the law is compiled code: its first call (half a second) once fell inside the loop and the watchdog
+    # stopped the motor after 0.09 s
+    port, _ = emulator
+    out = tmp_path / "host.csv"
+    r = _iwp("control", "run", "hopf", "--where", "host", "--port", port, "--duration", "2", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    log = read_experiment(out)
+    assert log.metadata["interrupted"] == "false" and log.metadata["controller"] == "host"
+    assert log.n_samples == 401
+
+
 def test_a_port_that_does_not_exist_is_one_line_exit_2(tmp_path):
     out = tmp_path / "x.csv"
     r = _iwp("rig", "run", "sine-60", "--port", str(tmp_path / "nope"), "--out", str(out), timeout=60)

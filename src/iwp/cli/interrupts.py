@@ -94,3 +94,21 @@ def interrupts_as_exceptions():
         if _PENDING:
             _PENDING.clear()
             sys.setprofile(None)
+
+
+@contextlib.contextmanager
+def interrupts_ignored():
+    """While the block runs, SIGINT and SIGTERM do nothing: a command that is stopping already (a rig run
+    interrupted) writes what it recorded whatever further Ctrl-C or ``timeout``'s second signal arrives.
+
+    Outside the main thread it does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = {s: signal.signal(s, signal.SIG_IGN) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)

@@ -18,11 +18,13 @@ inference; ``--targets`` for other numbers) and writes it with its record.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 
 from ..errors import InputError
 from ._common import add_force_arg, float_list, plain
+from .interrupts import interrupts_ignored
 from .portargs import add_port_args, open_port_rig, port_operator, port_progress
 
 
@@ -224,7 +226,9 @@ def finish_port_run(run, out, args, write) -> int:
     if not args.quiet and sys.stderr.isatty():
         print(file=sys.stderr)  # end the progress line
     if run.log is not None:
-        write(run.log, out, force=True)
+        # an interrupted run's log is written whatever interrupts follow (a second Ctrl-C, timeout's group signal)
+        with interrupts_ignored() if run.interrupted else contextlib.nullcontext():
+            write(run.log, out, force=True)
     what = "nothing recorded" if run.log is None else (
         f"{run.log.n_samples} samples, t = 0..{run.log.t[-1]:g} s" if hasattr(run.log, "n_samples")
         else f"{run.log.n_points} points")

@@ -28,6 +28,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..interruption import Terminated as InterruptTerminated
 from .errors import DeviceError, LinkLost
 from .realtime import realtime_priority
 from .rig import Rig, Sample
@@ -253,9 +254,9 @@ def run_loop(
         pass
     except _Stop as stop:
         res.interrupted, res.reason = True, str(stop)
-    except KeyboardInterrupt:
-        res.interrupted, res.reason = True, "Ctrl-C"
-        res.error = KeyboardInterrupt()
+    except KeyboardInterrupt as exc:  # Ctrl-C, or the CLI's SIGTERM (iwp.interruption.Terminated)
+        res.interrupted, res.reason = True, "SIGTERM" if isinstance(exc, InterruptTerminated) else "Ctrl-C"
+        res.error = exc
     except Terminated as exc:
         res.interrupted, res.reason = True, str(exc)
         res.error = exc
@@ -266,7 +267,7 @@ def run_loop(
     finally:
         res.wall = time.monotonic() - wall0
         if armed:
-            _stop_motor(rig, res.interrupted)
+            _stop_despite_interrupts(rig, res)
         priority.__exit__(None, None, None)
         gc.enable()
         gc.unfreeze()
@@ -297,6 +298,20 @@ def _answer(rig: Rig, s: Sample, k: int, start: int, Ts: float, input, controlle
         rig.command(float(input((k - start) * Ts)), k)
     else:
         rig.heartbeat(k)
+
+
+def _stop_despite_interrupts(rig: Rig, res: "LoopResult") -> None:
+    """Stop the motor (:func:`_stop_motor`); an interrupt that arrives meanwhile (a second Ctrl-C, ``timeout``'s
+    signal to the process group after the one to the process) is noted and the emergency stop sent again, up to
+    three times, so that the run so far is returned, not lost (the device's watchdog is the last line)."""
+    for _ in range(3):
+        try:
+            _stop_motor(rig, res.interrupted)
+            return
+        except (KeyboardInterrupt, Terminated) as exc:
+            if not res.interrupted:
+                res.interrupted, res.error = True, exc
+                res.reason = "SIGTERM" if isinstance(exc, (InterruptTerminated, Terminated)) else "Ctrl-C"
 
 
 def _stop_motor(rig: Rig, abnormal: bool) -> None:

@@ -48,6 +48,9 @@ class EncoderHopfController:
         self.a = math.exp(-Ts / tau) if tau > 0 else 0.0
         self.y_prev: float | None = None
         self.q3 = 0.0
+        # the law is compiled code: its first call loads it (half a second), here, not inside a rig's real-time
+        # loop, where the device's watchdog would stop the motor meanwhile
+        hopf_law(self.k1, self.k2, 0.0)
 
     def __call__(self, t: float, y: np.ndarray) -> float:
         y1 = float(y[0])
