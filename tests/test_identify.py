@@ -421,6 +421,25 @@ def test_other_differentiators_are_accepted(clean) -> None:
 # ---------------------------------------------------------------------------
 # command line
 # ---------------------------------------------------------------------------
+def test_cli_naming_the_default_method_changes_nothing(clean, tmp_path, capsys) -> None:
+    # --method savgol (or a degree alone) once fell back on a 21-sample window: the default is 0.5 s (101 at 5 ms)
+    free_csv = tmp_path / "free.csv"
+    write_experiment(clean["free"], free_csv)
+
+    def run(*flags):
+        assert main(["identify", str(free_csv), "--setup", "free", "--json", *flags]) == 0
+        doc = json.loads(capsys.readouterr().out)
+        return doc["parameters"]["p1"], doc["differentiator"]
+
+    default, d0 = run()
+    named, d1 = run("--method", "savgol")
+    assert d0 == d1 == {"method": "savgol", "window": 101, "polyorder": 3} and named == default
+    _, d2 = run("--polyorder", "5")
+    assert d2 == {"method": "savgol", "window": 101, "polyorder": 5}
+    _, d3 = run("--method", "savgol", "--window", "21")
+    assert d3["window"] == 21
+
+
 def test_cli_free_then_two_step_then_simulate(clean, tmp_path, capsys) -> None:
     free_csv = tmp_path / "free.csv"
     full_csv = tmp_path / "full.csv"

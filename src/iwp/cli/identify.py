@@ -40,7 +40,8 @@ def register(sub) -> None:
     p.add_argument("--method", choices=["central", "savgol", "savgol_direct", "butter"],
                    help="differentiation method (default: savgol over 0.5 s, cubic = 101 samples at 5 ms; "
                         "see docs/identification.md)")
-    p.add_argument("--window", type=int, metavar="N", help="savgol: window [samples]")
+    p.add_argument("--window", type=int, metavar="N",
+                   help="savgol: window [samples] (default: the default method's, 0.5 s of the log)")
     p.add_argument("--polyorder", type=int, metavar="N", help="savgol: polynomial degree")
     p.add_argument("--cutoff", type=float, metavar="HZ", help="butter: cut-off frequency [Hz]")
     p.add_argument("--order", type=int, metavar="N", help="butter: filter order")
@@ -56,8 +57,9 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _differentiator(args):
+def _differentiator(args, Ts: float):
     from ..ident.differentiate import Differentiator
+    from ..ident.identification import default_differentiator
 
     settings = {k: getattr(args, k) for k in ("window", "polyorder", "cutoff", "order") if getattr(args, k) is not None}
     if args.method is None and not settings:
@@ -65,6 +67,12 @@ def _differentiator(args):
     method = args.method
     if method is None:
         method = "butter" if {"cutoff", "order"} & set(settings) else "savgol"
+    if method in ("savgol", "savgol_direct") and "window" not in settings:
+        # the default's window for the log's sample time (naming the default method changes nothing), odd and
+        # above the degree
+        default = default_differentiator(Ts)
+        p = settings.setdefault("polyorder", default.polyorder)
+        settings["window"] = max(default.window, p + 1 + p % 2)
     try:
         return Differentiator(method, **settings)
     except InputError as exc:
@@ -133,12 +141,12 @@ def run(args) -> int:
         out_path = check_output_file(args.out, force=args.force, argument="out", suffixes=(".json",))
     pendulum = load_pendulum(args.pendulum) if args.pendulum is not None else None
     p2 = _p2(args.p2)
-    diff = _differentiator(args)
     if spec.static:
         data = [_load_curve(f) for f in args.files]
         res = identify(data if len(data) > 1 else data[0], args.setup, t_start=args.t_start, t_end=args.t_end)
     else:
         data = [_load_series(f) for f in args.files]
+        diff = _differentiator(args, data[0].Ts)
         res = identify(data if len(data) > 1 else data[0], args.setup, pendulum=pendulum, p2=p2, t_start=args.t_start,
                        t_end=args.t_end, differentiator=diff, base=base, covariance=args.covariance)
     files = ", ".join(args.files)
