@@ -34,8 +34,10 @@ from iwp.device.errors import DeviceError
 from iwp.device.experiments import run_on_rig
 from iwp.device.framing import FrameDecoder, encode_frame
 from iwp.device.protocol import (
+    DICTIONARY_HASH,
     MESSAGES,
     PARAMS,
+    PROTOCOL_VERSION,
     STATES,
     ProtocolError,
     decode,
@@ -90,6 +92,7 @@ def test_c_header_and_docs_come_from_the_dictionary():
     assert HEADER_PATH.read_text() == c_header(), "run: python tools/gen_protocol_header.py"
     doc = (ROOT / "docs" / "protocol.md").read_text()
     assert markdown_table() in doc and params_table() in doc, "docs/protocol.md: paste markdown_table()/params_table()"
+    assert f"`DICTIONARY_HASH`, now\n`{DICTIONARY_HASH:#010x}`" in doc and f"(now\n{PROTOCOL_VERSION})" in doc
     # the firmware builds from the package's own C sources (a link into src/, so the
     # checkout's and the installed copy's header are the same text)
     assert (ROOT / "firmware" / "core").resolve() == (ROOT / "src" / "iwp" / "device" / "csrc").resolve()
