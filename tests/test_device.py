@@ -434,6 +434,9 @@ def test_a_port_that_does_not_exist_is_one_line_exit_2(tmp_path):
     r = _iwp("control", "run", "hopf", "--port", "twin", "--fast", "--x0", "100", "--out", str(out), timeout=60)
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and not out.exists()  # not a refused ARM, exit 1
     assert "--x0 = 100 rad is beyond the rig's angle limit q1_max = 12.5664 rad" in r.stderr
+    r = _iwp("rig", "run", "release", "--port", "twin", "--fast", "--x0", "50", "--out", str(out), timeout=60)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and not out.exists()  # not a stopped motor, exit 1
+    assert "--x0 = 50 rad is beyond the angle limit q1_max = 12.5664 rad" in r.stderr
     r = _iwp("rig", "run", "chirp", "--out", str(out), timeout=60)  # a user input needs a port
     assert r.returncode == 2 and "--port" in r.stderr and not out.exists()
     out.write_text("x")

@@ -145,6 +145,9 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
     locked = bool(s.get("locked", False))
     meta["pendulum"] = "locked" if locked else "free"
     x0 = initial_state(s["x0"]) if "x0" in s else None
+    if x0 is not None and not abs(x0[0]) < limits.q1_max:
+        raise InputError(f"x0 = {x0[0]:g} rad is beyond the angle limit q1_max = {limits.q1_max:g} rad: the run "
+                         "would stop at its first sample", argument="x0")
     arrange(rig, locked, operator)
     on_start = None
     if x0 is not None and x0[0] != 0.0:
