@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from iwp.calibration import compare_targets, load_targets, paper_numbers
-from iwp.data import read_experiment
+from iwp.data import ExperimentData, read_experiment
 from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
 from iwp.device.cheader import HEADER_PATH, c_header
@@ -464,3 +464,20 @@ def test_the_twin_rig_stops_the_motor_when_closed_and_refuses_bad_requests():
     assert rig.device.core.status()[1] == 3 and rig.device.core.status()[3] == 0.0  # ESTOP, motor at 0
     rig.close()  # idempotent
     assert isinstance(Rig, type) and math.isfinite(rig.info.params["period_us"])
+
+
+def test_samples_the_link_lost_are_a_warning_on_screen(tmp_path, capsys):
+    import argparse
+
+    from iwp.cli.rig import finish_port_run
+    from iwp.device.experiments import RigRun
+
+    log = ExperimentData(t=0.005 * np.arange(10), q1=np.zeros(10), q2=np.zeros(10),
+                         metadata={"link": json.dumps({"lost": 223, "corrupt": 237, "frames": 4000})})
+    written = []
+    args = argparse.Namespace(quiet=True, name="sine-20", port="prx")
+    status = finish_port_run(RigRun(log, False, "complete", None, []), tmp_path / "x.csv", args,
+                             lambda lg, out, force: written.append(out))
+    err = capsys.readouterr().err
+    assert status == 0 and written == [tmp_path / "x.csv"]
+    assert "the link lost 223 telemetry samples (237 corrupt frames)" in err

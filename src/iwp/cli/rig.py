@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import sys
 from pathlib import Path
 
@@ -232,6 +233,14 @@ def finish_port_run(run, out, args, write) -> int:
     what = "nothing recorded" if run.log is None else (
         f"{run.log.n_samples} samples, t = 0..{run.log.t[-1]:g} s" if hasattr(run.log, "n_samples")
         else f"{run.log.n_points} points")
+    link = {}
+    if run.log is not None and "link" in getattr(run.log, "metadata", {}):
+        with contextlib.suppress(ValueError):
+            link = json.loads(run.log.metadata["link"])
+    if link.get("lost", 0) or link.get("corrupt", 0):
+        print(f"iwp: warning: the link lost {link.get('lost', 0)} telemetry samples ({link.get('corrupt', 0)} corrupt "
+              "frames): the log has gaps there (see its 'link' metadata); check the cable and the baud rate",
+              file=sys.stderr)
     if not run.interrupted:
         print(f"wrote {out} ({args.name} on {args.port}, {what})")
         return 0
