@@ -213,6 +213,7 @@ def test_defaults() -> None:
         (dict(method="savgol", window=2.5), "window"),
         (dict(method="savgol", window=5, polyorder=5), "polyorder"),
         (dict(method="savgol", polyorder=1), "polyorder"),
+        (dict(method="savgol", window=101, polyorder=13), "polyorder must be at most 12"),
         (dict(method="butter", cutoff=-1.0), "cutoff"),
         (dict(method="butter", order=0), "order"),
         (dict(method="butter", window=21), "window"),

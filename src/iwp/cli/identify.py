@@ -68,11 +68,10 @@ def _differentiator(args, Ts: float):
     if method is None:
         method = "butter" if {"cutoff", "order"} & set(settings) else "savgol"
     if method in ("savgol", "savgol_direct") and "window" not in settings:
-        # the default's window for the log's sample time (naming the default method changes nothing), odd and
-        # above the degree
+        # the default's window for the log's sample time (naming the default method changes nothing)
         default = default_differentiator(Ts)
-        p = settings.setdefault("polyorder", default.polyorder)
-        settings["window"] = max(default.window, p + 1 + p % 2)
+        settings.setdefault("polyorder", default.polyorder)
+        settings["window"] = default.window
     try:
         return Differentiator(method, **settings)
     except InputError as exc:

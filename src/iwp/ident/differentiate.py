@@ -136,7 +136,8 @@ class Differentiator:
         Default 21 (100 ms at Ts = 5 ms).
     polyorder : int, optional
         ``"savgol"``, ``"savgol_direct"`` only: degree of the local polynomial, 2 <= polyorder <
-        window (degree >= 2 so that the second derivative is not zero).
+        window and <= 12 (degree >= 2 so that the second derivative is not zero; a higher
+        degree than 12 follows the noise).
         Default 3.
     cutoff : float, optional
         ``"butter"`` only: -3 dB cut-off frequency [Hz] of the (single-pass)
@@ -199,6 +200,9 @@ class Differentiator:
             raise InputError(
                 f"polyorder must be >= 2 so that the second derivative is not identically zero, got {p}"
             )
+        if p > 12:  # the Butterworth filter's order has the same bound
+            raise InputError(f"polyorder must be at most 12 (a higher degree follows the noise, not the motion), "
+                             f"got {p}")
         if p >= w:
             raise InputError(
                 f"window ({w}) must be larger than polyorder ({p}); "
