@@ -375,3 +375,18 @@ def test_a_feedforward_on_a_plant_without_dead_zone_is_refused():
         simulate(table1(), input=Sine(40.0, 5.0), t_end=1.0, feedforward=True)
     r = simulate(table1(), model="raw", input=Sine(40.0, 5.0), t_end=1.0, feedforward=True)
     assert r.status == 0
+
+
+def test_a_sine_beyond_the_exact_range_of_its_phase_is_refused():
+    from iwp.models import SINCOS_MAX
+
+    with pytest.raises(InputError, match=r"phase of 5e\+09 rad by t_end = 1e\+09 s, beyond the 1e\+09 rad"):
+        simulate(table1(), input=Sine(40.0, 5.0), t0=1e9, t_end=1e9 + 1.0)
+    with pytest.raises(InputError, match="beyond the 1e"):
+        simulate_batch(table1(), input=[Sine(40.0, 5.0)] * 2, t0=1e9, t_end=1e9 + 1.0)
+    # the chirp's phase (w0 + t/tau) t over a span: its largest |value| at an end or at the parabola's vertex
+    for c, span in ((Chirp(60.0, 3.0, 100.0), (0.0, 300.0)), (Chirp(60.0, 3.0, 100.0), (-400.0, 100.0)),
+                    (Chirp(1.0, -2.0, 50.0), (-10.0, 90.0))):
+        t = np.linspace(*span, 200001)
+        assert c.largest_phase(*span) == pytest.approx(np.max(np.abs((c.w0 + t / c.tau) * t)), rel=1e-6)
+    assert Chirp(1.0, 3.0, 1e-3).largest_phase(0.0, 1200.0) > SINCOS_MAX

@@ -89,6 +89,11 @@ class Input:
     def describe(self) -> str:
         return repr(self)
 
+    def largest_phase(self, t0: float, t_end: float) -> float:
+        """The largest ``|phase|`` [rad] whose sine the input takes over ``[t0, t_end]`` (0: no sine), which
+        :func:`iwp.models.mathfn.sincos` computes exactly up to ``SINCOS_MAX``."""
+        return 0.0
+
 
 @dataclass(frozen=True)
 class Constant(Input):
@@ -137,6 +142,10 @@ class Sine(Input):
     def parameters(self):
         return np.array([self.amplitude, self.omega, self.phase, self.offset])
 
+    def largest_phase(self, t0: float, t_end: float) -> float:
+        """``max |omega t + phase|`` over ``[t0, t_end]`` [rad] (at an end: the phase is linear in ``t``)."""
+        return max(abs(self.omega * t + self.phase) for t in (t0, t_end))
+
 
 @dataclass(frozen=True)
 class Chirp(Input):
@@ -173,6 +182,11 @@ class Chirp(Input):
 
     def parameters(self):
         return np.array([self.amplitude, self.w0, self.tau, self.offset])
+
+    def largest_phase(self, t0: float, t_end: float) -> float:
+        """``max |(w0 + t/tau) t|`` over ``[t0, t_end]`` [rad]: at an end, or at the parabola's vertex."""
+        ts = [t0, t_end] + ([-0.5 * self.w0 * self.tau] if t0 < -0.5 * self.w0 * self.tau < t_end else [])
+        return max(abs((self.w0 + t / self.tau) * t) for t in ts)
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ import numpy as np
 from ..checks import check_finite, check_positive, check_samples
 from ..errors import InputError, SimulationError
 from ..models.actuator import command, command_vector
+from ..models.mathfn import SINCOS_MAX
 from ..models.parameters import LumpedParameters, PhysicalParameters
 from ..models.plant import Plant
 from ..threads import thread_map
@@ -131,9 +132,13 @@ def _check_span(t0, t_end, Ts) -> tuple[float, float, float]:
     return t0, t_end, check_positive("Ts", Ts)
 
 
-def _check_input(input) -> None:
+def _check_input(input, t0: float, t_end: float) -> None:
     if input is not None and not isinstance(input, Input):
         raise InputError(f"input must be an iwp.sim.inputs signal or controller, got {type(input).__name__}")
+    if input is not None and input.largest_phase(t0, t_end) > SINCOS_MAX:
+        raise InputError(f"the input's sine reaches a phase of {input.largest_phase(t0, t_end):.3g} rad by t_end = "
+                         f"{t_end:g} s, beyond the {SINCOS_MAX:g} rad up to which its sine is computed exactly; "
+                         "simulate a shorter span (or shift t0)", argument=("t_end", "t0"))
 
 
 def tolerances(
@@ -343,7 +348,7 @@ def simulate(
     """
     plant = as_plant(plant, model)
     t0, t_end, Ts = _check_span(t0, t_end, Ts)
-    _check_input(input)
+    _check_input(input, t0, t_end)
     x0a = initial_state(x0, plant)
     n = plant.n_states
     tol = tolerances(n, rtol, atol, max_step=max_step, max_steps=max_steps)
@@ -561,13 +566,13 @@ def simulate_batch(
     i_list = input if isinstance(input, (list, tuple)) else [input] * nrun
     if len({type(i) for i in i_list}) != 1:
         raise InputError("inputs of one batch must all be of one type")
+    t0, t_end, Ts = _check_span(t0, t_end, Ts)
     for i_ in i_list:
-        _check_input(i_)
+        _check_input(i_, t0, t_end)
     if any(isinstance(i, CallableController) for i in i_list):
         raise InputError("simulate_batch supports built-in signals, controllers and sampled arrays, not callables")
     if len({None if i is None else i.sampled_period for i in i_list}) != 1:
         raise InputError("inputs of one batch must share the sample period Ts")
-    t0, t_end, Ts = _check_span(t0, t_end, Ts)
     plants = {}
     for p_ in p_list:
         if id(p_) not in plants:
@@ -739,7 +744,7 @@ def simulate_scipy(
 
     plant = as_plant(plant, model)
     t0, t_end, Ts = _check_span(t0, t_end, Ts)
-    _check_input(input)
+    _check_input(input, t0, t_end)
     x0a = initial_state(x0, plant)
     tol = tolerances(plant.n_states, rtol, atol)
     command_params = command_of(plant, feedforward, saturation)
