@@ -53,6 +53,11 @@ def _one_line_error(capsys):
         (["--input", "sine", "--t-end", "1", "--x0", "1,2"], "x0 must have 4 values"),
         (["--input", "sine", "--t-end", "1", "--params", "nope.json"], "no such parameter file"),
         (["--input", "sine", "--t-end", "1", "--draws", "50"], "--draws is for the draws of --band monte-carlo"),
+        (["--input", "sine", "--t-end", "1", "--k1", "-5"], "--k1 is a setting of --controller hopf; --input sine "
+                                                             "takes none"),
+        (["--controller", "hopf", "--t-end", "1", "--omega", "3"], "--omega is a setting of --input sine; "
+                                                                   "--controller hopf takes none"),
+        (["--t-end", "1", "--amplitude", "5"], "--amplitude is a setting of --input constant or --input sine"),
         (["--input", "sine", "--t-end", "1", "--band", "linear", "--seed", "3"],
          "--seed is for the draws of --band monte-carlo"),
     ],

@@ -16,15 +16,17 @@ def register(sub) -> None:
     g = p.add_mutually_exclusive_group()
     g.add_argument("--controller", help="state feedback: hopf (u = k1 q3 + k2 q3^3)")
     g.add_argument("--input", help="open-loop input: zero, constant, sine, chirp, step")
-    p.add_argument("--k1", type=float, default=-10.0, help="Hopf gain k1 (default -10)")
-    p.add_argument("--k2", type=float, default=0.1, help="Hopf gain k2 (default 0.1)")
+    p.add_argument("--k1", type=float, default=None, help="Hopf gain k1 (default -10; --controller hopf)")
+    p.add_argument("--k2", type=float, default=None, help="Hopf gain k2 (default 0.1; --controller hopf)")
     p.add_argument("--sampled", action="store_true",
                    help="evaluate the controller every --ts and hold it (as on the rig)")
-    p.add_argument("--amplitude", type=float, default=60.0, help="input amplitude (default 60)")
-    p.add_argument("--omega", type=float, default=5.0, help="sine frequency [rad/s] (default 5)")
-    p.add_argument("--w0", type=float, default=3.0, help="chirp initial frequency [rad/s] (default 3)")
-    p.add_argument("--tau", type=float, default=100.0, help="chirp rate: w(t) = w0 + t/tau (default 100)")
-    p.add_argument("--t-step", type=float, default=0.0, help="step time [s]")
+    p.add_argument("--amplitude", type=float, default=None,
+                   help="input amplitude (default 60; --input constant, sine, chirp, step)")
+    p.add_argument("--omega", type=float, default=None, help="sine frequency [rad/s] (default 5; --input sine)")
+    p.add_argument("--w0", type=float, default=None, help="chirp initial frequency [rad/s] (default 3; --input chirp)")
+    p.add_argument("--tau", type=float, default=None,
+                   help="chirp rate: w(t) = w0 + t/tau (default 100; --input chirp)")
+    p.add_argument("--t-step", type=float, default=None, help="step time [s] (default 0; --input step)")
     p.add_argument("--x0", type=float_list, default=None, help="initial state q1,q2,q3,q4 (default 0,0,0,0)")
     p.add_argument("--t0", type=float, default=0.0, help="initial time [s] (restart, figure 9b)")
     p.add_argument("--t-end", type=float, required=True, help="final time [s]")
@@ -47,6 +49,14 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+#: the settings of the inputs and their users; their defaults
+_SETTINGS = {"k1": ("hopf",), "k2": ("hopf",), "sampled": ("hopf",), "amplitude": ("constant", "sine", "chirp", "step"),
+             "omega": ("sine",), "w0": ("chirp",), "tau": ("chirp",), "t_step": ("step",)}
+_DEFAULTS = {"k1": -10.0, "k2": 0.1, "amplitude": 60.0, "omega": 5.0, "w0": 3.0, "tau": 100.0, "t_step": 0.0}
+_KIND = {"hopf": "--controller", "constant": "--input", "sine": "--input", "chirp": "--input", "step": "--input",
+         "zero": "--input"}
+
+
 def run(args) -> int:
     from ..errors import InputError
     from ..models.plant import Plant
@@ -54,12 +64,24 @@ def run(args) -> int:
     from ..sim.tasks import SimulationTask, write_simulation
     from ..sim.uncertainty import load_uncertainty
 
+    # a setting the chosen input does not take would be ignored: refused, as an unknown one is
+    chosen = args.controller.lower() if args.controller is not None else (args.input or "zero").lower()
+    for dest, users in _SETTINGS.items():
+        value = getattr(args, dest)
+        if value not in (None, False) and chosen not in users:
+            flag = "--" + dest.replace("_", "-")
+            raise InputError(f"{flag} is a setting of {' or '.join(f'{_KIND[u]} {u}' for u in users)}; "
+                             f"{_KIND.get(chosen, '--input')} {chosen} takes none")
+
+    def get(dest):
+        return _DEFAULTS[dest] if getattr(args, dest) is None else getattr(args, dest)
+
     if args.controller is not None:
-        inp = make_input(args.controller, k1=args.k1, k2=args.k2, Ts=args.ts if args.sampled else None,
+        inp = make_input(args.controller, k1=get("k1"), k2=get("k2"), Ts=args.ts if args.sampled else None,
                          argument="controller")
     else:
-        inp = make_input(args.input or "zero", amplitude=args.amplitude, omega=args.omega, w0=args.w0, tau=args.tau,
-                         t_step=args.t_step)
+        inp = make_input(args.input or "zero", amplitude=get("amplitude"), omega=get("omega"), w0=get("w0"),
+                         tau=get("tau"), t_step=get("t_step"))
     for flag, value in (("--draws", args.draws), ("--seed", args.seed)):
         if value is not None and args.band != "monte-carlo":
             raise InputError(f"{flag} is for the draws of --band monte-carlo; without it, it would do nothing")
