@@ -105,6 +105,20 @@ def read_table(path) -> dict[str, np.ndarray]:
     return {n: data[:, j].astype(np.int64) if n in INT_COLUMNS else data[:, j] for j, n in enumerate(names)}
 
 
+def _table_problem(read, names: list[str], lanes: range, what: str) -> str | None:
+    """Why the table ``read()`` returns is not the one with header ``names`` and one row per lane of ``lanes`` in
+    order (``what`` names those lanes in the answer), or None."""
+    try:
+        tab = read()
+    except (DataFormatError, OSError, UnicodeDecodeError, ValueError) as exc:
+        return str(exc).split(": ", 1)[-1]
+    if list(tab) != names:
+        return "its header is not the sweep's columns"
+    if not np.array_equal(tab["lane"], np.arange(lanes.start, lanes.stop)):
+        return f"{tab['lane'].size} rows where {what} are {len(lanes)}"
+    return None
+
+
 class SweepStore:
     """The output folder of one sweep.
 
@@ -173,25 +187,14 @@ class SweepStore:
         if self.created and self.path.is_dir() and not any(self.path.iterdir()):
             self.path.rmdir()
 
-    def _chunk_problem(self, index: int, names: list[str]) -> str | None:
-        """Why chunk file ``index`` is not its chunk's table (header ``names``, the chunk's lanes in order), or None."""
-        try:
-            tab = read_table(self.path / CHUNKS / _chunk_name(index))
-        except (DataFormatError, OSError, UnicodeDecodeError) as exc:
-            return str(exc).split(": ", 1)[-1]
-        if list(tab) != names:
-            return "its header is not the sweep's columns"
-        lanes = self.spec.chunk_range(index)
-        if not np.array_equal(tab["lane"], np.arange(lanes.start, lanes.stop)):
-            return f"{tab['lane'].size} rows where its lanes {lanes.start}..{lanes.stop - 1} are {len(lanes)}"
-        return None
-
     def _damaged_chunks(self) -> dict[int, str]:
         """The chunk files on disk that are not their chunk's table, with why (read only)."""
         names = column_names(self.spec)
         out = {}
         for i in sorted(self._chunk_files()):
-            why = self._chunk_problem(i, names)
+            lanes = self.spec.chunk_range(i)
+            why = _table_problem(lambda: read_table(self.path / CHUNKS / _chunk_name(i)), names, lanes,
+                                 f"its lanes {lanes.start}..{lanes.stop - 1}")
             if why is not None:
                 out[i] = why
         return out
@@ -299,18 +302,10 @@ class SweepStore:
 
     def results_problem(self, format: str = "csv") -> str | None:
         """Why the results table on disk is not every lane's row in order (missing, cut, edited), or None."""
-        path = self.path / f"results.{format}"
-        if not path.is_file():
+        if not (self.path / f"results.{format}").is_file():
             return "there is none"
-        try:
-            tab = self.read_results(format)
-        except (DataFormatError, OSError, UnicodeDecodeError, ValueError) as exc:
-            return str(exc).split(": ", 1)[-1]
-        if list(tab) != column_names(self.spec):
-            return "its header is not the sweep's columns"
-        if not np.array_equal(tab["lane"], np.arange(self.spec.n_lanes)):
-            return f"{tab['lane'].size} rows where the sweep's lanes are {self.spec.n_lanes}"
-        return None
+        return _table_problem(lambda: self.read_results(format), column_names(self.spec), range(self.spec.n_lanes),
+                              "the sweep's lanes")
 
     def read_results(self, format: str = "csv") -> dict[str, np.ndarray]:
         """The results table's columns (written by :meth:`write_results`)."""
