@@ -366,16 +366,22 @@ def test_sigkill_of_the_host_stops_the_motor_within_the_watchdog(emulator, tmp_p
     assert not (tmp_path / "k.csv").exists()  # a killed host writes nothing; the device stopped by itself
 
 
-def test_ctrl_c_leaves_a_complete_readable_log_marked_interrupted(emulator, tmp_path):
-    port, err = emulator
-    out = tmp_path / "c.csv"
+def _armed_run(err, argv, **popen) -> subprocess.Popen:
+    """``iwp *argv`` in a new process, returned once the emulator (its event log ``err``) reports the arming."""
     seen = err.read_text().count("device ARMED")
-    p = subprocess.Popen([sys.executable, "-m", "iwp", "rig", "run", "full-chirp", "--port", port, "--out", str(out)],
-                         env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    p = subprocess.Popen([sys.executable, "-m", "iwp", *argv], env=ENV, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, **popen)
     deadline = time.monotonic() + 60.0  # the host's start-up takes long on a loaded machine: wait for the arming
     while err.read_text().count("device ARMED") == seen and time.monotonic() < deadline and p.poll() is None:
         time.sleep(0.05)
     assert err.read_text().count("device ARMED") > seen, "the run never armed the device"
+    return p
+
+
+def test_ctrl_c_leaves_a_complete_readable_log_marked_interrupted(emulator, tmp_path):
+    port, err = emulator
+    out = tmp_path / "c.csv"
+    p = _armed_run(err, ["rig", "run", "full-chirp", "--port", port, "--out", str(out)])
     time.sleep(2.0)
     p.send_signal(signal.SIGINT)
     _, stderr = p.communicate(timeout=30)
@@ -397,12 +403,7 @@ def test_a_second_interrupt_during_the_stop_still_writes_the_log(emulator, tmp_p
     # the second while the host waits for the emergency stop's acknowledgement
     port, err = emulator
     out = tmp_path / "twice.csv"
-    seen = err.read_text().count("device ARMED")
-    p = subprocess.Popen([sys.executable, "-m", "iwp", "rig", "run", "sine-60", "--port", port, "--out", str(out)],
-                         env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
-    deadline = time.monotonic() + 60.0
-    while err.read_text().count("device ARMED") == seen and time.monotonic() < deadline and p.poll() is None:
-        time.sleep(0.05)
+    p = _armed_run(err, ["rig", "run", "sine-60", "--port", port, "--out", str(out)], start_new_session=True)
     time.sleep(1.0)
     p.send_signal(signal.SIGINT)
     os.killpg(p.pid, signal.SIGINT)

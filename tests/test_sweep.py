@@ -5,9 +5,14 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import shutil
+import signal
 import socket
+import subprocess
+import sys
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -390,27 +395,29 @@ def test_the_numbers_do_not_depend_on_the_engine_threads(tmp_path, sampled):
         np.testing.assert_allclose(one.table["q1_end"][4], ref.q1[-1], rtol=1e-6, atol=1e-9)
 
 
-def test_a_sweep_killed_with_sigkill_resumes(tmp_path):
-    import os
-    import signal
-    import subprocess
-    import sys
-    import time
+def _sweep_with_chunks_on_disk(spec, out, flags, n, **popen) -> subprocess.Popen:
+    """``iwp sweep spec --out out *flags`` in a new process, returned once ``n`` chunk files are on disk (running)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen([sys.executable, "-m", "iwp", "sweep", str(spec), "--out", str(out), *flags], env=env,
+                            **popen)
+    chunks = out / "chunks"
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if chunks.is_dir() and len([p for p in chunks.iterdir() if p.name.startswith("chunk-")]) >= n:
+            break
+        time.sleep(0.005)
+    assert proc.poll() is None, "the sweep ended before it could be stopped"
+    return proc
 
+
+def test_a_sweep_killed_with_sigkill_resumes(tmp_path):
     spec = tmp_path / "spec.json"
     spec.write_text(json.dumps({"t_end": 120, "window": 10, "seed": 5, "chunk_size": 2, "samples": 60,
                                 "vary": {"k1": {"uniform": [-12, -8]}}}))
     out = tmp_path / "killed"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    proc = subprocess.Popen([sys.executable, "-m", "iwp", "sweep", str(spec), "--out", str(out), "--quiet",
-                             "--threads", "1"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    proc = _sweep_with_chunks_on_disk(spec, out, ("--quiet", "--threads", "1"), 3, stdout=subprocess.DEVNULL,
+                                      stderr=subprocess.DEVNULL)
     chunks = out / "chunks"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None:
-        if chunks.is_dir() and len([p for p in chunks.iterdir() if p.name.startswith("chunk-")]) >= 3:
-            break
-        time.sleep(0.005)
-    assert proc.poll() is None, "the sweep ended before it could be killed"
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
     done = sorted(p.name for p in chunks.iterdir() if p.name.startswith("chunk-"))
@@ -422,28 +429,14 @@ def test_a_sweep_killed_with_sigkill_resumes(tmp_path):
 
 def test_ctrl_c_on_a_local_cluster_run_is_one_line_and_resumes(tmp_path):
     # Ctrl-C reaches the whole process group: the cluster's workers too, which leave it to the command
-    import os
-    import signal
-    import subprocess
-    import sys
-    import time
-
     pytest.importorskip("distributed")
     spec = tmp_path / "spec.json"
     spec.write_text(json.dumps({"t_end": 300, "window": 10, "seed": 5, "chunk_size": 2, "samples": 100,
                                 "vary": {"k1": {"uniform": [-12, -8]}}}))
     out = tmp_path / "cut"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    proc = subprocess.Popen([sys.executable, "-m", "iwp", "sweep", str(spec), "--out", str(out), "--workers", "2"],
-                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+    proc = _sweep_with_chunks_on_disk(spec, out, ("--workers", "2"), 2, stdout=subprocess.DEVNULL,
+                                      stderr=subprocess.PIPE, text=True, start_new_session=True)
     chunks = out / "chunks"
-    deadline = time.monotonic() + 120
-    while time.monotonic() < deadline and proc.poll() is None:
-        if chunks.is_dir() and len([p for p in chunks.iterdir() if p.name.startswith("chunk-")]) >= 2:
-            break
-        time.sleep(0.01)
-    assert proc.poll() is None, "the sweep ended before it could be interrupted"
     os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the command and its cluster's workers
     _out, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
