@@ -9,11 +9,16 @@ with ``select=True`` fits and ranks the ladder. Reported per truth: how
 often the true structure is chosen, what else was chosen, and how often the
 chosen fit's 95 % intervals contain the true parameters.
 
+``--kinds`` adds the other set-ups the issue's user logged to each seed's
+training: one clamped-arm chirp (the pendulum clamped, the wheel driven) and
+one stuck-wheel swing (the wheel locked to the arm, released from 1 to 1.5
+rad), joined as ``iwp fit --clamped --wheel-locked`` joins them.
+
 ``--belt-rig`` makes the rig a belt drive (ratio 13.5, so that the ladder has
 the belt's rung); the truth ``belt`` is the ``widths`` truth driven through
 a soft belt with play (always on the belt rig).
 
-Run: python benchmarks/ladder_study.py [--seeds 10] [--truths 9,coulomb,...] [--held 19] [--cv] [--belt-rig]
+Run: python benchmarks/ladder_study.py [--seeds 10] [--truths 9,coulomb,...] [--held 19] [--cv] [--kinds] [--belt-rig]
 """
 
 from __future__ import annotations
@@ -62,8 +67,8 @@ BELT = BeltParameters.from_rigid(BASE.p2 * BASE.rho, BASE.p3 * BASE.rho, k_over_
 
 
 def logs(truth: LumpedParameters, seed: int, folder: Path, *, duration: float = 40.0, n_train: int = 3,
-         n_held: int = 8, belt: BeltParameters | None = None, belt_rig: bool = False):
-    """The training chirps and held-out PRBS runs of one seed, written as the rig's CSV logs."""
+         n_held: int = 8, belt: BeltParameters | None = None, belt_rig: bool = False, kinds: bool = False):
+    """The training chirps, held-out PRBS runs and (``kinds``) other set-ups of one seed, as the rig's CSV logs."""
     doc = dict(RIG, drive={"kind": "belt", "ratio": BELT_RATIO}) if belt_rig or belt is not None else RIG
     rig = RigDescription.from_dict(doc, where="rig.json")
     vr = DescribedRig(rig, truth, noise_std=0.002, seed=seed, belt=belt)
@@ -73,19 +78,27 @@ def logs(truth: LumpedParameters, seed: int, folder: Path, *, duration: float = 
     n = int(round(duration / rig.sample_period)) + 1
     held = [write_rig_csv(vr.run(prbs(n, hold=6, amplitude=rng.uniform(0.3, 0.5), seed=1000 * seed + k),
                                  duration=duration), folder / f"prbs{k}.csv") for k in range(n_held)]
-    return rig, train, held
+    others = {}
+    if kinds:
+        clamp = vr.run(Chirp(rng.uniform(0.3, 0.6), rng.uniform(1.5, 3.0), rng.uniform(5.0, 8.0)),
+                       duration=duration, kind="clamped")
+        swing = vr.run(None, duration=duration, kind="wheel-locked", x0=[rng.uniform(1.0, 1.5), 0.0, 0.0, 0.0])
+        others = {"clamped": [write_rig_csv(clamp, folder / "clamped.csv")],
+                  "wheel-locked": [write_rig_csv(swing, folder / "locked.csv")]}
+    return rig, train, held, others
 
 
-def one(truth_name: str, seed: int, cv: bool, duration: float, n_held: int, belt_rig: bool = False):
+def one(truth_name: str, seed: int, cv: bool, duration: float, n_held: int, belt_rig: bool = False,
+        kinds: bool = False):
     truth = TRUTHS[truth_name]
     belt = BELT if truth_name == "belt" else None
     with tempfile.TemporaryDirectory() as tmp:
-        rig, train, held = logs(truth, seed, Path(tmp), duration=duration, n_held=n_held, belt=belt,
-                                belt_rig=belt_rig)
+        rig, train, held, others = logs(truth, seed, Path(tmp), duration=duration, n_held=n_held, belt=belt,
+                                        belt_rig=belt_rig, kinds=kinds)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = fit_logs(train, rig=rig, validate=() if cv else held, options=LogFitOptions(select=True),
-                           warn=False)
+            res = fit_logs(train, rig=rig, validate=() if cv else held, kinds=others or None,
+                           options=LogFitOptions(select=True), warn=False)
     chosen = res.structures.chosen.rung.name
     inside = []
     if chosen == truth_name:
@@ -104,18 +117,21 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=40.0)
     ap.add_argument("--held", type=int, default=19, help="held-out logs per seed")
     ap.add_argument("--cv", action="store_true", help="rank by leaving one training log out (no held-out logs)")
+    ap.add_argument("--kinds", action="store_true",
+                    help="add a clamped-arm chirp and a stuck-wheel swing to each seed's training")
     ap.add_argument("--belt-rig", action="store_true", help="a belt-drive rig (the ladder has the belt's rung)")
     args = ap.parse_args(argv)
     print(f"# ladder study: {args.seeds} seeds, logs of {args.duration:g} s, ranked on "
           f"{'leave-one-log-out cross-validation' if args.cv else f'{args.held} held-out logs'}"
-          f"{' on a belt-drive rig' if args.belt_rig else ''}\n")
+          f"{' on a belt-drive rig' if args.belt_rig else ''}"
+          f"{'; a clamped-arm chirp and a stuck-wheel swing join each training' if args.kinds else ''}\n")
     print("| truth | true structure chosen | also chosen | true parameters inside their 95 % intervals | "
           "mean time of fit_logs |")
     print("|---|---:|---|---:|---:|")
     for name in args.truths.split(","):
         picks, inside, times = collections.Counter(), [], []
         for seed in range(args.seeds):
-            chosen, ins, el = one(name, seed, args.cv, args.duration, args.held, args.belt_rig)
+            chosen, ins, el = one(name, seed, args.cv, args.duration, args.held, args.belt_rig, args.kinds)
             print(f"  truth {name}, seed {seed}: chose {chosen} ({el:.1f} s)", file=sys.stderr, flush=True)
             picks[chosen] += 1
             inside += ins
