@@ -18,6 +18,7 @@ from iwp.control import (
     robust_swingup,
     wilson_interval,
 )
+from iwp.control.robust import spread_of
 from iwp.errors import InputError
 from iwp.models import save_params, table1
 from iwp.sim import BalanceController, CallableController, simulate
@@ -63,6 +64,27 @@ def test_the_wilson_interval_refuses_impossible_counts():
     for k, n in ((3, 2), (-1, 5), (0, 0), (1.5, 3)):
         with pytest.raises(InputError, match="successes"):
             wilson_interval(k, n)
+
+
+# --------------------------------------------------------------------------
+# the spread of an outcome
+# --------------------------------------------------------------------------
+def test_a_spread_calls_its_bounds_an_interval_only_with_an_outcome_in_each_tail():
+    """At 95 % a tail of 2.5 % holds an outcome from 40 on; below that [low, high] is the range, said as such."""
+    rng = np.random.default_rng(1)
+    few = spread_of(rng.normal(size=39))
+    assert few.needed == 40 and not few.is_interval
+    assert (few.low, few.high) == (few.values[0], few.values[-1])
+    assert few.interval_text(".3g", "s").startswith("range [") and "it needs 40" in few.interval_text()
+    assert few.to_dict()["low_high"].startswith("range")
+    one = spread_of([2.5])
+    assert not one.is_interval and one.interval_text(".3g") == "range [2.5, 2.5] (too few for a 95 % interval: it needs 40)"
+    many = spread_of(rng.normal(size=4000))
+    assert many.is_interval and many.interval_text(".3g").startswith("95 % interval [")
+    # the quantiles of 4000 normal outcomes: the normal's 2.5 % and 97.5 % points within their sampling error
+    assert many.low == pytest.approx(stats.norm.ppf(0.025), abs=0.12)
+    assert many.high == pytest.approx(stats.norm.ppf(0.975), abs=0.12)
+    assert spread_of(rng.normal(size=10), level=0.8).needed == 10
 
 
 # --------------------------------------------------------------------------

@@ -126,10 +126,14 @@ def test_lqr_captures_inside_its_bound_and_not_far_outside(tmp_path):
     spec = SweepSpec(params=table1(), law="lqr", vary=(Grid("x0.q1", (math.pi - 0.2 * b, math.pi + 0.2 * b,
                                                                        math.pi + 3.0 * b)),),
                      t_end=4.0, window=1.0, chunk_size=3)
-    tab = run_sweep(spec, tmp_path / "lqr").table
+    res = run_sweep(spec, tmp_path / "lqr")
+    tab = res.table
     assert list(tab["captured"]) == [1, 1, 0]
     assert np.all(tab["amplitude"][:2] < 1e-3)
     assert tab["rotating"][2] == 1  # it fell
+    # three lanes hold no 2.5 % tail: their range, not a "95 %" claim
+    amp = np.sort(tab["amplitude"])
+    assert f"all 3 lanes in [{amp[0]:.4g}, {amp[-1]:.4g}] rad" in res.summary() and "95 %" not in res.summary()
 
 
 def test_an_unreliable_fit_is_said_so(tmp_path):

@@ -32,7 +32,7 @@ near 0 and 1 where the normal approximation does not.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Sequence
 
 import numpy as np
@@ -170,7 +170,8 @@ class Spread:
     probability : ndarray
         The empirical cumulative distribution at ``values``: ``(i + 1)/n``.
     median, low, high : float
-        Median and the ``(1 - level)/2``, ``(1 + level)/2`` quantiles (NaN when there are no values).
+        Median and the ``(1 - level)/2``, ``(1 + level)/2`` quantiles (NaN when there are no values); with fewer
+        than :attr:`needed` values ``low`` and ``high`` are their range (:attr:`is_interval` False).
     level : float
     """
 
@@ -190,9 +191,30 @@ class Spread:
         """``high - low``."""
         return self.high - self.low
 
+    @property
+    def needed(self) -> int:
+        """Outcomes needed for the ``level`` interval: at least one in each tail, ``ceil(2 / (1 - level))``
+        (40 at 95 %)."""
+        return math.ceil(2.0 / (1.0 - self.level) - 1e-9)
+
+    @property
+    def is_interval(self) -> bool:
+        """Whether ``[low, high]`` is the ``level`` interval; with fewer than :attr:`needed` outcomes its tails
+        hold no outcome and it is only the outcomes' range, narrower than the interval."""
+        return self.count >= self.needed
+
+    def interval_text(self, spec: str = ".4g", unit: str = "") -> str:
+        """``"95 % interval [low, high] unit"``, or, with too few outcomes, their range said as such."""
+        u = f" {unit}" if unit else ""
+        if self.is_interval:
+            return f"{100 * self.level:g} % interval [{self.low:{spec}}, {self.high:{spec}}]{u}"
+        return (f"range [{self.low:{spec}}, {self.high:{spec}}]{u} (too few for a {100 * self.level:g} % "
+                f"interval: it needs {self.needed})")
+
     def to_dict(self) -> dict[str, Any]:
         return {"count": self.count, "median": json_float(self.median), "low": json_float(self.low),
-                "high": json_float(self.high), "level": self.level}
+                "high": json_float(self.high), "level": self.level,
+                "low_high": "interval" if self.is_interval else "range (too few outcomes for the interval)"}
 
 
 def spread_of(values, level: float = LEVEL) -> Spread:
@@ -208,7 +230,8 @@ def spread_of(values, level: float = LEVEL) -> Spread:
     Returns
     -------
     Spread
-        The spread; all NaN statistics when no value is finite.
+        The spread; all NaN statistics when no value is finite; ``low`` and ``high`` the range when there are
+        fewer values than :attr:`Spread.needed`.
     """
     v = np.sort(np.asarray(values, dtype=float).ravel())
     v = v[np.isfinite(v)]
@@ -216,7 +239,10 @@ def spread_of(values, level: float = LEVEL) -> Spread:
         nan = float("nan")
         return Spread(v, v.copy(), nan, nan, nan, level)
     lo, med, hi = np.quantile(v, [0.5 - 0.5 * level, 0.5, 0.5 + 0.5 * level])
-    return Spread(v, np.arange(1, v.size + 1) / v.size, float(med), float(lo), float(hi), level)
+    out = Spread(v, np.arange(1, v.size + 1) / v.size, float(med), float(lo), float(hi), level)
+    if not out.is_interval:  # no outcome in a tail: the quantiles would interpolate inside the range; give the range
+        out = replace(out, low=float(v[0]), high=float(v[-1]))
+    return out
 
 
 def _draw_record(uncertainty: ParameterUncertainty, params) -> list[dict[str, float]]:
@@ -287,8 +313,8 @@ class RobustHopf:
                  f"{self.amplitudes.size} parameter draws ({self.t_end:g} s closed loops):",
                  (f"  nominal amplitude {self.nominal_amplitude:.5g} rad" if math.isfinite(self.nominal_amplitude)
                   else f"  nominal: no stable orbit reached within {self.t_end:g} s"),
-                 (f"  amplitude median {a.median:.5g} rad, {100 * a.level:g} % interval "
-                  f"[{a.low:.5g}, {a.high:.5g}] rad over {a.count} draws with an orbit" if a.count
+                 (f"  amplitude median {a.median:.5g} rad, {a.interval_text('.5g', 'rad')} over {a.count} draws "
+                  "with an orbit" if a.count
                   else "  amplitude: no draw reached an orbit"),
                  f"  no stable orbit reached within {self.t_end:g} s: {self.no_orbit}" + (f" -- {why}" if why else "")]
         return "\n".join(lines + _reliability_line_of(self))
@@ -536,8 +562,8 @@ class RobustBalance:
                  f"({self.t_end:g} s; captured: within {self.tolerance:g} rad of the upright over the last "
                  f"{self.hold:g} s, never beyond {self.fall:.3g} rad):",
                  f"  probability of capture {self.capture}",
-                 f"  settling time median {s.median:.4g} s, {100 * s.level:g} % interval [{s.low:.4g}, {s.high:.4g}] s "
-                 f"over {s.count} captured runs"]
+                 (f"  settling time median {s.median:.4g} s, {s.interval_text('.4g', 's')} over {s.count} captured "
+                  "runs" if s.count else "  settling time: no run was captured")]
         for x0, pr, nc, ns in zip(self.initial_states, self.capture_by_state, self.nominal_captured,
                                   self.nominal_settling):
             lines.append(f"  from q1 - pi = {wrap_angle(x0[0] - math.pi):+.4g} rad, q3 = {x0[2]:+.4g} rad/s: "
@@ -742,9 +768,8 @@ class RobustSwingUp:
         lines = [f"swing-up ({self.conditions}) over {self.success.size} parameter draws ({self.t_end:g} s; success: "
                  f"within {self.tolerance:g} rad of the upright over the last {self.hold:g} s):",
                  f"  probability of success {self.probability}",
-                 f"  time to capture median {s.median:.4g} s, {100 * s.level:g} % interval "
-                 f"[{s.low:.4g}, {s.high:.4g}] s "
-                 f"over {s.count} successful draws",
+                 (f"  time to capture median {s.median:.4g} s, {s.interval_text('.4g', 's')} over {s.count} "
+                  "successful draws" if s.count else "  time to capture: no draw succeeded"),
                  "  nominal: " + (f"balanced, caught at {self.nominal_t_catch:.4g} s" if self.nominal_success
                                   else "NOT balanced")]
         return "\n".join(lines + _reliability_line_of(self))

@@ -40,7 +40,8 @@ def _draw_spread(ax_hist, ax_ecdf, spread, nominal, label):
                                        label="empirical CDF")
         for ax in (ax_hist, ax_ecdf):
             ax.axvspan(spread.low, spread.high, color="tab:blue", alpha=0.12,
-                       label=f"{100 * spread.level:g} % interval")
+                       label=f"{100 * spread.level:g} % interval" if spread.is_interval
+                       else f"range of {spread.count} draws")
             ax.axvline(spread.median, color="tab:blue", lw=1.0, ls="--", label="median")
     else:
         for ax in (ax_hist, ax_ecdf):

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..control.robust import spread_of
 from ..errors import InputError
 from .executors import DaskExecutor, LocalExecutor, make_executor
 from .spec import SweepSpec
@@ -133,11 +134,12 @@ class SweepResult:
         lines.append(f"captured ({what}): {int(np.sum(tab['captured'][ok]))} of {n} "
                      f"({100 * np.mean(tab['captured'] == 1):.1f} %); failed runs: {failed}; "
                      f"unphysical parameter draws (not run): {unphys}")
-        amp = tab["amplitude"][np.isfinite(tab["amplitude"])]
-        if amp.size:
-            lo, med, hi = np.percentile(amp, [2.5, 50, 97.5])
+        amp = spread_of(tab["amplitude"])
+        if amp.count:
             label = "orbit amplitude" if s.law == "hopf" else "final |q1 - pi|"
-            lines.append(f"{label}: median {med:.4g} rad, 95 % of lanes in [{lo:.4g}, {hi:.4g}] rad")
+            where = (f"95 % of lanes in [{amp.low:.4g}, {amp.high:.4g}] rad" if amp.is_interval
+                     else f"all {amp.count} lanes in [{amp.low:.4g}, {amp.high:.4g}] rad")
+            lines.append(f"{label}: median {amp.median:.4g} rad, {where}")
         mq = tab["max_abs_q1"][np.isfinite(tab["max_abs_q1"])]
         if mq.size:
             lines.append(f"max |q1|: median {np.median(mq):.4g} rad, largest {np.max(mq):.4g} rad")
