@@ -2,7 +2,7 @@
 
 The virtual direct-drive rig of the issue (50 ms samples, PWM duty in
 [-1, 1], pendulum encoder 20,000 counts/rev with noise, wheel speed as the
-mean over the period from a 4,096-count encoder) is given each structure of
+mean over the period from a 4,096-count encoder; each log its own noise) is given each structure of
 the ladder as its truth in turn; for every seed it logs three chirps to
 train and pseudo-random binary runs held out (19 as the issue's user has; ``--held``), and ``fit_logs``
 with ``select=True`` fits and ranks the ladder. Reported per truth: how
@@ -73,16 +73,19 @@ def logs(truth: LumpedParameters, seed: int, folder: Path, *, duration: float = 
     rig = RigDescription.from_dict(doc, where="rig.json")
     vr = DescribedRig(rig, truth, noise_std=0.002, seed=seed, belt=belt)
     rng = np.random.default_rng(seed)
+    noise = iter(range(1000 * seed, 1000 * seed + 1000))  # each log its own noise
     train = [write_rig_csv(vr.run(Chirp(rng.uniform(0.3, 0.6), rng.uniform(1.5, 3.0), rng.uniform(5.0, 8.0)),
-                                  duration=duration), folder / f"chirp{i}.csv") for i in range(n_train)]
+                                  duration=duration, seed=next(noise)), folder / f"chirp{i}.csv")
+             for i in range(n_train)]
     n = int(round(duration / rig.sample_period)) + 1
     held = [write_rig_csv(vr.run(prbs(n, hold=6, amplitude=rng.uniform(0.3, 0.5), seed=1000 * seed + k),
-                                 duration=duration), folder / f"prbs{k}.csv") for k in range(n_held)]
+                                 duration=duration, seed=next(noise)), folder / f"prbs{k}.csv") for k in range(n_held)]
     others = {}
     if kinds:
         clamp = vr.run(Chirp(rng.uniform(0.3, 0.6), rng.uniform(1.5, 3.0), rng.uniform(5.0, 8.0)),
-                       duration=duration, kind="clamped")
-        swing = vr.run(None, duration=duration, kind="wheel-locked", x0=[rng.uniform(1.0, 1.5), 0.0, 0.0, 0.0])
+                       duration=duration, kind="clamped", seed=next(noise))
+        swing = vr.run(None, duration=duration, kind="wheel-locked", x0=[rng.uniform(1.0, 1.5), 0.0, 0.0, 0.0],
+                       seed=next(noise))
         others = {"clamped": [write_rig_csv(clamp, folder / "clamped.csv")],
                   "wheel-locked": [write_rig_csv(swing, folder / "locked.csv")]}
     return rig, train, held, others

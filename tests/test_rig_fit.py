@@ -659,6 +659,19 @@ def test_a_chirps_quiet_start_is_no_glitch_but_a_spike_in_it_is(tmp_path):
     assert [(g.column, g.index, g.kind) for g in found] == [("q1", 200, "spike")]
 
 
+def test_runs_draw_the_rigs_noise_unless_given_their_own_seed():
+    """The same seed reproduces a run bitwise; runs given their own seeds have independent noise."""
+    vr = DescribedRig(rig_of(), TRUTH, noise_std=0.002, seed=3)
+    runs = [vr.run(None, duration=20.0, x0=[0.5, 0, 0, 0], seed=s) for s in (None, None, 4, 5)]
+    q = [r.columns["theta"] * (2 * math.pi / 4096) - r.x[:, 0] for r in runs]  # the reading's error [rad]
+    np.testing.assert_array_equal(q[0], q[1])
+    # the noise of 0.002 rad dominates the quantum of 0.0015 / sqrt(12) rad: independent draws correlate ~0
+    c = np.corrcoef(q[2], q[3])[0, 1]
+    assert abs(c) < 4 / math.sqrt(q[2].size) and np.corrcoef(q[0], q[1])[0, 1] == pytest.approx(1.0)
+    with pytest.raises(InputError, match="seed must be an integer >= 0"):
+        vr.run(None, duration=1.0, seed=-1)
+
+
 def test_a_log_whose_motion_contradicts_its_kind_is_named(tmp_path):
     from iwp.ident.logfit import kind_mismatches
 

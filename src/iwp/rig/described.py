@@ -33,6 +33,7 @@ from ..models.parameters import BeltParameters, LumpedParameters
 from ..models.plant import Plant, plant_for_kind
 from ..sim.inputs import Input, Sampled
 from ..sim.simulate import simulate
+from .experiments import check_seed
 from .sensors import motor_current, pendulum_reading, time_reading, wheel_reading
 
 __all__ = ["DescribedRig", "RigRun", "write_rig_csv", "prbs"]
@@ -77,6 +78,8 @@ class DescribedRig:
     noise_std : float
         Pendulum sensor noise [rad] before quantisation.
     seed : int
+        Seed of the noise (``numpy.random.default_rng(seed)``): every run with the same seed draws the same noise,
+        so a run is reproducible bitwise; give :meth:`run` its own ``seed`` for runs with independent noise.
     first_sample : float, optional
         The wheel speed the sensor logs at the first sample (its unit), e.g. 2345: the glitch of a
         board whose encoder was not reset.
@@ -116,6 +119,7 @@ class DescribedRig:
             raise InputError(f"DescribedRig: params must be LumpedParameters, got {type(self.params).__name__}")
         self.params.check_physical("DescribedRig.params")
         check_nonnegative("noise_std", self.noise_std)
+        check_seed(self.seed)
         if self.belt is not None:
             if not isinstance(self.belt, BeltParameters):
                 raise InputError(f"DescribedRig: belt must be BeltParameters, got {type(self.belt).__name__}")
@@ -138,7 +142,8 @@ class DescribedRig:
         dz = p.v_dz_pos > 0 or p.v_dz_neg > 0
         return Plant(p, model="raw", dead_zone=dz)
 
-    def run(self, logged_input=None, *, duration: float, x0=None, kind: str = "free") -> RigRun:
+    def run(self, logged_input=None, *, duration: float, x0=None, kind: str = "free",
+            seed: int | None = None) -> RigRun:
         """Run the rig and log as it logs.
 
         Parameters
@@ -155,6 +160,8 @@ class DescribedRig:
             The set-up (:data:`~iwp.models.plant.EXPERIMENT_KINDS`): ``"free"``,
             ``"clamped"`` (the pendulum clamped at 0) or ``"wheel-locked"``
             (the wheel locked to the arm: the motor's input does nothing).
+        seed : int, optional
+            Seed of this run's noise (default the rig's ``seed``: every run of the rig draws the same noise).
         """
         Ts = self.Ts
         duration = check_positive("duration", duration)
@@ -188,7 +195,7 @@ class DescribedRig:
         res = simulate(plant, x0=x0a, t_end=(n - 1) * Ts, Ts=Ts,
                        input=None if plant.wheel_held else Sampled(w, Ts, 0.0), rtol=self.rtol, atol=self.rtol)
         X = np.asarray(res.x, dtype=float)[:n, :4]
-        rng = np.random.default_rng(self.seed)
+        rng = np.random.default_rng(self.seed if seed is None else check_seed(seed))
         noise = rng.normal(0.0, self.noise_std, n) if self.noise_std > 0 else None
         rig = self.rig
         off = np.full(n, float(self.q1_offset))
