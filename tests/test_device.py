@@ -30,6 +30,7 @@ from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
 from iwp.device.cheader import HEADER_PATH, c_header
 from iwp.device.core import DeviceCore
+from iwp.device.emulator import TwinDevice, stop_device
 from iwp.device.errors import DeviceError
 from iwp.device.experiments import run_on_rig
 from iwp.device.framing import FrameDecoder, encode_frame
@@ -411,6 +412,38 @@ def test_a_second_interrupt_during_the_stop_still_writes_the_log(emulator, tmp_p
     assert p.returncode == 130 and stderr.strip().splitlines()[-1] == "iwp: interrupted", stderr
     log = read_experiment(out)
     assert log.metadata["interrupted"] == "true" and log.metadata["stop_reason"] == "Ctrl-C" and log.t[-1] > 0.5
+
+
+def test_an_emulated_board_stops_its_motor_when_the_emulator_ends():
+    device = TwinDevice()
+    assert stop_device(device)["state"] == "DISARMED"  # nothing to stop: left as it was
+    device.rx(encode_frame(encode("ARM", req=1)))
+    device.tx()
+    assert device.core.status()[1] == STATES["ARMED"]
+    out = stop_device(device)
+    assert (out["state_before"], out["state"], out["v"]) == ("ARMED", "ESTOP", 0.0)
+
+
+def test_ctrl_c_of_the_emulator_under_a_running_host_stops_the_motor_and_the_host_keeps_its_log(tmp_path):
+    err = tmp_path / "stderr.txt"
+    with open(err, "w") as fh:
+        emu = subprocess.Popen([sys.executable, "-m", "iwp", "rig", "emulate"], stdout=subprocess.PIPE, stderr=fh,
+                               text=True, env=ENV)
+    try:
+        port = emu.stdout.readline().split()[1]
+        out = tmp_path / "host.csv"
+        host = _armed_run(err, ["rig", "run", "sine-60", "--port", port, "--out", str(out)])
+        time.sleep(0.5)
+        emu.send_signal(signal.SIGINT)
+        assert emu.wait(30) == 0
+        _, stderr = host.communicate(timeout=60)
+    finally:
+        emu.kill()
+    last = err.read_text().strip().splitlines()[-1]
+    assert last.startswith("iwp: emulator stopped after") and last.endswith(
+        "a host was driving the motor: stopped (device ESTOP)"), last
+    assert host.returncode == 1 and stderr.strip().splitlines()[-1].startswith("iwp: the motor was stopped: port")
+    assert read_experiment(out).t[-1] > 0.3  # the rows up to the port's loss are kept
 
 
 def test_the_host_side_hopf_law_runs_in_real_time_without_tripping_the_watchdog(emulator, tmp_path):

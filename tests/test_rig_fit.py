@@ -18,7 +18,7 @@ from iwp.data.glitches import find_glitches
 from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
 from iwp.errors import DataFormatError, InputError
-from iwp.ident.logfit import fit_logs, least_squares_start, load_logs
+from iwp.ident.logfit import LogFitOptions, fit_logs, least_squares_start, load_logs
 from iwp.ident.refinement import as_experiments, refine
 from iwp.models.parameters import LumpedParameters
 from iwp.models.plant import Plant
@@ -610,6 +610,35 @@ def test_clamped_and_wheel_locked_logs_join_the_fit_through_the_cli(tmp_path):
         p = doc["parameters"][name]
         assert p["value"] == pytest.approx(getattr(truth, name), rel=0.01), name
         assert p["ci95"][1] - p["ci95"][0] < 0.05 * getattr(truth, name), name
+
+
+def test_a_swing_released_from_rest_starts_its_fit_at_its_measured_state(tmp_path):
+    """At 50 ms a swing of 1.3 rad: the edge of a 21-sample filter (a second) once gave 1.62 rad and -6.1 rad/s
+    as the start, and a joint fit with a clamped log beside it stopped there (2,600 times the truth's cost)."""
+    from iwp.ident.logfit import model_input
+    from iwp.ident.output_error import Experiment, OutputError
+
+    rig = rig_of(sample_period=0.05, pendulum={"counts_per_rev": 20000})
+    truth = TRUTH.replace(sigma_c2=0.5, sigma_c1=0.4)
+    vr = DescribedRig(rig, truth, noise_std=0.002, seed=1)
+    x0 = [1.3, 0.0, 0.0, 0.0]
+    files = {"train": write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0, seed=2), tmp_path / "c.csv"),
+             "clamped": write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0, kind="clamped", seed=3),
+                                      tmp_path / "clamp.csv"),
+             "wheel-locked": write_rig_csv(vr.run(None, duration=20.0, kind="wheel-locked", x0=x0, seed=4),
+                                           tmp_path / "wl.csv")}
+    swing = model_input(load_logs([files["wheel-locked"]], rig)[0], "compensated", "wl")
+    model = OutputError(Plant(truth, model="compensated"), [Experiment(swing, kind="wheel-locked")], ("q1",))
+    start = model.prepared[0].x0
+    # a quadratic over the first 0.2 s of cos(6.3 t): 0.3 % of the angle, a few hundredths of a rad/s
+    assert start[0] == pytest.approx(x0[0], abs=0.01) and start[2] == pytest.approx(0.0, abs=0.15)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = fit_logs([files["train"]], rig=rig, kinds={k: [v] for k, v in files.items() if k != "train"},
+                       options=LogFitOptions(coulomb=True, pendulum_coulomb=True,
+                                             start=truth.replace(sigma_c1=0.0, sigma_a1=0.2, sigma_v1=0.0)), warn=False)
+    assert min(min(f.fit.values()) for f in res.train) > 99.0
+    assert res.params.sigma_c1 == pytest.approx(0.4, rel=0.02) and res.params.p1 == pytest.approx(40.0, rel=0.002)
 
 
 def test_logs_of_two_set_ups_are_named_before_the_joint_fit(tmp_path):

@@ -311,7 +311,9 @@ def run_emulate(args) -> int:
     print(f"iwp: emulator stopped after {timing['ticks']} ticks; lateness of its ticks p50 "
           f"{timing['p50'] * 1e3:.3f} ms, p99 {timing['p99'] * 1e3:.3f} ms, max {timing['max'] * 1e3:.3f} ms "
           f"({timing['scheduling']}); "
-          f"device {timing['state']}" + (f" ({timing['fault']})" if timing['fault'] != "NONE" else ""),
+          + (f"a host was driving the motor: stopped (device {timing['state']})"
+             if timing["state_before"] == "ARMED" else f"device {timing['state_before']}"
+             + (f" ({timing['fault_before']})" if timing["fault_before"] != "NONE" else "")),
           file=sys.stderr)
     return 0
 

@@ -39,7 +39,7 @@ from .framing import encode_frame
 from .protocol import FAULTS, FIXTURE_ACTIONS, PARAMS, STATES, encode, name_of
 from .realtime import realtime_priority
 
-__all__ = ["TwinDevice", "Emulator", "open_pty", "run_emulator"]
+__all__ = ["TwinDevice", "Emulator", "open_pty", "run_emulator", "stop_device"]
 
 _NAN = float("nan")
 #: Bytes kept for a host that does not read (beyond them the oldest are dropped, as a UART without flow control
@@ -234,7 +234,7 @@ class Emulator:
 
 def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup: dict | None = None,
                  on_event=None) -> dict:
-    """Serve ``device`` on a new pseudo-terminal until SIGINT or SIGTERM; returns the timing.
+    """Serve ``device`` on a new pseudo-terminal until SIGINT or SIGTERM; stop its motor; return the timing.
 
     Parameters
     ----------
@@ -248,6 +248,11 @@ def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup:
     on_event : callable, optional
         Called with a dict at each change of the device's state (state, fault, tick, device and wall
         time, ``after_host``: seconds since the host's last bytes).
+
+    Returns
+    -------
+    dict
+        :meth:`Emulator.timing` and :func:`stop_device`'s states before and after the final stop.
     """
     for name, value in (setup or {}).items():
         device.rx(encode_frame(encode("SET_PARAM", req=0, param=PARAMS[name].id, value=float(value))))
@@ -279,7 +284,30 @@ def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup:
                 pass
         os.close(master)
         os.close(slave)
+        stopped = stop_device(device)  # on every path out, as the board's power going off
     out = emu.timing()
-    tick, state, fault, v = device.core.status()
-    out.update(state=name_of(STATES, state), fault=name_of(FAULTS, fault))
+    out.update(stopped)
     return out
+
+
+def stop_device(device: TwinDevice) -> dict:
+    """Stop an emulated board's motor as it ends, as a board's power going off does: an emergency stop sent to
+    its core in a frame, as a host sends one.
+
+    Parameters
+    ----------
+    device : TwinDevice
+
+    Returns
+    -------
+    dict
+        ``state_before``/``fault_before``: the device's state when the emulator ended (``"ARMED"`` while a
+        host still drove it); ``state``/``fault``: after the stop; ``v``: the motor's command after it.
+    """
+    _, before, fault_before, _ = device.core.status()
+    if before == STATES["ARMED"]:
+        device.rx(encode_frame(encode("ESTOP", req=0)))
+        device.tx()  # its answer goes nowhere: the port is closed
+    _, state, fault, v = device.core.status()
+    return {"state_before": name_of(STATES, before), "fault_before": name_of(FAULTS, fault_before),
+            "state": name_of(STATES, state), "fault": name_of(FAULTS, fault), "v": float(v)}

@@ -54,6 +54,7 @@ __all__ = [
     "plant_state",
     "measured_signals",
     "measured_state",
+    "state_differentiator",
     "measured_state_covariance",
     "plant_for_kind",
     "replay",
@@ -65,8 +66,30 @@ STATE_NAMES = ("q1", "q2", "q3", "q4")
 OUTPUT_INDEX = {"q1": 0, "q2": 1, "q3": 2, "q4": 3}
 #: residual of a sample a failed simulation did not reach (the trust region then shrinks)
 BAD_RESIDUAL = 1e6
-#: the velocities of the logs that do not measure them: Savitzky-Golay, 21 samples, cubic
-DEFAULT_DIFFERENTIATOR = Differentiator("savgol", window=21, polyorder=3)
+#: the span of :func:`state_differentiator`'s filter [s] (21 samples at 5 ms)
+STATE_FILTER_SECONDS = 0.1
+
+
+def state_differentiator(Ts: float) -> Differentiator:
+    """The filter of the measured states and velocities of a log sampled every ``Ts`` [s].
+
+    A cubic Savitzky-Golay filter over about :data:`STATE_FILTER_SECONDS`
+    (``2 round(0.05 / Ts) + 1`` samples, at least 5): 21 samples at the paper's
+    5 ms. A fixed 21 samples spans a second at 50 ms, about a swing of a
+    pendulum; at a log's first sample it gave a swing released from rest at
+    1.32 rad the state 1.62 rad, -6.1 rad/s.
+
+    Parameters
+    ----------
+    Ts : float
+        Sample time [s].
+
+    Returns
+    -------
+    Differentiator
+    """
+    half = max(2, int(round(0.5 * STATE_FILTER_SECONDS / Ts)))
+    return Differentiator("savgol", window=2 * half + 1, polyorder=3)
 #: fewest samples an experiment's window keeps
 MIN_SAMPLES = 10
 
@@ -135,8 +158,8 @@ def measured_signals(data: ExperimentData, names: Sequence[str], differentiator:
     """Measured ``q1, q2`` and velocities ``q3, q4`` of a log.
 
     Velocities come from the log's ``q3``/``q4`` columns when present, else
-    from differentiating the positions (Savitzky-Golay, 21 samples, cubic, by
-    default).
+    from differentiating the positions (by default :func:`state_differentiator`:
+    Savitzky-Golay over 0.1 s, cubic).
 
     Parameters
     ----------
@@ -145,7 +168,7 @@ def measured_signals(data: ExperimentData, names: Sequence[str], differentiator:
     names : sequence of str
         Signals wanted, among ``"q1"``, ``"q2"``, ``"q3"``, ``"q4"``.
     differentiator : Differentiator, optional
-        Filter for velocities not logged; None (default): :data:`DEFAULT_DIFFERENTIATOR`.
+        Filter for velocities not logged; None (default): :func:`state_differentiator` of the log's ``Ts``.
 
     Returns
     -------
@@ -159,7 +182,7 @@ def measured_signals(data: ExperimentData, names: Sequence[str], differentiator:
         ``q4``.
     """
     out: dict[str, np.ndarray] = {}
-    d = differentiator or DEFAULT_DIFFERENTIATOR
+    d = differentiator or state_differentiator(data.Ts)
     for n in names:
         if n not in OUTPUT_INDEX:
             raise InputError(f"unknown signal {n!r}; choose among q1, q2, q3, q4")
@@ -190,8 +213,8 @@ def measured_state(data: ExperimentData, index: int, differentiator: Differentia
     index : int
         Sample number (0-based).
     differentiator : Differentiator, optional
-        Filter of the positions; None (default): :data:`DEFAULT_DIFFERENTIATOR`. A log shorter than the filter
-        uses central differences.
+        Filter of the positions; None (default): :func:`state_differentiator` of the log's ``Ts``. A log
+        shorter than the filter uses central differences.
 
     Returns
     -------
@@ -199,7 +222,7 @@ def measured_state(data: ExperimentData, index: int, differentiator: Differentia
         ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s]; logged ``q3``/``q4`` are used as they are (``q2 = 0``
         without a wheel angle).
     """
-    d = differentiator or DEFAULT_DIFFERENTIATOR
+    d = differentiator or state_differentiator(data.Ts)
     q = np.column_stack([data.q1, data.q2 if data.q2 is not None else np.zeros_like(data.q1)])
     if data.n_samples >= d.min_samples(data.Ts):
         pos, vel, _ = d.derivatives(data.Ts, q)
@@ -342,7 +365,7 @@ def initial_state(data: ExperimentData, index: int, plant: Plant,
     plant : Plant
         The plant the state is for.
     differentiator : Differentiator, optional
-        Filter of the positions; None (default): :data:`DEFAULT_DIFFERENTIATOR`.
+        Filter of the positions; None (default): :func:`state_differentiator` of the log's ``Ts``.
 
     Returns
     -------
