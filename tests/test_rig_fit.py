@@ -6,6 +6,7 @@ import json
 import math
 import re
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -639,6 +640,40 @@ def test_a_swing_released_from_rest_starts_its_fit_at_its_measured_state(tmp_pat
                                              start=truth.replace(sigma_c1=0.0, sigma_a1=0.2, sigma_v1=0.0)), warn=False)
     assert min(min(f.fit.values()) for f in res.train) > 99.0
     assert res.params.sigma_c1 == pytest.approx(0.4, rel=0.02) and res.params.p1 == pytest.approx(40.0, rel=0.002)
+
+
+@pytest.mark.parametrize("stalls", [1, 2])
+def test_a_ladder_fit_that_ends_above_the_structure_it_extends_is_fitted_again_or_not_chosen(tmp_path, monkeypatch,
+                                                                                            stalls):
+    """The pendulum's Coulomb structure holds model (9) plus the disk's (its sigma_c1 at 0): its fit cannot end
+    above that one's cost. Its first fit (``stalls`` 1) or both (2) are made to end there, as one did."""
+    import iwp.ident.logfit as logfit
+
+    vr = DescribedRig(rig_of(), TRUTH.replace(sigma_c2=0.5, sigma_c1=0.4), noise_std=0.002, seed=4)
+    logs = [write_rig_csv(vr.run(Chirp(0.3, 1.0 + i, 6.0), duration=6.0, seed=i), tmp_path / f"c{i}.csv")
+            for i in range(2)]
+    real, calls = logfit.refine, []
+
+    def refine(exps, plant, **kw):
+        r = real(exps, plant, **kw)
+        if "sigma_c1" in kw["free"] and "eps_c1" not in kw["free"] and len(exps) == 2:  # the rung's fits on all logs
+            calls.append(r.cost)
+            if len(calls) <= stalls:
+                return replace(r, cost=1e3 * r.cost)
+        return r
+
+    monkeypatch.setattr(logfit, "refine", refine)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = fit_logs(logs, rig=rig_of(), options=LogFitOptions(select=True), warn=False)
+    by = {o.rung.name: o for o in res.structures.outcomes}
+    pc, parent = by["pendulum-coulomb"], by["coulomb"]
+    assert len(calls) == 2  # fitted again from next to the simpler optimum
+    if stalls == 1:
+        assert pc.success and pc.result.cost == calls[1] <= parent.result.cost
+    else:
+        assert not pc.success and "not a minimum" in pc.message and res.structures.chosen.rung.name != \
+            "pendulum-coulomb"
 
 
 def test_logs_of_two_set_ups_are_named_before_the_joint_fit(tmp_path):
