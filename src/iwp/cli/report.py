@@ -37,7 +37,7 @@ def run(args) -> int:
 
     params = load_lumped(args.params)
     res = report_logs(args.files, params, args.out, force=args.force, progress=lambda m: print(m, flush=True),
-                      params_name=str(args.params), q1_offset=stored_q1_offset(args.params),
+                      params_name=str(args.params), held_out_offset=stored_q1_offset(args.params),
                       reads_v_as_u=stored_reads_v_as_u(args.params))
     print(f"wrote {res['report']} ({len(res['comparisons'])} log(s))")
     return 0

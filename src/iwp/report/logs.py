@@ -55,7 +55,7 @@ def report_logs(
     force: bool = False,
     progress: Callable[[str], None] | None = None,
     params_name: str = "",
-    q1_offset: float = 0.0,
+    held_out_offset: float = 0.0,
     reads_v_as_u: bool = False,
 ) -> dict:
     """Compare a user's experiment logs with a model; write ``out/report.html`` and the figures.
@@ -80,10 +80,13 @@ def report_logs(
         Called with one line of text per log.
     params_name : str
         Where the parameters came from (shown on the page).
-    q1_offset : float
-        The pendulum zero offset [rad] of ``iwp fit``'s held-out logs, taken
-        off a log whose offset is to be estimated
-        (:func:`~iwp.ident.validation.held_out_q1_offset`).
+    held_out_offset : float
+        The pendulum zero offset [rad] ``iwp fit`` took off its held-out logs
+        (:attr:`~iwp.ident.logfit.LogFitResult.held_out_offset`, ``q1_offset``
+        in its ``parameters.json``), taken off each log whose metadata say its
+        offset is to be estimated (:func:`~iwp.ident.validation.held_out_q1_offset`);
+        :func:`~iwp.ident.validation.validate`'s ``q1_offset`` is what is taken
+        off one log.
     reads_v_as_u : bool
         The parameters were fitted reading a raw command ``v`` as ``u``
         (``iwp fit``): a log of ``v`` is simulated so (model (9)), not with
@@ -126,7 +129,7 @@ def report_logs(
             else:
                 log = model_input(log, "compensated", str(p)) if reads_v_as_u else log
                 comp, fig, caption = _compare_series(p, log, params, plot_comparisons,
-                                                     held_out_q1_offset(log, q1_offset))
+                                                     held_out_q1_offset(log, held_out_offset))
             png, written = save_figure(fig, out_dir, stem)
             comp.figure = stem
             fig_paths += written
