@@ -30,7 +30,7 @@ from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
 from iwp.device.cheader import HEADER_PATH, c_header
 from iwp.device.core import DeviceCore
-from iwp.device.emulator import TwinDevice, stop_device
+from iwp.device.emulator import TwinDevice, check_link, stop_device
 from iwp.device.errors import DeviceError
 from iwp.device.experiments import run_on_rig
 from iwp.device.framing import FrameDecoder, encode_frame
@@ -48,6 +48,7 @@ from iwp.device.protocol import (
 )
 from iwp.device.rig import REQUEST_REPEAT, REQUEST_TIMEOUT, Rig
 from iwp.device.twin import TwinRig
+from iwp.errors import InputError
 from iwp.ident.logfit import load_logs
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -422,6 +423,20 @@ def test_an_emulated_board_stops_its_motor_when_the_emulator_ends():
     assert device.core.status()[1] == STATES["ARMED"]
     out = stop_device(device)
     assert (out["state_before"], out["state"], out["v"]) == ("ARMED", "ESTOP", 0.0)
+
+
+def test_a_stale_port_link_is_removed_and_a_live_path_refused(tmp_path):
+    stale = tmp_path / "rig"
+    os.symlink("/dev/pts/999999", stale)  # left by an emulator killed with SIGKILL
+    assert check_link(stale) and not os.path.lexists(stale)
+    assert check_link(tmp_path / "free") is False
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(InputError, match=r"^--link .*file: exists; pick another path"):
+        check_link(tmp_path / "file")
+    os.symlink(tmp_path / "file", tmp_path / "live")
+    with pytest.raises(InputError, match="which exists: another emulator may serve it"):
+        check_link(tmp_path / "live")
+    assert (tmp_path / "file").exists() and os.path.islink(tmp_path / "live")
 
 
 def test_ctrl_c_of_the_emulator_under_a_running_host_stops_the_motor_and_the_host_keeps_its_log(tmp_path):

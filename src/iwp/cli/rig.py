@@ -21,7 +21,6 @@ import argparse
 import contextlib
 import json
 import sys
-from pathlib import Path
 
 from ..errors import InputError
 from ._common import add_force_arg, float_list, plain
@@ -262,7 +261,7 @@ def finish_port_run(run, out, args, write) -> int:
 
 def run_emulate(args) -> int:
     from ..data.rig_description import load_rig
-    from ..device.emulator import TwinDevice, run_emulator
+    from ..device.emulator import TwinDevice, check_link, run_emulator
     from ..models.actuator import StartupFriction
     from ..rig import RigTruth
     from ..rig.stepper import TwinStepper
@@ -289,9 +288,9 @@ def run_emulate(args) -> int:
         if wcpr:
             setup["counts2"] = float(wcpr)
         what += f", sampled as {args.rig} describes"
-    if args.link is not None:
-        if Path(args.link).exists() or Path(args.link).is_symlink():
-            raise InputError(f"--link {args.link}: exists; pick another path")
+    if args.link is not None and check_link(args.link):
+        print(f"iwp: removed --link {args.link}: a stale link to a port that no longer exists (an emulator "
+              "killed without its clean-up)", file=sys.stderr)
     device = TwinDevice(TwinStepper(truth, session=args.session, seed=args.seed))
 
     def on_port(path: str) -> None:

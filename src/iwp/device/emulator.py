@@ -33,13 +33,14 @@ import tty
 
 import numpy as np
 
+from ..errors import InputError
 from ..rig.stepper import TwinStepper
 from .core import DeviceCore
 from .framing import encode_frame
 from .protocol import FAULTS, FIXTURE_ACTIONS, PARAMS, STATES, encode, name_of
 from .realtime import realtime_priority
 
-__all__ = ["TwinDevice", "Emulator", "open_pty", "run_emulator", "stop_device"]
+__all__ = ["TwinDevice", "Emulator", "open_pty", "run_emulator", "stop_device", "check_link"]
 
 _NAN = float("nan")
 #: Bytes kept for a host that does not read (beyond them the oldest are dropped, as a UART without flow control
@@ -288,6 +289,40 @@ def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup:
     out = emu.timing()
     out.update(stopped)
     return out
+
+
+def check_link(link: str | os.PathLike) -> bool:
+    """Check that ``link`` is free for :func:`run_emulator`'s port link; remove a stale one.
+
+    A link left by an emulator killed without its clean-up (``kill -9``)
+    points to a pseudo-terminal that no longer exists: it is removed.
+
+    Parameters
+    ----------
+    link : str or path-like
+        The path asked for (``iwp rig emulate --link``).
+
+    Returns
+    -------
+    bool
+        Whether a stale link was removed.
+
+    Raises
+    ------
+    InputError
+        ``link`` exists (a file, or a link to a port that exists: another emulator may serve it).
+    """
+    p = os.fspath(link)
+    if os.path.islink(p) and not os.path.exists(p):
+        target = os.readlink(p)
+        if target.startswith("/dev/pts/"):
+            os.unlink(p)
+            return True
+    if os.path.lexists(p):
+        what = (f"a link to {os.readlink(p)}, which exists: another emulator may serve it" if os.path.islink(p)
+                else "exists")
+        raise InputError(f"--link {p}: {what}; pick another path", argument="--link")
+    return False
 
 
 def stop_device(device: TwinDevice) -> dict:
