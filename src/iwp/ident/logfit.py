@@ -883,9 +883,10 @@ def poor_prediction_advice(fits: Sequence[LogFit], outputs: Sequence[str], *, ch
 LADDER_MAX_NFEV = 200
 #: A structure holds the one it extends (its new terms at 0), so its fit ends at or below that one's cost; one that
 #: ends above it by more than this share stopped short, and is fitted again from next to that optimum (its new
-#: terms started at :data:`NESTED_RESTART` of their usual starts). Seen once: a fit started where a swing's
-#: initial state was far off stopped after 3 evaluations at 55 times the simpler structure's cost, and the truth
-#: lost to a richer structure.
+#: terms started at :data:`NESTED_RESTART` of their usual starts), then from each simpler structure's optimum,
+#: until one ends at or below it; else it is marked not converged. Seen: a fit started where a swing's initial
+#: state was far off stopped after 3 evaluations at 55 times the simpler structure's cost; the dead zone's fit,
+#: started from widths driven to their floor (1e-3 rad/s) to mimic it, stopped at its start on a clamped log.
 NESTED_SLACK = 1e-3
 #: the share of their usual starts the new terms of a fit started again next to the simpler optimum take
 NESTED_RESTART = 1e-3
@@ -1048,18 +1049,27 @@ class _Fitting:
 
     def _rung(self, rg: Rung, extended: list[RungOutcome], start: LumpedParameters, folds: bool) -> RungOutcome:
         """One structure fitted, from the fit of the richest converged structure it extends, and scored."""
-        parents = [o for o in extended if o.success]
-        parent = max(parents, key=lambda o: len(o.rung.flags)).result if parents else None
+        parents = sorted((o for o in extended if o.success), key=lambda o: len(o.rung.flags), reverse=True)
+        parent = parents[0].result if parents else None
         opts = self.options.with_rung(rg)
         # the parameters of the structure this one extends; the initial states from the data again (a
         # simpler structure's took more iterations to undo: 115 evaluations over the ladder against 87)
         base = parent.params if parent else start
-        r = self.joint(opts, opts.starting_values(base, self.umax), max_nfev=LADDER_MAX_NFEV)
+        first = opts.starting_values(base, self.umax)
+        r = self.joint(opts, first, max_nfev=LADDER_MAX_NFEV)
         if parent is not None and not rg.flags & {"belt"} and not r.cost <= parent.cost * (1.0 + NESTED_SLACK):
-            again = self.joint(opts, opts.starting_values(base, self.umax, fraction=NESTED_RESTART),
-                               max_nfev=LADDER_MAX_NFEV)
-            if again.cost < r.cost:
-                r = again
+            # next to that optimum, then from each simpler structure's (a width the richest one drove to its
+            # floor to mimic a missing dead zone made the dead zone's fit stall there, at its start)
+            starts = [opts.starting_values(base, self.umax, fraction=NESTED_RESTART)]
+            starts += [opts.starting_values(o.result.params, self.umax) for o in parents[1:]]
+            for s in starts:
+                if s == first:
+                    continue
+                again = self.joint(opts, s, max_nfev=LADDER_MAX_NFEV)
+                if again.cost < r.cost:
+                    r = again
+                if r.cost <= parent.cost * (1.0 + NESTED_SLACK):
+                    break
             if not r.cost <= parent.cost * (1.0 + NESTED_SLACK):
                 r = replace(r, success=False, message=f"{r.message}; not a minimum: its cost {r.cost:.6g} is above "
                                                       f"that of the structure it extends, {parent.cost:.6g}")
