@@ -22,7 +22,9 @@ BLAS on one thread
 
 from __future__ import annotations
 
+import contextlib
 import functools
+import signal
 import threading
 from collections.abc import Callable, Hashable, Iterable
 from concurrent.futures import Future, ThreadPoolExecutor
@@ -82,6 +84,26 @@ def fit_threads() -> int:
     return max(1, int(numba.get_num_threads()))
 
 
+@contextlib.contextmanager
+def _interrupts_deferred():
+    """SIGINT recorded, not handled, for the block (main thread, a Python handler in place); yields the record.
+
+    A call already submitted may interrupt (a test's ``os.kill``, a user's Ctrl-C) while the pool takes the next
+    one: a KeyboardInterrupt inside ``ThreadPoolExecutor.submit`` left its threads so that the interpreter hung
+    at exit, and the call running was not waited for.
+    """
+    got: list[int] = []
+    old = signal.getsignal(signal.SIGINT) if threading.current_thread() is threading.main_thread() else None
+    if old is None or old is signal.SIG_IGN:  # not ours to change, or nothing to defer
+        yield got
+        return
+    signal.signal(signal.SIGINT, lambda signum, frame: got.append(signum))
+    try:
+        yield got
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
 def _pool() -> ThreadPoolExecutor:
     global _POOL
     with _POOL_LOCK:
@@ -138,8 +160,13 @@ def thread_map(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
                 raise
 
     pool = _pool()
-    futures: list[Future] = [pool.submit(loop) for _ in range(k)]
+    futures: list[Future] = []
+    with _interrupts_deferred() as deferred:  # an interrupt inside submit() would leave the pool broken
+        for _ in range(k):
+            futures.append(pool.submit(loop))
     try:
+        if deferred:  # delivered now, to the handler in place (Ctrl-C: KeyboardInterrupt, handled below)
+            signal.raise_signal(signal.SIGINT)
         for f in futures:
             f.result()
         return results
