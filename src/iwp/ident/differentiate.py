@@ -265,6 +265,30 @@ class Differentiator:
         return signal.butter(self.order, self.cutoff, btype="low", output="sos", fs=1.0 / Ts)
 
     # -- public -------------------------------------------------------------
+    @classmethod
+    def savgol_spanning(cls, seconds: float, Ts: float, *, min_window: int) -> "Differentiator":
+        """A cubic Savitzky-Golay filter over about ``seconds`` of a log sampled every ``Ts`` [s].
+
+        ``window = 2 round(seconds / (2 Ts)) + 1`` samples, at least ``min_window`` (odd): the same span in
+        seconds whatever the sample time (:func:`~iwp.ident.identification.default_differentiator`,
+        :func:`~iwp.ident.output_error.state_differentiator`).
+
+        Parameters
+        ----------
+        seconds : float
+            Span of the window [s].
+        Ts : float
+            Sample time [s].
+        min_window : int
+            Fewest samples of the window (odd, at least 5: a cubic over 5 samples keeps one degree of freedom).
+
+        Returns
+        -------
+        Differentiator
+        """
+        half = max((min_window - 1) // 2, int(round(0.5 * seconds / check_positive("Ts", Ts))))
+        return cls("savgol", window=2 * half + 1, polyorder=3)
+
     def min_samples(self, Ts: float) -> int:
         """Smallest number of samples the method accepts.
 

@@ -186,8 +186,7 @@ def default_differentiator(Ts: float) -> Differentiator:
         raise InputError(f"Ts must be a positive number of seconds, got {Ts!r}")
     if abs(Ts - 0.005) <= 1e-9:
         return IDENTIFY_DIFFERENTIATOR
-    half = max(3, int(round(0.5 * DEFAULT_WINDOW_SECONDS / Ts)))
-    return Differentiator("savgol", window=2 * half + 1, polyorder=3)
+    return Differentiator.savgol_spanning(DEFAULT_WINDOW_SECONDS, Ts, min_window=7)
 
 #: fewer effectively independent samples per parameter than this -> warning
 _MIN_EFF_PER_PARAM = 20

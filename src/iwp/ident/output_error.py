@@ -88,8 +88,7 @@ def state_differentiator(Ts: float) -> Differentiator:
     -------
     Differentiator
     """
-    half = max(2, int(round(0.5 * STATE_FILTER_SECONDS / Ts)))
-    return Differentiator("savgol", window=2 * half + 1, polyorder=3)
+    return Differentiator.savgol_spanning(STATE_FILTER_SECONDS, Ts, min_window=5)
 #: fewest samples an experiment's window keeps
 MIN_SAMPLES = 10
 
