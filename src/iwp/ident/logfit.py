@@ -1057,7 +1057,10 @@ class _Fitting:
         base = parent.params if parent else start
         first = opts.starting_values(base, self.umax)
         r = self.joint(opts, first, max_nfev=LADDER_MAX_NFEV)
-        if parent is not None and not rg.flags & {"belt"} and not r.cost <= parent.cost * (1.0 + NESTED_SLACK):
+        # the most this structure's fit may cost: that of the structure it extends (a belt holds it only in a limit)
+        nested = parent is not None and "belt" not in rg.flags
+        bound = parent.cost * (1.0 + NESTED_SLACK) if nested else math.inf
+        if nested and not r.cost <= bound:
             # next to that optimum, then from each simpler structure's (a width the richest one drove to its
             # floor to mimic a missing dead zone made the dead zone's fit stall there, at its start)
             starts = [opts.starting_values(base, self.umax, fraction=NESTED_RESTART)]
@@ -1068,9 +1071,9 @@ class _Fitting:
                 again = self.joint(opts, s, max_nfev=LADDER_MAX_NFEV)
                 if again.cost < r.cost:
                     r = again
-                if r.cost <= parent.cost * (1.0 + NESTED_SLACK):
+                if r.cost <= bound:
                     break
-            if not r.cost <= parent.cost * (1.0 + NESTED_SLACK):
+            else:
                 r = replace(r, success=False, message=f"{r.message}; not a minimum: its cost {r.cost:.6g} is above "
                                                       f"that of the structure it extends, {parent.cost:.6g}")
         if self.held_out:
