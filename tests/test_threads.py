@@ -91,18 +91,26 @@ def test_the_ladder_side_by_side_is_the_ladder_one_after_another(tmp_path, monke
     assert ladder() == together
 
 
-def test_ctrl_c_while_waiting_cancels_what_has_not_started_and_lets_the_running_calls_finish():
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_while_waiting_cancels_what_has_not_started_and_lets_the_running_calls_finish(signum):
     finished, started = [], []
 
     def work(i):
         started.append(i)
         if i == 0:
-            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), signum)
         time.sleep(0.1)
         finished.append(i)
 
-    with pytest.raises(KeyboardInterrupt):
-        threads.thread_map(work, range(30))
+    def terminated(s, frame):  # the CLI's SIGTERM: an interrupt (iwp.interruption.Terminated)
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, terminated)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            threads.thread_map(work, range(30))
+    finally:
+        signal.signal(signal.SIGTERM, old)
     assert sorted(finished) == sorted(started) and len(started) < 30
 
 

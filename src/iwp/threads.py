@@ -84,24 +84,29 @@ def fit_threads() -> int:
     return max(1, int(numba.get_num_threads()))
 
 
+#: the signals whose Python handlers :func:`thread_map` defers while it submits (Ctrl-C and the CLI's SIGTERM)
+_DEFERRED = (signal.SIGINT, signal.SIGTERM)
+
+
 @contextlib.contextmanager
 def _interrupts_deferred():
-    """SIGINT recorded, not handled, for the block (main thread, a Python handler in place); yields the record.
+    """SIGINT and SIGTERM recorded, not handled, for the block (main thread, where a Python handler is in place);
+    yields the signals recorded, in order.
 
     A call already submitted may interrupt (a test's ``os.kill``, a user's Ctrl-C) while the pool takes the next
     one: a KeyboardInterrupt inside ``ThreadPoolExecutor.submit`` left its threads so that the interpreter hung
     at exit, and the call running was not waited for.
     """
     got: list[int] = []
-    old = signal.getsignal(signal.SIGINT) if threading.current_thread() is threading.main_thread() else None
-    if old is None or old is signal.SIG_IGN:  # not ours to change, or nothing to defer
-        yield got
-        return
-    signal.signal(signal.SIGINT, lambda signum, frame: got.append(signum))
+    main = threading.current_thread() is threading.main_thread()
+    old = {s: h for s in _DEFERRED if main and callable(h := signal.getsignal(s))}  # not ignored, not the default
+    for s in old:
+        signal.signal(s, lambda signum, frame: got.append(signum))
     try:
         yield got
     finally:
-        signal.signal(signal.SIGINT, old)
+        for s, h in old.items():
+            signal.signal(s, h)
 
 
 def _pool() -> ThreadPoolExecutor:
@@ -161,12 +166,12 @@ def thread_map(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
 
     pool = _pool()
     futures: list[Future] = []
-    with _interrupts_deferred() as deferred:  # an interrupt inside submit() would leave the pool broken
-        for _ in range(k):
-            futures.append(pool.submit(loop))
-    try:
-        if deferred:  # delivered now, to the handler in place (Ctrl-C: KeyboardInterrupt, handled below)
-            signal.raise_signal(signal.SIGINT)
+    try:  # an interrupt from here on waits for the calls submitted
+        with _interrupts_deferred() as deferred:  # an interrupt inside submit() would leave the pool broken
+            for _ in range(k):
+                futures.append(pool.submit(loop))
+        for signum in deferred:  # delivered now, to the handlers in place (Ctrl-C: KeyboardInterrupt, handled below)
+            signal.raise_signal(signum)
         for f in futures:
             f.result()
         return results
