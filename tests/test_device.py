@@ -25,6 +25,7 @@ import numpy as np
 import pytest
 
 from iwp.calibration import compare_targets, load_targets, paper_numbers
+from iwp.cli import main
 from iwp.data import ExperimentData, read_experiment
 from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
@@ -473,24 +474,33 @@ def test_the_host_side_hopf_law_runs_in_real_time_without_tripping_the_watchdog(
     assert log.n_samples == 401
 
 
-def test_a_port_that_does_not_exist_is_one_line_exit_2(tmp_path):
+def test_a_port_that_does_not_exist_is_one_line_exit_2(tmp_path, capsys):
+    # in this process (the exit status and stderr are main's; a subprocess per call cost 2.5 s each)
     out = tmp_path / "x.csv"
-    r = _iwp("rig", "run", "sine-60", "--port", str(tmp_path / "nope"), "--out", str(out), timeout=60)
-    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "--port" in r.stderr and "no such device" in r.stderr
+
+    def iwp(*args):
+        status = main(list(args))
+        return status, capsys.readouterr().err
+
+    status, err = iwp("rig", "run", "sine-60", "--port", str(tmp_path / "nope"), "--out", str(out))
+    assert status == 2 and err.count("\n") == 1 and "--port" in err and "no such device" in err
     assert not out.exists()
-    r = _iwp("control", "run", "swingup", "--where", "device", "--port", "twin", "--out", str(out), timeout=60)
-    assert r.returncode == 2 and r.stderr.count("\n") == 1 and not out.exists()
-    r = _iwp("control", "run", "hopf", "--port", "twin", "--fast", "--x0", "100", "--out", str(out), timeout=60)
-    assert r.returncode == 2 and r.stderr.count("\n") == 1 and not out.exists()  # not a refused ARM, exit 1
-    assert "--x0 = 100 rad is beyond the rig's angle limit q1_max = 12.5664 rad" in r.stderr
-    r = _iwp("rig", "run", "release", "--port", "twin", "--fast", "--x0", "50", "--out", str(out), timeout=60)
-    assert r.returncode == 2 and r.stderr.count("\n") == 1 and not out.exists()  # not a stopped motor, exit 1
-    assert "--x0 = 50 rad is beyond the angle limit q1_max = 12.5664 rad" in r.stderr
-    r = _iwp("rig", "run", "chirp", "--out", str(out), timeout=60)  # a user input needs a port
-    assert r.returncode == 2 and "--port" in r.stderr and not out.exists()
+    status, err = iwp("control", "run", "swingup", "--where", "device", "--port", "twin", "--out", str(out))
+    assert status == 2 and err.count("\n") == 1 and not out.exists()
+    status, err = iwp("control", "run", "hopf", "--port", "twin", "--fast", "--x0", "100", "--out", str(out))
+    assert status == 2 and err.count("\n") == 1 and not out.exists()  # not a refused ARM, exit 1
+    assert "--x0 = 100 rad is beyond the rig's angle limit q1_max = 12.5664 rad" in err
+    status, err = iwp("rig", "run", "release", "--port", "twin", "--fast", "--x0", "50", "--out", str(out))
+    assert status == 2 and err.count("\n") == 1 and not out.exists()  # not a stopped motor, exit 1
+    assert "--x0 = 50 rad is beyond the angle limit q1_max = 12.5664 rad" in err
+    status, err = iwp("rig", "run", "chirp", "--out", str(out))  # a user input needs a port
+    assert status == 2 and "--port" in err and not out.exists()
     out.write_text("x")
-    r = _iwp("rig", "run", "sine-60", "--port", "twin", "--out", str(out), timeout=60)  # never overwritten
-    assert r.returncode == 2 and "--force" in r.stderr and out.read_text() == "x"
+    status, err = iwp("rig", "run", "sine-60", "--port", "twin", "--out", str(out))  # never overwritten
+    assert status == 2 and "--force" in err and out.read_text() == "x"
+    # and one through the installed command: the status reaches the shell
+    r = _iwp("rig", "run", "sine-60", "--port", str(tmp_path / "nope"), "--out", str(out), "--force", timeout=60)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "no such device" in r.stderr and out.read_text() == "x"
 
 
 def test_the_twin_rig_stops_the_motor_when_closed_and_refuses_bad_requests():
