@@ -13,6 +13,7 @@ import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +25,7 @@ from iwp.models import table1
 from iwp.sim import HopfController, simulate
 from iwp.sim.uncertainty import ParameterUncertainty
 from iwp.sweep import Grid, Normal, SweepSpec, Uniform, lanes_of_chunk, load_spec, read_table, run_chunk, run_sweep
+from iwp.sweep import store as store_module
 
 
 def _hopf_spec(**kw) -> SweepSpec:
@@ -166,7 +168,7 @@ class _Interrupt:
             raise KeyboardInterrupt
 
 
-def test_an_interrupted_sweep_resumes_with_only_the_missing_chunks(tmp_path):
+def test_an_interrupted_sweep_resumes_with_only_the_missing_chunks(tmp_path, monkeypatch):
     spec = _hopf_spec()
     whole = run_sweep(spec, tmp_path / "whole")
     out = tmp_path / "cut"
@@ -183,10 +185,19 @@ def test_an_interrupted_sweep_resumes_with_only_the_missing_chunks(tmp_path):
     man = json.loads((out / "manifest.json").read_text())
     assert man["complete"] and man["done"] == [0, 1, 2] and len(man["runs"]) == 2
     assert man["seeds"]["seed"] == 7 and man["spec"]["vary"]["x0.q1"] == {"normal": [0.1, 0.05]}
-    # a finished sweep run again computes nothing and leaves its table alone
+    # a finished sweep run again computes nothing, leaves its table alone and reads it once (checked, returned)
     before = res.results.stat().st_mtime_ns
+    reads = []
+
+    def counted(path, *args, **kwargs):
+        reads.append(Path(path).name)
+        return read_table(path, *args, **kwargs)
+
+    monkeypatch.setattr(store_module, "read_table", counted)
     again = run_sweep(spec, out)
     assert again.computed == [] and res.results.stat().st_mtime_ns == before
+    assert reads.count("results.csv") == 1
+    _same_table(again.table, whole.table)
 
 
 def test_damaged_chunk_files_are_set_aside_and_computed_again(tmp_path):

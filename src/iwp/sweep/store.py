@@ -157,6 +157,8 @@ class SweepStore:
         self.damaged: dict[int, str] = self._damaged_chunks() if resumable else {}
         self.runs: list = list(old.get("runs", [])) if resumable and isinstance(old.get("runs"), list) else []
         self.opened = False
+        #: the results table last read, with the file's (format, mtime_ns, size) it was read from
+        self._results: tuple[tuple, dict[str, np.ndarray]] | None = None
 
     def open(self) -> None:
         """Create the folder (a fresh start: remove this sweep's own earlier files; a resumed one: set its damaged
@@ -308,14 +310,21 @@ class SweepStore:
                               "the sweep's lanes")
 
     def read_results(self, format: str = "csv") -> dict[str, np.ndarray]:
-        """The results table's columns (written by :meth:`write_results`)."""
+        """The results table's columns (written by :meth:`write_results`); read once while the file is unchanged
+        (a finished sweep run again checks its table, then returns it)."""
         path = self.path / f"results.{format}"
-        if format == "csv":
-            return read_table(path)
-        import pyarrow.parquet as pq  # optional dependency (write_results checked it)
+        st = path.stat()
+        key = (format, st.st_mtime_ns, st.st_size)
+        if self._results is None or self._results[0] != key:
+            if format == "csv":
+                tab = read_table(path)
+            else:
+                import pyarrow.parquet as pq  # optional dependency (write_results checked it)
 
-        tab = pq.read_table(path)
-        return {n: tab.column(n).to_numpy() for n in tab.column_names}
+                pt = pq.read_table(path)
+                tab = {n: pt.column(n).to_numpy() for n in pt.column_names}
+            self._results = (key, tab)
+        return dict(self._results[1])
 
     def table(self) -> dict[str, np.ndarray]:
         """Every done chunk's rows, in lane order."""
