@@ -176,6 +176,35 @@ def test_a_jacobian_that_fails_at_the_optimum_gives_no_interval_and_says_why():
     assert any(w.startswith("the Jacobian at the optimum is not finite") for w in res.warnings), res.warnings
 
 
+class _Refuses(_Decay):
+    """``_Decay`` whose model refuses (InputError) a decay rate above ``limit``, as iwp's parameters refuse a
+    value beyond any rig."""
+
+    def __init__(self, t, y, limit):
+        super().__init__(t, y, None)
+        self.limit, self.refused = limit, 0
+
+    def evaluate(self, values, wrt=()):
+        if values["b"] > self.limit:
+            self.refused += 1
+            raise InputError(f"b = {values['b']:.3g} is beyond {self.limit}")
+        return super().evaluate(values, wrt)
+
+
+def test_a_trial_point_the_model_refuses_is_a_failed_step_not_a_crash():
+    t = np.linspace(0.0, 5.0, 400)
+    y = 2.0 * np.exp(-0.7 * t) + 0.3 + np.random.default_rng(4).normal(0.0, 0.02, t.size)
+    popt, _ = curve_fit(lambda tt, a, b, c: a * np.exp(-b * tt) + c, t, y, p0=[1.0, 0.05, 0.0])
+    ps = Parameters([Parameter("a", 1.0, min=0.0), Parameter("b", 0.05, min=0.0), Parameter("c", 0.0)])
+    model = _Refuses(t, y, limit=0.8)  # from b = 0.05 the first step overshoots to beyond 0.8
+    res = FitProblem(ps, model).solve(SolverOptions(tol=1e-12))
+    assert model.refused >= 1 and res.success
+    assert res.parameters["b"].value == pytest.approx(popt[1], rel=1e-6)
+    # a start the model refuses is the user's error, said as such
+    with pytest.raises(InputError, match="beyond 0.8"):
+        FitProblem(ps.with_values({"b": 0.9}), _Refuses(t, y, limit=0.8)).solve()
+
+
 def test_robust_loss_and_bounds_are_reported():
     t = np.linspace(0.0, 5.0, 200)
     y = 2.0 * np.exp(-0.7 * t) + 0.3

@@ -124,7 +124,7 @@ def refine_belt(
                         differences=belt_difference_step(options.rtol))
     if options.max_nfev is None:
         options = SolverOptions(tol=options.tol, max_nfev=50 * (len(free) + 1), tr_solver=options.tr_solver,
-                                rtol=options.rtol, atol=options.atol)
+                                rtol=options.rtol, atol=options.atol, scaling=options.scaling)
     problem = FitProblem(model.parameters(free, bounds, log=True), model)
     res = refine_report(model, problem.solve(options), start)
     if warn:
