@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy import integrate, optimize
+from scipy import integrate, optimize, stats
 
 from iwp.cli import main
 from iwp.data import ExperimentData
@@ -607,10 +607,15 @@ def test_clamped_and_wheel_locked_logs_join_the_fit_through_the_cli(tmp_path):
                      "wl.csv": ("wheel-locked", {"q1"})}
     for f in doc["train"]:
         assert min(f["fit"].values()) > 99.0
-    for name in ("p1", "p2", "p3", "rho", "sigma_c2", "sigma_c1"):  # one realisation: accuracy, not coverage
+    # one realisation: accuracy, not coverage. The standard errors are small; the intervals are several of them
+    # wide, for each set-up informs the parameters unequally (sigma_c1 rests on two of the three experiments:
+    # Bell-McCaffrey's degrees of freedom, 1.1 here, not G - 1 = 2)
+    for name in ("p1", "p2", "p3", "rho", "sigma_c2", "sigma_c1"):
         p = doc["parameters"][name]
         assert p["value"] == pytest.approx(getattr(truth, name), rel=0.01), name
-        assert p["ci95"][1] - p["ci95"][0] < 0.05 * getattr(truth, name), name
+        assert p["stderr"] < 0.01 * getattr(truth, name), name
+        half = 0.5 * (p["ci95"][1] - p["ci95"][0])
+        assert stats.t.ppf(0.975, 2) * p["stderr"] <= half * (1 + 1e-9), name  # never narrower than G - 1 dof
 
 
 def test_a_swing_released_from_rest_starts_its_fit_at_its_measured_state(tmp_path):

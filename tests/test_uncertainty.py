@@ -10,10 +10,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import stats
 
 from iwp.cli import main
 from iwp.data import ExperimentData, write_experiment
 from iwp.errors import InputError
+from iwp.ident.covariance import cluster_covariance
 from iwp.ident.output_error import OutputError
 from iwp.ident.problem import FitProblem, SolverOptions
 from iwp.ident.refinement import as_experiments, refine
@@ -275,3 +277,67 @@ def test_draw_tails_refuse_what_has_no_quantile(draws, quantiles, words):
     tails.add(np.zeros((2, 3)))
     with pytest.raises(InputError, match=r"got shape \(2, 4\)"):
         tails.add(np.zeros((2, 4)))
+
+
+# --------------------------------------------------------------------------
+# the degrees of freedom of the spread across experiments (Bell and McCaffrey)
+# --------------------------------------------------------------------------
+def _clusters(sizes, slopes, rng):
+    """A line ``y = b0 + b1 x`` over experiments of ``sizes`` samples, each with its own spread of ``x``."""
+    x = np.concatenate([s * rng.normal(size=n) for n, s in zip(sizes, slopes)])
+    groups = np.repeat(np.arange(len(sizes)), sizes)
+    return np.column_stack([np.ones(x.size), x]), groups
+
+
+def test_experiments_that_inform_a_parameter_alike_give_it_g_minus_1_degrees_of_freedom():
+    rng = np.random.default_rng(1)
+    X0 = rng.normal(size=(50, 3))
+    J = np.vstack([X0] * 5)
+    groups = np.repeat(np.arange(5), 50)
+    cov = cluster_covariance(J, rng.normal(size=J.shape[0]), groups, ["a", "b", "c"])
+    for contrast in np.eye(3).tolist() + [[1.0, -2.0, 0.5]]:
+        assert cov.clusters.dof(np.array(contrast)) == pytest.approx(4.0, rel=1e-9)
+        assert cov.critical_of(np.array(contrast)) == pytest.approx(stats.t.ppf(0.975, 4))
+
+
+def test_an_experiment_that_says_nothing_of_a_parameter_takes_one_degree_of_freedom_from_it():
+    # two orthogonal columns, five experiments alike but the last holds nothing of the first (a stuck-wheel
+    # swing's column of p3): the first parameter's variance rests on four experiments, 3 dof; the second's on five
+    rng = np.random.default_rng(2)
+    block = np.column_stack([np.tile([1.0, -1.0], 20), np.ones(40)])
+    J = np.vstack([block] * 4 + [np.column_stack([np.zeros(40), np.ones(40)])])
+    groups = np.repeat(np.arange(5), 40)
+    cov = cluster_covariance(J, rng.normal(size=J.shape[0]), groups, ["a", "b"])
+    assert cov.clusters.dof(np.array([1.0, 0.0])) == pytest.approx(3.0, rel=1e-9)
+    assert cov.clusters.dof(np.array([0.0, 1.0])) == pytest.approx(4.0, rel=1e-9)
+    # unequal sizes, one mean: Satterthwaite's tr(M)^2 / tr(M^2) with, for leverages h = n / N,
+    # M = diag(n / (1 - h)) - m m^T / N and m = n / sqrt(1 - h)
+    n = np.array([100, 10, 10, 10])
+    J = np.ones((n.sum(), 1))
+    cov = cluster_covariance(J, rng.normal(size=n.sum()), np.repeat(np.arange(4), n), ["m"])
+    h = n / n.sum()
+    m = n / np.sqrt(1.0 - h)
+    M = np.diag(n / (1.0 - h)) - np.outer(m, m) / n.sum()
+    assert cov.clusters.dof(np.array([1.0])) == pytest.approx(np.trace(M) ** 2 / np.sum(M * M), rel=1e-9)
+
+
+def test_the_slope_of_experiments_that_inform_it_unequally_is_covered_with_bell_mccaffrey_dof():
+    """Five experiments, each one draw of a random intercept and slope shared by its samples, informing the slope
+    unequally (spreads of x 2, 1, 1, 0.5, 0.5). With Student t's G - 1 = 4 dof the bias-reduced sandwich covered
+    the true slope in 83 % of 1,000 repeats; with the slope's own degrees of freedom (1.8 on average) in 94.5 %.
+    """
+    rng = np.random.default_rng(3)
+    inside_g1 = inside_bm = 0
+    reps = 1000
+    for _ in range(reps):
+        X, groups = _clusters([60] * 5, [2.0, 1.0, 1.0, 0.5, 0.5], rng)
+        e = (0.5 * rng.normal(size=5)[groups] * X[:, 1] + 0.2 * rng.normal(size=5)[groups]
+             + 0.05 * rng.normal(size=X.shape[0]))
+        y = X @ np.array([1.0, 2.0]) + e
+        beta, *_ = np.linalg.lstsq(X, y, rcond=None)
+        cov = cluster_covariance(X, y - X @ beta, groups, ["b0", "b1"])
+        se = math.sqrt(cov.matrix[1, 1])
+        inside_bm += abs(beta[1] - 2.0) <= cov.critical_of(np.array([0.0, 1.0])) * se
+        inside_g1 += abs(beta[1] - 2.0) <= cov.critical * se
+    assert inside_g1 / reps < 0.90
+    assert 0.93 <= inside_bm / reps <= 0.97

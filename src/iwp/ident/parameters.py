@@ -26,7 +26,7 @@ import ast
 import math
 import operator
 from dataclasses import dataclass, field, replace
-from typing import Any, Iterable, Iterator, Mapping, Sequence
+from typing import Any, Callable, Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -371,12 +371,15 @@ class Parameters(Mapping[str, Parameter]):
         return any(self.depends_on_free(m) for m in _names_in(p.expr))
 
     # ------------------------------------------------------------------ report
-    def with_estimates(self, z: np.ndarray, covariance_z: np.ndarray, critical: float) -> "Parameters":
+    def with_estimates(self, z: np.ndarray, covariance_z: np.ndarray,
+                       critical: float | Callable[[np.ndarray], float]) -> "Parameters":
         """The parameters at the optimum ``z`` with standard errors, 95 % intervals and correlations.
 
         ``covariance_z`` is the covariance of ``z``; it is mapped to the values
         by the delta method (``D C D^T`` with ``D = d value / d z``), for the free
-        and for the derived parameters alike.
+        and for the derived parameters alike. ``critical``: the multiplier of
+        the standard errors, or a function of a parameter's row of ``D`` that
+        gives its own (:meth:`iwp.ident.covariance.Covariance.critical_of`).
         """
         vals = self.from_internal(z)
         names = [n for n in self._items if self.depends_on_free(n)]
@@ -397,8 +400,8 @@ class Parameters(Mapping[str, Parameter]):
                     if m != n and m in free and p.vary:
                         with np.errstate(invalid="ignore", divide="ignore"):
                             correl[m] = float(cov[i, k] / (sd[i] * sd[k]))
-                out.append(replace(p, value=float(v), stderr=s, ci95=(v - critical * s, v + critical * s),
-                                   correl=correl))
+                c = critical(D[i]) if callable(critical) else critical
+                out.append(replace(p, value=float(v), stderr=s, ci95=(v - c * s, v + c * s), correl=correl))
             else:
                 out.append(replace(p, value=float(v), stderr=0.0, ci95=None, correl={}))
         return Parameters(out)

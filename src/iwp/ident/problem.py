@@ -297,7 +297,8 @@ class FitProblem:
     covariance : {"auto", "experiments", "hac", "white"}
         ``"experiments"``: the cluster-robust sandwich over experiments
         (:func:`~iwp.ident.covariance.cluster_covariance`): each experiment's
-        summed score one independent draw, Student t with ``G - 1`` dof;
+        summed score one independent draw, bias-reduced, Student t with each
+        parameter's Bell-McCaffrey dof (at most ``G - 1``);
         ``"hac"``: the heteroscedasticity-and-autocorrelation-consistent
         sandwich within experiments (:func:`~iwp.ident.covariance.hac_sandwich`);
         ``"white"``: ``(J_w^T J_w)^-1``, for white residuals only. ``"auto"``
@@ -443,7 +444,7 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
         within = hac_sandwich(Jw, rw, groups, model.row_times(), free, dof, b)
     across = None
     if method == "experiments" and n_exp >= 2:
-        across = cluster_covariance(Jw, rw, groups, free, dof)
+        across = cluster_covariance(Jw, rw, groups, free)
         cov_z = across_and_within(across, within) if within is not None else across
     elif within is not None:
         cov_z = within
@@ -453,7 +454,7 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     n_out = int(np.max(blocks)) + 1 if blocks.size else 1
     verdict = reliability(across if across is not None else cov_z, within if across is not None else None, n_exp,
                           kinds, length // n_out)
-    estimates = params.with_estimates(z, cov_z.matrix, cov_z.critical)
+    estimates = params.with_estimates(z, cov_z.matrix, cov_z.critical_of)
     D = params.value_derivatives(z, free)
     cov = D @ cov_z.matrix @ D.T if free else np.zeros((0, 0))
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
