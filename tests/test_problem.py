@@ -94,10 +94,11 @@ def test_the_registry_describes_every_model_parameter():
         assert lo < hi and info.typical > 0 and info.unit
         assert (lo > 0) == (info.sign == "positive" or info.floor > 0) and (lo == -math.inf) == (info.sign == "signed")
     # the Coulomb signs' widths stop at 1e-3 rad/s (a narrower one is not resolved by any log and makes the model
-    # stiff); zero stays their "the plant's" value
+    # stiff) and at 1e4 rad/s (a wider one is a line, viscous friction); zero stays their "the plant's" value
     for n in ("eps_c1", "eps_c2"):
-        assert PARAMETER_INFO[n].default_bounds() == (1e-3, math.inf) and PARAMETER_INFO[n].sign == "nonnegative"
+        assert PARAMETER_INFO[n].default_bounds() == (1e-3, 1e4) and PARAMETER_INFO[n].sign == "nonnegative"
     assert [n for n, i in PARAMETER_INFO.items() if i.floor > 0] == ["eps_c1", "eps_c2"]
+    assert [n for n, i in PARAMETER_INFO.items() if math.isfinite(i.default_bounds()[1])] == ["eps_c1", "eps_c2"]
 
 
 # --------------------------------------------------------------------------
