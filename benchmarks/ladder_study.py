@@ -19,12 +19,14 @@ the belt's rung); the truth ``belt`` is the ``widths`` truth driven through
 a soft belt with play (always on the belt rig).
 
 Run: python benchmarks/ladder_study.py [--seeds 10] [--truths 9,coulomb,...] [--held 19] [--cv] [--kinds] [--belt-rig]
+[--dump scores.jsonl]
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
+import json
 import sys
 import tempfile
 import time
@@ -92,7 +94,7 @@ def logs(truth: LumpedParameters, seed: int, folder: Path, *, duration: float = 
 
 
 def one(truth_name: str, seed: int, cv: bool, duration: float, n_held: int, belt_rig: bool = False,
-        kinds: bool = False):
+        kinds: bool = False, dump: str | None = None):
     truth = TRUTHS[truth_name]
     belt = BELT if truth_name == "belt" else None
     with tempfile.TemporaryDirectory() as tmp:
@@ -103,6 +105,11 @@ def one(truth_name: str, seed: int, cv: bool, duration: float, n_held: int, belt
             res = fit_logs(train, rig=rig, validate=() if cv else held, kinds=others or None,
                            options=LogFitOptions(select=True), warn=False)
     chosen = res.structures.chosen.rung.name
+    if dump is not None:  # each structure's held-out scores, to try other rules on the same fits
+        with open(dump, "a") as fh:
+            fh.write(json.dumps({"truth": truth_name, "seed": seed, "kinds": kinds, "chosen": chosen, "rungs": [
+                {"name": o.rung.name, "success": o.success, "k": o.n_params, "scores": [float(x) for x in o.scores],
+                 "bic": float(o.bic), "cost": float(o.result.cost)} for o in res.structures.outcomes]}) + "\n")
     inside = []
     if chosen == truth_name:
         for n in res.refinement.free:
@@ -123,6 +130,7 @@ def main(argv=None) -> int:
     ap.add_argument("--kinds", action="store_true",
                     help="add a clamped-arm chirp and a stuck-wheel swing to each seed's training")
     ap.add_argument("--belt-rig", action="store_true", help="a belt-drive rig (the ladder has the belt's rung)")
+    ap.add_argument("--dump", metavar="PATH", help="append each fit's structures and held-out scores (JSON lines)")
     args = ap.parse_args(argv)
     print(f"# ladder study: {args.seeds} seeds, logs of {args.duration:g} s, ranked on "
           f"{'leave-one-log-out cross-validation' if args.cv else f'{args.held} held-out logs'}"
@@ -134,7 +142,8 @@ def main(argv=None) -> int:
     for name in args.truths.split(","):
         picks, inside, times = collections.Counter(), [], []
         for seed in range(args.seeds):
-            chosen, ins, el = one(name, seed, args.cv, args.duration, args.held, args.belt_rig, args.kinds)
+            chosen, ins, el = one(name, seed, args.cv, args.duration, args.held, args.belt_rig, args.kinds,
+                                 args.dump)
             print(f"  truth {name}, seed {seed}: chose {chosen} ({el:.1f} s)", file=sys.stderr, flush=True)
             picks[chosen] += 1
             inside += ins
