@@ -24,6 +24,7 @@ def forward_difference_jacobian(
     *,
     f0: np.ndarray | None = None,
     upper: np.ndarray | None = None,
+    refused: type[Exception] | tuple[type[Exception], ...] = (),
 ) -> np.ndarray:
     """``J[:, j] = (fun(z + h_j e_j) - fun(z)) / h_j``.
 
@@ -40,6 +41,11 @@ def forward_difference_jacobian(
     upper : ndarray, optional
         Upper bounds of ``z``: a coordinate within ``h_j`` of its bound is
         stepped down (``-h_j``) instead, so that no evaluation leaves the box.
+    refused : exception type or tuple of them
+        What ``fun`` raises for a point outside its model's domain (a value
+        beyond any rig): that coordinate is stepped down instead (a belt fit
+        had driven a Coulomb width to just below the 1e9 every parameter is
+        refused at, and its step up crashed the fit).
 
     Returns
     -------
@@ -55,5 +61,11 @@ def forward_difference_jacobian(
             h = -h
         zj = z.copy()
         zj[j] += h
-        J[:, j] = (fun(zj) - f0) / h
+        try:
+            fj = fun(zj)
+        except refused:
+            h = -h
+            zj[j] = z[j] + h
+            fj = fun(zj)
+        J[:, j] = (fj - f0) / h
     return J

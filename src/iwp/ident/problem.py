@@ -268,7 +268,8 @@ class _Objective:
         self.njev += 1
         if self.model.differences is not None:
             base = self.evaluation(z)
-            J = forward_difference_jacobian(self.residuals, z, self.model.differences, f0=base.r, upper=self.upper)
+            J = forward_difference_jacobian(self.residuals, z, self.model.differences, f0=base.r, upper=self.upper,
+                                            refused=InputError)
             self.evals = {key: base}
         else:
             ev = self.model.evaluate(self.params.from_internal(z), wrt=self.wrt)

@@ -87,13 +87,6 @@ class ParameterInfo:
         0.03 rad/s for 4,096 counts at 50 ms), so a narrower width is not
         told apart by data, and it makes the model stiff (a width of 3e-7
         rad/s took a fit of 100 s instead of 2 s).
-    ceiling : float
-        The highest value a fit on a linear scale may give (default: none).
-        The smoothing widths have 1e4 rad/s, beyond any wheel's speed: a
-        wider one turns the Coulomb sign into a line, a viscous term the data
-        cannot tell from ``p2``'s, and a belt fit left without it drove
-        ``eps_c2`` up to 1e9 rad/s, where every parameter is refused, and
-        stopped there.
     """
 
     name: str
@@ -104,7 +97,6 @@ class ParameterInfo:
     description: str
     fit_range: tuple[float, float] | None = None
     floor: float = 0.0
-    ceiling: float = math.inf
 
     def default_bounds(self, log: bool = False) -> tuple[float, float]:
         """Default ``(low, high)`` of a fit: ``fit_range`` on a log scale, else from the physical sign."""
@@ -113,10 +105,10 @@ class ParameterInfo:
                 raise InputError(f"parameter {self.name!r} is not fitted on a log scale")
             return self.fit_range
         if self.sign == "positive":
-            return (1e-12 * self.typical, self.ceiling)
+            return (1e-12 * self.typical, math.inf)
         if self.sign == "nonnegative":
-            return (self.floor, self.ceiling)
-        return (-math.inf, self.ceiling)
+            return (self.floor, math.inf)
+        return (-math.inf, math.inf)
 
 
 def _info(owner: str, rows) -> dict[str, ParameterInfo]:
@@ -139,9 +131,9 @@ LUMPED_INFO: dict[str, ParameterInfo] = _info("lumped", (
     ("sigma_c1", "rad/s^2", 0.05, "nonnegative", "Coulomb friction of the pendulum joint over I1_hat"),
     ("u_offset", "in", 1.0, "signed", "offset of the input"),
     ("eps_c1", "rad/s", 0.01, "nonnegative", "smoothing width of the pendulum's Coulomb sign (0: the plant's)",
-     (1e-3, 2.0), 1e-3, 1e4),
+     (1e-3, 2.0), 1e-3),
     ("eps_c2", "rad/s", 0.01, "nonnegative", "smoothing width of the disk's Coulomb sign (0: the plant's)",
-     (1e-3, 2.0), 1e-3, 1e4),
+     (1e-3, 2.0), 1e-3),
 ))
 
 #: The belt (15) and figure 5, by name.
