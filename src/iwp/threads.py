@@ -122,6 +122,10 @@ def _mark_worker() -> None:
     _LOCAL.worker = True
 
 
+#: seconds between the wake-ups of a caller waiting on the pool, to run the signal handlers (Ctrl-C)
+WAKE = 0.05
+
+
 def thread_map(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
     """``[func(x) for x in items]``, the calls on iwp's shared thread pool.
 
@@ -173,13 +177,20 @@ def thread_map(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
         for signum in deferred:  # delivered now, to the handlers in place (Ctrl-C: KeyboardInterrupt, handled below)
             signal.raise_signal(signum)
         for f in futures:
-            f.result()
+            while True:  # woken every WAKE seconds: a Ctrl-C the kernel delivered to a worker thread leaves the
+                try:  # main thread asleep in an untimed wait until the map ends (all 30 calls of the test ran)
+                    f.result(timeout=WAKE)
+                    break
+                except TimeoutError:
+                    continue
         return results
     except BaseException:
         stop.set()  # no call starts after a failure or an interrupt
-        for f in futures:  # the running calls finish before the caller's clean-up (they share its buffers)
-            try:
-                f.exception()
-            except BaseException:  # noqa: BLE001 - a second interrupt while waiting: stop waiting
-                break
+        try:
+            for f in futures:  # the running calls finish before the caller's clean-up (they share its buffers)
+                while not f.done():
+                    with contextlib.suppress(TimeoutError):
+                        f.exception(timeout=WAKE)
+        except BaseException:  # noqa: BLE001, S110 - a second interrupt while waiting: stop waiting
+            pass
         raise
