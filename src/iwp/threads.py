@@ -28,6 +28,7 @@ import signal
 import threading
 from collections.abc import Callable, Hashable, Iterable
 from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import wait as futures_wait
 from typing import TypeVar
 
 import numba
@@ -126,6 +127,14 @@ def _mark_worker() -> None:
 WAKE = 0.05
 
 
+def _wait(f: Future) -> None:
+    """Until ``f`` is done, woken every :data:`WAKE` seconds: a Ctrl-C the kernel delivers to a worker thread
+    leaves the main thread asleep in an untimed wait (the signal handler runs in the main thread, between its
+    bytecodes), so the interrupt would wait for the whole map (the Ctrl-C test saw all 30 calls run)."""
+    while not f.done():
+        futures_wait([f], timeout=WAKE)
+
+
 def thread_map(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
     """``[func(x) for x in items]``, the calls on iwp's shared thread pool.
 
@@ -177,20 +186,14 @@ def thread_map(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
         for signum in deferred:  # delivered now, to the handlers in place (Ctrl-C: KeyboardInterrupt, handled below)
             signal.raise_signal(signum)
         for f in futures:
-            while True:  # woken every WAKE seconds: a Ctrl-C the kernel delivered to a worker thread leaves the
-                try:  # main thread asleep in an untimed wait until the map ends (all 30 calls of the test ran)
-                    f.result(timeout=WAKE)
-                    break
-                except TimeoutError:
-                    continue
+            _wait(f)
+            f.result()
         return results
     except BaseException:
         stop.set()  # no call starts after a failure or an interrupt
         try:
             for f in futures:  # the running calls finish before the caller's clean-up (they share its buffers)
-                while not f.done():
-                    with contextlib.suppress(TimeoutError):
-                        f.exception(timeout=WAKE)
+                _wait(f)
         except BaseException:  # noqa: BLE001, S110 - a second interrupt while waiting: stop waiting
             pass
         raise
