@@ -257,8 +257,7 @@ class _Objective:
         for a simulation that failed. The start and the optimum go through :meth:`evaluation`, which raises."""
         try:
             return self.residuals(z)
-        except InputError:
-            self.nfev += 1
+        except InputError:  # counted in nfev by evaluation()
             return np.full(self.model.n_rows, np.inf)
 
     def jacobian(self, z: np.ndarray) -> np.ndarray:
