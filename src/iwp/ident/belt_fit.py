@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import warnings as _warnings
+from dataclasses import replace
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -123,8 +124,7 @@ def refine_belt(
     model = OutputError(start, exps, ("q4",), rtol=options.rtol, atol=options.atol,
                         differences=belt_difference_step(options.rtol))
     if options.max_nfev is None:
-        options = SolverOptions(tol=options.tol, max_nfev=50 * (len(free) + 1), tr_solver=options.tr_solver,
-                                rtol=options.rtol, atol=options.atol, scaling=options.scaling)
+        options = replace(options, max_nfev=50 * (len(free) + 1))
     problem = FitProblem(model.parameters(free, bounds, log=True), model)
     res = refine_report(model, problem.solve(options), start)
     if warn:
