@@ -606,10 +606,10 @@ def cluster_covariance(Jw: np.ndarray, rw: np.ndarray, groups: np.ndarray, names
     for k, lab in enumerate(labels):
         Js, rs = Jw[groups == lab], rw[groups == lab]
         U, f, h = _leverage_adjustment(Js, A)
-        JU = Js.T @ U
+        JU, JtJ = Js.T @ U, Js.T @ Js
         g[k] = Js.T @ rs + JU @ (f * (U.T @ rs))  # J_s^T A_s r_s
-        P[k] = Js.T @ Js + (JU * f) @ JU.T
-        S[k] = Js.T @ Js + (JU * h) @ JU.T
+        P[k] = JtJ + (JU * f) @ JU.T
+        S[k] = JtJ + (JU * h) @ JU.T
     cov = A @ (g.T @ g) @ A
     cov = 0.5 * (cov + cov.T)
     bad = np.isnan(np.diag(white))
