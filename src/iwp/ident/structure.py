@@ -264,7 +264,8 @@ class Selection:
         Per rung, the one-sided p-value of its paired scores being worse than the best's (NaN: not tested).
     shift : ndarray
         Per rung, the estimate of its log ratio to the best the test goes with (the Hodges-Lehmann
-        estimate for the signed-rank test, the mean for Student's t), compared with ``ln(1 + MIN_GAIN)``.
+        estimate for the signed-rank test, the mean for Student's t, the one log's ratio for the one-log
+        rule), compared with ``ln(1 + MIN_GAIN)``; NaN without a scoring log.
     """
 
     chosen: int
@@ -273,8 +274,8 @@ class Selection:
     stderr: np.ndarray
     critical: float
     method: str
-    p_worse: np.ndarray | None = None
-    shift: np.ndarray | None = None
+    p_worse: np.ndarray
+    shift: np.ndarray
 
 
 def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
@@ -289,15 +290,16 @@ def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
         raise InputError("no model structure was fitted")
     S = np.array([o.scores for o in outcomes], dtype=float)
     R, n = S.shape
+    nan = np.full(R, np.nan)  # a statistic no test gave (read only)
     usable = np.array([o.success and np.all(np.isfinite(o.scores)) for o in outcomes])
     if not usable.any():
         usable = np.array([np.all(np.isfinite(o.scores)) for o in outcomes])
     if not usable.any():
-        return Selection(0, 0, np.full(R, np.nan), np.full(R, np.nan), math.nan, "none usable")
+        return Selection(0, 0, nan, nan, math.nan, "none usable", nan, nan)
     if n == 0:
         bic = np.array([o.bic if u else np.inf for o, u in zip(outcomes, usable)])
         best = int(np.nanargmin(bic)) if np.isfinite(bic).any() else int(np.flatnonzero(usable)[0])
-        return Selection(best, best, np.full(R, np.nan), np.full(R, np.nan), float("nan"), "BIC (no scoring log)")
+        return Selection(best, best, nan, nan, math.nan, "BIC (no scoring log)", nan, nan)
     with np.errstate(divide="ignore", invalid="ignore"):
         L = np.log(np.where(S > 0, S, np.nan))
     # the best by the statistic the rule tests (the geometric mean score): an arithmetic mean would let one log
@@ -307,11 +309,11 @@ def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
     if n == 1:  # no spread to judge by: the simplest within MIN_GAIN of the best
         diff = D[:, 0]
         chosen = next(i for i in range(R) if usable[i] and diff[i] <= math.log1p(MIN_GAIN))
-        return Selection(chosen, best, diff, np.full(R, np.nan), float("nan"),
-                         f"one scoring log: the simplest within {100 * MIN_GAIN:g} % of the best")
+        return Selection(chosen, best, diff, nan, math.nan,
+                         f"one scoring log: the simplest within {100 * MIN_GAIN:g} % of the best", nan, diff)
     diff = D.mean(axis=1)
     se = D.std(axis=1, ddof=1) / math.sqrt(n)
-    p_worse, shift = np.full(R, np.nan), np.full(R, np.nan)
+    p_worse, shift = nan.copy(), nan.copy()
     if n >= SIGNED_RANK_MIN:
         crit = math.nan
         method = "paired held-out scores, Wilcoxon signed-rank test"
@@ -328,7 +330,7 @@ def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
         if usable[i] and (i == best or not p_worse[i] <= ALPHA or shift[i] <= math.log1p(MIN_GAIN)):
             chosen = i
             break
-    return Selection(chosen, best, diff, se, crit, method, p_worse=p_worse, shift=shift)
+    return Selection(chosen, best, diff, se, crit, method, p_worse, shift)
 
 
 def _signed_rank(d: np.ndarray) -> tuple[float, float]:
@@ -422,8 +424,7 @@ class LadderResult:
                        "scores": [float(s) for s in r.scores], "score": r.score, "fit": r.fit,
                        "training_fit": r.training_fit, "log_ratio_to_best": float(sel.difference[i]),
                        "stderr_of_log_ratio": float(sel.stderr[i]),
-                       "p_worse_than_best": float(sel.p_worse[i]) if sel.p_worse is not None else math.nan,
-                       "shift_to_best": float(sel.shift[i]) if sel.shift is not None else math.nan,
+                       "p_worse_than_best": float(sel.p_worse[i]), "shift_to_best": float(sel.shift[i]),
                        "aic": r.aic, "bic": r.bic,
                        "success": r.success, "message": r.message}
                       for i, r in enumerate(self.outcomes)],
