@@ -13,8 +13,9 @@ from iwp.cli import main
 from iwp.data import ExperimentData
 from iwp.data.rig_description import RigDescription
 from iwp.errors import InputError
+from iwp.ident import logfit
 from iwp.ident.belt_fit import BELT_FREE
-from iwp.ident.logfit import LogFitOptions, belt_bounds, belt_start
+from iwp.ident.logfit import LogFitOptions, belt_bounds, belt_start, fit_logs
 from iwp.ident.structure import RUNGS, ladder
 from iwp.ident.validation import validation_plant
 from iwp.models.parameters import BeltParameters, LumpedParameters, stored_belt
@@ -96,15 +97,35 @@ def test_the_belt_start_has_the_rigid_fit_as_its_limit_inside_the_bounds():
             assert lo < getattr(b, name) < hi
 
 
-def test_the_ladder_fits_the_belt_of_a_belt_drive_and_predicts_held_out_logs(tmp_path, capsys):
+def belt_logs(folder):
+    """Two training chirps and three held-out PRBS runs of 20 s of the belt rig (seed 3), and its description."""
     vr = DescribedRig(rig(BELT_RIG), TRUTH, noise_std=0.002, seed=3, belt=BELT)
-    train = [write_rig_csv(vr.run(Chirp(a, w0, tau), duration=20.0), tmp_path / f"chirp{i}.csv")
+    train = [write_rig_csv(vr.run(Chirp(a, w0, tau), duration=20.0), folder / f"chirp{i}.csv")
              for i, (a, w0, tau) in enumerate(((0.5, 2.0, 6.0), (0.4, 2.5, 7.0)))]
     n = int(round(20.0 / 0.05)) + 1
-    held = [write_rig_csv(vr.run(prbs(n, hold=6, amplitude=a, seed=k), duration=20.0), tmp_path / f"prbs{k}.csv")
+    held = [write_rig_csv(vr.run(prbs(n, hold=6, amplitude=a, seed=k), duration=20.0), folder / f"prbs{k}.csv")
             for k, a in enumerate((0.4, 0.35, 0.45))]
-    rig_path = tmp_path / "rig.json"
+    rig_path = folder / "rig.json"
     rig_path.write_text(json.dumps(BELT_RIG))
+    return train, held, rig_path
+
+
+def test_a_forced_belt_fit_keeps_the_best_of_its_starts_from_the_rigid_fits(tmp_path, monkeypatch):
+    train, held, rig_path = belt_logs(tmp_path)
+    options = LogFitOptions(belt=True, coulomb=True, pendulum_coulomb=True, widths=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        both = fit_logs(train, rig=rig_path, validate=held, options=options, warn=False)
+        monkeypatch.setattr(logfit, "BELT_STARTS", 1)  # from the widths fit only, as before BELT_STARTS
+        one = fit_logs(train, rig=rig_path, validate=held, options=options, warn=False)
+    assert both.belt is not None and both.model == "belt-full" and both.structures is None
+    # the start from the widths fit is one of the two: the fit kept is at or below its cost
+    assert both.refinement.cost <= one.refinement.cost
+    assert both.validation_fit["q4"] > 97.0
+
+
+def test_the_ladder_fits_the_belt_of_a_belt_drive_and_predicts_held_out_logs(tmp_path, capsys):
+    train, held, rig_path = belt_logs(tmp_path)
     out = tmp_path / "out"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -695,10 +695,13 @@ def fit_logs(
         start_p = options.starting_values(start_p, umax)
     else:
         start_p = options.starting_values(start_p, umax)
-        if options.belt:  # from the fit of the rigid structure, as the ladder's belt rung starts
-            rigid = replace(options, belt=False)
-            start_p = options.starting_values(fitting.joint(rigid, start_p).params, umax)
-        r = fitting.joint(options, start_p)
+        if options.belt:  # from the fits of the rigid structures, as the ladder's belt rung starts
+            rigid = [replace(options, belt=False)] + ([replace(options, belt=False, widths=False)] if options.widths
+                                                       else [])
+            fits = thread_map(lambda o: fitting.joint(o, o.starting_values(start_p, umax)), rigid)
+            r = fitting.belt_fit(options, [f.params for f in fits])
+        else:
+            r = fitting.joint(options, start_p)
     model = options.model
     train_logs = [model_input(d, model, "train") for d in train_logs]
     val_logs = [model_input(d, model, "validate") for d in val_logs]
@@ -890,6 +893,12 @@ LADDER_MAX_NFEV = 200
 NESTED_SLACK = 1e-3
 #: the share of their usual starts the new terms of a fit started again next to the simpler optimum take
 NESTED_RESTART = 1e-3
+#: A belt's fit starts from the fits of this many of the richest rigid structures (``widths``, then
+#: ``pendulum-coulomb``) and keeps the lowest cost: its forward-difference fit stops where those differences find no
+#: descent, and where it stops depends on the start. Measured on the belt-drive rig of ``benchmarks/ladder_study.py``
+#: (4 seeds): from the ``widths`` fit, costs of 0.38, 0.18, 2.07 and 2.59 (the widths had taken up part of the play);
+#: from the ``pendulum-coulomb`` fit, 0.20, 0.21, 0.137 and 0.137 (the truth's basin: 0.03 to 0.06).
+BELT_STARTS = 2
 #: the play half-width a belt's fit starts from [rad]
 BELT_START_PLAY = 0.05
 #: a belt's fit keeps its resonance ``sqrt(k/I2)`` and its motor's relaxation rate ``(k/gamma)/N^2`` below this
@@ -1014,6 +1023,14 @@ class _Fitting:
         return refine(exps, plant, free=options.free(), outputs=self.outputs, bounds=bounds, loss=options.loss,
                       options=solver, warn=False)
 
+    def belt_fit(self, options: LogFitOptions, rigid: Sequence[LumpedParameters],
+                 max_nfev: int | None = None) -> RefineResult:
+        """The fit of ``options``' belt structure from each of the first :data:`BELT_STARTS` rigid fits
+        ``rigid`` (richest first), side by side; the one with the lowest cost (``max_nfev``: as :meth:`joint`)."""
+        starts = [options.starting_values(p, self.umax) for p in rigid[:BELT_STARTS]]
+        fits = thread_map(lambda s: self.joint(options, s, max_nfev=max_nfev), starts)
+        return min(fits, key=lambda f: f.cost if math.isfinite(f.cost) else math.inf)
+
     def score(self, r: RefineResult, options: LogFitOptions, logs: list[ExperimentData]) -> list[LogFit]:
         """``logs`` simulated from their measured state with the fit ``r`` (the training logs' mean offset)."""
         model = options.model
@@ -1048,7 +1065,8 @@ class _Fitting:
         return LadderResult(outcomes, select(outcomes), scored_on, n)
 
     def _rung(self, rg: Rung, extended: list[RungOutcome], start: LumpedParameters, folds: bool) -> RungOutcome:
-        """One structure fitted, from the fit of the richest converged structure it extends, and scored."""
+        """One structure fitted, from the fit of the richest converged structure it extends (the belt's: from
+        :data:`BELT_STARTS` of them), and scored."""
         parents = sorted((o for o in extended if o.success), key=lambda o: len(o.rung.flags), reverse=True)
         parent = parents[0].result if parents else None
         opts = self.options.with_rung(rg)
@@ -1056,7 +1074,10 @@ class _Fitting:
         # simpler structure's took more iterations to undo: 115 evaluations over the ladder against 87)
         base = parent.params if parent else start
         first = opts.starting_values(base, self.umax)
-        r = self.joint(opts, first, max_nfev=LADDER_MAX_NFEV)
+        if "belt" in rg.flags:
+            r = self.belt_fit(opts, [o.result.params for o in parents] or [start], max_nfev=LADDER_MAX_NFEV)
+        else:
+            r = self.joint(opts, first, max_nfev=LADDER_MAX_NFEV)
         # the most this structure's fit may cost: that of the structure it extends (a belt holds it only in a limit)
         nested = parent is not None and "belt" not in rg.flags
         bound = parent.cost * (1.0 + NESTED_SLACK) if nested else math.inf

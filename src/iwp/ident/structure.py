@@ -25,7 +25,9 @@ rung                    terms freed on top of the rung before
 ``offset``, ``dead-zone`` and ``belt`` all build on ``widths``. The belt's
 rung needs no motor angle: its simulation error compares the wheel's own
 signal, as :func:`iwp.ident.belt_fit.refine_belt` does with the pendulum
-locked; its ratio ``N`` is the rig description's ``drive.ratio``.
+locked; its ratio ``N`` is the rig description's ``drive.ratio``. Its fit
+starts from the ``widths`` fit and from the ``pendulum-coulomb`` one, and keeps
+the lower cost (:data:`iwp.ident.logfit.BELT_STARTS`).
 
 The rule (:func:`select`): each rung's score per scoring log is its
 simulation error there, the mean over the outputs of ``1 - fit/100`` (the
