@@ -1023,13 +1023,15 @@ class _Fitting:
         return refine(exps, plant, free=options.free(), outputs=self.outputs, bounds=bounds, loss=options.loss,
                       options=solver, warn=False)
 
-    def belt_fit(self, options: LogFitOptions, rigid: Sequence[LumpedParameters],
-                 max_nfev: int | None = None) -> RefineResult:
-        """The fit of ``options``' belt structure from each of the first :data:`BELT_STARTS` rigid fits
-        ``rigid`` (richest first), side by side; the one with the lowest cost (``max_nfev``: as :meth:`joint`)."""
-        starts = [options.starting_values(p, self.umax) for p in rigid[:BELT_STARTS]]
-        fits = thread_map(lambda s: self.joint(options, s, max_nfev=max_nfev), starts)
-        return min(fits, key=lambda f: f.cost if math.isfinite(f.cost) else math.inf)
+    def belt_starts(self, options: LogFitOptions, rigid: Sequence[LumpedParameters]) -> list[LumpedParameters]:
+        """The starts of ``options``' belt structure: from each of the first :data:`BELT_STARTS` rigid fits
+        ``rigid`` (richest first)."""
+        return [options.starting_values(p, self.umax) for p in rigid[:BELT_STARTS]]
+
+    def belt_fit(self, options: LogFitOptions, rigid: Sequence[LumpedParameters]) -> RefineResult:
+        """The fit of ``options``' belt structure from each of :meth:`belt_starts`, side by side; the one with the
+        lowest cost."""
+        return lowest_cost(thread_map(lambda s: self.joint(options, s), self.belt_starts(options, rigid)))
 
     def score(self, r: RefineResult, options: LogFitOptions, logs: list[ExperimentData]) -> list[LogFit]:
         """``logs`` simulated from their measured state with the fit ``r`` (the training logs' mean offset)."""
@@ -1044,8 +1046,8 @@ class _Fitting:
         """Each structure of the ladder fitted (from the fit of the one it extends) and scored.
 
         A structure starts once every structure it extends is fitted; structures that do not extend each
-        other (the offset and the dead zone, both on the widths) are fitted side by side, as are the
-        cross-validation folds (:func:`iwp.threads.thread_map`).
+        other (the offset, the dead zone and the belt, all on the widths) are fitted side by side, as are the
+        belt's starts (:data:`BELT_STARTS`) and the cross-validation folds (:func:`iwp.threads.thread_map`).
         """
         raw = all(d.input_name == "v" for d in self.train + self.held_out)
         folds = len(self.train) >= 2 and not self.held_out
@@ -1055,29 +1057,45 @@ class _Fitting:
             while len(done) < len(rungs):
                 wave = [rg for rg in rungs if rg.name not in done
                         and all(o.name in done for o in rungs if o.flags < rg.flags)]
-                for o in thread_map(lambda rg: self._rung(rg, [done[o.name] for o in rungs if o.flags < rg.flags],
-                                                          start, folds), wave):
-                    done[o.rung.name] = o
+                extended = {rg.name: [done[o.name] for o in rungs if o.flags < rg.flags] for rg in wave}
+                # the tasks: a belt's fit from each of its starts (first: they are the slowest fits), then each
+                # other structure fitted and scored
+                tasks = [(rg, s) for rg in wave if "belt" in rg.flags
+                         for s in self.belt_starts(self.options.with_rung(rg),
+                                                   [o.result.params for o in _parents(extended[rg.name])] or [start])]
+                tasks += [(rg, None) for rg in wave if "belt" not in rg.flags]
+
+                def run(task: tuple[Rung, LumpedParameters | None]) -> RefineResult | RungOutcome:
+                    rg, s = task
+                    if s is None:
+                        return self._rung(rg, extended[rg.name], start, folds)
+                    return self.joint(self.options.with_rung(rg), s, max_nfev=LADDER_MAX_NFEV)
+
+                ran = thread_map(run, tasks)
+                for rg in wave:
+                    if "belt" in rg.flags:
+                        fit = lowest_cost([r for (t, s), r in zip(tasks, ran) if t is rg and s is not None])
+                        done[rg.name] = self._rung(rg, extended[rg.name], start, folds, fit=fit)
+                    else:
+                        done[rg.name] = next(r for (t, s), r in zip(tasks, ran) if t is rg)
         outcomes = [done[rg.name] for rg in rungs]
         scored_on = ("held-out logs" if self.held_out else
                      "leave-one-log-out cross-validation" if folds else "training fit")
         n = len(self.held_out) if self.held_out else (len(self.train) if folds else 0)
         return LadderResult(outcomes, select(outcomes), scored_on, n)
 
-    def _rung(self, rg: Rung, extended: list[RungOutcome], start: LumpedParameters, folds: bool) -> RungOutcome:
-        """One structure fitted, from the fit of the richest converged structure it extends (the belt's: from
-        :data:`BELT_STARTS` of them), and scored."""
-        parents = sorted((o for o in extended if o.success), key=lambda o: len(o.rung.flags), reverse=True)
+    def _rung(self, rg: Rung, extended: list[RungOutcome], start: LumpedParameters, folds: bool,
+              fit: RefineResult | None = None) -> RungOutcome:
+        """One structure fitted, from the fit of the richest converged structure it extends, and scored;
+        ``fit``: its fit made beforehand (the belt's, from its starts side by side with the other structures)."""
+        parents = _parents(extended)
         parent = parents[0].result if parents else None
         opts = self.options.with_rung(rg)
         # the parameters of the structure this one extends; the initial states from the data again (a
         # simpler structure's took more iterations to undo: 115 evaluations over the ladder against 87)
         base = parent.params if parent else start
         first = opts.starting_values(base, self.umax)
-        if "belt" in rg.flags:
-            r = self.belt_fit(opts, [o.result.params for o in parents] or [start], max_nfev=LADDER_MAX_NFEV)
-        else:
-            r = self.joint(opts, first, max_nfev=LADDER_MAX_NFEV)
+        r = fit if fit is not None else self.joint(opts, first, max_nfev=LADDER_MAX_NFEV)
         # the most this structure's fit may cost: that of the structure it extends (a belt holds it only in a limit)
         nested = parent is not None and "belt" not in rg.flags
         bound = parent.cost * (1.0 + NESTED_SLACK) if nested else math.inf
@@ -1113,6 +1131,16 @@ class _Fitting:
         aic, bic = information_criteria(fr.cost, fr.dof + len(fr.free), len(fr.free))
         return RungOutcome(rg, len(r.free), scores, _mean_fit([f.fit for f in scored], self.outputs),
                            _mean_fit(r.fit, self.outputs), aic, bic, bool(r.success), r.message, r)
+
+
+def _parents(extended: Sequence[RungOutcome]) -> list[RungOutcome]:
+    """The converged structures of ``extended``, richest first."""
+    return sorted((o for o in extended if o.success), key=lambda o: len(o.rung.flags), reverse=True)
+
+
+def lowest_cost(fits: Sequence[RefineResult]) -> RefineResult:
+    """The fit of ``fits`` with the lowest cost (a non-finite cost counts as infinite; the first of equals)."""
+    return min(fits, key=lambda f: f.cost if math.isfinite(f.cost) else math.inf)
 
 
 def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset: float, msgs: list[str],
