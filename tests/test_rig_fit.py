@@ -607,6 +607,20 @@ def test_clamped_and_wheel_locked_logs_join_the_fit_through_the_cli(tmp_path):
                      "wl.csv": ("wheel-locked", {"q1"})}
     for f in doc["train"]:
         assert min(f["fit"].values()) > 99.0
+    # the same logs all given as training logs: their motion shows their set-ups, and the fit is the same
+    auto = tmp_path / "auto"
+    held = write_rig_csv(vr.run(Chirp(0.3, 2.5, 6.0), duration=10.0, kind="clamped", seed=5), tmp_path / "h.csv")
+    assert main(["fit", str(chirp), str(clamp), str(swing), "--rig", str(rig_path), "--model", "pendulum-coulomb",
+                 "--validate", str(held), "--out", str(auto)]) == 0
+    doc_auto = json.loads((auto / "fit.json").read_text())
+    assert {Path(f["source"]).name: (f["kind"], set(f["fit"])) for f in doc_auto["train"]} == kinds
+    assert doc_auto["parameters"] == doc["parameters"]
+    for name, kind in (("clamp.csv", "clamped"), ("wl.csv", "wheel-locked")):
+        assert sum(w.startswith("train ") and name in w and f"fitted as a {kind} log" in w
+                   for w in doc_auto["warnings"]) == 1
+    # a held-out log is simulated as a free pendulum: one whose motion shows another set-up is named
+    assert sum(w.startswith("validate ") and "h.csv" in w and "a log of the clamped set-up?" in w
+               for w in doc_auto["warnings"]) == 1
     # one realisation: accuracy, not coverage. The standard errors are small; the intervals are several of them
     # wide, for each set-up informs the parameters unequally (sigma_c1 rests on two of the three experiments:
     # Bell-McCaffrey's degrees of freedom, 1.1 here, not G - 1 = 2)
@@ -742,17 +756,23 @@ def test_runs_draw_the_rigs_noise_unless_given_their_own_seed():
 
 
 def test_a_log_whose_motion_contradicts_its_kind_is_named(tmp_path):
-    from iwp.ident.logfit import kind_mismatches
+    from iwp.ident.logfit import inferred_kind, kind_mismatches
 
     rig = rig_of()
     vr = DescribedRig(rig, TRUTH, noise_std=0.001, seed=2)
     free = write_rig_csv(vr.run(Chirp(0.3, 2.0, 15.0), duration=20.0), tmp_path / "free.csv")
     clamp = write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0, kind="clamped"), tmp_path / "clamp.csv")
-    free_log, clamp_log = load_logs([free, clamp], rig)
+    locked = write_rig_csv(vr.run(None, duration=20.0, kind="wheel-locked", x0=[0.8, 0, 0, 0]), tmp_path / "wl.csv")
+    free_log, clamp_log, locked_log = load_logs([free, clamp, locked], rig)
+    # each log's motion shows its set-up (the clamped log's angle: noise of 0.001 rad, a span of about 0.006)
+    assert [inferred_kind(d) for d in (free_log, clamp_log, locked_log)] == ["free", "clamped", "wheel-locked"]
+    given_free = kind_mismatches([locked_log], [("wheel-locked", free_log)])
+    assert len(given_free) == 2 and "wl.csv: its wheel does not turn while its pendulum swings" in given_free[0]
+    assert given_free[1].startswith("--wheel-locked ") and "free.csv: the wheel turns" in given_free[1]
     assert kind_mismatches([free_log], [("clamped", clamp_log)]) == []  # each as it is
     swapped = kind_mismatches([clamp_log], [("clamped", free_log)])
     assert len(swapped) == 2
-    assert swapped[0].startswith("train ") and "clamp.csv: the pendulum angle spans" in swapped[0]
+    assert swapped[0].startswith("train ") and "clamp.csv: its pendulum angle does not move while" in swapped[0]
     assert "--clamped" in swapped[0]
     assert swapped[1].startswith("--clamped ") and "free.csv" in swapped[1] and "was not clamped" in swapped[1]
     span = float(re.search(r"spans ([\d.]+) rad", swapped[1]).group(1))

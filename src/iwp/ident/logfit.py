@@ -69,7 +69,7 @@ from .structure import LadderResult, Rung, RungOutcome, information_criteria, la
 from .validation import model_input
 
 __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresStart", "least_squares_start",
-           "load_logs", "MIN_SAMPLES_PER_PERIOD", "kind_mismatches"]
+           "load_logs", "MIN_SAMPLES_PER_PERIOD", "kind_mismatches", "inferred_kind"]
 
 #: Least squares on differentiated data needs at least this many samples per pendulum period.
 MIN_SAMPLES_PER_PERIOD = 8
@@ -649,6 +649,14 @@ def fit_logs(
         except InputError:
             raise InputError(f"validate: {v.source} is also a training log; a held-out log must be one the fit has "
                              "not seen, or its fit says nothing about prediction", argument="validate") from None
+    # training logs whose motion shows another set-up join the fit as that set-up (if a free log remains)
+    shown = [(inferred_kind(d), d) for d in train_logs]
+    if any(k == "free" for k, _ in shown) and any(k != "free" for k, _ in shown):
+        train_logs = [d for k, d in shown if k == "free"]
+        others = others + [(k, d) for k, d in shown if k != "free"]
+        msgs.extend(f"train {d.source}: {KIND_SHOWN[k]}: fitted as a {k} log (--{k})" for k, d in shown if k != "free")
+    msgs.extend(f"validate {d.source}: {KIND_SHOWN[k]}: a log of the {k} set-up? a held-out log is simulated as a "
+                "free pendulum, so its fit says little" for d in val_logs if (k := inferred_kind(d)) != "free")
     msgs.extend(disagreeing_logs(train_logs, window=options.window))
     msgs.extend(kind_mismatches(train_logs, others))
     for d in train_logs + val_logs:
@@ -770,15 +778,67 @@ MOVING_PENDULUM = 0.1
 TURNING_WHEEL = 1.0
 
 
+def _span(y) -> float:
+    """The range of signal ``y`` (0 without it)."""
+    return float(np.ptp(y)) if y is not None and np.size(y) else 0.0
+
+
+#: the window of the running mean whose range measures whether the pendulum moves [s] (the virtual rig's
+#: 0.002 rad of white noise spans about 0.012 rad over 400 samples, their 0.5 s means about 0.004)
+STILL_WINDOW = 0.5
+
+
+def _moved(d: ExperimentData) -> float:
+    """The range of log ``d``'s pendulum angle's running mean over :data:`STILL_WINDOW` [rad]."""
+    n = max(1, min(d.q1.size, int(round(STILL_WINDOW / float(d.Ts)))))
+    return _span(np.convolve(d.q1, np.full(n, 1.0 / n), mode="valid"))
+
+
+def inferred_kind(d: ExperimentData) -> str:
+    """The set-up log ``d``'s motion shows (:data:`~iwp.ident.output_error.EXPERIMENT_KINDS`).
+
+    ``"clamped"``: its pendulum angle spans less than :data:`STILL_PENDULUM`
+    while its wheel turns (:data:`TURNING_WHEEL`): a free pendulum would move
+    with the wheel's reaction. ``"wheel-locked"``: its wheel does not turn
+    while its pendulum angle spans more than :data:`MOVING_PENDULUM`: a free
+    wheel would turn against a swinging arm. ``"free"`` otherwise. The angle's span is that of its running mean
+    over :data:`STILL_WINDOW` (the encoder's noise is not motion).
+
+    Parameters
+    ----------
+    d : ExperimentData
+        A log, in rad and rad/s.
+
+    Returns
+    -------
+    str
+    """
+    turning = _span(d.q2) > TURNING_WHEEL or _span(d.q4) > TURNING_WHEEL
+    moved = _moved(d)
+    if turning and moved < STILL_PENDULUM:
+        return "clamped"
+    if not turning and moved > MOVING_PENDULUM:
+        return "wheel-locked"
+    return "free"
+
+
+#: what a training log's motion shows, by the kind :func:`inferred_kind` gives it
+KIND_SHOWN = {"clamped": "its pendulum angle does not move while its wheel turns",
+              "wheel-locked": "its wheel does not turn while its pendulum swings"}
+
+
 def kind_mismatches(train: Sequence[ExperimentData], others: Sequence[tuple[str, ExperimentData]]) -> list[str]:
     """Warnings for logs whose motion contradicts their kind, or none.
 
-    A free training log whose pendulum angle spans less than
-    :data:`STILL_PENDULUM` while its wheel turns (:data:`TURNING_WHEEL`)
-    looks like a clamped one (its angle then tells the fit nothing about
-    the gravity term); a log given as clamped whose angle spans more than
-    :data:`MOVING_PENDULUM` is not clamped, and the fit, which compares
-    only its wheel, would take a moving pendulum for a fixed one.
+    A free training log whose motion shows another set-up
+    (:func:`inferred_kind`) is left free only when no training log is free
+    (:func:`fit_logs` otherwise fits it as that set-up); it is named: a
+    clamped pendulum's angle tells the fit nothing about the gravity term,
+    and a locked wheel's nothing about the disk. A log given as clamped whose
+    angle spans more than :data:`MOVING_PENDULUM` is not clamped (the fit,
+    which compares only its wheel, would take a moving pendulum for a fixed
+    one); a log given as wheel-locked whose wheel turns
+    (:data:`TURNING_WHEEL`) is not locked.
 
     Parameters
     ----------
@@ -792,21 +852,22 @@ def kind_mismatches(train: Sequence[ExperimentData], others: Sequence[tuple[str,
     list of str
     """
     msgs = []
-
-    def span(y):
-        return float(np.ptp(y)) if y is not None and np.size(y) else 0.0
-
     for d in train:
-        turning = span(d.q2) > TURNING_WHEEL or span(d.q4) > TURNING_WHEEL
-        if turning and span(d.q1) < STILL_PENDULUM:
-            msgs.append(f"train {d.source}: the pendulum angle spans {span(d.q1):.3g} rad while the wheel turns: a "
-                        "log of the clamped pendulum? give it with --clamped (kinds={'clamped': [...]}), or the fit "
-                        "takes it as a free pendulum that did not move")
+        kind = inferred_kind(d)
+        if kind != "free":
+            msgs.append(f"train {d.source}: {KIND_SHOWN[kind]} (its angle's {STILL_WINDOW:g} s means span "
+                        f"{_moved(d):.3g} rad): a log "
+                        f"of the {kind} set-up? give it with --{kind} (kinds={{'{kind}': [...]}}) beside a free "
+                        "log, or the fit takes it as a free pendulum")
     for kind, d in others:
-        if kind == "clamped" and span(d.q1) > MOVING_PENDULUM:
-            msgs.append(f"--clamped {d.source}: the pendulum angle spans {span(d.q1):.3g} rad, so the pendulum was "
+        if kind == "clamped" and _span(d.q1) > MOVING_PENDULUM:
+            msgs.append(f"--clamped {d.source}: the pendulum angle spans {_span(d.q1):.3g} rad, so the pendulum was "
                         "not clamped; the fit compares only its wheel as if it were: give a free log as a training "
                         "log")
+        if kind == "wheel-locked" and (_span(d.q2) > TURNING_WHEEL or _span(d.q4) > TURNING_WHEEL):
+            msgs.append(f"--wheel-locked {d.source}: the wheel turns (angle span {_span(d.q2):.3g} rad, speed span "
+                        f"{_span(d.q4):.3g} rad/s), so it was not locked to the arm; the fit compares only the "
+                        "pendulum's angle as if it were: give a free log as a training log")
     return msgs
 
 
