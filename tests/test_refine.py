@@ -26,7 +26,7 @@ from iwp.ident.refinement import (
 from iwp.models import Plant, table1
 from iwp.rig import VirtualRig, uncalibrated_truth
 from iwp.sim import simulate
-from iwp.sim.inputs import Sampled
+from iwp.sim.inputs import HopfController, Sampled
 from iwp.sim.sensitivity import simulate_sensitivities
 
 #: The real log lives next to the repository (``<repo>/../shared/data/real``), never inside it;
@@ -351,6 +351,34 @@ def test_sensitivities_match_finite_differences_of_simulate(model, wrt, with_inp
             scale = max(np.max(np.abs(fd[:, s])), 1e-8)
             err = np.max(np.abs(S[:, s, j] - fd[:, s])) / scale
             assert err < 2e-5, (name, s, err)  # measured: 1e-7 (free), 2e-6 (model (9))
+
+
+@pytest.mark.parametrize("Ts", [None, 0.05])
+def test_sensitivities_of_a_feedback_law_held_between_samples_match_finite_differences(Ts):
+    # held over 50 ms, the law's command moves with the state at each sample: dw/dtheta = (dw/dx) S(t_k) + dw/dk
+    # (the engine once held the command's sensitivity at 0: 86 % off in p3)
+    p = table1()
+    x0 = [0.3, 0.0, 0.0, 0.0]
+    kw = {"t_end": 5.0, "Ts": 0.05, "rtol": 1e-10, "atol": 1e-10}
+
+    def run(params, k1=-10.0, x=x0):
+        return simulate_sensitivities(Plant(params), x0=x, input=HopfController(k1, 0.1, Ts), **kw).x
+
+    r = simulate_sensitivities(Plant(p), x0=x0, input=HopfController(-10.0, 0.1, Ts), wrt=("p1", "p3", "k1"),
+                               wrt_x0=(0, 2), **kw)
+    for j, name in enumerate(("p1", "p3", "k1", "x00", "x02")):
+        if name == "k1":
+            h = 1e-6
+            fd = (run(p, k1=-10.0 + h) - run(p, k1=-10.0 - h)) / (2 * h)
+        elif name.startswith("x0"):
+            e = np.zeros(4)
+            e[int(name[2])] = 1e-6
+            fd = (run(p, x=np.add(x0, e)) - run(p, x=np.subtract(x0, e))) / 2e-6
+        else:
+            h = 1e-5 * getattr(p, name)
+            fd = (run(p.replace(**{name: getattr(p, name) + h})) - run(p.replace(**{name: getattr(p, name) - h}))) / (2 * h)
+        err = np.max(np.abs(r.S[:, :, j] - fd)) / np.max(np.abs(fd))
+        assert err < 2e-5, (name, err)
 
 
 # ---------------------------------------------------------------------------

@@ -34,7 +34,10 @@ What one run does
   states, integrated with the variational equations
   ``S' = (df/dx) S + df/dtheta`` on the same steps. ``df/dx`` and
   ``df/dtheta`` are forward differences of the one compiled right-hand side
-  of :mod:`iwp.models.equations` (no physics is written twice). The error
+  of :mod:`iwp.models.equations` (no physics is written twice). A feedback
+  law sampled and held adds ``(df/dw) dw/dtheta``, where the held command's
+  ``dw/dtheta = (dw/dx) S(t_k) (+ dw/dk)`` is taken at each sample
+  (:func:`held_sensitivity`). The error
   control acts on the states only (as CVODES with ``errconS`` off).
 * A run reports its status: reached the end, diverged (a state beyond
   ``xmax`` or NaN), step size too small, or step limit reached (accepted and
@@ -134,15 +137,20 @@ Tolerances = namedtuple("Tolerances", ["rtol", "atol", "h_max", "max_steps", "xm
 #: Most parameters of one sensitivity run, and most state columns of a Jacobian.
 MAX_SENS_PARAMS = 16
 MAX_STATES = 8
+#: the entry of ``Sensitivity.dh`` that is 1 while the held command moves with the columns
+DH_ACTIVE = MAX_SENS_PARAMS + MAX_STATES
 #: Forward sensitivities: number of model states, of parameters and of
 #: Jacobian columns; indices of the parameters (``< N_PACK``: plant, else
 #: input parameter ``i - N_PACK``) and their difference steps (padded to
 #: MAX_SENS_PARAMS), the state columns the right-hand side depends on
 #: (padded to MAX_STATES), and work arrays (``A`` (nx * nx,), ``xp`` and
-#: ``fp`` (nx,)). A plain run passes ``None`` instead.
-Sensitivity = namedtuple("Sensitivity", ["nx", "n_par", "n_cols", "index", "step", "jcols", "A", "xp", "fp"])
+#: ``fp`` (nx,)); ``dh`` (MAX_SENS_PARAMS + MAX_STATES + 1,): the held
+#: command's sensitivity per column over the current segment of a sampled
+#: feedback law, its entry DH_ACTIVE 1 while that is so (:func:`held_sensitivity`).
+#: A plain run passes ``None`` instead.
+Sensitivity = namedtuple("Sensitivity", ["nx", "n_par", "n_cols", "index", "step", "jcols", "A", "xp", "fp", "dh"])
 #: The same inside the kernel: tuples and borrowed views (no reference counting per evaluation).
-SensView = namedtuple("SensView", ["nx", "n_par", "n_cols", "index", "step", "jcols", "A", "xp", "fp"])
+SensView = namedtuple("SensView", ["nx", "n_par", "n_cols", "index", "step", "jcols", "A", "xp", "fp", "dh"])
 #: The interval: initial state (overwritten with the final one), start and
 #: end time [s], and the first step size (<= 0: estimated).
 Span = namedtuple("Span", ["x0", "t0", "t_end", "h0"])
@@ -234,7 +242,8 @@ def sensitivity(nx: int, index, step, jcols) -> Sensitivity:
     st[: len(index)] = step
     jc = np.zeros(MAX_STATES, dtype=np.int64)
     jc[: len(jcols)] = jcols
-    return Sensitivity(int(nx), len(index), len(jcols), idx, st, jc, np.zeros(nx * nx), np.zeros(nx), np.zeros(nx))
+    return Sensitivity(int(nx), len(index), len(jcols), idx, st, jc, np.zeros(nx * nx), np.zeros(nx), np.zeros(nx),
+                       np.zeros(DH_ACTIVE + 1))
 
 
 @jit
@@ -250,6 +259,7 @@ def sens_views(sens):
         vec(sens.A),
         vec(sens.xp),
         vec(sens.fp),
+        vec(sens.dh),
     )
 
 
@@ -321,6 +331,59 @@ def sens_rate(fld, t, y, dx, n):
         off = nx + k * nx
         for r in range(nx):
             dx[off + r] += (fp[r] - dx[r]) / d
+    dh = sv.dh
+    if fld.held and dh[DH_ACTIVE] != 0.0:
+        # a sampled feedback law: its held command moves with each column, S' += (df/dw) dw/dtheta
+        d = FD_STATE * max(1.0, abs(fld.hval))
+        plant_rate(Field(fld.model, P, fld.kind, input_params, fld.command_params, fld.held, fld.uval, fld.hval + d,
+                         None), t, y, fp)
+        for j in range(ns):
+            off = nx + j * nx
+            for r in range(nx):
+                dx[off + r] += (fp[r] - dx[r]) / d * dh[j]
+
+
+@jit
+def held_sensitivity(fld, seg, t, y, n):
+    """Set ``fld.sens.dh`` for the segment that starts at ``t`` in state ``y`` (with its sensitivities).
+
+    A feedback law sampled every period and held (``SEG_CONTROLLER``) holds
+    ``w = command(law(x(t_k)))`` over the segment, so each sensitivity
+    column ``S_j`` moves it by ``dw/dtheta_j = (dw/dx) S_j(t_k)`` (plus
+    ``dw/dk`` for a gain ``k`` of the law): forward differences of the law
+    and the command. Any other held input does not depend on the
+    parameters: ``dh`` is switched off (its last entry 0).
+    """
+    sv = fld.sens
+    dh = sv.dh
+    nx = sv.nx
+    ns = (n - nx) // nx
+    dh[DH_ACTIVE] = 0.0
+    if seg.mode != SEG_CONTROLLER or fld.kind == I_EXTERNAL or ns == 0:
+        return
+    xp = sv.xp
+    fp = sv.fp
+    ips = fld.input_params
+    w0 = fld.hval
+    for i in range(nx):  # dw/dx by forward differences, into fp
+        for r in range(nx):
+            xp[r] = y[r]
+        h = FD_STATE * max(1.0, abs(y[i]))
+        xp[i] = y[i] + h
+        h = xp[i] - y[i]
+        fp[i] = (command(input_value(fld.kind, ips, t, xp), fld.command_params) - w0) / h
+    for j in range(ns):
+        acc = 0.0
+        off = nx + j * nx
+        for i in range(nx):
+            acc += fp[i] * y[off + i]
+        if j < sv.n_par and sv.index[j] >= N_PACK:  # a gain of the law itself
+            k = sv.index[j] - N_PACK
+            v = ips[k] + sv.step[j]
+            d = v - ips[k]
+            acc += (command(input_value(fld.kind, tuple_setitem(ips, k, v), t, y), fld.command_params) - w0) / d
+        dh[j] = acc
+    dh[DH_ACTIVE] = 1.0
 
 
 def rate(fld, t, y, dx):
@@ -798,6 +861,8 @@ def integrate(n, system, seg, tol, sens, span, out):
         hold = hold_of(fld, seg, seg.values, kseg, t, y, t_end, tol_t)
         t_b = hold.t_b
         fld = held_field(fld, hold)
+        if sens is not None:
+            held_sensitivity(fld, seg, t, y, n)
         rate(fld, t, y, f)
         nfev += 1
         while j < n_out and t_out[j] <= t + tol_t:
