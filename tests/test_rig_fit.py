@@ -24,7 +24,7 @@ from iwp.ident.refinement import as_experiments, refine
 from iwp.models.parameters import LumpedParameters
 from iwp.models.plant import Plant
 from iwp.rig.described import DescribedRig, prbs, write_rig_csv
-from iwp.sim.inputs import Chirp
+from iwp.sim.inputs import Chirp, HopfController
 
 #: a direct-drive rig unlike the paper's: shorter pendulum, heavy wheel, PWM duty input
 TRUTH = LumpedParameters(p1=40.0, p2=0.06, p3=12.0, rho=30.0, sigma_a1=0.02, sigma_v1=0.05, sigma_b1=1e-4)
@@ -630,6 +630,39 @@ def test_clamped_and_wheel_locked_logs_join_the_fit_through_the_cli(tmp_path):
         assert p["stderr"] < 0.01 * getattr(truth, name), name
         half = 0.5 * (p["ci95"][1] - p["ci95"][0])
         assert stats.t.ppf(0.975, 2) * p["stderr"] <= half * (1 + 1e-9), name  # never narrower than G - 1 dof
+
+
+def test_a_closed_loop_log_joins_the_fit_simulated_with_its_law(tmp_path, capsys):
+    # the Hopf law on the rig's 50 ms clock (sampled and held): an orbit of 0.7 rad, duty within +-0.45
+    rig = rig_of(sample_period=0.05, pendulum={"counts_per_rev": 20000}, input={"limits": [-1, 1]})
+    truth = TRUTH.replace(sigma_c2=0.5, sigma_c1=0.4)
+    vr = DescribedRig(rig, truth, noise_std=0.002, seed=1)
+    law = HopfController(-0.3, 0.02, 0.05)
+    chirp = write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0), tmp_path / "c.csv")
+    loop = vr.run(None, duration=20.0, kind="closed-loop", x0=[0.3, 0.0, 0.0, 0.0], controller=law, seed=2)
+    assert 0.6 < np.max(np.abs(loop.x[-100:, 0])) < 0.8 and np.max(np.abs(loop.w)) < 0.5
+    cl = write_rig_csv(loop, tmp_path / "loop.csv")
+    rig_path = tmp_path / "rig.json"
+    rig_path.write_text(json.dumps(rig.to_dict()))
+    out = tmp_path / "out"
+    gains = ["--controller", "hopf", "--k1", "-0.3", "--k2", "0.02", "--controller-ts", "0.05"]
+    assert main(["fit", str(chirp), "--closed-loop", str(cl), *gains, "--rig", str(rig_path),
+                 "--model", "pendulum-coulomb", "--out", str(out)]) == 0
+    doc = json.loads((out / "fit.json").read_text())
+    kinds = {Path(f["source"]).name: (f["kind"], set(f["fit"])) for f in doc["train"]}
+    assert kinds == {"c.csv": ("free", {"q1", "q4"}), "loop.csv": ("closed-loop", {"q1", "q4"})}
+    # simulated with the law from its estimated start, the loop's orbit is the logged one
+    assert min(next(f for f in doc["train"] if f["kind"] == "closed-loop")["fit"].values()) > 97.0
+    for name in ("p1", "p3", "rho", "sigma_c2", "sigma_c1"):
+        assert doc["parameters"][name]["value"] == pytest.approx(getattr(truth, name), rel=0.02), name
+    capsys.readouterr()
+    # the law and its logs come together: each alone is one line naming --controller, exit 2, nothing written
+    for args, what in (([str(chirp), "--closed-loop", str(cl)], "need their feedback law"),
+                       ([str(chirp), *gains], "none is given")):
+        assert main(["fit", *args, "--rig", str(rig_path), "--out", str(tmp_path / "o2")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("iwp: error: --controller") and what in err[0], err
+        assert not (tmp_path / "o2").exists()
 
 
 def test_a_swing_released_from_rest_starts_its_fit_at_its_measured_state(tmp_path):

@@ -64,6 +64,24 @@ def add_params_arg(p: argparse.ArgumentParser) -> None:
                    help="parameter set: a JSON file or a built-in name (default: table1)")
 
 
+def add_controller_args(p: argparse.ArgumentParser, help: str) -> None:
+    """``--controller hopf`` with its gains ``--k1``, ``--k2`` and ``--controller-ts`` (:func:`controller_of`)."""
+    p.add_argument("--controller", choices=["hopf"], default=None, help=help)
+    p.add_argument("--k1", type=float, default=-10.0, help="Hopf gain k1 (default -10)")
+    p.add_argument("--k2", type=float, default=0.1, help="Hopf gain k2 (default 0.1)")
+    p.add_argument("--controller-ts", type=float, default=None,
+                   help="sample the controller every TS seconds and hold it (default: continuous)")
+
+
+def controller_of(args: argparse.Namespace):
+    """The controller of :func:`add_controller_args`' arguments, or None."""
+    if args.controller is None:
+        return None
+    from ..sim.inputs import HopfController
+
+    return HopfController(args.k1, args.k2, args.controller_ts)
+
+
 def add_force_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
 

@@ -19,7 +19,7 @@ import argparse
 import json
 import sys
 
-from ._common import LazyChoices, add_force_arg, plain
+from ._common import LazyChoices, add_controller_args, add_force_arg, controller_of, plain
 
 
 def register(sub) -> None:
@@ -35,6 +35,11 @@ def register(sub) -> None:
                    help="logs with the pendulum clamped and the wheel driven (section 5.1), joining the training")
     p.add_argument("--wheel-locked", nargs="+", default=[], metavar="LOG",
                    help="logs of free swings with the wheel locked to the arm, joining the training")
+    p.add_argument("--closed-loop", nargs="+", default=[], metavar="LOG",
+                   help="logs of the closed loop of --controller, joining the training: simulated with the law "
+                        "instead of replaying their logged input")
+    add_controller_args(p, "the feedback law of the --closed-loop logs: u = k1 q3 + k2 q3^3, in the logs' input "
+                           "units")
     p.add_argument("--out", "-o", required=True, metavar="DIR", help="output folder (new or empty)")
     add_force_arg(p)
     p.add_argument("--model", metavar="STRUCTURE", choices=LazyChoices("iwp.ident.structure", "RUNGS"),
@@ -75,8 +80,10 @@ def run(args) -> int:
         flags = RUNGS[args.model].options()
     options = LogFitOptions(**flags, select=args.model is None and not any(flags.values()), loss=args.loss,
                             window=(args.t_start, args.t_end))
-    kinds = {k: v for k, v in (("clamped", args.clamped), ("wheel-locked", args.wheel_locked)) if v}
-    res = fit_logs(args.train, rig=args.rig, validate=args.validate, kinds=kinds, options=options)
+    kinds = {k: v for k, v in (("clamped", args.clamped), ("wheel-locked", args.wheel_locked),
+                                ("closed-loop", args.closed_loop)) if v}
+    res = fit_logs(args.train, rig=args.rig, validate=args.validate, kinds=kinds, controller=controller_of(args),
+                   options=options)
     files = write_fit_report(res, args.out, force=args.force)
     if args.json:
         print(json.dumps(jsonable(res.to_dict()), indent=2))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._common import add_force_arg, float_list, json_text
+from ._common import add_controller_args, add_force_arg, controller_of, float_list, json_text
 
 _DESCRIPTION = """\
 Simulate the model from the log's initial state with the logged input
@@ -42,12 +42,7 @@ def register(sub) -> None:
     p.add_argument("--signals", default=None, help="signals compared (default q1 and the wheel's q2, or q4 when "
                                                   "the log holds only the wheel speed; q3,q4 differentiated when "
                                                   "not logged)")
-    p.add_argument("--controller", choices=["hopf"], default=None,
-                   help="simulate in closed loop with u = k1 q3 + k2 q3^3 instead of replaying the logged u")
-    p.add_argument("--k1", type=float, default=-10.0, help="Hopf gain k1 (default -10)")
-    p.add_argument("--k2", type=float, default=0.1, help="Hopf gain k2 (default 0.1)")
-    p.add_argument("--controller-ts", type=float, default=None,
-                   help="sample the controller every TS seconds and hold it (default: continuous)")
+    add_controller_args(p, "simulate in closed loop with u = k1 q3 + k2 q3^3 instead of replaying the logged u")
     p.add_argument("--band", action="store_true",
                    help="the fit's 95 %% parameter and prediction bands (linearised, from the covariance in P.json, "
                         "the parameters.json of iwp fit) and the share of the samples inside the prediction band")
@@ -74,7 +69,6 @@ def run(args) -> int:
     from ..models.parameters import stored_belt, stored_model, stored_q1_offset, stored_reads_v_as_u
     from ..models.plant import MODELS
     from ..plotting import savefig
-    from ..sim.inputs import HopfController
     from ..sim.uncertainty import load_uncertainty
     from ._common import load_lumped
 
@@ -102,9 +96,7 @@ def run(args) -> int:
             raise InputError("--band: the prediction bands are for lumped parameters; a belt model has none")
         params = validation_plant(params, data, model, belt=stored_belt(args.params), source=f"--params {args.params}")
     offset = held_out_q1_offset(data, stored_q1_offset(args.params))
-    controller = None
-    if args.controller == "hopf":
-        controller = HopfController(args.k1, args.k2, args.controller_ts)
+    controller = controller_of(args)
     v = validate(data, params, model=model, estimate_x0=args.estimate_x0, window=(args.t_start, args.t_end),
                  restart_times=args.restart or (), controller=controller, signals=signals, q1_offset=offset)
     if args.plot is not None:

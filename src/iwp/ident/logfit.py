@@ -56,6 +56,7 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import PARAMETER_INFO, TYPICAL, BeltParameters, LumpedParameters
 from ..models.plant import Plant
+from ..sim.inputs import Input
 from ..sim.uncertainty import ParameterUncertainty, prediction_band
 from ..threads import one_blas_thread, thread_map
 from .belt_fit import BELT_FREE
@@ -601,6 +602,7 @@ def fit_logs(
     rig: RigDescription | str | os.PathLike | None = None,
     validate=(),
     kinds: Mapping[str, Any] | None = None,
+    controller: Input | None = None,
     options: LogFitOptions | None = None,
     warn: bool = True,
 ) -> LogFitResult:
@@ -620,7 +622,14 @@ def fit_logs(
         (the pendulum clamped, the wheel driven: section 5.1) and
         ``"wheel-locked"`` (the wheel locked to the arm, a free swing), e.g.
         ``{"clamped": ["clamp1.csv"]}``; each compares the signals its set-up
-        moves, with the same parameters (``iwp fit --clamped/--wheel-locked``).
+        moves, with the same parameters (``iwp fit --clamped/--wheel-locked``);
+        and ``"closed-loop"`` (the input computed by ``controller``, simulated
+        with the model instead of the logged input: ``--closed-loop``).
+    controller : Input, optional
+        The feedback law of the ``"closed-loop"`` logs (an
+        :mod:`iwp.sim.inputs` controller, e.g.
+        :class:`~iwp.sim.inputs.HopfController`), its output in the logs'
+        input units.
     options : LogFitOptions, optional
         The model and its options, the loss, the start, the window.
     warn : bool
@@ -639,6 +648,16 @@ def fit_logs(
         val_logs = load_logs(validate, rig_d, argument="validate") if validate else []
         others = _other_kinds(kinds, rig_d)
     msgs = [str(w.message) for w in caught]
+    closed = any(k == "closed-loop" for k, _ in others)
+    if closed and controller is None:
+        raise InputError("controller: the closed-loop logs need their feedback law (--controller hopf --k1 K1 "
+                         "--k2 K2)", argument="controller")
+    if controller is not None and not closed:
+        raise InputError("controller: a feedback law is the law of closed-loop logs, and none is given "
+                         "(--closed-loop LOG...)", argument="controller")
+    if controller is not None and not isinstance(controller, Input):
+        raise InputError(f"controller must be an iwp.sim.inputs controller (e.g. HopfController), got "
+                         f"{type(controller).__name__}", argument="controller")
     if not train_logs:
         raise InputError("train: no training logs given", argument="train")
     check_distinct([*train_logs, *(d for _, d in others)], "training logs")
@@ -694,7 +713,7 @@ def fit_logs(
     else:
         start_p, method, ls_details = options.start, "given", {}
     # ---- solve: the joint simulation-error fit (of each structure of the ladder, or of the one asked for)
-    fitting = _Fitting(options, train_logs, val_logs, outputs, offset_given, umax, others, belt_ratio)
+    fitting = _Fitting(options, train_logs, val_logs, outputs, offset_given, umax, others, belt_ratio, controller)
     structures = None
     if options.select:
         structures = fitting.ladder(start_p)
@@ -749,8 +768,9 @@ def fit_logs(
     return res
 
 
-#: the kinds of log that join ``iwp fit``'s training besides the free ones (``--clamped``, ``--wheel-locked``)
-OTHER_KINDS = ("clamped", "wheel-locked")
+#: the kinds of log that join ``iwp fit``'s training besides the free ones (``--clamped``, ``--wheel-locked``,
+#: ``--closed-loop``)
+OTHER_KINDS = ("clamped", "wheel-locked", "closed-loop")
 
 
 def _other_kinds(kinds: Mapping[str, Any] | None, rig: RigDescription | None) -> list[tuple[str, ExperimentData]]:
@@ -1046,10 +1066,11 @@ class _Fitting:
 
     def __init__(self, options: LogFitOptions, train: list[ExperimentData], held_out: list[ExperimentData],
                  outputs: tuple[str, ...], offset_given: bool, umax: float,
-                 others: list[tuple[str, ExperimentData]], belt_ratio: float | None):
+                 others: list[tuple[str, ExperimentData]], belt_ratio: float | None, controller: Input | None):
         self.options, self.train, self.held_out = options, train, held_out
         self.outputs, self.offset_given, self.umax = outputs, offset_given, umax
         self.others = others
+        self.controller = controller  # the closed-loop logs' law
         self.belt_ratio = belt_ratio  # the rig's drive ratio when its drive is a belt, else None
         self.Ts = float(train[0].Ts)  # the logs' sample period, for a belt's start and bounds
 
@@ -1076,7 +1097,8 @@ class _Fitting:
         for (kind, d), g in zip(self.others, guesses[len(logs):]):
             moves_q1 = kind != "clamped"
             exps.append(Experiment(model_input(d, model, f"--{kind}"), kind=kind, window=tuple(options.window),
-                                   x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else ()))
+                                   x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else (),
+                                   controller=self.controller if kind == "closed-loop" else None))
         plant = self.plant(options, start, belt)
         bounds = (belt_bounds(ratio=plant.belt.N, Ts=self.Ts, speed_per_input=plant.belt.kTbeta_over_Rgamma)
                   if options.belt else None)

@@ -143,7 +143,7 @@ class DescribedRig:
         return Plant(p, model="raw", dead_zone=dz)
 
     def run(self, logged_input=None, *, duration: float, x0=None, kind: str = "free",
-            seed: int | None = None) -> RigRun:
+            seed: int | None = None, controller: Input | None = None) -> RigRun:
         """Run the rig and log as it logs.
 
         Parameters
@@ -158,16 +158,33 @@ class DescribedRig:
             True initial state (default rest hanging down).
         kind : str
             The set-up (:data:`~iwp.models.plant.EXPERIMENT_KINDS`): ``"free"``,
-            ``"clamped"`` (the pendulum clamped at 0) or ``"wheel-locked"``
-            (the wheel locked to the arm: the motor's input does nothing).
+            ``"clamped"`` (the pendulum clamped at 0), ``"wheel-locked"``
+            (the wheel locked to the arm: the motor's input does nothing) or
+            ``"closed-loop"`` (the input computed by ``controller``).
         seed : int, optional
             Seed of this run's noise (default the rig's ``seed``: every run of the rig draws the same noise).
+        controller : Input, optional
+            The law of a ``"closed-loop"`` run (an :mod:`iwp.sim.inputs`
+            controller, e.g. :class:`~iwp.sim.inputs.HopfController`) on the
+            true state, its output the logged input: the description's input
+            must be the model's (scale 1, offset 0) and the law must stay
+            within its limits.
         """
         Ts = self.Ts
         duration = check_positive("duration", duration)
         n = int(math.floor(duration / Ts + 1e-9)) + 1
         t = Ts * np.arange(n)
         ins = self.rig.input
+        if (kind == "closed-loop") != (controller is not None):
+            raise InputError("DescribedRig.run: a closed-loop run needs its controller, and only a closed-loop run "
+                             "takes one", argument="controller")
+        if controller is not None:
+            if logged_input is not None:
+                raise InputError("DescribedRig.run: a closed-loop run logs its controller's output; give no "
+                                 "logged_input", argument="logged_input")
+            if ins is None or ins.scale != 1.0 or ins.offset != 0.0:
+                raise InputError("DescribedRig.run: a closed-loop run needs a logged input in the model's units "
+                                 "(scale 1, offset 0)", argument="controller")
         if logged_input is None:
             x_log = np.zeros(n)
         elif isinstance(logged_input, Input):
@@ -184,17 +201,21 @@ class DescribedRig:
             xc = np.clip(x_log, *ins.limits) if ins.limits is not None else x_log
             w = ins.scale * (xc - ins.offset)
         x0a = np.zeros(4) if x0 is None else np.asarray(x0, dtype=float)
-        if kind == "closed-loop":
-            raise InputError("DescribedRig.run: kind 'closed-loop' needs a controller; run a free, clamped or "
-                             "wheel-locked experiment", argument="kind")
         plant = plant_for_kind(self.plant(), kind)
         if plant.wheel_held:
             x0a[1] = x0a[3] = 0.0
         if plant.n_states > 4:  # the belt's stretch and play output start relaxed
             x0a = np.concatenate([x0a, np.zeros(plant.n_states - 4)])
-        res = simulate(plant, x0=x0a, t_end=(n - 1) * Ts, Ts=Ts,
-                       input=None if plant.wheel_held else Sampled(w, Ts, 0.0), rtol=self.rtol, atol=self.rtol)
+        drive = controller if controller is not None else None if plant.wheel_held else Sampled(w, Ts, 0.0)
+        res = simulate(plant, x0=x0a, t_end=(n - 1) * Ts, Ts=Ts, input=drive, rtol=self.rtol, atol=self.rtol)
         X = np.asarray(res.x, dtype=float)[:n, :4]
+        if controller is not None:  # the rig logs the law's output
+            w = x_log = np.asarray(res.u, dtype=float)[:n]
+            lo, hi = ins.limits if ins.limits is not None else (-math.inf, math.inf)
+            if not np.all((x_log >= lo) & (x_log <= hi)):
+                raise InputError(f"DescribedRig.run: the controller's output spans [{x_log.min():.4g}, "
+                                 f"{x_log.max():.4g}], beyond the input's limits [{lo:g}, {hi:g}]",
+                                 argument="controller")
         rng = np.random.default_rng(self.seed if seed is None else check_seed(seed))
         noise = rng.normal(0.0, self.noise_std, n) if self.noise_std > 0 else None
         rig = self.rig
