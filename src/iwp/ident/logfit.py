@@ -725,6 +725,7 @@ def fit_logs(
         if options.belt:  # from the fits of the rigid structures, as the ladder's belt rung starts
             rigid = [replace(options, belt=False)] + ([replace(options, belt=False, widths=False)] if options.widths
                                                        else [])
+            rigid = rigid[:BELT_STARTS]  # only the rigid fits the belt starts from
             fits = thread_map(lambda o: fitting.joint(o, o.starting_values(start_p, umax)), rigid)
             r = fitting.belt_fit(options, [f.params for f in fits])
         else:

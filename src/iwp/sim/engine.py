@@ -352,7 +352,7 @@ def held_sensitivity(fld, seg, t, y, n):
     column ``S_j`` moves it by ``dw/dtheta_j = (dw/dx) S_j(t_k)`` (plus
     ``dw/dk`` for a gain ``k`` of the law): forward differences of the law
     and the command. Any other held input does not depend on the
-    parameters: ``dh`` is switched off (its last entry 0).
+    parameters: ``dh`` is switched off (its entry :data:`DH_ACTIVE` 0).
     """
     sv = fld.sens
     dh = sv.dh
