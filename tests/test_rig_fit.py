@@ -19,7 +19,7 @@ from iwp.data.glitches import find_glitches
 from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
 from iwp.errors import DataFormatError, InputError
-from iwp.ident.logfit import LogFitOptions, fit_logs, least_squares_start, load_logs
+from iwp.ident.logfit import LogFitOptions, fit_logs, inferred_kind, kind_mismatches, least_squares_start, load_logs
 from iwp.ident.refinement import as_experiments, refine
 from iwp.models.parameters import LumpedParameters
 from iwp.models.plant import Plant
@@ -94,6 +94,26 @@ def check_truth(p: LumpedParameters):
      ["'input.limits'", "within [-1, 1]"]),
     ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"}, "drive": {"kind": "gear"}}, ["'drive.ratio'"]),
     ({"pendulum": {"column": "theta", "offset": 1.2}, "wheel": {"column": "w"}}, ["'pendulum.offset'"]),
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"}, "experiments": {"clamped": "c*.mat"}},
+     ["'experiments' must be a list"]),
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"}, "experiments": [{"files": "c*.mat",
+                                                                                   "kind": "clamp"}]},
+     ["'experiments[0].kind'", "clamped", "wheel-locked"]),
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"}, "experiments": [{"kind": "clamped"}]},
+     ["'experiments[0].files'", "pattern"]),
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"}, "experiments": [{"files": "c", "kind": "free"},
+                                                                                  {"files": "h*",
+                                                                                   "kind": "closed-loop"}]},
+     ["'experiments[1].controller' is required"]),
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"},
+      "experiments": [{"files": "h*", "kind": "closed-loop", "controller": {"law": "hopf", "k1": -1}}]},
+     ["'experiments[0].controller.k2' is required"]),
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"},
+      "experiments": [{"files": "h*", "kind": "clamped", "controller": {"law": "hopf", "k1": -1, "k2": 0}}]},
+     ["'experiments[0].controller'", "closed-loop logs", "these are clamped"]),
+    ({"pendulum": {"column": "theta"}, "wheel": {"column": "w"},
+      "experiments": [{"files": "h*", "kind": "closed-loop", "controller": {"law": "lqr", "k1": -1, "k2": 0}}]},
+     ["'experiments[0].controller.law'", "hopf"]),
 ])
 def test_bad_rig_description_is_one_line_naming_the_key(doc, words):
     with pytest.raises(InputError) as exc:
@@ -665,6 +685,60 @@ def test_a_closed_loop_log_joins_the_fit_simulated_with_its_law(tmp_path, capsys
         assert not (tmp_path / "o2").exists()
 
 
+def test_the_rig_descriptions_experiments_give_each_log_its_set_up(tmp_path, capsys):
+    """A rig description's ``experiments`` name the set-up of each log by its file name, so that all of a rig's
+    logs join one fit with only ``iwp fit LOGS... --rig rig.json`` (issue 21), a closed-loop one with its law."""
+    law = {"law": "hopf", "k1": -0.3, "k2": 0.02, "ts": 0.05}
+    experiments = [{"files": ["clamp_*.csv"], "kind": "clamped"}, {"files": "run/wl.csv", "kind": "wheel-locked"},
+                   {"files": "loop?.csv", "kind": "closed-loop", "controller": law},
+                   {"files": "quiet.csv", "kind": "free"}]
+    rig = rig_of(sample_period=0.05, pendulum={"counts_per_rev": 20000}, input={"limits": [-1, 1]},
+                 experiments=experiments)
+    assert RigDescription.from_dict(rig.to_dict(), where="rig.json") == rig  # the key survives a file
+    assert [rig.experiment_of(f) for f in ("x/clamp_1.csv", "wl.csv", "x/run/wl.csv", "loop1.csv", "c.csv")] == [
+        rig.experiments[0], None, rig.experiments[1], rig.experiments[2], None]
+    truth = TRUTH.replace(sigma_c2=0.5, sigma_c1=0.4)
+    vr = DescribedRig(rig, truth, noise_std=0.002, seed=1)
+    (tmp_path / "run").mkdir()
+    chirp = write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0), tmp_path / "c.csv")
+    clamp = write_rig_csv(vr.run(Chirp(0.4, 2.0, 6.0), duration=20.0, kind="clamped"), tmp_path / "clamp_1.csv")
+    swing = write_rig_csv(vr.run(None, duration=20.0, kind="wheel-locked", x0=[0.8, 0, 0, 0]),
+                          tmp_path / "run" / "wl.csv")
+    loop = write_rig_csv(vr.run(None, duration=20.0, kind="closed-loop", x0=[0.3, 0.0, 0.0, 0.0], seed=2,
+                                controller=HopfController(-0.3, 0.02, 0.05)), tmp_path / "loop1.csv")
+    # a free log declared free is not second-guessed: this one hangs still while the wheel turns slowly
+    quiet = write_rig_csv(vr.run(Chirp(0.05, 0.05, 0.1), duration=20.0, seed=4), tmp_path / "quiet.csv")
+    assert inferred_kind(read_rig_log(quiet, rig)) == "clamped"
+    rig_path = tmp_path / "rig.json"
+    rig_path.write_text(json.dumps(rig.to_dict()))
+    out = tmp_path / "out"
+    assert main(["fit", *map(str, (chirp, clamp, swing, loop, quiet)), "--rig", str(rig_path),
+                 "--model", "pendulum-coulomb", "--out", str(out)]) == 0
+    doc = json.loads((out / "fit.json").read_text())
+    kinds = {Path(f["source"]).name: (f["kind"], set(f["fit"])) for f in doc["train"]}
+    assert kinds == {"c.csv": ("free", {"q1", "q4"}), "clamp_1.csv": ("clamped", {"q4"}),
+                     "wl.csv": ("wheel-locked", {"q1"}), "loop1.csv": ("closed-loop", {"q1", "q4"}),
+                     "quiet.csv": ("free", {"q1", "q4"})}
+    assert not any("fitted as a" in w for w in doc["warnings"])  # declared, not inferred
+    # the closed loop is simulated with the description's law: its orbit is the logged one
+    assert min(next(f for f in doc["train"] if f["kind"] == "closed-loop")["fit"].values()) > 97.0
+    for name in ("p1", "p3", "rho", "sigma_c2", "sigma_c1"):
+        assert doc["parameters"][name]["value"] == pytest.approx(getattr(truth, name), rel=0.02), name
+    capsys.readouterr()
+    # the command line's kind comes first, and says so; a fit of no free log is one line naming the training logs
+    assert main(["fit", str(chirp), "--wheel-locked", str(clamp), "--rig", str(rig_path), "--model", "9",
+                 "--out", str(tmp_path / "o1")]) == 0
+    doc = json.loads((tmp_path / "o1" / "fit.json").read_text())
+    assert {Path(f["source"]).name: f["kind"] for f in doc["train"]} == {"c.csv": "free", "clamp_1.csv": "wheel-locked"}
+    assert sum(w.startswith("--wheel-locked ") and "rig description gives it as clamped" in w
+               for w in doc["warnings"]) == 1
+    capsys.readouterr()
+    assert main(["fit", str(clamp), str(loop), "--rig", str(rig_path), "--out", str(tmp_path / "o2")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("iwp: error: train") and "clamp_1.csv: clamped" in err[0], err
+    assert not (tmp_path / "o2").exists()
+
+
 def test_a_swing_released_from_rest_starts_its_fit_at_its_measured_state(tmp_path):
     """At 50 ms a swing of 1.3 rad: the edge of a 21-sample filter (a second) once gave 1.62 rad and -6.1 rad/s
     as the start, and a joint fit with a clamped log beside it stopped there (2,600 times the truth's cost)."""
@@ -789,8 +863,6 @@ def test_runs_draw_the_rigs_noise_unless_given_their_own_seed():
 
 
 def test_a_log_whose_motion_contradicts_its_kind_is_named(tmp_path):
-    from iwp.ident.logfit import inferred_kind, kind_mismatches
-
     rig = rig_of()
     vr = DescribedRig(rig, TRUTH, noise_std=0.001, seed=2)
     free = write_rig_csv(vr.run(Chirp(0.3, 2.0, 15.0), duration=20.0), tmp_path / "free.csv")

@@ -25,7 +25,8 @@ from ._common import LazyChoices, add_controller_args, add_force_arg, controller
 def register(sub) -> None:
     p = sub.add_parser("fit", help="fit a model to a rig's logs and validate it on held-out logs",
                        description=plain(__doc__), formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("train", nargs="+", metavar="TRAIN", help="training logs (CSV or .mat), fitted jointly; one whose "
+    p.add_argument("train", nargs="+", metavar="TRAIN", help="training logs (CSV or .mat), fitted jointly, each as the "
+                   "set-up the rig description's experiments give its file name; one not given there whose "
                    "pendulum stays still while the wheel turns joins as --clamped, one whose wheel stays still "
                    "while the pendulum swings as --wheel-locked")
     p.add_argument("--rig", metavar="RIG.json", help="rig description: columns, units, input, drive, sample period")

@@ -29,6 +29,7 @@ from typing import Any, Mapping
 
 from ..errors import InputError
 from ..files import read_json
+from ..models.plant import EXPERIMENT_KINDS
 from .plausibility import SAMPLE_PERIOD_RANGE
 
 __all__ = [
@@ -40,6 +41,8 @@ __all__ = [
     "CurrentSpec",
     "InputSpec",
     "DriveSpec",
+    "ControllerSpec",
+    "ExperimentSpec",
     "load_rig",
     "ANGLE_UNITS",
     "SPEED_UNITS",
@@ -270,8 +273,60 @@ class MatrixSpec:
     variable: str | None = None
 
 
+@dataclass(frozen=True)
+class ControllerSpec:
+    """The feedback law of a rig's closed-loop logs: the Hopf law ``u = k1 q3 + k2 q3^3`` (section 5.3).
+
+    Attributes
+    ----------
+    law : {"hopf"}
+    k1 : float
+        Linear gain [input units s/rad], in the logs' input units.
+    k2 : float
+        Cubic gain [input units s^3/rad^3].
+    ts : float or None
+        The law's sample period [s], held between samples; None: continuous.
+    """
+
+    law: str
+    k1: float
+    k2: float
+    ts: float | None = None
+
+
+#: the feedback laws a rig description can name for its closed-loop logs
+CONTROLLER_LAWS = ("hopf",)
+
+
+@dataclass(frozen=True)
+class ExperimentSpec:
+    """Which of a rig's logs come from which set-up (``experiments`` in the description).
+
+    Attributes
+    ----------
+    files : tuple of str
+        Patterns of the logs' file names (``*``, ``?``, ``[...]`` as in a shell), matched from the right of
+        the path as given (:meth:`pathlib.PurePath.match`): ``clamp_*.mat`` matches the file's name,
+        ``day2/*.mat`` the files of any folder ``day2``.
+    kind : str
+        The set-up (:data:`~iwp.models.plant.EXPERIMENT_KINDS`): ``free``, ``clamped``, ``wheel-locked`` or
+        ``closed-loop``.
+    controller : ControllerSpec or None
+        The feedback law of ``closed-loop`` logs (required for them, refused for the others).
+    """
+
+    files: tuple[str, ...]
+    kind: str
+    controller: ControllerSpec | None = None
+
+    def matches(self, path: str | os.PathLike) -> bool:
+        """Whether the log file ``path`` is one of this set-up's (see ``files``)."""
+        p = Path(path)
+        return any(p.match(pat) for pat in self.files)
+
+
 _TOP = ("kind", "name", "notes", "sample_period", "time", "pendulum", "wheel", "current", "input", "drive",
-        "matrix")
+        "matrix", "experiments")
 
 
 @dataclass(frozen=True)
@@ -292,6 +347,12 @@ class RigDescription:
     notes: str = ""
     source: str = "<memory>"
     matrix: MatrixSpec | None = None
+    experiments: tuple[ExperimentSpec, ...] = ()
+
+    def experiment_of(self, path: str | os.PathLike) -> ExperimentSpec | None:
+        """The set-up the description gives the log file ``path`` (the first entry of ``experiments`` whose
+        pattern matches it), or None."""
+        return next((e for e in self.experiments if e.matches(path)), None)
 
     def to_dict(self) -> dict[str, Any]:
         """The description as JSON-ready dict (the format :meth:`from_dict` reads)."""
@@ -316,6 +377,10 @@ class RigDescription:
         d["drive"] = asdict(self.drive)
         if self.matrix is not None:
             d["matrix"] = _drop_none({"variable": self.matrix.variable, "columns": list(self.matrix.columns)})
+        if self.experiments:
+            d["experiments"] = [{"files": list(e.files), "kind": e.kind}
+                                | ({"controller": _drop_none(asdict(e.controller))} if e.controller else {})
+                                for e in self.experiments]
         return d
 
     @classmethod
@@ -473,7 +538,8 @@ class RigDescription:
             if var is not None and (not isinstance(var, str) or not var.strip()):
                 raise InputError(f"{_where(where, 'matrix.variable')} must be a variable's name, got {var!r}")
             matrix = MatrixSpec(tuple(names), var)
-        rig = cls(pend, wheel, current, inp, drive, time, Ts, name, notes, where, matrix)
+        experiments = _experiments(where, doc.get("experiments", []))
+        rig = cls(pend, wheel, current, inp, drive, time, Ts, name, notes, where, matrix, experiments)
         _check_distinct_columns(rig)
         return rig
 
@@ -490,6 +556,46 @@ class RigDescription:
         if self.input is not None:
             out["input"] = self.input.column
         return out
+
+
+def _experiments(where: str, value: Any) -> tuple[ExperimentSpec, ...]:
+    """The ``experiments`` list: each entry's file patterns, set-up and (closed loop) feedback law, checked."""
+    if not isinstance(value, (list, tuple)):
+        raise InputError(f"{_where(where, 'experiments')} must be a list of {{\"files\": [...], \"kind\": ...}} "
+                         f"objects, got {value!r}")
+    out = []
+    for i, item in enumerate(value):
+        key = f"experiments[{i}]"
+        edoc = _obj(where, key, item, ("files", "kind", "controller"))
+        files = edoc.get("files")
+        files = [files] if isinstance(files, str) else files
+        if (not isinstance(files, (list, tuple)) or not files
+                or not all(isinstance(f, str) and f.strip() for f in files)):
+            raise InputError(f"{_where(where, key + '.files')} must be a file-name pattern or a list of them "
+                             f"(e.g. \"clamped_*.mat\"), got {edoc.get('files')!r}")
+        if "kind" not in edoc:
+            raise InputError(f"{where}: key '{key}.kind' is required (one of {', '.join(EXPERIMENT_KINDS)})")
+        kind = _choice(where, f"{key}.kind", edoc["kind"], tuple(EXPERIMENT_KINDS))
+        controller = None
+        if kind == "closed-loop":
+            if "controller" not in edoc:
+                raise InputError(f"{where}: key '{key}.controller' is required for closed-loop logs (their feedback "
+                                 "law, e.g. {\"law\": \"hopf\", \"k1\": -10, \"k2\": 0.1})")
+            cdoc = _obj(where, f"{key}.controller", edoc["controller"], ("law", "k1", "k2", "ts"))
+            for req in ("law", "k1", "k2"):
+                if req not in cdoc:
+                    raise InputError(f"{where}: key '{key}.controller.{req}' is required")
+            law = _choice(where, f"{key}.controller.law", cdoc["law"], CONTROLLER_LAWS)
+            ts = cdoc.get("ts")
+            controller = ControllerSpec(law, _num(where, f"{key}.controller.k1", cdoc["k1"]),
+                                        _num(where, f"{key}.controller.k2", cdoc["k2"]),
+                                        None if ts is None else _num(where, f"{key}.controller.ts", ts,
+                                                                     positive=True))
+        elif "controller" in edoc:
+            raise InputError(f"{_where(where, key + '.controller')}: a feedback law belongs to closed-loop logs, "
+                             f"and these are {kind}")
+        out.append(ExperimentSpec(tuple(f.strip() for f in files), kind, controller))
+    return tuple(out)
 
 
 def _counts(where: str, part: str, d: Mapping[str, Any], required: bool) -> float | None:

@@ -50,13 +50,13 @@ import numpy as np
 from scipy import optimize
 
 from ..data import ExperimentData, check_distinct, read_experiment
-from ..data.rig_description import RigDescription, load_rig
+from ..data.rig_description import ControllerSpec, RigDescription, load_rig
 from ..data.rig_log import read_rig_log
 from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import PARAMETER_INFO, TYPICAL, BeltParameters, LumpedParameters
 from ..models.plant import Plant
-from ..sim.inputs import Input
+from ..sim.inputs import HopfController, Input
 from ..sim.uncertainty import ParameterUncertainty, prediction_band
 from ..threads import one_blas_thread, thread_map
 from .belt_fit import BELT_FREE
@@ -625,8 +625,11 @@ def fit_logs(
         moves, with the same parameters (``iwp fit --clamped/--wheel-locked``);
         and ``"closed-loop"`` (the input computed by ``controller``, simulated
         with the model instead of the logged input: ``--closed-loop``).
+        Training logs that the rig description's ``experiments`` give
+        another set-up join as that set-up (a closed-loop one with the
+        description's law); a kind given here comes first.
     controller : Input, optional
-        The feedback law of the ``"closed-loop"`` logs (an
+        The feedback law of the ``"closed-loop"`` logs of ``kinds`` (an
         :mod:`iwp.sim.inputs` controller, e.g.
         :class:`~iwp.sim.inputs.HopfController`), its output in the logs'
         input units.
@@ -646,9 +649,9 @@ def fit_logs(
         _warnings.simplefilter("always")
         train_logs = load_logs(train, rig_d, argument="train")
         val_logs = load_logs(validate, rig_d, argument="validate") if validate else []
-        others = _other_kinds(kinds, rig_d)
+        others = _other_kinds(kinds, rig_d, controller)
     msgs = [str(w.message) for w in caught]
-    closed = any(k == "closed-loop" for k, _ in others)
+    closed = any(o.kind == "closed-loop" for o in others)
     if closed and controller is None:
         raise InputError("controller: the closed-loop logs need their feedback law (--controller hopf --k1 K1 "
                          "--k2 K2)", argument="controller")
@@ -660,24 +663,44 @@ def fit_logs(
                          f"{type(controller).__name__}", argument="controller")
     if not train_logs:
         raise InputError("train: no training logs given", argument="train")
-    check_distinct([*train_logs, *(d for _, d in others)], "training logs")
+    check_distinct([*train_logs, *(o.data for o in others)], "training logs")
     check_distinct(val_logs, "held-out logs")
     for v in val_logs:
         try:
-            check_distinct([*train_logs, *(d for _, d in others), v])
+            check_distinct([*train_logs, *(o.data for o in others), v])
         except InputError:
             raise InputError(f"validate: {v.source} is also a training log; a held-out log must be one the fit has "
                              "not seen, or its fit says nothing about prediction", argument="validate") from None
+    # the set-ups the rig description gives the logs (its "experiments"); the command line's kinds come first
+    declared = [rig_d.experiment_of(d.source) if rig_d is not None else None for d in train_logs]
+    msgs.extend(f"{o.kind_flag} {o.data.source}: the rig description gives it as {e.kind}; fitted as {o.kind} (the "
+                "command line's kind)" for o in others
+                if rig_d is not None and (e := rig_d.experiment_of(o.data.source)) is not None and e.kind != o.kind)
+    others = others + [_Joined(e.kind, d, _law(e.controller), "train") for d, e in zip(train_logs, declared)
+                       if e is not None and e.kind != "free"]
+    undeclared = [d for d, e in zip(train_logs, declared) if e is None]
+    train_logs = [d for d, e in zip(train_logs, declared) if e is None or e.kind == "free"]
     # training logs whose motion shows another set-up join the fit as that set-up (if a free log remains)
-    shown = [(inferred_kind(d), d) for d in train_logs]
-    if any(k == "free" for k, _ in shown) and any(k != "free" for k, _ in shown):
-        train_logs = [d for k, d in shown if k == "free"]
-        others = others + [(k, d) for k, d in shown if k != "free"]
-        msgs.extend(f"train {d.source}: {KIND_SHOWN[k]}: fitted as a {k} log (--{k})" for k, d in shown if k != "free")
-    msgs.extend(f"validate {d.source}: {KIND_SHOWN[k]}: a log of the {k} set-up? a held-out log is simulated as a "
-                "free pendulum, so its fit says little" for d in val_logs if (k := inferred_kind(d)) != "free")
+    shown = {id(d): inferred_kind(d) for d in undeclared}
+    if any(k == "free" for k in shown.values()) and any(k != "free" for k in shown.values()):
+        others = others + [_Joined(shown[id(d)], d) for d in train_logs if shown.get(id(d), "free") != "free"]
+        msgs.extend(f"train {d.source}: {KIND_SHOWN[k]}: fitted as a {k} log (--{k})" for d in train_logs
+                    if (k := shown.get(id(d), "free")) != "free")
+        train_logs = [d for d in train_logs if shown.get(id(d), "free") == "free"]
+    if not train_logs:
+        raise InputError("train: no free training log: the rig description's experiments give every training log "
+                         "another set-up (" + ", ".join(f"{Path(o.data.source).name}: {o.kind}" for o in others)
+                         + "); the joint fit needs a log of the free pendulum", argument="train")
+    for d in val_logs:
+        e = rig_d.experiment_of(d.source) if rig_d is not None else None
+        if e is not None and e.kind != "free":
+            msgs.append(f"validate {d.source}: the rig description gives it as {e.kind}; a held-out log is simulated "
+                        "as a free pendulum, so its fit says little")
+        elif e is None and (k := inferred_kind(d)) != "free":
+            msgs.append(f"validate {d.source}: {KIND_SHOWN[k]}: a log of the {k} set-up? a held-out log is simulated "
+                        "as a free pendulum, so its fit says little")
     msgs.extend(disagreeing_logs(train_logs, window=options.window))
-    msgs.extend(kind_mismatches(train_logs, others))
+    msgs.extend(kind_mismatches(train_logs, [(o.kind, o.data) for o in others]))
     for d in train_logs + val_logs:
         if d.q2 is None and d.q4 is None:
             raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
@@ -713,7 +736,7 @@ def fit_logs(
     else:
         start_p, method, ls_details = options.start, "given", {}
     # ---- solve: the joint simulation-error fit (of each structure of the ladder, or of the one asked for)
-    fitting = _Fitting(options, train_logs, val_logs, outputs, offset_given, umax, others, belt_ratio, controller)
+    fitting = _Fitting(options, train_logs, val_logs, outputs, offset_given, umax, others, belt_ratio)
     structures = None
     if options.select:
         structures = fitting.ladder(start_p)
@@ -737,8 +760,9 @@ def fit_logs(
     # ---- report: training fits, held-out logs simulated from their measured state
     offs = [r.offsets[i].get("q1", (0.0, 0.0))[0] for i in range(len(train_logs))]
     train_fits = [_log_fit(d, "train", _Replayed.of(r, i), offs[i]) for i, d in enumerate(train_logs)]
-    for j, (kind, d) in enumerate(others, start=len(train_logs)):
-        train_fits.append(_log_fit(d, "train", _Replayed.of(r, j), r.offsets[j].get("q1", (0.0, 0.0))[0], kind=kind))
+    for j, o in enumerate(others, start=len(train_logs)):
+        train_fits.append(_log_fit(o.data, "train", _Replayed.of(r, j), r.offsets[j].get("q1", (0.0, 0.0))[0],
+                                   kind=o.kind))
     val_off = 0.0 if offset_given else float(np.mean(offs))
     if val_logs and not offset_given:
         msgs.append(f"held-out logs: the pendulum zero offset is taken as the training logs' mean, "
@@ -774,8 +798,35 @@ def fit_logs(
 OTHER_KINDS = ("clamped", "wheel-locked", "closed-loop")
 
 
-def _other_kinds(kinds: Mapping[str, Any] | None, rig: RigDescription | None) -> list[tuple[str, ExperimentData]]:
-    """The logs of ``kinds``, read, as (kind, log) pairs."""
+@dataclass(frozen=True)
+class _Joined:
+    """A log of another set-up that joins the training: its kind, the log, the law of a closed-loop one, and where
+    its kind came from (``"train"``: the rig description; else the command line's ``--kind``)."""
+
+    kind: str
+    data: ExperimentData
+    controller: Input | None = None
+    given: str = ""
+
+    @property
+    def kind_flag(self) -> str:
+        """How the user gave the log: ``--clamped`` etc., or ``train``."""
+        return self.given or f"--{self.kind}"
+
+
+def _law(spec: ControllerSpec | None) -> Input | None:
+    """The controller of a rig description's closed-loop entry (its ``controller``), or None."""
+    if spec is None:
+        return None
+    if spec.law != "hopf":
+        raise InputError(f"controller: the law {spec.law!r} has no simulation in iwp (hopf has)",
+                         argument="controller")
+    return HopfController(spec.k1, spec.k2, spec.ts)
+
+
+def _other_kinds(kinds: Mapping[str, Any] | None, rig: RigDescription | None, controller: Input | None = None
+                 ) -> list[_Joined]:
+    """The logs of ``kinds``, read; the ``closed-loop`` ones with ``controller``."""
     if not kinds:
         return []
     if not isinstance(kinds, Mapping):
@@ -787,7 +838,8 @@ def _other_kinds(kinds: Mapping[str, Any] | None, rig: RigDescription | None) ->
             what = "; ".join(f"{k}: {EXPERIMENT_KINDS[k]}" for k in OTHER_KINDS)
             raise InputError(f"kinds: {kind!r} is not a kind of log that joins the fit; choose among "
                              f"{', '.join(OTHER_KINDS)} ({what})", argument="kinds")
-        out += [(kind, d) for d in load_logs(items, rig, argument=f"--{kind}")]
+        out += [_Joined(kind, d, controller if kind == "closed-loop" else None)
+                for d in load_logs(items, rig, argument=f"--{kind}")]
     return out
 
 
@@ -1067,11 +1119,10 @@ class _Fitting:
 
     def __init__(self, options: LogFitOptions, train: list[ExperimentData], held_out: list[ExperimentData],
                  outputs: tuple[str, ...], offset_given: bool, umax: float,
-                 others: list[tuple[str, ExperimentData]], belt_ratio: float | None, controller: Input | None):
+                 others: list[_Joined], belt_ratio: float | None):
         self.options, self.train, self.held_out = options, train, held_out
         self.outputs, self.offset_given, self.umax = outputs, offset_given, umax
-        self.others = others
-        self.controller = controller  # the closed-loop logs' law
+        self.others = others  # the logs of the other set-ups, with the closed-loop ones' laws
         self.belt_ratio = belt_ratio  # the rig's drive ratio when its drive is a belt, else None
         self.Ts = float(train[0].Ts)  # the logs' sample period, for a belt's start and bounds
 
@@ -1095,11 +1146,11 @@ class _Fitting:
         guesses = list(x0) if x0 is not None else [None] * (len(logs) + len(self.others))
         exps = as_experiments(logs, windows=tuple(options.window), offsets=() if self.offset_given else ("q1",),
                               x0=guesses[:len(logs)])
-        for (kind, d), g in zip(self.others, guesses[len(logs):]):
-            moves_q1 = kind != "clamped"
-            exps.append(Experiment(model_input(d, model, f"--{kind}"), kind=kind, window=tuple(options.window),
+        for o, g in zip(self.others, guesses[len(logs):]):
+            moves_q1 = o.kind != "clamped"
+            exps.append(Experiment(model_input(o.data, model, o.kind_flag), kind=o.kind, window=tuple(options.window),
                                    x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else (),
-                                   controller=self.controller if kind == "closed-loop" else None))
+                                   controller=o.controller))
         plant = self.plant(options, start, belt)
         bounds = (belt_bounds(ratio=plant.belt.N, Ts=self.Ts, speed_per_input=plant.belt.kTbeta_over_Rgamma)
                   if options.belt else None)
