@@ -19,7 +19,7 @@ from iwp.models import (
 )
 from iwp.models.equations import rhs_of
 from iwp.models.layout import M_PLAIN
-from iwp.models.mathfn import sincos
+from iwp.models.mathfn import EXP_VEC_MAX, exp_vec, log_vec, sincos
 from tests.helpers import physical
 
 
@@ -146,6 +146,36 @@ def test_sincos_matches_libm_to_two_ulp():
     assert np.max(np.abs(S - np.sin(x))[where] / np.spacing(np.abs(np.sin(x)))[where]) <= 2.0
     S, C = _sincos_many(np.array([np.inf, -np.inf, np.nan, 2 * SINCOS_MAX]))
     assert np.all(np.isnan(S)) and np.all(np.isnan(C))
+
+
+@njit(cache=False)
+def _log_exp_many(x, y):
+    L = np.empty_like(x)
+    E = np.empty_like(y)
+    for i in range(x.size):
+        L[i] = log_vec(x[i])
+    for i in range(y.size):
+        E[i] = exp_vec(y[i])
+    return L, E
+
+
+def test_vectorisable_log_and_exp_match_libm():
+    """The step-size controller's logarithm and exponential (exponent from the bits, a series on the rest)."""
+    rng = np.random.default_rng(5)
+    x = np.concatenate([np.exp(rng.uniform(-700.0, 700.0, 100_000)), rng.uniform(1e-13, 1.0, 100_000),
+                        [1.0, 2.0, 0.5, math.sqrt(2.0), np.nextafter(math.sqrt(2.0), 2.0), 2.2250738585072014e-308,
+                         1.7976931348623157e308]])
+    y = np.concatenate([rng.uniform(-EXP_VEC_MAX, EXP_VEC_MAX, 100_000), rng.uniform(-5.0, 5.0, 100_000),
+                        [0.0, -EXP_VEC_MAX, EXP_VEC_MAX]])
+    L, E = _log_exp_many(x, y)
+    # a few units in the last place: of ln x (absolute near ln 1 = 0), of exp y relative (the docstrings' claims)
+    assert np.max(np.abs(L - np.log(x)) / np.maximum(np.abs(np.log(x)), 1.0)) <= 1e-15
+    assert np.max(np.abs(E - np.exp(y)) / np.exp(y)) <= 4e-16
+    assert L[x.size - 7] == 0.0 and E[y.size - 3] == 1.0
+    # beyond its range the exponential saturates at exp(+-EXP_VEC_MAX)
+    _, E = _log_exp_many(np.ones(1), np.array([-1e4, 1e4]))
+    assert E[0] == pytest.approx(math.exp(-EXP_VEC_MAX), rel=1e-15) and E[1] == pytest.approx(math.exp(EXP_VEC_MAX),
+                                                                                               rel=1e-15)
 
 
 @njit(cache=False)

@@ -1,14 +1,22 @@
-"""Sine and cosine for the compiled right-hand sides.
+"""Sine, cosine, logarithm and exponential for compiled code that vectorises.
 
 :func:`sincos` is fdlibm's algorithm written out, so that it inlines into the
 integrator, overlaps with the stage arithmetic and vectorises across
 simulations run side by side (:mod:`iwp.sim.lanes`); libm's ``sin`` and
-``cos`` are two library calls that do neither.
+``cos`` are two library calls that do neither. :func:`log_vec` and
+:func:`exp_vec` do the same for the step-size controller
+(:mod:`iwp.sim.controller`), whose factor every lane computes after every
+step: exponent and mantissa taken apart by their bits, a series on the
+reduced argument.
 """
 
 from __future__ import annotations
 
 import math
+
+from llvmlite import ir
+from numba.core import types
+from numba.extending import intrinsic
 
 from ..jit import jit
 
@@ -58,3 +66,78 @@ def sincos(x):
     if (n + 1) & 2:
         cq = -cq
     return sq, cq
+
+
+@intrinsic
+def float_bits(typingctx, x):
+    """The IEEE 754 bits of a float64 as an int64 (a reinterpretation, no conversion)."""
+    if x != types.float64:
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.bitcast(args[0], ir.IntType(64))
+
+    return types.int64(x), codegen
+
+
+@intrinsic
+def bits_float(typingctx, i):
+    """The float64 whose IEEE 754 bits are the int64 ``i`` (the inverse of :func:`float_bits`)."""
+    if i != types.int64:
+        return None
+
+    def codegen(context, builder, sig, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return types.float64(i), codegen
+
+
+_LN2 = 6.93147180559945286227e-01
+# ln 2 in two parts (the first with trailing zero bits), for the exponential's reduction (fdlibm)
+_LN2_HI = 6.93147180369123816490e-01
+_LN2_LO = 1.90821492927058770002e-10
+_MANTISSA = (1 << 52) - 1
+_ONE_BITS = 1023 << 52
+#: the arguments :func:`exp_vec` takes: beyond them it saturates at exp(+-EXP_VEC_MAX)
+EXP_VEC_MAX = 700.0
+
+
+@jit(inline=True)
+def log_vec(x):
+    """``ln x`` for a positive normal float64 ``x``, within 1e-15 of libm relative to ``max(|ln x|, 1)`` (branch-free).
+
+    ``x = 2^e m`` with ``m`` in [sqrt(1/2), sqrt(2)) from the bits;
+    ``ln m = 2 atanh(s)``, ``s = (m - 1)/(m + 1)`` with ``|s| < 0.172``, by
+    its series to ``s^17``. For 0, a subnormal, inf or NaN the result is
+    meaningless: the caller keeps such values away.
+    """
+    b = float_bits(x)
+    e = (b >> 52) - 1023
+    m = bits_float((b & _MANTISSA) | _ONE_BITS)
+    big = m > 1.4142135623730951
+    m = 0.5 * m if big else m
+    e = e + 1 if big else e
+    s = (m - 1.0) / (m + 1.0)
+    z = s * s
+    p = 1.0 + z * (1.0 / 3 + z * (1.0 / 5 + z * (1.0 / 7 + z * (1.0 / 9 + z * (1.0 / 11 + z * (
+        1.0 / 13 + z * (1.0 / 15 + z * (1.0 / 17))))))))
+    return e * _LN2 + 2.0 * s * p
+
+
+@jit(inline=True)
+def exp_vec(y):
+    """``exp y`` for ``|y| <= EXP_VEC_MAX``, within 4e-16 relative of libm (branch-free; ``y`` beyond is clipped).
+
+    ``y = k ln 2 + r`` with ``|r| <= ln 2 / 2`` (Cody-Waite, two-part ``ln 2``),
+    ``exp r`` by its Taylor series to ``r^13``, ``2^k`` from the bits.
+    """
+    y = min(max(y, -EXP_VEC_MAX), EXP_VEC_MAX)
+    k = math.floor(y * (1.0 / _LN2) + 0.5)
+    r = (y - k * _LN2_HI) - k * _LN2_LO
+    p = 1.0 + r * (1.0 + r * (1.0 / 2 + r * (1.0 / 6 + r * (1.0 / 24 + r * (1.0 / 120 + r * (1.0 / 720 + r * (
+        1.0 / 5040 + r * (1.0 / 40320 + r * (1.0 / 362880 + r * (1.0 / 3628800 + r * (1.0 / 39916800 + r * (
+            1.0 / 479001600 + r * (1.0 / 6227020800)))))))))))))
+    # 2^k in two halves, so that k down to -1010 stays a normal power
+    k1 = int(k) // 2
+    k2 = int(k) - k1
+    return p * bits_float((k1 + 1023) << 52) * bits_float((k2 + 1023) << 52)

@@ -651,13 +651,14 @@ def run_lanes(n, bt, tol, out, r0, r1):
             NACC[l] += 1 if ok else 0
             NFEV[l] += N_STAGES if ok else 0
         for l in range(L):
-            # the controller (libm's log and exp: lane by lane)
-            if DONE[l]:
-                factor, LERRP[l] = accept_step(ERR[l], LERRP[l])
-                if REJ[l]:
-                    factor = min(1.0, factor)
-                REJ[l] = False
-                HN[l] = next_step_size(H[l], HN[l], factor, PLAN[l] == 0)
+            # the controller, all lanes at once (branch-free; the lanes of other steps keep theirs)
+            ok = DONE[l]
+            factor, lerr = accept_step(ERR[l], LERRP[l])
+            factor = min(1.0, factor) if REJ[l] else factor
+            hn = next_step_size(H[l], HN[l], factor, PLAN[l] == 0)
+            LERRP[l] = lerr if ok else LERRP[l]
+            HN[l] = hn if ok else HN[l]
+            REJ[l] = REJ[l] and not ok
         for i in range(n):
             for l in range(L):
                 Y[i, l] = YT[i, l] if DONE[l] else Y[i, l]
