@@ -2,7 +2,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
@@ -343,6 +343,8 @@ def test_a_batch_of_one_run_equals_the_single_run():
 @settings(max_examples=300, deadline=None)
 @given(v=st.floats(0.2, 8.0), a=st.floats(-30.0, 30.0), jk=st.floats(-100.0, 100.0), frac=st.floats(0.0, 0.95),
        H=st.floats(1e-3, 0.1), half_turns=st.integers(-3, 3), sign=st.sampled_from([-1.0, 1.0]))
+# q1 within rounding of the kink, moving towards it: Newton landed on s = 0, outside (0, H]
+@example(v=1.0, a=0.0, jk=0.0, frac=2.3e-15, H=0.0625, half_turns=-1, sign=-1.0)
 def test_the_kink_ahead_is_the_root_of_the_taylor_model(v, a, jk, frac, H, half_turns, sign):
     """kink_ahead locates where the Taylor model of q1 reaches pi/2 + m pi as brentq does (monotone models)."""
     v, a, jk = sign * v, sign * a, sign * jk

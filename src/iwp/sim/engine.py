@@ -582,7 +582,9 @@ def kink_ahead(q1, v, a, jk, H):
         if not (lo < s_new < hi):
             s_new = 0.5 * (lo + hi)
         s = s_new
-    return s
+    # the start and the end lie on either side of the kink, so the root is after the start even when q1 is within
+    # rounding of the kink and Newton lands on 0 (hypothesis found q1 = -pi/2 + 1.4e-16 moving towards it)
+    return s if s > 0.0 else np.nextafter(0.0, 1.0)
 
 
 @jit
