@@ -678,15 +678,17 @@ def fit_logs(
                 if rig_d is not None and (e := rig_d.experiment_of(o.data.source)) is not None and e.kind != o.kind)
     others = others + [_Joined(e.kind, d, _law(e.controller), "train") for d, e in zip(train_logs, declared)
                        if e is not None and e.kind != "free"]
-    undeclared = [d for d, e in zip(train_logs, declared) if e is None]
-    train_logs = [d for d, e in zip(train_logs, declared) if e is None or e.kind == "free"]
-    # training logs whose motion shows another set-up join the fit as that set-up (if a free log remains)
-    shown = {id(d): inferred_kind(d) for d in undeclared}
-    if any(k == "free" for k in shown.values()) and any(k != "free" for k in shown.values()):
-        others = others + [_Joined(shown[id(d)], d) for d in train_logs if shown.get(id(d), "free") != "free"]
-        msgs.extend(f"train {d.source}: {KIND_SHOWN[k]}: fitted as a {k} log (--{k})" for d in train_logs
-                    if (k := shown.get(id(d), "free")) != "free")
-        train_logs = [d for d in train_logs if shown.get(id(d), "free") == "free"]
+    # training logs whose motion shows another set-up join the fit as that set-up (if a free log remains among
+    # those the description does not declare); a declared free log stays free
+    free = [(d, inferred_kind(d) if e is None else None) for d, e in zip(train_logs, declared)
+            if e is None or e.kind == "free"]
+    shown = [k for _, k in free if k is not None]
+    if "free" in shown and any(k != "free" for k in shown):
+        others = others + [_Joined(k, d) for d, k in free if k not in (None, "free")]
+        msgs.extend(f"train {d.source}: {KIND_SHOWN[k]}: fitted as a {k} log (--{k})" for d, k in free
+                    if k not in (None, "free"))
+        free = [(d, k) for d, k in free if k in (None, "free")]
+    train_logs = [d for d, _ in free]
     if not train_logs:
         raise InputError("train: no free training log: the rig description's experiments give every training log "
                          "another set-up (" + ", ".join(f"{Path(o.data.source).name}: {o.kind}" for o in others)
