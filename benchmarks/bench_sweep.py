@@ -9,7 +9,7 @@ batch engine alone in the same run.
     workers warmed up (their first import of iwp is not counted).
 Two studies: the Hopf law with k1 ~ U(-12, -6) and q1(0) ~ N(0.1, 0.05) on one plant (the
 engine's side-by-side lanes), and a Monte Carlo over plant parameters (p1 ~ N(26.1, 0.5),
-p3 ~ N(0.0286, 0.001): one plant per lane, one run per thread at a time).
+p3 ~ N(0.0286, 0.001): one plant per lane, side by side in the same vectorised lanes).
 The 1,000,000-loop figure is extrapolated from the measured throughput per core.
 
 Run: python benchmarks/bench_sweep.py [--lanes N]

@@ -276,6 +276,57 @@ def dense_coefficients(K, h, y, y_new, F, n):
                        + -39.17726167561544 * K[14, i] + -149.72683625798564 * K[15, i])
 
 
+@jit(vector=True, exact=True)
+def dense_coefficients_lanes(K, H, Y, Y_new, F, n, L):
+    """:func:`dense_coefficients` of L steps side by side: F (7, n, L), stages K (16, n, L), step ``H[l]``.
+
+    Without reassociation (``exact``): each lane's sums in the order written, so that
+    the rounding does not depend on how the compiler vectorised or inlined the loop.
+    """
+    for i in range(n):
+        for l in range(L):
+            dy = Y_new[i, l] - Y[i, l]
+            F[0, i, l] = dy
+            F[1, i, l] = H[l] * K[0, i, l] - dy
+            F[2, i, l] = 2.0 * dy - H[l] * (K[12, i, l] + K[0, i, l])
+            F[3, i, l] = H[l] * (-8.428938276109013 * K[0, i, l] + 0.5667149535193777 * K[5, i, l]
+                               + -3.0689499459498917 * K[6, i, l] + 2.38466765651207 * K[7, i, l]
+                               + 2.117034582445028 * K[8, i, l] + -0.871391583777973 * K[9, i, l]
+                               + 2.2404374302607883 * K[10, i, l] + 0.6315787787694688 * K[11, i, l]
+                               + -0.08899033645133331 * K[12, i, l] + 18.148505520854727 * K[13, i, l]
+                               + -9.194632392478356 * K[14, i, l] + -4.436036387594894 * K[15, i, l])
+            F[4, i, l] = H[l] * (10.427508642579134 * K[0, i, l] + 242.28349177525817 * K[5, i, l]
+                               + 165.20045171727028 * K[6, i, l] + -374.5467547226902 * K[7, i, l]
+                               + -22.113666853125306 * K[8, i, l] + 7.733432668472264 * K[9, i, l]
+                               + -30.674084731089398 * K[10, i, l] + -9.332130526430229 * K[11, i, l]
+                               + 15.697238121770845 * K[12, i, l] + -31.139403219565178 * K[13, i, l]
+                               + -9.35292435884448 * K[14, i, l] + 35.81684148639408 * K[15, i, l])
+            F[5, i, l] = H[l] * (19.985053242002433 * K[0, i, l] + -387.0373087493518 * K[5, i, l]
+                               + -189.17813819516758 * K[6, i, l] + 527.8081592054236 * K[7, i, l]
+                               + -11.57390253995963 * K[8, i, l] + 6.8812326946963 * K[9, i, l]
+                               + -1.0006050966910838 * K[10, i, l] + 0.7777137798053443 * K[11, i, l]
+                               + -2.778205752353508 * K[12, i, l] + -60.19669523126412 * K[13, i, l]
+                               + 84.32040550667716 * K[14, i, l] + 11.99229113618279 * K[15, i, l])
+            F[6, i, l] = H[l] * (-25.69393346270375 * K[0, i, l] + -154.18974869023643 * K[5, i, l]
+                               + -231.5293791760455 * K[6, i, l] + 357.6391179106141 * K[7, i, l]
+                               + 93.40532418362432 * K[8, i, l] + -37.45832313645163 * K[9, i, l]
+                               + 104.0996495089623 * K[10, i, l] + 29.8402934266605 * K[11, i, l]
+                               + -43.53345659001114 * K[12, i, l] + 96.32455395918828 * K[13, i, l]
+                               + -39.17726167561544 * K[14, i, l] + -149.72683625798564 * K[15, i, l])
+
+
+@jit(inline=True)
+def interpolant(c, y, theta):
+    """One component of the interpolant at ``t + theta h``: ``y`` its value at ``t``, ``c`` its 7 coefficients.
+
+    Scalars only (a tuple ``c``), so that a loop over many samples calls it
+    without reference counting of arrays; the same sum as :func:`dense_eval`.
+    """
+    a = theta
+    b = 1.0 - theta
+    return y + a * (c[0] + b * (c[1] + a * (c[2] + b * (c[3] + a * (c[4] + b * (c[5] + a * c[6]))))))
+
+
 @jit
 def dense_eval(F, y, theta, out, n):
     """The interpolant at ``t + theta h`` (0 <= theta <= 1) into ``out``."""

@@ -23,7 +23,7 @@ Each step of a block has four parts:
    with output times inside it needs the dense output: for model (9) without
    optional terms, a vectorised input and store="samples", the step is put in a slot
    (:class:`DenseSlots`) and its three extra stages are computed with those of
-   ``LANES`` such steps at once (:func:`flush_dense`, also before a run ends);
+   ``N_SLOTS`` such steps at once (:func:`flush_dense`, also before a run ends);
    otherwise lane by lane (:func:`~iwp.sim.engine.dense_step`);
 4. all lanes at once: plan the next ordinary steps; a lane near a kink or at
    the run's end is left to part 1.
@@ -57,7 +57,14 @@ from ..models.equations import optional_terms_off, rhs_of
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
 from ..threads import once_per_argument
 from .controller import LERR_FLOOR, accept_step, next_step_size, reject_factor
-from .dop853 import N_STAGES, dense_coefficients, dense_eval_row, error_norm_lanes, stage_input_lanes
+from .dop853 import (
+    N_STAGES,
+    dense_coefficients_lanes,
+    dense_eval_row,
+    error_norm_lanes,
+    interpolant,
+    stage_input_lanes,
+)
 from .engine import (
     BRIDGE,
     CLIPPED,
@@ -98,6 +105,9 @@ from .views import lane, slab_lane
 
 #: simulations per thread advanced together (two 8-wide vectors)
 LANES = 16
+#: deferred dense outputs computed together by :func:`flush_dense`: a call hands it 14 arrays, each
+#: counted twice (atomically) by numba, so the fewer calls the better (16 slots: 1.75 counts per sample)
+N_SLOTS = 4 * LANES
 #: the inputs whose value vectorises across lanes: constant, sine, chirp and the Hopf law
 VECTOR_KINDS = (I_ZERO, I_CONST, I_SINE, I_CHIRP, I_HOPF)
 
@@ -116,11 +126,11 @@ BatchOutput = namedtuple(
 )
 
 #: Deferred dense outputs of accepted ordinary steps (model (9) plain, store="samples"),
-#: one step per slot, computed ``LANES`` at a time by :func:`flush_dense`: per slot the
-#: step's start time T, state Y (n, L), size H, stages K (16, n, L) with 0-12 given, scratch
-#: YT (n, L), end state YN (n, L), input and plant parameters IPL, PL, and its run R and
-#: output samples ``J0 .. J1-1``.
-DenseSlots = namedtuple("DenseSlots", ["T", "Y", "H", "K", "YT", "YN", "IPL", "PL", "R", "J0", "J1"])
+#: one step per slot, computed ``N_SLOTS`` (S) at a time by :func:`flush_dense`: per slot the
+#: step's start time T, state Y (n, S), size H, stages K (16, n, S) with 0-12 given, scratch
+#: YT (n, S), end state YN (n, S), input and plant parameters IPL, PL, its run R, its
+#: output samples ``J0 .. J1-1`` and its interpolant's coefficients F (7, n, S).
+DenseSlots = namedtuple("DenseSlots", ["T", "Y", "H", "K", "YT", "YN", "IPL", "PL", "R", "J0", "J1", "F"])
 
 # what a lane waits for before its next vector step
 M_READY = 0  #: its next step is planned
@@ -246,14 +256,21 @@ def plain_stages(kind, cps, TYH, K, YT, IPL, PL, n, span):
 
 
 @jit(vector=True)
-def flush_dense(kind, cps, ds, nd, X, t_out, F, n):
+def flush_dense(kind, cps, ds, nd, X, t_out, n):
     """The dense outputs of the first ``nd`` slots of ``ds``, side by side, into their rows of ``X``.
 
-    Stages 13-15 of all slots at once (:func:`plain_stages`), then per slot
-    the coefficients (:func:`~iwp.sim.dop853.dense_coefficients`) and the
-    samples (:func:`~iwp.sim.dop853.dense_eval_row`), as
-    :func:`~iwp.sim.engine.dense_step` and :func:`lane_outputs` compute them
-    for one lane.
+    Stages 13-15 (:func:`plain_stages`) and the interpolants' coefficients
+    (:func:`~iwp.sim.dop853.dense_coefficients_lanes`, into ``ds.F``) of all
+    slots at once, then per slot its samples (:func:`~iwp.sim.dop853.interpolant`):
+    the interpolant :func:`~iwp.sim.engine.dense_step` and :func:`lane_outputs`
+    compute for one lane. No array is handed to a function per slot or per
+    sample: each such call cost numba two atomic reference counts per array
+    (six per sample, a sixth of a sweep's time at 50 ms outputs), and a call
+    of this function hands it 14, so it runs once per ``N_SLOTS`` steps.
+    The coefficients are computed without reassociation: with it, the
+    vectorised sums rounded differently when numba compiled them than when
+    it loaded them from its cache, so that a sweep's numbers depended on
+    where it ran.
 
     Parameters
     ----------
@@ -264,36 +281,41 @@ def flush_dense(kind, cps, ds, nd, X, t_out, F, n):
     ds : DenseSlots
         The deferred steps.
     nd : int
-        Number of slots filled (at most ``LANES``).
+        Number of slots filled (at most ``N_SLOTS``).
     X : ndarray
         States of the batch (n_runs, n_out, n).
     t_out : ndarray
         Output times (n_out,).
-    F : ndarray
-        Scratch for the dense coefficients (7, n).
     n : int
         Number of states.
     """
     if nd == 0:
         return
-    plain_stages(kind, cps, (ds.T, ds.Y, ds.H), ds.K, ds.YT, ds.IPL, ds.PL, n, (N_STAGES + 1, 16, nd))
+    # every slot, the stale ones too: a loop over a varying count leaves a remainder of slots to scalar code, whose
+    # rounding differs from the vector body's, and a step's outputs would depend on its slot (on the batch)
+    plain_stages(kind, cps, (ds.T, ds.Y, ds.H), ds.K, ds.YT, ds.IPL, ds.PL, n, (N_STAGES + 1, 16, N_SLOTS))
+    F = ds.F
+    Y = ds.Y
+    dense_coefficients_lanes(ds.K, ds.H, Y, ds.YN, F, n, N_SLOTS)
     for k in range(nd):
-        y = ds.Y[:, k]
-        h = ds.H[k]
-        dense_coefficients(ds.K[:, :, k], h, y, ds.YN[:, k], F, n)
-        Xr = X[ds.R[k]]
-        rh = 1.0 / h
+        r = ds.R[k]
+        t = ds.T[k]
+        rh = 1.0 / ds.H[k]
         for j in range(ds.J0[k], ds.J1[k]):
-            dense_eval_row(F, y, (t_out[j] - ds.T[k]) * rh, Xr, j, n)
+            th = (t_out[j] - t) * rh
+            for i in range(n):
+                c = (F[0, i, k], F[1, i, k], F[2, i, k], F[3, i, k], F[4, i, k], F[5, i, k], F[6, i, k])
+                X[r, j, i] = interpolant(c, Y[i, k], th)
 
 
 @jit
 def new_slots(n):
-    """Empty :class:`DenseSlots` of ``LANES`` slots for ``n`` states."""
-    L = LANES
+    """Empty :class:`DenseSlots` of ``N_SLOTS`` slots for ``n`` states."""
+    L = N_SLOTS
     return DenseSlots(np.zeros(L), np.zeros((n, L)), np.ones(L), np.zeros((16, n, L)), np.zeros((n, L)),
                       np.zeros((n, L)), np.zeros((N_INPUT_PARAMS, L)), np.zeros((N_PACK, L)),
-                      np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.int64))
+                      np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.int64),
+                      np.zeros((7, n, L)))
 
 
 @jit
@@ -381,11 +403,11 @@ def run_lanes(n, bt, tol, out, r0, r1):
     ys = np.empty(n)
     fs = np.empty(n)
     wk = new_work(n)
-    # dense outputs of ordinary steps, deferred and computed LANES at a time
+    # dense outputs of ordinary steps, deferred and computed N_SLOTS at a time
     defer = out.store == STORE_SAMPLES
     # (filled through these names: numba lost writes made through the record's fields here)
     ds = new_slots(n)
-    DT, DY, DH, DK, _, DYN, DIPL, DPL, DR, DJ0, DJ1 = ds
+    DT, DY, DH, DK, _, DYN, DIPL, DPL, DR, DJ0, DJ1, _ = ds
     nd = 0
     nxt = r0
     n_active = 0
@@ -473,7 +495,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                             j += 1
                     if nd > 0:
                         # the run's deferred samples first (its input columns follow from them)
-                        flush_dense(bt.kind, cps, ds, nd, out.X, t_out, wk.F, n)
+                        flush_dense(bt.kind, cps, ds, nd, out.X, t_out, n)
                         nd = 0
                     if out.store == STORE_SAMPLES and o.U.size == t_out.size:
                         input_samples(bt.kind, fld.input_params, fld.command_params, t_out[:j], o.X[:j], o.U[:j],
@@ -608,7 +630,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
         for l in range(L):
             # outputs inside an accepted ordinary step: its dense output, lane by lane
             if defer and DONE[l] and TNEXT[l] < T[l] + H[l] - tol_t:
-                # into a slot: stages 13-15 and the samples when LANES slots are full
+                # into a slot: stages 13-15 and the samples when N_SLOTS slots are full
                 t_stop = T[l] + H[l] - tol_t
                 j = J[l]
                 DJ0[nd] = j
@@ -628,8 +650,8 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 for k in range(N_INPUT_PARAMS):
                     DIPL[k, nd] = IPL[k, l]
                 nd += 1
-                if nd == L:
-                    flush_dense(bt.kind, cps, ds, nd, out.X, t_out, wk.F, n)
+                if nd == N_SLOTS:
+                    flush_dense(bt.kind, cps, ds, nd, out.X, t_out, n)
                     nd = 0
                 NFEV[l] += 3
                 J[l] = j
@@ -684,7 +706,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
             BRIDGED[l] = BRIDGED[l] and not plan_here
             mode = M_READY if plan_here else (M_POST if post else M_PLAN)
             MODE[l] = mode if DONE[l] else MODE[l]
-    flush_dense(bt.kind, cps, ds, nd, out.X, t_out, wk.F, n)
+    flush_dense(bt.kind, cps, ds, nd, out.X, t_out, n)
     return 0
 
 

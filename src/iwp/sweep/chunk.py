@@ -20,7 +20,7 @@ from ..sim.simulate import output_times
 from .metrics import closed_loop_metrics
 from .spec import LaneSet, SweepSpec, lanes_of_chunk
 
-__all__ = ["ChunkResult", "run_chunk", "STATUS_UNPHYSICAL", "METRIC_COLUMNS", "column_names"]
+__all__ = ["ChunkResult", "run_chunk", "STATUS_UNPHYSICAL", "METRIC_COLUMNS", "SLICE_BYTES", "column_names", "slices"]
 
 #: Status of a lane whose drawn or gridded parameters leave the physical range (not simulated).
 STATUS_UNPHYSICAL = -1
@@ -130,27 +130,48 @@ def column_names(spec: SweepSpec) -> list[str]:
     return ["lane", *lanes_of_chunk(spec, 0).values, "status", *METRIC_COLUMNS, "nfev"]
 
 
+#: Largest outputs of one batch of a chunk [bytes]: a chunk's lanes run in slices whose states, input and
+#: command stay within it. A chunk of 1,000 lanes of 300 s at 50 ms held 288 MB at once, which the system
+#: zeroed page by page at every chunk (a third of the sweep's time); sliced, it runs in 0.8 of the time
+#: (BENCHMARKS.md, bench_sweep). Each lane is independent of the others in its batch: same numbers.
+SLICE_BYTES = 64 * 2**20
+
+
+def slices(spec: SweepSpec, sel: np.ndarray) -> list[np.ndarray]:
+    """The lanes ``sel`` of a chunk in the slices that run as one batch (each within :data:`SLICE_BYTES`).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+    sel : ndarray of int
+        The chunk's lanes to simulate.
+
+    Returns
+    -------
+    list of ndarray of int
+    """
+    per_lane = (spec.t_end / spec.sample_time + 1) * 6 * 8  # states, input and command at every output
+    size = max(1, int(SLICE_BYTES // per_lane))
+    return [sel[a:a + size] for a in range(0, sel.size, size)]
+
+
 def _columns(spec: SweepSpec, index: int) -> dict:
     ls = lanes_of_chunk(spec, index)
     m = ls.lanes.size
     sel = np.flatnonzero(ls.physical)
     status = np.full(m, STATUS_UNPHYSICAL, dtype=np.int64)
     nfev = np.zeros(m, dtype=np.int64)
-    metrics = None
-    if sel.size:
-        res = (_hopf if spec.law == "hopf" else _lqr)(spec, ls, sel)
-        status[sel] = res.status
-        nfev[sel] = res.nfev
+    metrics = {k: np.full(m, np.nan) for k in ("q1_end", "q2_end", "q3_end", "q4_end", "max_abs_q1", "amplitude",
+                                                "amplitude_change", "period")}
+    metrics.update(rotating=np.zeros(m, dtype=np.int64), captured=np.zeros(m, dtype=np.int64))
+    for part in slices(spec, sel):
+        res = (_hopf if spec.law == "hopf" else _lqr)(spec, ls, part)
+        status[part] = res.status
+        nfev[part] = res.nfev
         got = closed_loop_metrics(res.t, res.x, np.asarray(res.status), law=spec.law, window=spec.window)
-        metrics = {}
+        del res  # before the next slice's outputs are allocated
         for k, v in got.items():
-            full = np.full(m, np.nan) if v.dtype.kind == "f" else np.zeros(m, dtype=v.dtype)
-            full[sel] = v
-            metrics[k] = full
-    else:
-        metrics = {k: np.full(m, np.nan) for k in ("q1_end", "q2_end", "q3_end", "q4_end", "max_abs_q1",
-                                                    "amplitude", "amplitude_change", "period")}
-        metrics.update(rotating=np.zeros(m, dtype=np.int64), captured=np.zeros(m, dtype=np.int64))
+            metrics[k][part] = v
     columns = {"lane": ls.lanes.astype(np.int64), **{k: np.asarray(v, dtype=float) for k, v in ls.values.items()},
                "status": status}
     for k in METRIC_COLUMNS:

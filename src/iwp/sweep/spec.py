@@ -41,8 +41,6 @@ STATE_NAMES = ("x0.q1", "x0.q2", "x0.q3", "x0.q4")
 GAIN_NAMES = ("k1", "k2")
 #: The initial state of each law when none is given [rad, rad, rad/s, rad/s].
 DEFAULT_X0 = {"hopf": (0.1, 0.0, 0.0, 0.0), "lqr": (math.pi - 0.02, 0.0, 0.0, 0.0)}
-#: Most memory one chunk's trajectories may take (they are reduced to metrics as soon as they are computed).
-MAX_CHUNK_BYTES = 2 * 2**30
 #: Most lanes of one sweep.
 MAX_LANES = 100_000_000
 #: Most seconds of one closed loop, and fewest output samples a lane may have.
@@ -263,12 +261,6 @@ class SweepSpec:
                              argument="window")
         object.__setattr__(self, "seed", _check_int("seed", self.seed, 0, 2**63 - 1))
         object.__setattr__(self, "chunk_size", _check_int("chunk_size", self.chunk_size, 1, 1_000_000))
-        chunk_bytes = self.chunk_size * (self.t_end / self.sample_time + 1) * 6 * 8  # states, u, command
-        if chunk_bytes > MAX_CHUNK_BYTES:
-            raise InputError(f"chunk_size = {self.chunk_size} lanes of {self.t_end / self.sample_time + 1:.0f} "
-                             f"samples need {chunk_bytes / 2**30:.1f} GB at once; at most "
-                             f"{MAX_CHUNK_BYTES / 2**30:.0f} GB (smaller chunks or a longer sample_time)",
-                             argument="chunk_size")
         if self.n_lanes > MAX_LANES:
             raise InputError(f"the sweep has {self.n_lanes} lanes; at most {MAX_LANES}", argument="vary")
 
