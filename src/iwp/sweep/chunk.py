@@ -132,8 +132,9 @@ def column_names(spec: SweepSpec) -> list[str]:
 
 #: Largest outputs of one batch of a chunk [bytes]: a chunk's lanes run in slices whose states, input and
 #: command stay within it. A chunk of 1,000 lanes of 300 s at 50 ms held 288 MB at once, which the system
-#: zeroed page by page at every chunk (a third of the sweep's time); sliced, it runs in 0.8 of the time
-#: (BENCHMARKS.md, bench_sweep). Each lane is independent of the others in its batch: same numbers.
+#: zeroed page by page at every chunk (a third of the engine's time); 2,000 lanes cost 1.23-1.38 ms of CPU a
+#: loop in batches of 1,000, 1.07-1.16 ms in batches of 128-512 (BENCHMARKS.md, "A sweep's outputs"). Each
+#: lane is independent of the others in its batch: same numbers.
 SLICE_BYTES = 64 * 2**20
 
 
