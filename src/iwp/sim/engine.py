@@ -85,7 +85,7 @@ from .controller import (
 from .dop853 import N_STAGES, dense_coefficients, dense_eval, dense_eval_row, error_norm, stage_input
 from .dop853 import C as NODE_TUPLE
 from .inputs import I_EXTERNAL, I_STEP, N_INPUT_PARAMS, input_value
-from .views import vec
+from .views import LaneViewType, row, vec
 
 # --------------------------------------------------------------------------
 # constants
@@ -174,6 +174,10 @@ Field = namedtuple("Field", ["model", "P", "kind", "input_params", "command_para
 #: Work arrays of one run's steps: stages K (16, n), stage input, rate, new
 #: state, dense-output coefficients (7, n) and an interpolated state.
 Work = namedtuple("Work", ["K", "ytmp", "dx", "y_new", "F", "yo"])
+#: The RK4 bridge's arrays as borrowed views (:mod:`iwp.sim.views`): its stages 1-3 (rows of
+#: ``Work.K``), stage input, rate and new state (those of ``Work``), and the absolute tolerances.
+#: Handed arrays, the bridge cost numba two atomic reference counts per array and call.
+BridgeWork = namedtuple("BridgeWork", ["k1", "k2", "k3", "ytmp", "dx", "y_new", "atol"])
 #: A held segment of the input: its end time [s], ideal input and command.
 Hold = namedtuple("Hold", ["t_b", "uval", "hval"])
 #: The next step (:func:`plan_step`): its kind (flags below) and size [s].
@@ -394,6 +398,19 @@ def rate(fld, t, y, dx):
     """
 
 
+def rate_of_views(fld, t, y, dx, n):
+    """:func:`rate` of borrowed views ``y`` and ``dx`` of ``n`` entries (:mod:`iwp.sim.views`)."""
+
+
+@overload(rate_of_views, inline="always")
+def _rate_of_views_overload(fld, t, y, dx, n):
+    if not (isinstance(y, LaneViewType) and isinstance(dx, LaneViewType)):
+        return None
+    if isinstance(fld[8], types.NoneType):
+        return lambda fld, t, y, dx, n: plant_rate(fld, t, y, dx)
+    return lambda fld, t, y, dx, n: sens_rate(fld, t, y, dx, n)
+
+
 @overload(rate, inline="always")
 def _rate_overload(fld, t, y, dx):
     # borrowed views: no reference counting at these calls (see iwp.sim.views)
@@ -429,39 +446,51 @@ def dense_step(fld, t, y, h, wk, n):
 
 
 @jit
-def rk4_bridge(fld, t, y, f, hb, wk, n, tol):
+def rk4_bridge(fld, t, y, f, hb, bw, n, err_scale):
     """A classical RK4 step of size ``hb`` across a kink; returns its error (accept if < 1).
 
-    ``f = f(t, y)``; fills ``wk.y_new`` and ``wk.dx = f(t + hb, y_new)`` and
-    uses ``wk.K[1..3]`` as scratch. The error is the embedded third-order
-    estimate (the last stage replaced by ``f`` at the new state), scaled like
-    the DOP853 error norm over the first ``tol.n_err`` states. Four evaluations.
+    ``y`` and ``f = f(t, y)`` are views; ``bw`` a :class:`BridgeWork`
+    (:func:`bridge_work`): fills ``bw.y_new`` and ``bw.dx = f(t + hb,
+    y_new)`` and uses ``bw.k1 .. k3`` and ``bw.ytmp`` as scratch. The error
+    is the embedded third-order estimate (the last stage replaced by ``f`` at
+    the new state), scaled like the DOP853 error norm over the first
+    ``n_err`` states, ``err_scale = (rtol, n_err)``. Four evaluations.
     """
-    K = wk.K
-    ytmp = wk.ytmp
-    dx = wk.dx
-    y_new = wk.y_new
+    K1 = bw.k1
+    K2 = bw.k2
+    K3 = bw.k3
+    ytmp = bw.ytmp
+    dx = bw.dx
+    y_new = bw.y_new
     for i in range(n):
         ytmp[i] = y[i] + 0.5 * hb * f[i]
-    rate(fld, t + 0.5 * hb, ytmp, dx)
+    rate_of_views(fld, t + 0.5 * hb, ytmp, dx, n)
     for i in range(n):
-        K[1, i] = dx[i]
+        K1[i] = dx[i]
         ytmp[i] = y[i] + 0.5 * hb * dx[i]
-    rate(fld, t + 0.5 * hb, ytmp, dx)
+    rate_of_views(fld, t + 0.5 * hb, ytmp, dx, n)
     for i in range(n):
-        K[2, i] = dx[i]
+        K2[i] = dx[i]
         ytmp[i] = y[i] + hb * dx[i]
-    rate(fld, t + hb, ytmp, dx)
+    rate_of_views(fld, t + hb, ytmp, dx, n)
     for i in range(n):
-        K[3, i] = dx[i]
-        y_new[i] = y[i] + hb / 6.0 * (f[i] + 2.0 * (K[1, i] + K[2, i]) + dx[i])
-    rate(fld, t + hb, y_new, dx)
-    n_err = min(n, tol.n_err)
+        K3[i] = dx[i]
+        y_new[i] = y[i] + hb / 6.0 * (f[i] + 2.0 * (K1[i] + K2[i]) + dx[i])
+    rate_of_views(fld, t + hb, y_new, dx, n)
+    rtol, n_err = err_scale
+    atol = bw.atol
     eb = 0.0
     for i in range(n_err):
-        d = hb / 6.0 * (K[3, i] - dx[i]) / (tol.atol[i] + max(abs(y[i]), abs(y_new[i])) * tol.rtol)
+        d = hb / 6.0 * (K3[i] - dx[i]) / (atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol)
         eb += d * d
     return eb / n_err
+
+
+@jit(inline=True)
+def bridge_work(wk, tol):
+    """The :class:`BridgeWork` views of a run's :class:`Work` and :class:`Tolerances` (valid while they live)."""
+    return BridgeWork(row(wk.K, 1), row(wk.K, 2), row(wk.K, 3), vec(wk.ytmp), vec(wk.dx), vec(wk.y_new),
+                      vec(tol.atol))
 
 
 @jit
@@ -840,6 +869,7 @@ def integrate(n, system, seg, tol, sens, span, out):
     y = span.x0.copy()
     f = np.empty(n)
     wk = new_work(n)
+    bw = bridge_work(wk, tol)
     K = wk.K
     y_new = wk.y_new
     F_dense = wk.F
@@ -891,7 +921,7 @@ def integrate(n, system, seg, tol, sens, span, out):
             bridged = False
             if plan.flags == BRIDGE:
                 # ---- a kink of |cos q1| close ahead (section 3.1): an RK4 step across it
-                eb = rk4_bridge(fld, t, y, f, h, wk, n, tol)
+                eb = rk4_bridge(fld, t, vec(y), vec(f), h, bw, n, (tol.rtol, min(n, tol.n_err)))
                 nfev += 4
                 if eb < 1.0:
                     # outputs inside the bridge: cubic Hermite

@@ -80,6 +80,7 @@ from .engine import (
     Segments,
     Tolerances,
     beyond,
+    bridge_work,
     dense_step,
     first_step,
     has_kink,
@@ -101,7 +102,7 @@ from .engine import (
     switch_of,
 )
 from .inputs import I_CHIRP, I_CONST, I_HOPF, I_SINE, I_ZERO, N_INPUT_PARAMS, input_value
-from .views import lane, slab_lane
+from .views import lane, slab_lane, vec
 
 #: simulations per thread advanced together (two 8-wide vectors)
 LANES = 16
@@ -403,6 +404,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
     ys = np.empty(n)
     fs = np.empty(n)
     wk = new_work(n)
+    bw = bridge_work(wk, tol)
     # dense outputs of ordinary steps, deferred and computed N_SLOTS at a time
     defer = out.store == STORE_SAMPLES
     # (filled through these names: numba lost writes made through the record's fields here)
@@ -572,7 +574,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     # ---- an RK4 step across a kink close ahead
                     fld = run_field(bt, r)
                     hb = plan.h
-                    eb = rk4_bridge(fld, t, ys, fs, hb, wk, n, tol)
+                    eb = rk4_bridge(fld, t, vec(ys), vec(fs), hb, bw, n, (tol.rtol, min(n, tol.n_err)))
                     NFEV[l] += 4
                     if eb < 1.0:
                         j = J[l]

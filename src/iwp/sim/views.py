@@ -12,7 +12,8 @@ A view here is a bare pointer and a stride, passed by value:
   stage vectors to the plant;
 * ``lane(A, l)``: column ``l`` of an (n, L) array, one simulation of a block
   advanced side by side (:mod:`iwp.sim.lanes`);
-* ``slab_lane(A, s, l)``: column ``l`` of ``A[s]``.
+* ``slab_lane(A, s, l)``: column ``l`` of ``A[s]``;
+* ``row(A, s)``: row ``s`` of a 2-D array (the RK4 bridge's stages).
 
 A view must not outlive the array it looks into: it is only created and used
 inside compiled kernels.
@@ -77,6 +78,24 @@ def vec(typingctx, arr):
         return v._getvalue()
 
     return lane_view_type(arr), codegen
+
+
+@intrinsic
+def row(typingctx, arr, s):
+    """``row(A, s)``: row ``s`` of a C-contiguous float64 array ``A`` of shape (m, n)."""
+    if not (_is_c_float_array(arr, 2) and isinstance(s, types.Integer)):
+        return None
+
+    def codegen(context, builder, sig, args):
+        a = context.make_array(sig.args[0])(context, builder, args[0])
+        strides = cgutils.unpack_tuple(builder, a.strides, 2)
+        si = context.cast(builder, args[1], sig.args[1], types.intp)
+        v = cgutils.create_struct_proxy(lane_view_type)(context, builder)
+        v.ptr = builder.gep(a.data, [builder.mul(si, builder.sdiv(strides[0], ir.Constant(strides[0].type, 8)))])
+        v.stride = ir.Constant(ir.IntType(64), 1)
+        return v._getvalue()
+
+    return lane_view_type(arr, s), codegen
 
 
 @intrinsic
