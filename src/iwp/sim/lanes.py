@@ -292,8 +292,8 @@ def flush_dense(kind, cps, ds, nd, X, t_out, n):
     """
     if nd == 0:
         return
-    # every slot, the stale ones too: a loop over a varying count leaves a remainder of slots to scalar code, whose
-    # rounding differs from the vector body's, and a step's outputs would depend on its slot (on the batch)
+    # every slot, the stale ones too (finite: earlier steps, or zeros): a fixed count, so no remainder of slots is
+    # left to scalar code; the configuration checked to round the same compiled and loaded from the cache
     plain_stages(kind, cps, (ds.T, ds.Y, ds.H), ds.K, ds.YT, ds.IPL, ds.PL, n, (N_STAGES + 1, 16, N_SLOTS))
     F = ds.F
     Y = ds.Y
