@@ -320,7 +320,7 @@ def interpolant(c, y, theta):
     """One component of the interpolant at ``t + theta h``: ``y`` its value at ``t``, ``c`` its 7 coefficients.
 
     Scalars only (a tuple ``c``), so that a loop over many samples calls it
-    without reference counting of arrays; the same sum as :func:`dense_eval`.
+    without reference counting of arrays; :func:`dense_eval` and :func:`dense_eval_row` use it.
     """
     a = theta
     b = 1.0 - theta
@@ -330,18 +330,12 @@ def interpolant(c, y, theta):
 @jit
 def dense_eval(F, y, theta, out, n):
     """The interpolant at ``t + theta h`` (0 <= theta <= 1) into ``out``."""
-    a = theta
-    b = 1.0 - theta
     for i in range(n):
-        out[i] = y[i] + a * (F[0, i] + b * (F[1, i] + a * (F[2, i] + b * (F[3, i] + a * (F[4, i]
-                                + b * (F[5, i] + a * F[6, i]))))))
+        out[i] = interpolant((F[0, i], F[1, i], F[2, i], F[3, i], F[4, i], F[5, i], F[6, i]), y[i], theta)
 
 
 @jit
 def dense_eval_row(F, y, theta, X, j, n):
     """The interpolant at ``t + theta h`` into row ``j`` of ``X``."""
-    a = theta
-    b = 1.0 - theta
     for i in range(n):
-        X[j, i] = y[i] + a * (F[0, i] + b * (F[1, i] + a * (F[2, i] + b * (F[3, i] + a * (F[4, i]
-                                   + b * (F[5, i] + a * F[6, i]))))))
+        X[j, i] = interpolant((F[0, i], F[1, i], F[2, i], F[3, i], F[4, i], F[5, i], F[6, i]), y[i], theta)

@@ -175,9 +175,10 @@ Field = namedtuple("Field", ["model", "P", "kind", "input_params", "command_para
 #: state, dense-output coefficients (7, n) and an interpolated state.
 Work = namedtuple("Work", ["K", "ytmp", "dx", "y_new", "F", "yo"])
 #: The RK4 bridge's arrays as borrowed views (:mod:`iwp.sim.views`): its stages 1-3 (rows of
-#: ``Work.K``), stage input, rate and new state (those of ``Work``), and the absolute tolerances.
+#: ``Work.K``), stage input, rate and new state (those of ``Work``), and the error's scale: absolute
+#: tolerances, relative tolerance and the number of states in the error norm.
 #: Handed arrays, the bridge cost numba two atomic reference counts per array and call.
-BridgeWork = namedtuple("BridgeWork", ["k1", "k2", "k3", "ytmp", "dx", "y_new", "atol"])
+BridgeWork = namedtuple("BridgeWork", ["k1", "k2", "k3", "ytmp", "dx", "y_new", "atol", "rtol", "n_err"])
 #: A held segment of the input: its end time [s], ideal input and command.
 Hold = namedtuple("Hold", ["t_b", "uval", "hval"])
 #: The next step (:func:`plan_step`): its kind (flags below) and size [s].
@@ -393,13 +394,16 @@ def held_sensitivity(fld, seg, t, y, n):
 def rate(fld, t, y, dx):
     """The rate of the integrated state: the plant's (``fld.sens`` is None) or with its sensitivities.
 
-    Resolved at compile time from the type of ``fld.sens`` (:func:`_rate_overload`):
-    ``None`` in plain kernels, so the sensitivity branch is never compiled into them.
+    ``y`` and ``dx`` are arrays, handed on as borrowed views to :func:`rate_of_views`.
     """
 
 
 def rate_of_views(fld, t, y, dx, n):
-    """:func:`rate` of borrowed views ``y`` and ``dx`` of ``n`` entries (:mod:`iwp.sim.views`)."""
+    """:func:`rate` of borrowed views ``y`` and ``dx`` of ``n`` entries (:mod:`iwp.sim.views`).
+
+    Resolved at compile time from the type of ``fld.sens`` (:func:`_rate_of_views_overload`):
+    ``None`` in plain kernels, so the sensitivity branch is never compiled into them.
+    """
 
 
 @overload(rate_of_views, inline="always")
@@ -414,9 +418,7 @@ def _rate_of_views_overload(fld, t, y, dx, n):
 @overload(rate, inline="always")
 def _rate_overload(fld, t, y, dx):
     # borrowed views: no reference counting at these calls (see iwp.sim.views)
-    if isinstance(fld[8], types.NoneType):
-        return lambda fld, t, y, dx: plant_rate(fld, t, vec(y), vec(dx))
-    return lambda fld, t, y, dx: sens_rate(fld, t, vec(y), vec(dx), y.size)
+    return lambda fld, t, y, dx: rate_of_views(fld, t, vec(y), vec(dx), y.size)
 
 
 # --------------------------------------------------------------------------
@@ -446,7 +448,7 @@ def dense_step(fld, t, y, h, wk, n):
 
 
 @jit
-def rk4_bridge(fld, t, y, f, hb, bw, n, err_scale):
+def rk4_bridge(fld, t, y, f, hb, bw, n):
     """A classical RK4 step of size ``hb`` across a kink; returns its error (accept if < 1).
 
     ``y`` and ``f = f(t, y)`` are views; ``bw`` a :class:`BridgeWork`
@@ -454,7 +456,7 @@ def rk4_bridge(fld, t, y, f, hb, bw, n, err_scale):
     y_new)`` and uses ``bw.k1 .. k3`` and ``bw.ytmp`` as scratch. The error
     is the embedded third-order estimate (the last stage replaced by ``f`` at
     the new state), scaled like the DOP853 error norm over the first
-    ``n_err`` states, ``err_scale = (rtol, n_err)``. Four evaluations.
+    ``bw.n_err`` states. Four evaluations.
     """
     K1 = bw.k1
     K2 = bw.k2
@@ -477,8 +479,9 @@ def rk4_bridge(fld, t, y, f, hb, bw, n, err_scale):
         K3[i] = dx[i]
         y_new[i] = y[i] + hb / 6.0 * (f[i] + 2.0 * (K1[i] + K2[i]) + dx[i])
     rate_of_views(fld, t + hb, y_new, dx, n)
-    rtol, n_err = err_scale
     atol = bw.atol
+    rtol = bw.rtol
+    n_err = bw.n_err
     eb = 0.0
     for i in range(n_err):
         d = hb / 6.0 * (K3[i] - dx[i]) / (atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol)
@@ -488,9 +491,10 @@ def rk4_bridge(fld, t, y, f, hb, bw, n, err_scale):
 
 @jit(inline=True)
 def bridge_work(wk, tol):
-    """The :class:`BridgeWork` views of a run's :class:`Work` and :class:`Tolerances` (valid while they live)."""
+    """The :class:`BridgeWork` of a run's :class:`Work` and :class:`Tolerances` (its views valid while they live)."""
+    n = wk.ytmp.size
     return BridgeWork(row(wk.K, 1), row(wk.K, 2), row(wk.K, 3), vec(wk.ytmp), vec(wk.dx), vec(wk.y_new),
-                      vec(tol.atol))
+                      vec(tol.atol), tol.rtol, min(n, tol.n_err))
 
 
 @jit
@@ -921,7 +925,7 @@ def integrate(n, system, seg, tol, sens, span, out):
             bridged = False
             if plan.flags == BRIDGE:
                 # ---- a kink of |cos q1| close ahead (section 3.1): an RK4 step across it
-                eb = rk4_bridge(fld, t, vec(y), vec(f), h, bw, n, (tol.rtol, min(n, tol.n_err)))
+                eb = rk4_bridge(fld, t, vec(y), vec(f), h, bw, n)
                 nfev += 4
                 if eb < 1.0:
                     # outputs inside the bridge: cubic Hermite

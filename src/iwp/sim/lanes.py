@@ -574,7 +574,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     # ---- an RK4 step across a kink close ahead
                     fld = run_field(bt, r)
                     hb = plan.h
-                    eb = rk4_bridge(fld, t, vec(ys), vec(fs), hb, bw, n, (tol.rtol, min(n, tol.n_err)))
+                    eb = rk4_bridge(fld, t, vec(ys), vec(fs), hb, bw, n)
                     NFEV[l] += 4
                     if eb < 1.0:
                         j = J[l]
