@@ -162,9 +162,9 @@ def _columns(spec: SweepSpec, index: int) -> dict:
     sel = np.flatnonzero(ls.physical)
     status = np.full(m, STATUS_UNPHYSICAL, dtype=np.int64)
     nfev = np.zeros(m, dtype=np.int64)
-    metrics = {k: np.full(m, np.nan) for k in ("q1_end", "q2_end", "q3_end", "q4_end", "max_abs_q1", "amplitude",
-                                                "amplitude_change", "period")}
-    metrics.update(rotating=np.zeros(m, dtype=np.int64), captured=np.zeros(m, dtype=np.int64))
+    # NaN for lanes not simulated; the flags (0/1) 0
+    metrics = {k: np.zeros(m, dtype=np.int64) if k in ("rotating", "captured") else np.full(m, np.nan)
+               for k in METRIC_COLUMNS}
     for part in slices(spec, sel):
         res = (_hopf if spec.law == "hopf" else _lqr)(spec, ls, part)
         status[part] = res.status
