@@ -12,6 +12,7 @@ import warnings
 import numba
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_info, threadpool_limits
 
 from iwp import threads
 from iwp.ident.logfit import LogFitOptions, fit_logs, load_logs
@@ -71,6 +72,36 @@ def test_simulations_side_by_side_give_the_numbers_of_one_after_another():
         alone = run(x0)
         np.testing.assert_array_equal(sim.x, alone.x)
         np.testing.assert_array_equal(sim.S, alone.S)
+
+
+def _blas_threads() -> list[int]:
+    return [m["num_threads"] for m in threadpool_info() if m["user_api"] == "blas"]
+
+
+def test_blas_stays_on_one_thread_until_the_last_fit_beside_it_leaves():
+    """Fits side by side each enter one_blas_thread and leave in any order: the first to leave must not give the
+    library its threads back while the other still runs (its linear algebra would then depend on the timing)."""
+    if not _blas_threads():
+        pytest.skip("no BLAS library found by threadpoolctl")
+    if threads.fit_threads() < 2:
+        pytest.skip("one thread: thread_map runs its calls one after another")
+    entered, left = threading.Event(), threading.Event()
+
+    def fit(i):
+        with threads.one_blas_thread():
+            if i == 0:  # enters first, leaves while the other is still inside
+                assert entered.wait(10)
+            else:
+                entered.set()
+                assert left.wait(10)
+                return _blas_threads()
+        left.set()
+
+    with threadpool_limits(limits=2, user_api="blas"):  # so that one thread differs from the library's own
+        before = _blas_threads()
+        seen = threads.thread_map(fit, range(2))
+        assert seen[1] == [1] * len(before)
+        assert _blas_threads() == before == [2] * len(before)
 
 
 def test_the_ladder_side_by_side_is_the_ladder_one_after_another(tmp_path, monkeypatch):
