@@ -7,6 +7,11 @@ linear spring ``k`` acting on the output ``w`` of a play (backlash) operator
 of half-width ``d`` applied to the belt stretch ``delta = q2 - q_m / N``
 (our reading of figure 5: a parallelogram loop of slope ``k`` and width
 ``2 d``). The states ``delta`` and ``w`` follow ``q1..q4``.
+
+The play switches branch (inside the band ``w' = 0``; on an edge ``w'``
+follows ``delta'``); :func:`play_rate` takes the branch from the state, or
+the branch the engine holds through a step (:func:`play_branch`,
+:func:`play_guard`), which ends its steps where the branch switches.
 """
 
 from __future__ import annotations
@@ -14,20 +19,54 @@ from __future__ import annotations
 from ..jit import jit
 from .actuator import effective_input
 from .friction import coulomb_sign
-from .layout import B2I2, DPLAY, EPSC, KBRG, KG, KI2, KNEG, LOCK, NB, RHO, SC2
+from .layout import B2I2, DPLAY, EPSC, KBRG, KG, KI2, KNEG, LOCK, M_BELT, M_BELT_FULL, NB, PMODE, RHO, SC2
 from .pendulum import pendulum_accel_terms, pendulum_coulomb
+
+#: the play's branch inside its band (``w' = 0``); engaged on an edge, the branch is that edge, +1 or -1
+PLAY_FREE = 2.0
 
 
 @jit
-def play_rate(gap, ddelta, d):
-    """Rate of the output of a play operator of half-width ``d`` (figure 5); ``gap = delta - w``."""
+def play_branch(gap, ddelta, d):
+    """The play's branch at a state (figure 5): +1 or -1 engaged on that edge (``w`` follows ``delta``), else
+    :data:`PLAY_FREE`; ``gap = delta - w``, ``ddelta = delta'``, half-width ``d > 0``."""
+    if gap >= d and ddelta > 0.0:
+        return 1.0
+    if gap <= -d and ddelta < 0.0:
+        return -1.0
+    return PLAY_FREE
+
+
+@jit
+def play_rate(gap, ddelta, d, mode):
+    """Rate of the output of a play operator of half-width ``d`` (figure 5); ``gap = delta - w``.
+
+    ``mode`` 0: the branch of the state (:func:`play_branch`); otherwise the branch held (the engine holds it
+    through a step and ends steps where it switches, so that no step integrates across the switch).
+    """
     if d <= 0.0:
         return ddelta
-    if gap >= d and ddelta > 0.0:
-        return ddelta
-    if gap <= -d and ddelta < 0.0:
-        return ddelta
-    return 0.0
+    if mode == 0.0:
+        mode = play_branch(gap, ddelta, d)
+    return 0.0 if mode == PLAY_FREE else ddelta
+
+
+@jit
+def has_play(model, P):
+    """True for a belt model whose play has a width (``d > 0``)."""
+    return (model == M_BELT or model == M_BELT_FULL) and P[DPLAY] > 0.0
+
+
+@jit
+def play_guard(P, y, ddelta, which):
+    """The switching function of the play's branch held through a step; its sign changes where the branch does.
+
+    ``which`` +1 or -1, branch free: ``d - which (delta - w)``, the room to that edge (the play engages there at 0);
+    ``which`` +2 or -2, engaged on the edge ``which / 2``: ``(which / 2) ddelta`` (it leaves that edge at 0).
+    """
+    if which == 1.0 or which == -1.0:
+        return P[DPLAY] - which * (y[4] - y[5])
+    return 0.5 * which * ddelta
 
 
 @jit(inline=True)
@@ -54,7 +93,7 @@ def rhs_belt(x, w, P, dx, free):
     ddelta = q4 - qm_dot / P[NB]
     dx[1] = q4
     dx[4] = ddelta
-    dx[5] = play_rate(delta - wb, ddelta, P[DPLAY])
+    dx[5] = play_rate(delta - wb, ddelta, P[DPLAY], P[PMODE])
     if free and P[LOCK] == 0.0:
         acc1 = -pendulum_accel_terms(q1, q3, P) - pendulum_coulomb(q3, P) + T / P[RHO]
         dx[0] = q3

@@ -43,7 +43,10 @@ SC1, UOFF = range(21, 23)
 KNEG = 23
 #: smoothing width of the pendulum's Coulomb sign (the disk's is EPSC)
 EPSC1 = 24
-N_LUMPED = 25
+#: belt (15): the play's branch, held through a step by the engine (0, as packed: decided from the state at every
+#: evaluation; see :func:`iwp.models.belt.play_rate`)
+PMODE = 25
+N_LUMPED = 26
 
 # --------------------------------------------------------------------------
 # physical layout (model "el")

@@ -29,6 +29,16 @@ What one run does
   kink ends just before it and a short RK4 step with its own error check
   crosses it; a kink the prediction misses is landed on with the dense
   output.
+* The belt's play (15) is a hybrid system: its output ``w`` is held while
+  the stretch is inside the band of figure 5 and follows it on an edge. The
+  branch is held through each step (:func:`play_held`, the plant's
+  ``PMODE``) and a step that would switch it ends just past the switch,
+  located on its own dense output like a kink (:func:`play_switch`,
+  :func:`kink_step`): no step integrates across the jump of ``w'``.
+  Deciding the branch from the state at every stage instead let steps
+  straddle the switch and leave ``w`` beyond the band for good: on the soft
+  belt of ``benchmarks/ladder_study.py`` (40 s chirp), median wheel-speed
+  errors 35 times larger at the same tolerance, twice the evaluations.
 * Forward sensitivities (``sens`` kernels): the state is augmented with
   ``S = dx/dtheta`` for parameters of the plant or of the input and initial
   states, integrated with the variational equations
@@ -62,8 +72,10 @@ from numba.np.unsafe.ndarray import to_fixed_tuple
 from ..errors import InputError
 from ..jit import jit
 from ..models.actuator import command
+from ..models.belt import PLAY_FREE, has_play, play_branch, play_guard
 from ..models.equations import rhs
 from ..models.layout import (
+    DPLAY,
     E_SR,
     M_BELT,
     M_EL,
@@ -71,6 +83,7 @@ from ..models.layout import (
     M_MD_RAW,
     N_COMMAND,
     N_PACK,
+    PMODE,
     SA,
 )
 from ..threads import once_per_argument
@@ -181,6 +194,8 @@ Work = namedtuple("Work", ["K", "ytmp", "dx", "y_new", "F", "yo"])
 BridgeWork = namedtuple("BridgeWork", ["k1", "k2", "k3", "ytmp", "dx", "y_new", "atol", "rtol", "n_err"])
 #: A held segment of the input: its end time [s], ideal input and command.
 Hold = namedtuple("Hold", ["t_b", "uval", "hval"])
+#: The run's field with the belt's play held on a branch (:func:`play_held`), and the evaluations that took.
+PlayHold = namedtuple("PlayHold", ["fld", "nfev"])
 #: The next step (:func:`plan_step`): its kind (flags below) and size [s].
 Plan = namedtuple("Plan", ["flags", "h"])
 FORCED = 1  #: onto a kink located on the dense output
@@ -669,12 +684,26 @@ def hermite(y, y_new, f, f_new, h, th, out, n):
 
 
 @jit
-def kink_step(model, P, F, y, h, t, g_a, g_b, yo, n):
+def guard_at(fld, t, y, dx, which):
+    """The switching function ``which`` at (t, y): 0 the kinks of ``|cos q1|`` (:func:`switch`), else the belt's
+    play (:func:`~iwp.models.belt.play_guard`; ``dx`` a scratch rate)."""
+    if which == 0.0:
+        return switch(fld.model, fld.P, y)
+    ddelta = 0.0
+    if which == 2.0 or which == -2.0:
+        rate(fld, t, y, dx)
+        ddelta = dx[4]
+    return play_guard(fld.P, y, ddelta, which)
+
+
+@jit
+def kink_step(fld, F, y, h, t, g_a, g_b, yo, dx, n, which):
     """Step size that ends just past the kink inside a step of size h from (t, y).
 
     Illinois (modified regula falsi) on the dense output (coefficients F):
     the bracket [a, b] keeps the sign change of the switching function
-    (``g_a`` at the step start, ``g_b`` at its end); b is on the far side.
+    :func:`guard_at` ``which`` (``g_a`` at the step start, ``g_b`` at its
+    end); b is on the far side.
     """
     a = 0.0
     b = 1.0
@@ -688,7 +717,7 @@ def kink_step(model, P, F, y, h, t, g_a, g_b, yo, n):
         if not (a < mid < b):
             mid = 0.5 * (a + b)
         dense_eval(F, y, mid, yo, n)
-        gm = switch(model, P, yo)
+        gm = guard_at(fld, t + mid * h, yo, dx, which)
         if gm * ga > 0.0:
             a = mid
             ga = gm
@@ -704,6 +733,36 @@ def kink_step(model, P, F, y, h, t, g_a, g_b, yo, n):
             if gm == 0.0:
                 break
     return b * h + 2e-13 * max(1.0, abs(t))
+
+
+@jit
+def play_held(fld, t, y, f):
+    """The belt's play held on its branch at (t, y) through the next steps (:func:`~iwp.models.belt.play_branch`):
+    a :class:`PlayHold`. ``f``, the rate at (t, y) under ``fld``'s branch, is made the rate under the new one."""
+    mode = play_branch(y[4] - y[5], f[4], fld.P[DPLAY])
+    if mode == fld.P[PMODE]:
+        return PlayHold(fld, 0)
+    held = Field(fld.model, tuple_setitem(fld.P, PMODE, mode), fld.kind, fld.input_params, fld.command_params,
+                 fld.held, fld.uval, fld.hval, fld.sens)
+    rate(held, t, y, f)
+    return PlayHold(held, 1)
+
+
+@jit
+def play_switch(P, y, y_new, ddelta, ddelta_new):
+    """Which switching function of the belt's play held on its branch changes sign over a step from ``y`` to
+    ``y_new`` (:func:`~iwp.models.belt.play_guard`'s ``which``), or 0: free, the stretch reaching an edge;
+    engaged, its rate turning back from the edge."""
+    mode = P[PMODE]
+    if mode == PLAY_FREE:
+        for edge in (1.0, -1.0):
+            if play_guard(P, y, 0.0, edge) > 0.0 and play_guard(P, y_new, 0.0, edge) <= 0.0:
+                return edge
+        return 0.0
+    which = 2.0 * mode
+    if play_guard(P, y, ddelta, which) > 0.0 and play_guard(P, y_new, ddelta_new, which) <= 0.0:
+        return which
+    return 0.0
 
 
 @jit(inline=True)
@@ -870,6 +929,7 @@ def integrate(n, system, seg, tol, sens, span, out):
     t_out = out.t
     n_out = t_out.size
     kinked = has_kink(model, P)
+    played = has_play(model, P)
     y = span.x0.copy()
     f = np.empty(n)
     wk = new_work(n)
@@ -901,6 +961,10 @@ def integrate(n, system, seg, tol, sens, span, out):
             held_sensitivity(fld, seg, t, y, n)
         rate(fld, t, y, f)
         nfev += 1
+        if played:  # the belt's play on its branch here, held through the steps until they end where it switches
+            ph = play_held(fld, t, y, f)
+            fld = ph.fld
+            nfev += ph.nfev
         while j < n_out and t_out[j] <= t + tol_t:
             put_near(out, j, t_out[j], y, f, t, n, fld, wk.yo)
             j += 1
@@ -939,6 +1003,10 @@ def integrate(n, system, seg, tol, sens, span, out):
                         f[i] = wk.dx[i]
                         y[i] = y_new[i]
                     t = t + h
+                    if played:
+                        ph = play_held(fld, t, y, f)
+                        fld = ph.fld
+                        nfev += ph.nfev
                     g_cur = switch_of(kinked, y[0])
                     nacc += 1
                     # the next step is an ordinary one: a kink the
@@ -979,14 +1047,22 @@ def integrate(n, system, seg, tol, sens, span, out):
                 continue
             g_new = switch_of(kinked, y_new[0])
             crossing = not forced and g_cur * g_new < 0.0
+            # the belt's play switching branch inside the step
+            which = play_switch(fld.P, y, y_new, f[4], K[N_STAGES, 4]) if played and not forced else 0.0
             t_new = t_b if clipped else t + h
-            if crossing or (j < n_out and t_out[j] < t_new - tol_t):
+            if crossing or which != 0.0 or (j < n_out and t_out[j] < t_new - tol_t):
                 nfev += 3
                 dense_step(fld, t, y, h, wk, n)
-            # a kink of the right-hand side inside the step: redo the step so
-            # that it ends just past the kink (located on the dense output)
-            if crossing:
-                h_force = kink_step(model, P, wk.F, y, h, t, g_cur, g_new, wk.yo, n)
+            # a kink or a switch of the right-hand side inside the step: redo the
+            # step so that it ends just past the first (located on the dense output)
+            if crossing or which != 0.0:
+                h_force = h
+                if crossing:
+                    h_force = kink_step(fld, wk.F, y, h, t, g_cur, g_new, wk.yo, wk.dx, n, 0.0)
+                if which != 0.0:
+                    h_force = min(h_force, kink_step(fld, wk.F, y, h, t, play_guard(fld.P, y, f[4], which),
+                                                     play_guard(fld.P, y_new, K[N_STAGES, 4], which), wk.yo, wk.dx,
+                                                     n, which))
                 if h_force < h:
                     nrej += 1
                     continue
@@ -1015,6 +1091,10 @@ def integrate(n, system, seg, tol, sens, span, out):
                 y[i] = y_new[i]
             g_cur = g_new
             t = t_new
+            if played:
+                ph = play_held(fld, t, y, f)
+                fld = ph.fld
+                nfev += ph.nfev
             if beyond(y, n_err, tol.xmax):
                 status = ST_DIVERGED
                 break

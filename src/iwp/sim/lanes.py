@@ -449,7 +449,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         dense_step(fld, t, ys, h, wk, n)
                         NFEV[l] += 3
                         if crossing:
-                            h_force = kink_step(model, fld.P, wk.F, ys, h, t, g_cur, g_new, wk.yo, n)
+                            h_force = kink_step(fld, wk.F, ys, h, t, g_cur, g_new, wk.yo, wk.dx, n, 0.0)
                     if h_force > 0.0 and h_force < h:
                         NREJ[l] += 1
                         HF[l] = h_force
