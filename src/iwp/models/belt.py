@@ -61,8 +61,9 @@ def has_play(model, P):
 def play_guard(P, y, ddelta, which):
     """The switching function of the play's branch held through a step; its sign changes where the branch does.
 
-    ``which`` +1 or -1, branch free: ``d - which (delta - w)``, the room to that edge (the play engages there at 0);
-    ``which`` +2 or -2, engaged on the edge ``which / 2``: ``(which / 2) ddelta`` (it leaves that edge at 0).
+    ``which`` +1 or -1, branch free: ``d - which (delta - w)`` [rad], the room to that edge (the play engages there
+    at 0); ``which`` +2 or -2, engaged on the edge ``which / 2``: ``(which / 2) ddelta`` [rad/s] (it leaves that edge
+    at 0). ``y`` is the state of (15) (``delta = y[4]``, ``w = y[5]``), ``ddelta = delta'`` there.
     """
     if which == 1.0 or which == -1.0:
         return P[DPLAY] - which * (y[4] - y[5])
