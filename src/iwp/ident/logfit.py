@@ -1190,7 +1190,9 @@ class _Fitting:
         folds = len(self.train) >= 2 and not self.held_out
         rungs = ladder(raw, belt_drive=self.belt_ratio is not None)
         done: dict[str, RungOutcome] = {}
-        with one_blas_thread():  # entered once here, so that the fits side by side all find it at one thread
+        # entered once for the whole ladder: the fits side by side (thread_map enters it too) and the work between
+        # the waves on one BLAS thread, the limit not set and restored at every wave
+        with one_blas_thread():
             while len(done) < len(rungs):
                 wave = [rg for rg in rungs if rg.name not in done
                         and all(o.name in done for o in rungs if o.flags < rg.flags)]

@@ -19,7 +19,7 @@ from __future__ import annotations
 from ..jit import jit
 from .actuator import effective_input
 from .friction import coulomb_sign
-from .layout import B2I2, DPLAY, EPSC, KBRG, KG, KI2, KNEG, LOCK, M_BELT, M_BELT_FULL, NB, PMODE, RHO, SC2
+from .layout import B2I2, BELT_CODES, DPLAY, EPSC, KBRG, KG, KI2, KNEG, LOCK, NB, PMODE, RHO, SC2
 from .pendulum import pendulum_accel_terms, pendulum_coulomb
 
 #: the play's branch inside its band (``w' = 0``); engaged on an edge, the branch is that edge, +1 or -1
@@ -54,7 +54,7 @@ def play_rate(gap, ddelta, d, mode):
 @jit
 def has_play(model, P):
     """True for a belt model whose play has a width (``d > 0``)."""
-    return (model == M_BELT or model == M_BELT_FULL) and P[DPLAY] > 0.0
+    return model in BELT_CODES and P[DPLAY] > 0.0
 
 
 @jit
