@@ -63,7 +63,8 @@ def test_lanes_with_their_own_plants_equal_single_runs(case):
 
 def test_lanes_that_cross_the_rolling_frictions_kink_equal_single_runs():
     """Hopf loops that swing past |q1| = pi/2, the kink of sigma_a1 |cos q1| q3 (section 3.1), many times:
-    the lanes cross it with RK4 bridges computed side by side, the single runs one at a time. Samples every
+    the lanes plan the steps up to it and the RK4 bridges across it side by side, the single runs one at a time
+    (the bridges are computed lane by lane in both). Samples every
     millisecond, so that some fall inside a bridge (about 1 ms long) and are interpolated there."""
     n = 24
     t_end = 30.0
@@ -79,6 +80,26 @@ def test_lanes_that_cross_the_rolling_frictions_kink_equal_single_runs():
         assert crossings >= 3, (i, crossings)
         assert _rel(br.x[i], r.x) < 1e-9, i
         assert abs(br.nfev[i] - r.nfev) <= 0.01 * r.nfev
+
+
+def test_tuple_of_reads_the_first_elements_of_a_row():
+    """views.tuple_of, with which the lanes build a run's parameter record: the row's values, in order."""
+    from numba import njit
+
+    from iwp.models.layout import N_PACK
+    from iwp.sim.views import tuple_of
+
+    @njit
+    def packed(P, r):
+        return tuple_of(P[r], N_PACK)
+
+    @njit
+    def three(a):
+        return tuple_of(a, 3)
+
+    P = np.arange(3.0 * (N_PACK + 4)).reshape(3, N_PACK + 4)
+    assert packed(P, 2) == tuple(P[2, :N_PACK])
+    assert three(np.array([7, -2, 5, 9])) == (7, -2, 5)
 
 
 def test_store_final_and_summary_agree_with_the_samples():

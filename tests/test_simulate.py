@@ -10,7 +10,7 @@ from scipy.optimize import brentq
 from iwp.errors import InputError, SimulationError
 from iwp.models import BeltParameters, LumpedParameters, PhysicalParameters, Plant, energy, table1
 from iwp.sim import simulate, simulate_batch, simulate_scipy
-from iwp.sim.engine import kink_ahead
+from iwp.sim.engine import BRIDGE, BRIDGE_FRAC, KINK_MARGIN, SHORT, kink_ahead, kink_plan
 from iwp.sim.inputs import CallableController, Chirp, HopfController, Sampled, Sine, Step
 
 FRICTIONLESS = table1().replace(p2=0.0, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0)
@@ -396,6 +396,28 @@ def test_the_kink_ahead_is_the_root_of_the_taylor_model(v, a, jk, frac, H, half_
     # the root is defined to the rounding of q near the kink over the slope (at least 0.1 |v|)
     cond = 8.0 * np.spacing(abs(kink) + abs(q1)) / (0.1 * abs(v))
     assert s == pytest.approx(ref, abs=1e-13 * H + cond)
+
+
+@settings(max_examples=300, deadline=None)
+@given(frac=st.floats(1e-6, 1.0), h=st.floats(1e-4, 0.1), nat=st.floats(1.0, 20.0), t=st.floats(0.0, 300.0),
+       t_left=st.floats(1e-6, 10.0))
+def test_a_step_meets_the_kink_ahead_short_of_it_or_with_a_bridge_just_past_it(frac, h, nat, t, t_left):
+    """kink_plan: a kink inside the step ends it KINK_MARGIN short, unless it lies within BRIDGE_FRAC of the
+    natural step size, where a bridge ends just past it (when that is before the segment end)."""
+    s_k = frac * h
+    h_nat = nat * h
+    t_b = t + t_left
+    flags, hk = kink_plan(t, t_b, h, h_nat, s_k, 1e-9)
+    if s_k <= BRIDGE_FRAC * h_nat:
+        if flags == BRIDGE:
+            assert s_k < hk <= (s_k * 1.001 + 1e-12 * max(1.0, t)) * (1 + 1e-15) and t + hk < t_b
+        else:  # the bridge would end beyond the segment: the step as it was
+            assert (flags, hk) == (0, h) and t + s_k * 1.001 >= t_b - 1e-9
+    elif s_k * (1 - KINK_MARGIN) < h:
+        assert flags == SHORT and hk == pytest.approx(s_k * (1 - KINK_MARGIN), rel=1e-15)
+    else:
+        assert (flags, hk) == (0, h)
+    assert kink_plan(t, t_b, h, h_nat, -1.0, 1e-9) == (0, h)  # no kink ahead
 
 
 def test_a_feedforward_on_a_plant_without_dead_zone_is_refused():

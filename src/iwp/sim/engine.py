@@ -67,7 +67,6 @@ import numpy as np
 from numba import types
 from numba.cpython.unsafe.tuple import tuple_setitem
 from numba.extending import overload
-from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from ..errors import InputError
 from ..jit import jit
@@ -98,7 +97,7 @@ from .controller import (
 from .dop853 import N_STAGES, dense_coefficients, dense_eval, dense_eval_row, error_norm, stage_input
 from .dop853 import C as NODE_TUPLE
 from .inputs import I_EXTERNAL, I_STEP, N_INPUT_PARAMS, input_value
-from .views import LaneViewType, row, vec
+from .views import LaneViewType, row, tuple_of, vec
 
 # --------------------------------------------------------------------------
 # constants
@@ -273,9 +272,9 @@ def sens_views(sens):
         sens.nx,
         sens.n_par,
         sens.n_cols,
-        to_fixed_tuple(sens.index, MAX_SENS_PARAMS),
-        to_fixed_tuple(sens.step, MAX_SENS_PARAMS),
-        to_fixed_tuple(sens.jcols, MAX_STATES),
+        tuple_of(sens.index, MAX_SENS_PARAMS),
+        tuple_of(sens.step, MAX_SENS_PARAMS),
+        tuple_of(sens.jcols, MAX_STATES),
         vec(sens.A),
         vec(sens.xp),
         vec(sens.fp),
@@ -586,12 +585,70 @@ def switch(model, P, y):
 
 
 @jit(inline=True)
-def kink_possible(q1, v, a, jk, H):
-    """True if ``cos q`` may change sign within ``H`` on the Taylor model of :func:`kink_ahead` (branch-free)."""
+def half_turns_ahead(q1, v, a, jk, H):
+    """The Taylor model of :func:`kink_ahead` at ``H``, ``qe``, and the half-turns ``floor((q - pi/2)/pi)`` of
+    ``q1`` and ``qe`` (the kinks lie where it changes)."""
     qe = q1 + H * (v + H * (0.5 * a + H * jk / 6.0))
     m0 = math.floor((q1 - 0.5 * math.pi) / math.pi)
     me = math.floor((qe - 0.5 * math.pi) / math.pi)
+    return qe, m0, me
+
+
+@jit(inline=True)
+def kink_possible(q1, v, a, jk, H):
+    """True if ``cos q`` may change sign within ``H`` on the Taylor model of :func:`kink_ahead` (branch-free)."""
+    qe, m0, me = half_turns_ahead(q1, v, a, jk, H)
     return (m0 != me) & (abs(q1) < 1e9) & (abs(qe) < 1e9)
+
+
+@jit(inline=True)
+def kink_start(q1, v, a, jk, H):
+    """The start of :func:`kink_ahead`'s search (branch-free, so that the lanes run it side by side).
+
+    Returns ``(qs, s, lo, hi, plo, possible)``: the kink ``qs = pi/2 + m pi``
+    the Taylor model may reach within ``H``, the secant's first guess ``s``,
+    the bracket ``[lo, hi] = [0, H]``, the model's offset ``plo`` from
+    ``qs`` at ``lo``, and :func:`kink_possible` (the rest is meaningless
+    without it).
+    """
+    qe, m0, me = half_turns_ahead(q1, v, a, jk, H)
+    possible = kink_possible(q1, v, a, jk, H)
+    qs = 0.5 * math.pi + math.pi * max(m0, me)
+    plo = q1 - qs
+    phi = qe - qs
+    span = plo - phi if possible else 1.0
+    return qs, H * plo / span, 0.0, H, plo, possible
+
+
+@jit(inline=True)
+def kink_newton(q1, qs, v, a, jk, H, s, lo, hi, plo):
+    """One iteration of :func:`kink_ahead`'s search: Newton on the Taylor model, kept inside its bracket.
+
+    Returns ``(s, lo, hi, plo, done)``: the next guess and bracket, and
+    whether Newton's correction fell below ``1e-15 H`` (then ``s`` is the
+    root, clamped into the bracket). Branch-free (selects only), so that a
+    loop over lanes vectorises and a lane computes what a single run does.
+    """
+    p = q1 - qs + s * (v + s * (0.5 * a + s * jk / 6.0))
+    left = p * plo > 0.0
+    lo = s if left else lo
+    plo = p if left else plo
+    hi = hi if left else s
+    dp = v + s * (a + 0.5 * s * jk)
+    mid = 0.5 * (lo + hi)
+    s_new = s - p / (dp if dp != 0.0 else 1.0) if dp != 0.0 else mid
+    # converged: Newton's last correction is below the tolerance (tested before the bracket, which a root on its
+    # edge would otherwise leave for a bisection, and the iteration for its cap)
+    done = abs(s_new - s) <= 1e-15 * H
+    inside = (lo < s_new) & (s_new < hi)
+    s = min(max(s_new, lo), hi) if done else (s_new if inside else mid)
+    return s, lo, hi, plo, done
+
+
+#: iterations of :func:`kink_newton` at most (3-5 are usual)
+KINK_ITERATIONS = 30
+#: the smallest positive float: :func:`kink_ahead`'s root when Newton lands on 0
+KINK_TINY = 5e-324
 
 
 @jit
@@ -600,39 +657,39 @@ def kink_ahead(q1, v, a, jk, H):
 
     ``q(s) = q1 + v s + a s^2/2 + jk s^3/6`` is the Taylor model of the
     pendulum angle over the coming step (``v = q3``, ``a = q3'`` and ``jk``
-    an estimate of ``q3''``); the kinks are at ``q = pi/2 + m pi``.
+    an estimate of ``q3''``); the kinks are at ``q = pi/2 + m pi``. From
+    the secant's guess, :func:`kink_newton` until it converges (the lanes run
+    the same iterations side by side).
     """
-    if not kink_possible(q1, v, a, jk, H):
+    qs, s, lo, hi, plo, possible = kink_start(q1, v, a, jk, H)
+    if not possible:
         return -1.0
-    qe = q1 + H * (v + H * (0.5 * a + H * jk / 6.0))
-    m0 = math.floor((q1 - 0.5 * math.pi) / math.pi)
-    me = math.floor((qe - 0.5 * math.pi) / math.pi)
-    qs = 0.5 * math.pi + math.pi * max(m0, me)
-    lo = 0.0
-    hi = H
-    plo = q1 - qs
-    phi = qe - qs
-    s = H * plo / (plo - phi)
-    for _it in range(30):
-        p = q1 - qs + s * (v + s * (0.5 * a + s * jk / 6.0))
-        if p * plo > 0.0:
-            lo = s
-            plo = p
-        else:
-            hi = s
-        dp = v + s * (a + 0.5 * s * jk)
-        s_new = s - p / dp if dp != 0.0 else 0.5 * (lo + hi)
-        if abs(s_new - s) <= 1e-15 * H:
-            # converged: Newton's last correction is below the tolerance (tested before the bracket, which
-            # a root on its edge would otherwise leave for a bisection, and the iteration for its cap)
-            s = min(max(s_new, lo), hi)
+    for _it in range(KINK_ITERATIONS):
+        s, lo, hi, plo, done = kink_newton(q1, qs, v, a, jk, H, s, lo, hi, plo)
+        if done:
             break
-        if not (lo < s_new < hi):
-            s_new = 0.5 * (lo + hi)
-        s = s_new
     # the start and the end lie on either side of the kink, so the root is after the start even when q1 is within
     # rounding of the kink and Newton lands on 0 (hypothesis found q1 = -pi/2 + 1.4e-16 moving towards it)
-    return s if s > 0.0 else np.nextafter(0.0, 1.0)
+    return s if s > 0.0 else KINK_TINY
+
+
+@jit(inline=True)
+def kink_plan(t, t_b, h, h_nat, s_k, tol_t):
+    """How a step of size ``h`` from ``t`` meets the kink ahead at ``s_k`` (:func:`kink_ahead`, -1 if none).
+
+    Returns ``(flags, h)``: ``BRIDGE`` and the RK4 bridge's size when the
+    kink is within ``BRIDGE_FRAC`` of the natural size ``h_nat`` (and the
+    bridge ends before the segment end ``t_b``), else ``SHORT`` and a size
+    ``KINK_MARGIN`` short of it when it lies inside the step, else 0 and
+    ``h``. Branch-free: :func:`plan_step` and the lanes plan with it.
+    """
+    hb = s_k * (1.0 + KINK_OVERSHOOT) + 1e-12 * max(1.0, abs(t))
+    close = (s_k > 0.0) & (s_k <= BRIDGE_FRAC * h_nat)
+    bridge = close & (t + hb < t_b - tol_t)
+    h_short = s_k * (1.0 - KINK_MARGIN)
+    short = (s_k > 0.0) & (not close) & (h_short < h)
+    flags = BRIDGE if bridge else (SHORT if short else 0)
+    return flags, hb if bridge else (h_short if short else h)
 
 
 @jit
@@ -644,7 +701,7 @@ def plan_step(t, t_b, h_nat, h_max, h_force, look, taylor, tol_t):
     segment end (``CLIPPED``). With ``look`` (a kinked model whose last step
     was not a bridge) a kink predicted on ``taylor = (q1, q3, q3', q3'')``
     ends the step just before it (``SHORT``), or, when it is close, an RK4
-    bridge of size ``h`` crosses it (``BRIDGE``).
+    bridge of size ``h`` crosses it (``BRIDGE``): :func:`kink_plan`.
     """
     h = min(h_nat, h_max)
     flags = 0
@@ -658,12 +715,9 @@ def plan_step(t, t_b, h_nat, h_max, h_force, look, taylor, tol_t):
         flags |= CLIPPED
     if look and flags & FORCED == 0:
         s_k = kink_ahead(taylor[0], taylor[1], taylor[2], taylor[3], h)
-        if s_k > 0.0 and s_k <= BRIDGE_FRAC * h_nat:
-            hb = s_k * (1.0 + KINK_OVERSHOOT) + 1e-12 * max(1.0, abs(t))
-            if t + hb < t_b - tol_t:
-                return Plan(BRIDGE, hb)
-        elif s_k > 0.0 and s_k * (1.0 - KINK_MARGIN) < h:
-            return Plan(SHORT, s_k * (1.0 - KINK_MARGIN))
+        k_flags, k_h = kink_plan(t, t_b, h, h_nat, s_k, tol_t)
+        if k_flags != 0:
+            return Plan(k_flags, k_h)
     return Plan(flags, h)
 
 
@@ -919,10 +973,10 @@ def integrate(n, system, seg, tol, sens, span, out):
     step size returned in :class:`RunStats`).
     """
     model = system.model
-    P = to_fixed_tuple(system.P, N_PACK)
+    P = tuple_of(system.P, N_PACK)
     held = is_held(system.kind, seg.mode)
-    fld = Field(model, P, system.kind, to_fixed_tuple(system.input_params, N_INPUT_PARAMS),
-                to_fixed_tuple(system.command_params, N_COMMAND), held, 0.0, 0.0, sens)
+    fld = Field(model, P, system.kind, tuple_of(system.input_params, N_INPUT_PARAMS),
+                tuple_of(system.command_params, N_COMMAND), held, 0.0, 0.0, sens)
     # plain runs control every state (a constant: the loops unroll)
     n_err = n if sens is None else tol.n_err
     t_end = span.t_end

@@ -49,14 +49,13 @@ from collections import namedtuple
 
 import numpy as np
 from numba import prange
-from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from ..jit import jit
 from ..models.actuator import command
 from ..models.equations import optional_terms_off, rhs_of
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
 from ..threads import once_per_argument
-from .controller import LERR_FLOOR, accept_step, next_step_size, reject_factor
+from .controller import LERR_FLOOR, MIN_FACTOR, accept_step, next_step_size, reject_factor
 from .dop853 import (
     N_STAGES,
     dense_coefficients_lanes,
@@ -69,7 +68,10 @@ from .engine import (
     BRIDGE,
     CLIPPED,
     FORCED,
+    KINK_ITERATIONS,
+    KINK_TINY,
     NODES,
+    SHORT,
     ST_DIVERGED,
     ST_MAX_STEPS,
     ST_OK,
@@ -87,7 +89,10 @@ from .engine import (
     hermite,
     input_samples,
     is_held,
+    kink_newton,
+    kink_plan,
     kink_possible,
+    kink_start,
     kink_step,
     may_cross,
     min_step,
@@ -102,7 +107,7 @@ from .engine import (
     switch_of,
 )
 from .inputs import I_CHIRP, I_CONST, I_HOPF, I_SINE, I_ZERO, N_INPUT_PARAMS, input_value
-from .views import lane, slab_lane, vec
+from .views import lane, slab_lane, tuple_of, vec
 
 #: simulations per thread advanced together (two 8-wide vectors)
 LANES = 16
@@ -139,6 +144,7 @@ M_DECIDE = 1  #: its last step was not an ordinary one: concluded lane by lane
 M_POST = 2  #: its last step was accepted: outputs at the step end, divergence
 M_PLAN = 3  #: its next step is planned lane by lane (kink, segment end, run end)
 M_IDLE = 4  #: no run left for it
+M_BRIDGE = 5  #: its next step is an RK4 bridge across a kink (of size H), planned side by side
 
 
 @jit(inline=True)
@@ -154,8 +160,8 @@ def run_output(out, r):
 @jit(inline=True)
 def run_field(bt, r):
     """The :class:`~iwp.sim.engine.Field` of run ``r`` of a batch (its input is never held: see :func:`vectorised`)."""
-    return Field(bt.model, to_fixed_tuple(bt.P[r], N_PACK), bt.kind, to_fixed_tuple(bt.input_params[r], N_INPUT_PARAMS),
-                 to_fixed_tuple(bt.command_params, N_COMMAND), False, 0.0, 0.0, None)
+    return Field(bt.model, tuple_of(bt.P[r], N_PACK), bt.kind, tuple_of(bt.input_params[r], N_INPUT_PARAMS),
+                 tuple_of(bt.command_params, N_COMMAND), False, 0.0, 0.0, None)
 
 
 @jit(inline=True)
@@ -359,7 +365,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
     t_end = bt.t_end
     t_out = out.t
     n_out = t_out.size
-    cps = to_fixed_tuple(bt.command_params, N_COMMAND)
+    cps = tuple_of(bt.command_params, N_COMMAND)
     h_max = tol.h_max
     xmax = tol.xmax
     tol_t = 1e-9 * max(1.0, abs(t_end))
@@ -400,6 +406,20 @@ def run_lanes(n, bt, tol, out, r0, r1):
     BRIDGED = np.zeros(L, dtype=np.bool_)
     KINKED = np.zeros(L, dtype=np.bool_)
     DONE = np.zeros(L, dtype=np.bool_)
+    REJD = np.zeros(L, dtype=np.bool_)  # its ordinary step was rejected side by side
+    # the kink ahead of the lanes near one, searched side by side (kink_ahead's iterations)
+    NEAR = np.zeros(L, dtype=np.bool_)
+    LIVE = np.zeros(L, dtype=np.bool_)
+    CLIP = np.zeros(L, dtype=np.bool_)
+    POST = np.zeros(L, dtype=np.bool_)
+    USUAL = np.zeros(L, dtype=np.bool_)
+    JK = np.zeros(L)
+    KH = np.zeros(L)
+    KQ = np.zeros(L)
+    KS = np.zeros(L)
+    KLO = np.zeros(L)
+    KHI = np.zeros(L)
+    KPLO = np.zeros(L)
     # one lane's state, for the lane-by-lane work
     ys = np.empty(n)
     fs = np.empty(n)
@@ -485,7 +505,9 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         j += 1
                     J[l] = j
             # ---- plan the next step (several when it bridges a kink); finish and start runs
-            while mode == M_PLAN:
+            while mode == M_PLAN or mode == M_BRIDGE:
+                bridge_now = mode == M_BRIDGE
+                mode = M_PLAN
                 if ACTIVE[l] and (STAT[l] != ST_OK or T[l] >= t_end - tol_t):
                     # ---- the run in this lane is done
                     o = run_output(out, r)
@@ -529,7 +551,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                     for i in range(n):
                         ys[i] = bt.X0[r, i]
                         Y[i, l] = ys[i]
-                    KINKED[l] = has_kink(model, to_fixed_tuple(bt.P[r], N_PACK))
+                    KINKED[l] = has_kink(model, tuple_of(bt.P[r], N_PACK))
                     T[l] = t0
                     HN[l] = -1.0
                     STAT[l] = ST_OK
@@ -567,13 +589,19 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 t = T[l]
                 jk = (fs[2] - ALAST[l]) / HLAST[l] if HLAST[l] > 0.0 else 0.0
                 taylor = (ys[0], fs[0], fs[2], jk)
-                plan = plan_step(t, t_end, HN[l], h_max, HF[l], KINKED[l] and not BRIDGED[l], taylor, tol_t)
+                if bridge_now:
+                    p_flags = BRIDGE
+                    p_h = H[l]
+                else:
+                    plan = plan_step(t, t_end, HN[l], h_max, HF[l], KINKED[l] and not BRIDGED[l], taylor, tol_t)
+                    p_flags = plan.flags
+                    p_h = plan.h
                 HF[l] = -1.0
                 BRIDGED[l] = False
-                if plan.flags == BRIDGE:
+                if p_flags == BRIDGE:
                     # ---- an RK4 step across a kink close ahead
                     fld = run_field(bt, r)
-                    hb = plan.h
+                    hb = p_h
                     eb = rk4_bridge(fld, t, vec(ys), vec(fs), hb, bw, n)
                     NFEV[l] += 4
                     if eb < 1.0:
@@ -606,11 +634,13 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         J[l] = j
                         continue
                     plan = plan_step(t, t_end, HN[l], h_max, -1.0, False, taylor, tol_t)
-                if plan.h < min_step(t):
+                    p_flags = plan.flags
+                    p_h = plan.h
+                if p_h < min_step(t):
                     STAT[l] = ST_STEP_TOO_SMALL
                     continue
-                H[l] = plan.h
-                PLAN[l] = plan.flags
+                H[l] = p_h
+                PLAN[l] = p_flags
                 mode = M_READY
             MODE[l] = mode
             TNEXT[l] = t_out[J[l]] if J[l] < n_out else np.inf
@@ -622,13 +652,24 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 K[0, i, l] = F[i, l]
         plain_stages(bt.kind, cps, (T, Y, H), K, YT, IPL, PL, n, (1, N_STAGES + 1, L))
         error_norm_lanes(K, H, Y, YT, tol.rtol, tol.atol, n, L, ERR)
-        # ---- 3. all lanes: accept the ordinary steps (branch-free but for the controller's factor)
+        # ---- 3. all lanes: accept the ordinary steps, reject those too large (branch-free but for the
+        # controller's factor); a step that may cross a kink is concluded lane by lane (with the cosine)
         for l in range(L):
-            # a step that may cross a kink is concluded lane by lane (with the cosine)
             crossless = (not KINKED[l]) | (PLAN[l] & FORCED != 0) | (not may_cross(Y[0, l], YT[0, l]))
-            ok = (MODE[l] == M_READY) & (ERR[l] < 1.0) & (PLAN[l] & (FORCED | CLIPPED) == 0) & crossless
+            ready = MODE[l] == M_READY
+            ok = ready & (ERR[l] < 1.0) & (PLAN[l] & (FORCED | CLIPPED) == 0) & crossless
+            # a rejection here (as M_DECIDE has it) unless the next step may fall below min_step (the factor is
+            # at least MIN_FACTOR)
+            rejd = ready & (not (ERR[l] < 1.0)) & (MIN_FACTOR * H[l] > 1e-12 * abs(T[l]) + 1e-300)
             DONE[l] = ok
-            MODE[l] = M_DECIDE if MODE[l] == M_READY and not ok else MODE[l]
+            REJD[l] = rejd
+            MODE[l] = M_DECIDE if ready and not ok and not rejd else MODE[l]
+            NREJ[l] += 1 if rejd else 0
+            NFEV[l] += N_STAGES if rejd else 0
+        for l in range(L):
+            # (libm's pow, as a single run has it, for the few rejected lanes)
+            if REJD[l]:
+                HN[l] = H[l] * reject_factor(ERR[l])
         for l in range(L):
             # outputs inside an accepted ordinary step: its dense output, lane by lane
             if defer and DONE[l] and TNEXT[l] < T[l] + H[l] - tol_t:
@@ -684,30 +725,80 @@ def run_lanes(n, bt, tol, out, r0, r1):
             hn = next_step_size(H[l], HN[l], factor, PLAN[l] == 0)
             LERRP[l] = lerr if ok else LERRP[l]
             HN[l] = hn if ok else HN[l]
-            REJ[l] = REJ[l] and not ok
+            REJ[l] = (REJ[l] and not ok) or REJD[l]
         for i in range(n):
             for l in range(L):
                 Y[i, l] = YT[i, l] if DONE[l] else Y[i, l]
                 F[i, l] = K[N_STAGES, i, l] if DONE[l] else F[i, l]
-        # ---- 4. all lanes: plan the next ordinary steps; the others lane by lane
+        # ---- 4. all lanes: plan the next steps after an accepted or rejected ordinary step, those that end
+        # short of a kink ahead too (as plan_step has them); the others lane by lane
+        # (in loops that write few arrays each: the compiler vectorises a loop only when it can check at run
+        # time that the arrays it writes overlap none of the others, and gives up beyond a few)
         for l in range(L):
-            t = T[l]
+            h = min(HN[l], h_max)
+            clip = T[l] + h > t_end
+            KH[l] = t_end - T[l] if clip else h
+            CLIP[l] = clip
+        for l in range(L):
+            JK[l] = (F[2, l] - ALAST[l]) / HLAST[l] if HLAST[l] > 0.0 else 0.0
+        for l in range(L):
             bad = False
             for i in range(n):
                 bad = bad | (not (abs(Y[i, l]) < xmax))
-            post = DONE[l] & (bad | (TNEXT[l] <= t + tol_t))
-            h = min(HN[l], h_max)
-            clip = t + h > t_end
-            h = t_end - t if clip else h
-            jk = (F[2, l] - ALAST[l]) / HLAST[l] if HLAST[l] > 0.0 else 0.0
-            near = KINKED[l] & (not BRIDGED[l]) & kink_possible(Y[0, l], F[0, l], F[2, l], jk, h)
-            slow = (h < 2.3e-15 * abs(t) + 1e-300) | (NACC[l] + NREJ[l] >= tol.max_steps)
-            plan_here = DONE[l] & (not post) & (not near) & (not slow) & (not clip)
-            H[l] = h if plan_here else H[l]
+            POST[l] = DONE[l] & (bad | (TNEXT[l] <= T[l] + tol_t))
+        for l in range(L):
+            slow = (KH[l] < 2.3e-15 * abs(T[l]) + 1e-300) | (NACC[l] + NREJ[l] >= tol.max_steps)
+            USUAL[l] = (DONE[l] | REJD[l]) & (not POST[l]) & (not slow) & (not CLIP[l])
+        n_near = 0
+        for l in range(L):
+            near = USUAL[l] & KINKED[l] & (not BRIDGED[l]) & kink_possible(Y[0, l], F[0, l], F[2, l], JK[l], KH[l])
+            NEAR[l] = near
+            n_near += 1 if near else 0
+        for l in range(L):
+            plan_here = USUAL[l] & (not NEAR[l])
+            cand = DONE[l] | REJD[l]
+            H[l] = KH[l] if plan_here else H[l]
             PLAN[l] = 0 if plan_here else PLAN[l]
             BRIDGED[l] = BRIDGED[l] and not plan_here
-            mode = M_READY if plan_here else (M_POST if post else M_PLAN)
-            MODE[l] = mode if DONE[l] else MODE[l]
+            mode = M_READY if plan_here else (M_POST if POST[l] else M_PLAN)
+            MODE[l] = mode if cand else MODE[l]
+        if n_near > 0:
+            # the kink ahead (kink_ahead, the same iterations side by side); a step ends short of it unless it is
+            # close enough for an RK4 bridge, which plan_step decides lane by lane
+            # (a lane near a kink is one where kink_start finds it possible; three loops that write few arrays)
+            for l in range(L):
+                k_q, k_s, _, _, _, _ = kink_start(Y[0, l], F[0, l], F[2, l], JK[l], KH[l])
+                KQ[l] = k_q
+                KS[l] = k_s
+            for l in range(L):
+                _, _, k_lo, k_hi, k_plo, _ = kink_start(Y[0, l], F[0, l], F[2, l], JK[l], KH[l])
+                KLO[l] = k_lo
+                KHI[l] = k_hi
+                KPLO[l] = k_plo
+            for l in range(L):
+                LIVE[l] = NEAR[l]
+            for _it in range(KINK_ITERATIONS):
+                n_left = 0
+                for l in range(L):
+                    k_s, k_lo, k_hi, k_plo, done = kink_newton(Y[0, l], KQ[l], F[0, l], F[2, l], JK[l], KH[l], KS[l],
+                                                       KLO[l], KHI[l], KPLO[l])
+                    live = LIVE[l]
+                    KS[l] = k_s if live else KS[l]
+                    KLO[l] = k_lo if live else KLO[l]
+                    KPLO[l] = k_plo if live else KPLO[l]
+                    KHI[l] = k_hi if live else KHI[l]
+                    LIVE[l] = live & (not done)
+                    n_left += 1 if live & (not done) else 0
+                if n_left == 0:
+                    break
+            for l in range(L):
+                s_k = KS[l] if KS[l] > 0.0 else KINK_TINY
+                k_flags, k_h = kink_plan(T[l], t_end, KH[l], HN[l], s_k, tol_t)
+                short = NEAR[l] & (k_flags == SHORT) & (k_h >= 2.3e-15 * abs(T[l]) + 1e-300)
+                bridge = NEAR[l] & (k_flags == BRIDGE)
+                H[l] = k_h if short | bridge else H[l]
+                PLAN[l] = SHORT if short else PLAN[l]
+                MODE[l] = M_READY if short else (M_BRIDGE if bridge else MODE[l])
     flush_dense(bt.kind, cps, ds, nd, out.X, t_out, n)
     return 0
 

@@ -15,6 +15,12 @@ A view here is a bare pointer and a stride, passed by value:
 * ``slab_lane(A, s, l)``: column ``l`` of ``A[s]``;
 * ``row(A, s)``: row ``s`` of a 2-D array (the RK4 bridge's stages).
 
+And ``tuple_of(a, n)``: the first ``n`` elements of a 1-D array as a tuple,
+read element by element (numba's ``to_fixed_tuple`` builds it in a loop
+that the compiler spills to the stack, and reloads, at every element: about
+1,500 memory operations for the 26 packed parameters, at every bridge across
+a kink in the lanes).
+
 A view must not outlive the array it looks into: it is only created and used
 inside compiled kernels.
 """
@@ -123,6 +129,24 @@ def slab_lane(typingctx, arr, s, l):
         return _make(context, builder, sig.args[0], args[0], [si, li])
 
     return lane_view_type(arr, s, l), codegen
+
+
+@intrinsic
+def tuple_of(typingctx, arr, n):
+    """``tuple_of(a, n)``: ``(a[0], ..., a[n-1])`` of a 1-D C-contiguous array ``a`` (``n`` a compile-time
+    constant, at most ``a.size``: not checked)."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout == "C"
+            and isinstance(n, types.IntegerLiteral)):
+        return None
+    k = n.literal_value
+    tup = types.UniTuple(arr.dtype, k)
+
+    def codegen(context, builder, sig, args):
+        a = context.make_array(sig.args[0])(context, builder, args[0])
+        items = [builder.load(builder.gep(a.data, [ir.Constant(ir.IntType(64), i)])) for i in range(k)]
+        return context.make_tuple(builder, tup, items)
+
+    return tup(arr, n), codegen
 
 
 @intrinsic
