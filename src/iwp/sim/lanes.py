@@ -79,6 +79,7 @@ from .engine import (
     STORE_SAMPLES,
     Field,
     Output,
+    PlainField,
     Segments,
     Tolerances,
     beyond,
@@ -599,16 +600,17 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 HF[l] = -1.0
                 BRIDGED[l] = False
                 if p_flags == BRIDGE:
-                    # ---- an RK4 step across a kink close ahead
-                    fld = run_field(bt, r)
+                    # ---- an RK4 step across a kink close ahead (its rate compiled in: PlainField)
                     hb = p_h
-                    eb = rk4_bridge(fld, t, vec(ys), vec(fs), hb, bw, n)
+                    pf = PlainField(bt.kind, (IPL[0, l], IPL[1, l], IPL[2, l], IPL[3, l]), cps, lane(PL, l))
+                    eb = rk4_bridge(pf, t, vec(ys), vec(fs), hb, bw, n)
                     NFEV[l] += 4
                     if eb < 1.0:
                         j = J[l]
                         if j < n_out and t_out[j] < t + hb - tol_t:
                             # (the output record only for samples: building it costs reference counting)
                             o = run_output(out, r)
+                            fld = run_field(bt, r)
                             while j < n_out and t_out[j] < t + hb - tol_t:
                                 hermite(ys, wk.y_new, fs, wk.dx, hb, (t_out[j] - t) / hb, wk.yo, n)
                                 put_sample(o, j, t_out[j], wk.yo, n, fld)
@@ -628,6 +630,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                             STAT[l] = ST_DIVERGED
                         elif j < n_out and t_out[j] <= t + tol_t:
                             o = run_output(out, r)
+                            fld = run_field(bt, r)
                             while j < n_out and t_out[j] <= t + tol_t:
                                 put_near(o, j, t_out[j], ys, fs, t, n, fld, wk.yo)
                                 j += 1
