@@ -613,7 +613,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 HF[l] = -1.0
                 BRIDGED[l] = False
                 if p_flags == BRIDGE:
-                    # ---- an RK4 step across a kink close ahead (its rate compiled in: PlainField)
+                    # ---- an RK4 step across a kink close ahead (its rate a PlainField's: no dispatch on the model)
                     hb = p_h
                     pf = PlainField(bt.kind, (IPL[0, l], IPL[1, l], IPL[2, l], IPL[3, l]), cps, lane(PL, l))
                     eb = rk4_bridge(pf, t, vec(ys), vec(fs), hb, bw, n)
