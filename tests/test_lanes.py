@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from numba import njit
 
 from iwp.errors import InputError
 from iwp.models import Plant, table1
+from iwp.models.layout import N_PACK
 from iwp.sim import Chirp, HopfController, Sampled, lanes, simulate, simulate_batch
 from iwp.sim.inputs import BalanceController, Constant, Sine, Step
 from iwp.sim.simulate import segments_of
+from iwp.sim.views import tuple_of
 
 
 def _rel(a, b):
@@ -84,11 +87,6 @@ def test_lanes_that_cross_the_rolling_frictions_kink_equal_single_runs():
 
 def test_tuple_of_reads_the_first_elements_of_a_row():
     """views.tuple_of, with which the lanes build a run's parameter record: the row's values, in order."""
-    from numba import njit
-
-    from iwp.models.layout import N_PACK
-    from iwp.sim.views import tuple_of
-
     @njit
     def packed(P, r):
         return tuple_of(P[r], N_PACK)

@@ -654,6 +654,7 @@ def kink_newton(q1, qs, v, a, jk, H, s, lo, hi, plo):
     hi = hi if left else s
     dp = v + s * (a + 0.5 * s * jk)
     mid = 0.5 * (lo + hi)
+    # (the division is computed in either case when the lanes run this side by side: not by 0)
     s_new = s - p / (dp if dp != 0.0 else 1.0) if dp != 0.0 else mid
     # converged: Newton's last correction is below the tolerance (tested before the bracket, which a root on its
     # edge would otherwise leave for a bisection, and the iteration for its cap)
@@ -743,6 +744,13 @@ def plan_step(t, t_b, h_nat, h_max, h_force, look, taylor, tol_t):
 def min_step(t):
     """The smallest step from ``t``: ten units in the last place of ``t``."""
     return 10.0 * abs(np.nextafter(t, np.inf) - t)
+
+
+@jit(inline=True)
+def min_step_bound(t):
+    """A bound above :func:`min_step` of ``t`` (ten ulp are at most 2.22e-15 ``|t|``, 4.9e-323 at 0), without
+    libm's ``nextafter``: a step at least this large needs no check, so the lanes' loops test it side by side."""
+    return 2.3e-15 * abs(t) + 1e-300
 
 
 @jit

@@ -110,6 +110,7 @@ from .engine import (
     kink_step,
     may_cross,
     min_step,
+    min_step_bound,
     new_work,
     plan_step,
     put_dense,
@@ -676,7 +677,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
             ok = ready & (ERR[l] < 1.0) & (PLAN[l] & (FORCED | CLIPPED) == 0) & crossless
             # a rejection here (as M_DECIDE has it) unless the next step may fall below min_step (the factor is
             # at least MIN_FACTOR)
-            rejd = ready & (not (ERR[l] < 1.0)) & (MIN_FACTOR * H[l] > 1e-12 * abs(T[l]) + 1e-300)
+            rejd = ready & (not (ERR[l] < 1.0)) & (MIN_FACTOR * H[l] > min_step_bound(T[l]))
             DONE[l] = ok
             REJD[l] = rejd
             MODE[l] = M_DECIDE if ready and not ok and not rejd else MODE[l]
@@ -763,7 +764,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                 bad = bad | (not (abs(Y[i, l]) < xmax))
             POST[l] = DONE[l] & (bad | (TNEXT[l] <= T[l] + tol_t))
         for l in range(L):
-            slow = (KH[l] < 2.3e-15 * abs(T[l]) + 1e-300) | (NACC[l] + NREJ[l] >= tol.max_steps)
+            slow = (KH[l] < min_step_bound(T[l])) | (NACC[l] + NREJ[l] >= tol.max_steps)
             USUAL[l] = (DONE[l] | REJD[l]) & (not POST[l]) & (not slow) & (not CLIP[l])
         n_near = 0
         for l in range(L):
@@ -810,7 +811,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
             for l in range(L):
                 s_k = KS[l] if KS[l] > 0.0 else KINK_TINY
                 k_flags, k_h = kink_plan(T[l], t_end, KH[l], HN[l], s_k, tol_t)
-                short = NEAR[l] & (k_flags == SHORT) & (k_h >= 2.3e-15 * abs(T[l]) + 1e-300)
+                short = NEAR[l] & (k_flags == SHORT) & (k_h >= min_step_bound(T[l]))
                 bridge = NEAR[l] & (k_flags == BRIDGE)
                 H[l] = k_h if short | bridge else H[l]
                 PLAN[l] = SHORT if short else PLAN[l]
