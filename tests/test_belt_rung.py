@@ -14,9 +14,9 @@ from iwp.data import ExperimentData
 from iwp.data.rig_description import RigDescription
 from iwp.errors import InputError
 from iwp.ident import logfit
-from iwp.ident.belt_fit import BELT_FREE
-from iwp.ident.logfit import LogFitOptions, belt_bounds, belt_start, fit_logs
+from iwp.ident.logfit import LogFitOptions, fit_logs
 from iwp.ident.structure import RUNGS, ladder
+from iwp.models.terms import BELT_FREE, BELT_STARTS, belt_bounds, belt_start
 from iwp.ident.validation import validation_plant
 from iwp.models.parameters import BeltParameters, LumpedParameters, stored_belt
 from iwp.rig.described import DescribedRig, prbs, write_rig_csv
@@ -69,13 +69,13 @@ def test_the_belt_rung_is_on_the_ladder_of_a_belt_drive_only_and_frees_the_belt_
     names = [r.name for r in ladder(False, belt_drive=True)]
     assert names == ["9", "coulomb", "pendulum-coulomb", "widths", "offset", "belt"]
     assert "belt" not in [r.name for r in ladder(True)] and "belt" in [r.name for r in ladder(True, True)]
-    assert RUNGS["widths"].flags < RUNGS["belt"].flags
-    widths = LogFitOptions(**RUNGS["widths"].options())
-    belt = LogFitOptions(**RUNGS["belt"].options())
+    assert RUNGS["widths"].terms < RUNGS["belt"].terms
+    widths = LogFitOptions(terms=RUNGS["widths"].terms)
+    belt = LogFitOptions(terms=RUNGS["belt"].terms)
     assert belt.model == "belt-full"
     assert set(belt.free()) == (set(widths.free()) - {"p2", "p3"}) | set(BELT_FREE)
-    with pytest.raises(InputError, match="belt or the dead zone"):
-        LogFitOptions(belt=True, dead_zone=True)
+    with pytest.raises(InputError, match="--belt and --dead-zone exclude each other"):
+        LogFitOptions(terms={"belt", "dead_zone"})
 
 
 def test_the_belt_start_has_the_rigid_fit_as_its_limit_inside_the_bounds():
@@ -112,7 +112,7 @@ def belt_logs(folder):
 
 def test_a_forced_belt_fit_keeps_the_best_of_its_starts_from_the_rigid_fits(tmp_path, monkeypatch):
     train, held, rig_path = belt_logs(tmp_path)
-    options = LogFitOptions(belt=True, coulomb=True, pendulum_coulomb=True, widths=True)
+    options = LogFitOptions(terms={"belt", "coulomb", "pendulum_coulomb", "widths"})
     compared, keep = [], logfit.lowest_cost
 
     def lowest(fits):
@@ -126,7 +126,7 @@ def test_a_forced_belt_fit_keeps_the_best_of_its_starts_from_the_rigid_fits(tmp_
     assert res.belt is not None and res.model == "belt-full" and res.structures is None
     # one belt fit from each rigid fit (with the widths and without: they start apart), the lowest cost kept
     (fits,) = compared
-    assert len(fits) == logfit.BELT_STARTS == 2 and fits[0].cost_start != fits[1].cost_start
+    assert len(fits) == BELT_STARTS == 2 and fits[0].cost_start != fits[1].cost_start
     assert res.refinement is min(fits, key=lambda f: f.cost) and all(math.isfinite(f.cost) for f in fits)
     assert res.validation_fit["q4"] > 97.0
 

@@ -762,7 +762,7 @@ def test_a_swing_released_from_rest_starts_its_fit_at_its_measured_state(tmp_pat
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = fit_logs([files["train"]], rig=rig, kinds={k: [v] for k, v in files.items() if k != "train"},
-                       options=LogFitOptions(coulomb=True, pendulum_coulomb=True,
+                       options=LogFitOptions(terms={"coulomb", "pendulum_coulomb"},
                                              start=truth.replace(sigma_c1=0.0, sigma_a1=0.2, sigma_v1=0.0)), warn=False)
     assert min(min(f.fit.values()) for f in res.train) > 99.0
     assert res.params.sigma_c1 == pytest.approx(0.4, rel=0.02) and res.params.p1 == pytest.approx(40.0, rel=0.002)

@@ -26,7 +26,7 @@ from iwp.ident.structure import (
 
 
 def outcome(name, scores, *, bic=0.0, success=True):
-    return RungOutcome(RUNGS[name], len(RUNGS[name].flags) + 7, np.asarray(scores, dtype=float), {}, {},
+    return RungOutcome(RUNGS[name], len(RUNGS[name].terms) + 7, np.asarray(scores, dtype=float), {}, {},
                        float("nan"), bic, success, "")
 
 
@@ -35,12 +35,12 @@ def test_the_ladder_is_nested_and_the_dead_zone_only_for_a_raw_command():
     assert [r.name for r in comp] == ["9", "coulomb", "pendulum-coulomb", "widths", "offset"]
     assert [r.name for r in raw] == [r.name for r in comp] + ["dead-zone"]
     for a, b in zip(raw[:4], raw[1:4]):
-        assert a.flags < b.flags  # each rung extends the one before
-    assert raw[3].flags < raw[4].flags and raw[3].flags < raw[5].flags
+        assert a.terms < b.terms  # each rung extends the one before
+    assert raw[3].terms < raw[4].terms and raw[3].terms < raw[5].terms
     # the flags free exactly the rung's terms on top of model (9)
-    free = LogFitOptions(**RUNGS["widths"].options()).free()
+    free = LogFitOptions(terms=RUNGS["widths"].terms).free()
     assert set(free) - set(LogFitOptions().free()) == {"sigma_c2", "sigma_c1", "eps_c1", "eps_c2"}
-    assert set(LogFitOptions(**RUNGS["dead-zone"].options()).free()) - set(free) == {"v_dz_pos", "v_dz_neg"}
+    assert set(LogFitOptions(terms=RUNGS["dead-zone"].terms).free()) - set(free) == {"v_dz_pos", "v_dz_neg"}
     with pytest.raises(InputError, match="--model: unknown model structure 'cubic'"):
         rung("cubic", argument="--model")
 

@@ -75,8 +75,9 @@ def jit(func=None, *, inline: bool = False, parallel: bool = False, exact: bool 
 # the cache follows the sources
 # --------------------------------------------------------------------------
 _PACKAGE = Path(__file__).resolve().parent
-#: text that marks a source file holding compiled code
-_MARKERS = ("@jit", "@njit", "@overload", "@intrinsic", "@register_model")
+#: text that marks a source file holding compiled code, or constants compiled into it (a module whose values the
+#: kernels read, such as the packed layout, says ``compiled-constants`` in a comment)
+_MARKERS = ("@jit", "@njit", "@overload", "@intrinsic", "@register_model", "compiled-constants")
 _STAMP: dict[str, str] = {}
 
 

@@ -19,6 +19,7 @@ import argparse
 import json
 import sys
 
+from ..models.terms import TERMS
 from ._common import LazyChoices, add_controller_args, add_force_arg, controller_of, plain
 
 
@@ -46,15 +47,14 @@ def register(sub) -> None:
     p.add_argument("--model", metavar="STRUCTURE", choices=LazyChoices("iwp.ident.structure", "RUNGS"),
                    help="fit this structure of the ladder only: %(choices)s (default: fit them all and keep the "
                    "simplest within noise of the best on held-out data; see docs/fit.md)")
-    p.add_argument("--dead-zone", action="store_true", help="model (6) with the dead zone (5) (raw input v)")
-    p.add_argument("--coulomb", action="store_true", help="fit Coulomb friction of the wheel (sigma_c2)")
-    p.add_argument("--pendulum-coulomb", action="store_true",
-                   help="fit Coulomb friction of the pendulum joint (sigma_c1)")
-    p.add_argument("--input-offset", action="store_true", help="fit an offset of the input (u_offset)")
-    p.add_argument("--widths", action="store_true",
-                   help="fit the smoothing widths of the Coulomb terms that are on (eps_c2, eps_c1)")
-    p.add_argument("--belt", action="store_true",
-                   help="fit the belt (15) between motor and wheel in place of p2, p3 (a rig whose drive is a belt)")
+    for t in TERMS.values():  # a flag for each optional term of the models (iwp.models.terms)
+        p.add_argument(t.flag, action="store_true", help=f"fit {t.description}")
+    p.add_argument("--terms", metavar="TERM[,TERM...]",
+                   help="fit the structure with these optional terms (and those they need): "
+                        + ", ".join(t.replace("_", "-") for t in TERMS) + " (the same as their flags)")
+    p.add_argument("--try", dest="try_terms", metavar="TERM[,TERM...]",
+                   help="also try these terms off the default ladder on it: "
+                        + ", ".join(t.replace("_", "-") for t, v in TERMS.items() if not v.rung.default))
     p.add_argument("--loss", default="linear", choices=["linear", "soft_l1", "huber", "cauchy", "arctan"],
                    help="loss of the simulation-error fit (default linear)")
     p.add_argument("--t-start", type=float, metavar="S", help="window start of every training log [s]")
@@ -68,19 +68,23 @@ def run(args) -> int:
     from ..files import check_output_dir, jsonable
     from ..ident.logfit import LogFitOptions, fit_logs
     from ..ident.structure import RUNGS
+    from ..models.terms import TERMS, parse_terms
     from ..report.fit_page import write_fit_report
 
     check_output_dir(args.out, force=args.force)  # refuse before the work, not after
-    flags = {"dead_zone": args.dead_zone, "coulomb": args.coulomb, "pendulum_coulomb": args.pendulum_coulomb,
-             "input_offset": args.input_offset, "widths": args.widths, "belt": args.belt}
-    if args.model is not None and any(flags.values()):
-        given = next(k for k, v in flags.items() if v).replace("_", "-")
-        raise InputError(f"--model {args.model} and --{given} both set the structure; give one of them",
-                         argument="--model")
-    if args.model is not None:
-        flags = RUNGS[args.model].options()
-    options = LogFitOptions(**flags, select=args.model is None and not any(flags.values()), loss=args.loss,
-                            window=(args.t_start, args.t_end))
+    given = {t.name for t in TERMS.values() if getattr(args, t.name)}
+    if args.terms is not None:
+        given |= parse_terms(args.terms, argument="--terms")
+    if args.model is not None and given:
+        raise InputError(f"--model {args.model} and {TERMS[sorted(given)[0]].flag} both set the structure; give one "
+                         "of them", argument="--model")
+    if args.try_terms is not None and (args.model is not None or given):
+        raise InputError("--try adds rungs to the ladder, which --model and the term flags replace; give one of them",
+                         argument="--try")
+    terms = RUNGS[args.model].terms if args.model is not None else given
+    options = LogFitOptions(terms=terms, select=args.model is None and not given,
+                            try_terms=parse_terms(args.try_terms, argument="--try") if args.try_terms else (),
+                            loss=args.loss, window=(args.t_start, args.t_end))
     kinds = {k: v for k, v in (("clamped", args.clamped), ("wheel-locked", args.wheel_locked),
                                 ("closed-loop", args.closed_loop)) if v}
     res = fit_logs(args.train, rig=args.rig, validate=args.validate, kinds=kinds, controller=controller_of(args),

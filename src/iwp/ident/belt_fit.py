@@ -37,6 +37,7 @@ import numpy as np
 from ..data import ExperimentData
 from ..errors import InputError
 from ..models.plant import MODELS, Plant
+from ..models.terms import BELT_FREE
 from .output_error import Experiment, OutputError
 from .problem import FitProblem, SolverOptions
 from .refinement import BELT_OPTIONS, RefineResult, as_experiments, belt_difference_step, refine_report
@@ -45,8 +46,6 @@ __all__ = ["refine_belt", "BELT_FREE", "BELT_PARAMETERS", "BELT_OPTIONS"]
 
 #: The parameters :func:`refine_belt` can fit: the belt's, and the disk's Coulomb friction (the model's own list).
 BELT_PARAMETERS = MODELS["belt"].parameters
-#: What it fits by default: the five of the paper's eq. (15) besides the measured N.
-BELT_FREE = ("k_over_I2", "d", "b2_over_I2", "k_over_gamma", "kTbeta_over_Rgamma")
 
 
 def _check_logs(exps: list[Experiment]) -> None:

@@ -56,15 +56,24 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import PARAMETER_INFO, TYPICAL, BeltParameters, LumpedParameters
 from ..models.plant import Plant
+from ..models.terms import (
+    TERMS,
+    DriveModel,
+    closure,
+    drive_of,
+    free_parameters,
+    model_of,
+    starting_values,
+    term,
+)
 from ..sim.inputs import HopfController, Input
 from ..sim.uncertainty import ParameterUncertainty, prediction_band
 from ..threads import one_blas_thread, thread_map
-from .belt_fit import BELT_FREE
 from .differentiate import Differentiator
 from .fit import fit_percent
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_initial_state, measured_state_covariance
 from .problem import Loss, SolverOptions
-from .refinement import BELT_OPTIONS, RefineResult, as_experiments, refine
+from .refinement import RefineResult, as_experiments, refine
 from .regressors import columns, q3_row, row_sum
 from .structure import LadderResult, Rung, RungOutcome, information_criteria, ladder, select
 from .validation import model_input
@@ -76,8 +85,6 @@ __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresS
 MIN_SAMPLES_PER_PERIOD = 8
 #: length of the Savitzky-Golay filters of the least-squares start [s] (at least 7 samples)
 SG_SECONDS = 0.15
-#: the parameters of model (9) that every fit frees
-BASE_FREE = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1")
 #: How each model of ``iwp fit`` is described in its summary and report.
 MODEL_LABELS = {"compensated": "(9)", "raw": "(6) with dead zone", "belt-full": "(4a) with the belt (15)"}
 
@@ -511,88 +518,74 @@ class LogFitOptions:
 
     Parameters
     ----------
-    dead_zone : bool
-        Model (6) with the dead zone (5) (thresholds ``v_dz_pos``, ``v_dz_neg``
-        fitted); the logs must hold the raw command ``v``. Default: model (9).
-    coulomb, pendulum_coulomb, input_offset : bool
-        Also fit Coulomb friction of the wheel (``sigma_c2``), of the pendulum
-        (``sigma_c1``), and an offset of the input (``u_offset``).
-    widths : bool
-        Also fit the smoothing widths of the Coulomb signs that are on
-        (``eps_c2`` with ``coulomb``, ``eps_c1`` with ``pendulum_coulomb``).
-    belt : bool
-        The belt (15) between motor and wheel (model ``"belt-full"``):
-        :data:`~iwp.ident.belt_fit.BELT_FREE` (the belt's parameters but its
-        measured ratio and ``gain_neg``) in place of ``p2`` and ``p3``, its ratio ``N`` the rig
-        description's ``drive.ratio`` (a rig whose drive is a belt only).
+    terms : iterable of str
+        The optional terms of model (9) fitted (:data:`iwp.models.terms.TERMS`:
+        ``"coulomb"``, ``"pendulum_coulomb"``, ``"widths"``, ``"input_offset"``,
+        ``"dead_zone"``, ``"belt"``, ``"stribeck"``), with the terms they
+        require; the model follows from them (model (6) with the dead zone,
+        ``"belt-full"`` with the belt, else model (9)). Default: none.
     select : bool
         Fit the ladder of structures (:mod:`iwp.ident.structure`) and keep the
         simplest within noise of the best on held-out data (``iwp fit``'s
-        default); the flags above are then ignored.
+        default); ``terms`` is then ignored.
+    try_terms : iterable of str
+        Terms off the default ladder whose rungs the ladder tries too (``iwp fit --try``).
     loss : str
         ``"linear"`` or a robust loss (:class:`~iwp.ident.problem.Loss`).
     start : LumpedParameters, optional
         Start of the refinement instead of the least squares.
     window : (float or None, float or None)
         Window of every training log [s].
+
+    Examples
+    --------
+    >>> LogFitOptions(terms={"stribeck"}).free()[-3:]
+    ('sigma_c2', 'sigma_s2', 'v_s2')
     """
 
-    dead_zone: bool = False
-    coulomb: bool = False
-    pendulum_coulomb: bool = False
-    input_offset: bool = False
-    widths: bool = False
-    belt: bool = False
+    terms: frozenset[str] = frozenset()
     select: bool = False
+    try_terms: frozenset[str] = frozenset()
     loss: str = "linear"
     start: LumpedParameters | None = None
     window: tuple[float | None, float | None] = (None, None)
 
     def __post_init__(self) -> None:
         Loss(self.loss)
-        if self.belt and self.dead_zone:
-            raise InputError("the belt model (15) takes the compensated input; fit the belt or the dead zone, "
-                             "not both", argument="belt")
+        if isinstance(self.terms, str) or isinstance(self.try_terms, str):
+            raise InputError("terms: give a set of term names, e.g. {'coulomb', 'widths'}", argument="terms")
+        object.__setattr__(self, "terms", closure(self.terms))
+        object.__setattr__(self, "try_terms", frozenset(term(n, argument="try").name for n in self.try_terms))
         if self.start is not None and not isinstance(self.start, LumpedParameters):
             raise InputError(f"start must be LumpedParameters, got {type(self.start).__name__}", argument="start")
 
     @property
     def model(self) -> str:
-        """``"raw"`` (6) with the dead zone, ``"belt-full"`` with the belt, or ``"compensated"`` (9)."""
-        return "belt-full" if self.belt else "raw" if self.dead_zone else "compensated"
+        """The model the terms make: ``"raw"`` (6) with the dead zone, ``"belt-full"`` with the belt, or
+        ``"compensated"`` (9) (:func:`iwp.models.terms.model_of`)."""
+        return model_of(self.terms)
+
+    @property
+    def drive(self) -> DriveModel | None:
+        """The model of its own a term puts in place of ``p2, p3`` (the belt's), or None."""
+        return drive_of(self.terms)
 
     def free(self) -> tuple[str, ...]:
-        """The parameters fitted: model (9)'s (with the belt's in place of p2, p3) and the options' terms."""
-        base = tuple(n for n in BASE_FREE if n not in ("p2", "p3")) + BELT_FREE if self.belt else BASE_FREE
-        extra = [(self.dead_zone, ("v_dz_pos", "v_dz_neg")), (self.coulomb, ("sigma_c2",)),
-                 (self.pendulum_coulomb, ("sigma_c1",)), (self.input_offset, ("u_offset",)),
-                 (self.widths and self.coulomb, ("eps_c2",)), (self.widths and self.pendulum_coulomb, ("eps_c1",))]
-        return base + tuple(n for on, names in extra if on for n in names)
+        """The parameters fitted: model (9)'s (a drive model's in place of those it replaces) and the terms'."""
+        return free_parameters(self.terms)
 
     def with_rung(self, rung: Rung) -> "LogFitOptions":
         """These options with the structure of ``rung`` (and no ladder)."""
-        return replace(self, select=False, **rung.options())
+        return replace(self, select=False, terms=rung.terms)
 
     def starting_values(self, start: LumpedParameters, umax: float, *, fraction: float = 1.0) -> LumpedParameters:
-        """The options' terms that are 0 in ``start`` started at a fraction of what the logs' input and ``start``
+        """The terms' parameters that are 0 in ``start`` started at a fraction of what the logs' input and ``start``
         allow (terms a simpler structure fitted keep their values); ``fraction`` scales those starts (a start
         next to the simpler structure's optimum, :data:`NESTED_RESTART`)."""
-        if self.dead_zone and start.v_dz_pos == 0 and start.v_dz_neg == 0:
-            start = start.replace(v_dz_pos=fraction * 0.05 * umax, v_dz_neg=fraction * 0.05 * umax)
-        sigma_c2 = fraction * 0.02 * start.p3 * umax
-        if self.belt:  # a rigid fit may have dropped the wheel's Coulomb friction for the play it could not model;
-            # started at 0 the belt's fit stays there (measured: held-out fits 90/95 % against 99/99.6 %)
-            start = start.replace(sigma_c2=max(start.sigma_c2, sigma_c2))
-        elif self.coulomb and start.sigma_c2 == 0:
-            start = start.replace(sigma_c2=sigma_c2)
-        if self.pendulum_coulomb and start.sigma_c1 == 0:
-            start = start.replace(sigma_c1=fraction * 0.01 * start.p1)
-        return start
+        return starting_values(self.terms, start, umax, fraction=fraction)
 
     def to_dict(self, offset_given: bool) -> dict[str, Any]:
-        return {"dead_zone": bool(self.dead_zone), "coulomb": bool(self.coulomb),
-                "pendulum_coulomb": bool(self.pendulum_coulomb), "input_offset": bool(self.input_offset),
-                "widths": bool(self.widths), "belt": bool(self.belt), "loss": self.loss,
+        return {**{n: n in self.terms for n in TERMS}, "loss": self.loss,
                 "q1_offset": "given by the rig" if offset_given else "estimated per log"}
 
 
@@ -643,7 +636,75 @@ def fit_logs(
     LogFitResult
     """
     t0 = time.perf_counter()
-    options = options or LogFitOptions()
+    plan = plan_fit(train, rig=rig, validate=validate, kinds=kinds, controller=controller,
+                    options=options or LogFitOptions())
+    fitted = fit_plan(plan)
+    res = report_fit(plan, fitted, elapsed=time.perf_counter() - t0)
+    if warn:
+        for m in res.warnings:
+            _warnings.warn(m, stacklevel=2)
+    return res
+
+
+# --------------------------------------------------------------------------
+# plan: the logs read and sorted by set-up, checked, the start
+# --------------------------------------------------------------------------
+@dataclass
+class FitPlan:
+    """What :func:`fit_logs` fits, before any fit: the logs by role and set-up, what they measure, the start.
+
+    Attributes
+    ----------
+    options : LogFitOptions
+    rig : RigDescription or None
+    train : list of ExperimentData
+        The free training logs.
+    held_out : list of ExperimentData
+        The held-out logs.
+    others : list of JoinedLog
+        The training logs of the other set-ups (clamped, wheel-locked, closed loop).
+    outputs : tuple of str
+        The signals compared: ``("q1", "q2")``, or ``("q1", "q4")`` where a log has no wheel angle.
+    offset_given : bool
+        The rig description gives the pendulum's zero offset (else it is estimated per log).
+    drive_ratio : float or None
+        The belt drive's ratio ``N`` where the rig's drive is a belt measured at the wheel, else None.
+    umax : float
+        The training logs' largest input magnitude [in].
+    start : LeastSquaresStart
+        Where the fits start.
+    messages : list of str
+        What was found on the way (warnings).
+    """
+
+    options: LogFitOptions
+    rig: RigDescription | None
+    train: list[ExperimentData]
+    held_out: list[ExperimentData]
+    others: list["JoinedLog"]
+    outputs: tuple[str, ...]
+    offset_given: bool
+    drive_ratio: float | None
+    umax: float
+    start: LeastSquaresStart
+    messages: list[str]
+
+    @property
+    def Ts(self) -> float:
+        """The training logs' sample period [s] (a drive model's start and bounds)."""
+        return float(self.train[0].Ts)
+
+
+def plan_fit(train, *, rig=None, validate=(), kinds=None, controller: Input | None = None,
+             options: LogFitOptions) -> FitPlan:
+    """The logs of :func:`fit_logs` read, sorted by set-up and checked, and the start found (no simulation fit).
+
+    Parameters are those of :func:`fit_logs`.
+
+    Returns
+    -------
+    FitPlan
+    """
     rig_d = load_rig(rig) if rig is not None else None
     with _warnings.catch_warnings(record=True) as caught:
         _warnings.simplefilter("always")
@@ -651,6 +712,29 @@ def fit_logs(
         val_logs = load_logs(validate, rig_d, argument="validate") if validate else []
         others = _other_kinds(kinds, rig_d, controller)
     msgs = [str(w.message) for w in caught]
+    _check_controller(controller, others)
+    if not train_logs:
+        raise InputError("train: no training logs given", argument="train")
+    _check_held_out_distinct(train_logs, others, val_logs)
+    train_logs, others = _sort_by_kind(train_logs, others, rig_d, msgs)
+    msgs.extend(_held_out_kind_notes(val_logs, rig_d))
+    msgs.extend(disagreeing_logs(train_logs, window=options.window))
+    msgs.extend(kind_mismatches(train_logs, [(o.kind, o.data) for o in others]))
+    for d in train_logs + val_logs:
+        if d.q2 is None and d.q4 is None:
+            raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
+    outputs = ("q1", "q2") if all(d.q2 is not None for d in train_logs + val_logs) else ("q1", "q4")
+    offset_given = rig_d is not None and rig_d.pendulum.offset is not None
+    ratio = _drive_ratio(rig_d, options)
+    wtrain = [d.window(*options.window) for d in train_logs]
+    start = _start(wtrain, options)
+    msgs.extend(start.notes)
+    return FitPlan(options, rig_d, train_logs, val_logs, others, outputs, offset_given, ratio,
+                   max(float(np.max(np.abs(d.input))) for d in wtrain), start, msgs)
+
+
+def _check_controller(controller: Input | None, others: list["JoinedLog"]) -> None:
+    """A feedback law is given exactly when closed-loop logs are, and is an :mod:`iwp.sim.inputs` controller."""
     closed = any(o.kind == "closed-loop" for o in others)
     if closed and controller is None:
         raise InputError("controller: the closed-loop logs need their feedback law (--controller hopf --k1 K1 "
@@ -661,8 +745,10 @@ def fit_logs(
     if controller is not None and not isinstance(controller, Input):
         raise InputError(f"controller must be an iwp.sim.inputs controller (e.g. HopfController), got "
                          f"{type(controller).__name__}", argument="controller")
-    if not train_logs:
-        raise InputError("train: no training logs given", argument="train")
+
+
+def _check_held_out_distinct(train_logs, others, val_logs) -> None:
+    """No log twice among the training logs, nor among the held-out ones, nor in both."""
     check_distinct([*train_logs, *(o.data for o in others)], "training logs")
     check_distinct(val_logs, "held-out logs")
     for v in val_logs:
@@ -671,20 +757,23 @@ def fit_logs(
         except InputError:
             raise InputError(f"validate: {v.source} is also a training log; a held-out log must be one the fit has "
                              "not seen, or its fit says nothing about prediction", argument="validate") from None
-    # the set-ups the rig description gives the logs (its "experiments"); the command line's kinds come first
+
+
+def _sort_by_kind(train_logs, others, rig_d, msgs: list[str]):
+    """The free training logs and the logs of other set-ups: the rig description's ``experiments`` declare a
+    log's set-up (the command line's kinds come first); an undeclared log whose motion shows another set-up joins
+    as that set-up when a free log remains among the undeclared ones; a declared free log stays free."""
     declared = [rig_d.experiment_of(d.source) if rig_d is not None else None for d in train_logs]
     msgs.extend(f"{o.kind_flag} {o.data.source}: the rig description gives it as {e.kind}; fitted as {o.kind} (the "
                 "command line's kind)" for o in others
                 if rig_d is not None and (e := rig_d.experiment_of(o.data.source)) is not None and e.kind != o.kind)
-    others = others + [_Joined(e.kind, d, _law(e.controller), "train") for d, e in zip(train_logs, declared)
+    others = others + [JoinedLog(e.kind, d, _law(e.controller), "train") for d, e in zip(train_logs, declared)
                        if e is not None and e.kind != "free"]
-    # training logs whose motion shows another set-up join the fit as that set-up (if a free log remains among
-    # those the description does not declare); a declared free log stays free
     free = [(d, inferred_kind(d) if e is None else None) for d, e in zip(train_logs, declared)
             if e is None or e.kind == "free"]
     shown = [k for _, k in free if k is not None]
     if "free" in shown and any(k != "free" for k in shown):
-        others = others + [_Joined(k, d) for d, k in free if k not in (None, "free")]
+        others = others + [JoinedLog(k, d) for d, k in free if k not in (None, "free")]
         msgs.extend(f"train {d.source}: {KIND_SHOWN[k]}: fitted as a {k} log (--{k})" for d, k in free
                     if k not in (None, "free"))
         free = [(d, k) for d, k in free if k in (None, "free")]
@@ -693,6 +782,12 @@ def fit_logs(
         raise InputError("train: no free training log: the rig description's experiments give every training log "
                          "another set-up (" + ", ".join(f"{Path(o.data.source).name}: {o.kind}" for o in others)
                          + "); the joint fit needs a log of the free pendulum", argument="train")
+    return train_logs, others
+
+
+def _held_out_kind_notes(val_logs, rig_d) -> list[str]:
+    """Held-out logs of another set-up than the free pendulum they are simulated as."""
+    msgs = []
     for d in val_logs:
         e = rig_d.experiment_of(d.source) if rig_d is not None else None
         if e is not None and e.kind != "free":
@@ -701,72 +796,116 @@ def fit_logs(
         elif e is None and (k := inferred_kind(d)) != "free":
             msgs.append(f"validate {d.source}: {KIND_SHOWN[k]}: a log of the {k} set-up? a held-out log is simulated "
                         "as a free pendulum, so its fit says little")
-    msgs.extend(disagreeing_logs(train_logs, window=options.window))
-    msgs.extend(kind_mismatches(train_logs, [(o.kind, o.data) for o in others]))
-    for d in train_logs + val_logs:
-        if d.q2 is None and d.q4 is None:
-            raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
-    outputs = ("q1", "q2") if all(d.q2 is not None for d in train_logs + val_logs) else ("q1", "q4")
-    offset_given = rig_d is not None and rig_d.pendulum.offset is not None
+    return msgs
+
+
+def _drive_ratio(rig_d: RigDescription | None, options: LogFitOptions) -> float | None:
+    """The belt drive's ratio where the rig has one whose wheel is measured at the wheel, else None; a clear error
+    when a term that needs a belt drive is asked for and the rig has none (or measures at the motor)."""
     belt_drive = rig_d is not None and rig_d.drive.kind == "belt"
     # the belt's model compares the wheel's own signal: a sensor at the motor shaft reads q2 less the belt's stretch
     at_motor = belt_drive and rig_d.wheel is not None and rig_d.wheel.at == "motor"
-    belt_ratio = rig_d.drive.ratio if belt_drive and not at_motor else None
-    if options.belt and at_motor:
-        raise InputError("belt: the belt model (15) compares the wheel's own signal, but the rig description "
-                         "measures it at the motor shaft (wheel.at 'motor'), which the belt's stretch separates from "
-                         "the wheel", argument="belt")
-    if options.belt and belt_ratio is None:
-        drive = "no rig description" if rig_d is None else f"a {rig_d.drive.kind} drive"
-        raise InputError("belt: the belt model (15) needs a rig description with \"drive\": {\"kind\": \"belt\", "
-                         f"\"ratio\": N}} (N motor turns per wheel turn); the logs have {drive}", argument="belt")
-    # ---- prepare: the start
-    wtrain = [d.window(*options.window) for d in train_logs]
-    umax = max(float(np.max(np.abs(d.input))) for d in wtrain)
-    if options.start is None:
-        try:
-            ls = least_squares_start(wtrain)
-        except InputError as exc:
-            if options.window == (None, None):
-                raise
-            given = ", ".join(f"{n}={v:g} s" for n, v in zip(("t_start", "t_end"), options.window) if v is not None)
-            raise InputError(f"{exc} (the window {given} keeps "
-                             + ", ".join(f"{d.n_samples} of {Path(d.source).name}" for d in wtrain) + ")",
-                             argument=("t_start", "t_end")) from None
-        msgs.extend(ls.notes)
-        start_p, method, ls_details = ls.params, ls.method, ls.details
-    else:
-        start_p, method, ls_details = options.start, "given", {}
-    # ---- solve: the joint simulation-error fit (of each structure of the ladder, or of the one asked for)
-    fitting = _Fitting(options, train_logs, val_logs, outputs, offset_given, umax, others, belt_ratio)
-    structures = None
+    ratio = rig_d.drive.ratio if belt_drive and not at_motor else None
+    for t in (TERMS[n] for n in options.terms if TERMS[n].drive == "belt"):
+        if at_motor:
+            raise InputError(f"{t.name}: {t.description} compares the wheel's own signal, but the rig description "
+                             "measures it at the motor shaft (wheel.at 'motor'), which the belt's stretch separates "
+                             "from the wheel", argument=t.name)
+        if ratio is None:
+            drive = "no rig description" if rig_d is None else f"a {rig_d.drive.kind} drive"
+            raise InputError(f"{t.name}: {t.description} needs a rig description with \"drive\": {{\"kind\": "
+                             f"\"belt\", \"ratio\": N}} (N motor turns per wheel turn); the logs have {drive}",
+                             argument=t.name)
+    return ratio
+
+
+def _start(wtrain: list[ExperimentData], options: LogFitOptions) -> LeastSquaresStart:
+    """The least-squares start on the windowed training logs, or the options' start."""
+    if options.start is not None:
+        return LeastSquaresStart(options.start, "given", {}, [])
+    try:
+        return least_squares_start(wtrain)
+    except InputError as exc:
+        if options.window == (None, None):
+            raise
+        given = ", ".join(f"{n}={v:g} s" for n, v in zip(("t_start", "t_end"), options.window) if v is not None)
+        raise InputError(f"{exc} (the window {given} keeps "
+                         + ", ".join(f"{d.n_samples} of {Path(d.source).name}" for d in wtrain) + ")",
+                         argument=("t_start", "t_end")) from None
+
+
+# --------------------------------------------------------------------------
+# fit: one structure, or the ladder of them
+# --------------------------------------------------------------------------
+@dataclass
+class Fitted:
+    """The fit :func:`fit_plan` made.
+
+    Attributes
+    ----------
+    options : LogFitOptions
+        The structure fitted (the ladder's choice when it climbed one).
+    result : RefineResult
+        Its joint simulation-error fit.
+    start : LumpedParameters
+        Its start, the structure's terms started (:meth:`LogFitOptions.starting_values`).
+    structures : LadderResult or None
+        The ladder fitted and ranked, or None.
+    """
+
+    options: LogFitOptions
+    result: RefineResult
+    start: LumpedParameters
+    structures: LadderResult | None = None
+
+
+def fit_plan(plan: FitPlan) -> Fitted:
+    """The joint simulation-error fit of the plan's structure, or of each structure of the ladder (``select``)."""
+    fitting = _Fitting(plan)
+    options, start = plan.options, plan.start.params
     if options.select:
-        structures = fitting.ladder(start_p)
-        options = options.with_rung(structures.chosen.rung)
-        r = structures.chosen.result
-        start_p = options.starting_values(start_p, umax)
-    else:
-        start_p = options.starting_values(start_p, umax)
-        if options.belt:  # from the fits of the rigid structures, as the ladder's belt rung starts
-            rigid = [replace(options, belt=False)] + ([replace(options, belt=False, widths=False)] if options.widths
-                                                       else [])
-            rigid = rigid[:BELT_STARTS]  # only the rigid fits the belt starts from
-            fits = thread_map(lambda o: fitting.joint(o, o.starting_values(start_p, umax)), rigid)
-            r = fitting.belt_fit(options, [f.params for f in fits])
-        else:
-            r = fitting.joint(options, start_p)
+        structures = fitting.ladder(start)
+        chosen = options.with_rung(structures.chosen.rung)
+        return Fitted(chosen, structures.chosen.result, chosen.starting_values(start, plan.umax), structures)
+    started = options.starting_values(start, plan.umax)
+    if options.drive is None:
+        return Fitted(options, fitting.joint(options, started), started)
+    # a drive model starts from the fits of the rigid structures, as the ladder's rung does
+    rigid = [replace(options, terms=s) for s in rigid_structures(options.terms)][:options.drive.starts]
+    fits = thread_map(lambda o: fitting.joint(o, o.starting_values(started, plan.umax)), rigid)
+    return Fitted(options, fitting.drive_fit(options, [f.params for f in fits]), started)
+
+
+def rigid_structures(on: frozenset[str]) -> list[frozenset[str]]:
+    """The rigid structures a fit with a drive model (the belt) in ``on`` starts from, richest first: ``on`` less
+    the drive's term, then less also the term of the rung the drive's rung extends, if on."""
+    drive = [n for n in on if TERMS[n].replacement is not None]
+    rigid = on - set(drive)
+    out = [rigid]
+    for n in drive:
+        below = next((t.name for t in TERMS.values() if t.rung.name == TERMS[n].rung.extends), None)
+        if below in rigid:
+            out.append(rigid - {below})
+    return out
+
+
+# --------------------------------------------------------------------------
+# report: the fits per log, the held-out logs predicted
+# --------------------------------------------------------------------------
+def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFitResult:
+    """The training fits per log and the held-out logs simulated from their measured state, with every warning."""
+    options, r = fitted.options, fitted.result
     model = options.model
-    train_logs = [model_input(d, model, "train") for d in train_logs]
-    val_logs = [model_input(d, model, "validate") for d in val_logs]
-    msgs.extend(r.warnings)
-    # ---- report: training fits, held-out logs simulated from their measured state
+    msgs = list(plan.messages) + list(r.warnings)
+    train_logs = [model_input(d, model, "train") for d in plan.train]
+    val_logs = [model_input(d, model, "validate") for d in plan.held_out]
     offs = [r.offsets[i].get("q1", (0.0, 0.0))[0] for i in range(len(train_logs))]
     train_fits = [_log_fit(d, "train", _Replayed.of(r, i), offs[i]) for i, d in enumerate(train_logs)]
-    for j, o in enumerate(others, start=len(train_logs)):
+    for j, o in enumerate(plan.others, start=len(train_logs)):
         train_fits.append(_log_fit(o.data, "train", _Replayed.of(r, j), r.offsets[j].get("q1", (0.0, 0.0))[0],
                                    kind=o.kind))
-    val_off = 0.0 if offset_given else float(np.mean(offs))
-    if val_logs and not offset_given:
+    val_off = 0.0 if plan.offset_given else float(np.mean(offs))
+    if val_logs and not plan.offset_given:
         msgs.append(f"held-out logs: the pendulum zero offset is taken as the training logs' mean, "
                     f"{val_off:+.4g} rad (offsets of the training logs: "
                     + ", ".join(f"{o:+.4g}" for o in offs) + ")")
@@ -777,22 +916,19 @@ def fit_logs(
                     "and simulate them in the batch engine, which has no belt")
     elif val_logs and uncertainty is None:
         msgs.append("held-out logs: no prediction band, for the fit did not determine every free parameter")
-    val_fits = [_held_out(d, fitting.plant(options, r.params, r.belt), outputs, val_off, msgs, uncertainty)
-                for d in val_logs]
+    plant = _Fitting(plan).plant(options, r.params, r.belt)
+    val_fits = [_held_out(d, plant, plan.outputs, val_off, msgs, uncertainty) for d in val_logs]
     params = r.params
     if r.belt is not None:  # p2 and p3 do not enter the belt model: its rigid limit stands for them
         params = params.replace(p2=r.belt.rigid_p2rho / params.rho, p3=r.belt.rigid_p3rho / params.rho)
-    msgs.extend(poor_prediction_advice(val_fits, outputs, chose=structures is not None))
-    if structures is not None:
-        msgs.extend(structures.kept_simpler_advice())
-    res = LogFitResult(params=params, refinement=r, start=start_p, start_method=method, least_squares=ls_details,
-                       model=model, outputs=outputs, options=options.to_dict(offset_given), train=train_fits,
-                       validation=val_fits, warnings=_unique(msgs), rig=rig_d, elapsed=time.perf_counter() - t0,
-                       structures=structures, held_out_offset=val_off)
-    if warn:
-        for m in res.warnings:
-            _warnings.warn(m, stacklevel=2)
-    return res
+    msgs.extend(poor_prediction_advice(val_fits, plan.outputs, chose=fitted.structures is not None))
+    if fitted.structures is not None:
+        msgs.extend(fitted.structures.kept_simpler_advice())
+    return LogFitResult(params=params, refinement=r, start=fitted.start, start_method=plan.start.method,
+                        least_squares=plan.start.details, model=model, outputs=plan.outputs,
+                        options=options.to_dict(plan.offset_given), train=train_fits, validation=val_fits,
+                        warnings=_unique(msgs), rig=plan.rig, elapsed=elapsed, structures=fitted.structures,
+                        held_out_offset=val_off)
 
 
 #: the kinds of log that join ``iwp fit``'s training besides the free ones (``--clamped``, ``--wheel-locked``,
@@ -801,7 +937,7 @@ OTHER_KINDS = ("clamped", "wheel-locked", "closed-loop")
 
 
 @dataclass(frozen=True)
-class _Joined:
+class JoinedLog:
     """A log of another set-up that joins the training: its kind, the log, the law of a closed-loop one, and where
     its kind came from (``"train"``: the rig description; else the command line's ``--kind``)."""
 
@@ -827,7 +963,7 @@ def _law(spec: ControllerSpec | None) -> Input | None:
 
 
 def _other_kinds(kinds: Mapping[str, Any] | None, rig: RigDescription | None, controller: Input | None = None
-                 ) -> list[_Joined]:
+                 ) -> list[JoinedLog]:
     """The logs of ``kinds``, read; the ``closed-loop`` ones with ``controller``."""
     if not kinds:
         return []
@@ -840,7 +976,7 @@ def _other_kinds(kinds: Mapping[str, Any] | None, rig: RigDescription | None, co
             what = "; ".join(f"{k}: {EXPERIMENT_KINDS[k]}" for k in OTHER_KINDS)
             raise InputError(f"kinds: {kind!r} is not a kind of log that joins the fit; choose among "
                              f"{', '.join(OTHER_KINDS)} ({what})", argument="kinds")
-        out += [_Joined(kind, d, controller if kind == "closed-loop" else None)
+        out += [JoinedLog(kind, d, controller if kind == "closed-loop" else None)
                 for d in load_logs(items, rig, argument=f"--{kind}")]
     return out
 
@@ -1029,119 +1165,31 @@ LADDER_MAX_NFEV = 200
 NESTED_SLACK = 1e-3
 #: the share of their usual starts the new terms of a fit started again next to the simpler optimum take
 NESTED_RESTART = 1e-3
-#: A belt's fit starts from the fits of this many of the richest rigid structures (``widths``, then
-#: ``pendulum-coulomb``) and keeps the lowest cost: its forward-difference fit stops where those differences find no
-#: descent, and where it stops depends on the start. Measured on the belt-drive rig of ``benchmarks/ladder_study.py``
-#: (4 seeds): from the ``widths`` fit, costs of 0.38, 0.18, 2.07 and 2.59 (the widths had taken up part of the play);
-#: from the ``pendulum-coulomb`` fit, 0.20, 0.21, 0.137 and 0.137 (the truth's basin: 0.03 to 0.06).
-BELT_STARTS = 2
-#: the play half-width a belt's fit starts from [rad]
-BELT_START_PLAY = 0.05
-#: a belt's fit keeps its resonance ``sqrt(k/I2)`` and its motor's relaxation rate ``(k/gamma)/N^2`` below this
-#: many times the logs' Nyquist frequency ``pi/Ts``
-BELT_BAND = 4.0
-#: a belt's fit keeps its motor's speed per input unit within this factor of its start's
-BELT_SPEED_RANGE = 1000.0
-
-
-def belt_start(params: LumpedParameters, *, ratio: float, Ts: float) -> BeltParameters:
-    """The belt (15) a fit with the belt starts from: its rigid limit is ``params``' disk.
-
-    Parameters
-    ----------
-    params : LumpedParameters
-        A rigid structure's fit: the rigid limit's damping and gain are its ``p2 rho`` and ``p3 rho``.
-    ratio : float
-        The drive's ratio ``N`` [-] (the rig description's ``drive.ratio``).
-    Ts : float
-        The logs' sample period [s].
-
-    Returns
-    -------
-    BeltParameters
-        ``k/I2`` puts ``sqrt(k/I2)`` at a quarter of the logs' Nyquist frequency
-        (``pi / (4 Ts)`` rad/s), or lower where the motor's relaxation rate
-        ``(k/gamma)/N^2 = (k/I2)/(p2 rho - b2/I2)`` would exceed the Nyquist
-        frequency: stiff enough to keep the slower motion the rigid fit found,
-        inside the band the logs resolve (:func:`belt_bounds`); the play
-        :data:`BELT_START_PLAY`; ``b2/I2`` a tenth of the rigid damping. A
-        rigid fit with so little damping that this belt would lie outside
-        :func:`belt_bounds` gives a start moved inside them (whose rigid limit
-        then differs from the fit's).
-    """
-    p2rho, p3rho = params.p2 * params.rho, params.p3 * params.rho
-    b2 = 0.1 * p2rho
-    nyquist = math.pi / Ts
-    top = BELT_BAND * nyquist
-    k = min(max(min((nyquist / 4.0) ** 2, (p2rho - b2) * nyquist), 2.0 * PARAMETER_INFO["k_over_I2"].fit_range[0]),
-            0.5 * top ** 2)
-    # BeltParameters.from_rigid's relations; the motor's relaxation rate k / gamma / N^2 at most half its bound
-    gamma_over_I2 = max((p2rho - b2) / ratio ** 2, 2.0 * k / (top * ratio ** 2))
-    values = {"k_over_I2": k, "d": BELT_START_PLAY, "b2_over_I2": b2, "k_over_gamma": k / gamma_over_I2,
-              "kTbeta_over_Rgamma": p3rho / ratio / gamma_over_I2}
-    bounds = belt_bounds(ratio=ratio, Ts=Ts, speed_per_input=values["kTbeta_over_Rgamma"])
-    return BeltParameters(N=ratio, **{n: min(max(values[n], 2.0 * lo), 0.5 * hi) for n, (lo, hi) in bounds.items()})
-
-
-def belt_bounds(*, ratio: float, Ts: float, speed_per_input: float) -> dict[str, tuple[float, float]]:
-    """The bounds of a belt's fit on logs sampled every ``Ts`` [s] with the drive ratio ``ratio``.
-
-    Parameters
-    ----------
-    ratio : float
-        The drive's ratio ``N`` [-].
-    Ts : float
-        The logs' sample period [s].
-    speed_per_input : float
-        The start's ``kTbeta_over_Rgamma`` [rad/s per input unit] (its rigid limit's).
-
-    Returns
-    -------
-    dict of str to (float, float)
-        For each of :data:`~iwp.ident.belt_fit.BELT_FREE`: its fit range,
-        except that a belt whose resonance ``sqrt(k/I2)`` or whose motor's
-        relaxation rate ``(k/gamma)/N^2`` is far above the logs' Nyquist
-        frequency ``pi/Ts`` looks rigid in them, and the rigid rungs cover it;
-        there its stiffness is not determined, and the simulations' cost grows
-        with it (a fit that drifted there took minutes per evaluation): both are
-        kept below :data:`BELT_BAND` times ``pi/Ts``. The motor's speed per input
-        unit depends on the input's unit (duty, volts, DAC counts): it is kept
-        within a factor :data:`BELT_SPEED_RANGE` of the start's.
-    """
-    top = BELT_BAND * math.pi / Ts
-    out = {n: PARAMETER_INFO[n].fit_range for n in BELT_FREE}
-    out["k_over_I2"] = (out["k_over_I2"][0], top ** 2)
-    out["k_over_gamma"] = (out["k_over_gamma"][0], top * ratio ** 2)
-    out["kTbeta_over_Rgamma"] = (speed_per_input / BELT_SPEED_RANGE, speed_per_input * BELT_SPEED_RANGE)
-    return out
-
-
 class _Fitting:
     """The joint fits of one call of :func:`fit_logs`: one structure, or the ladder of them ranked on held-out data."""
 
-    def __init__(self, options: LogFitOptions, train: list[ExperimentData], held_out: list[ExperimentData],
-                 outputs: tuple[str, ...], offset_given: bool, umax: float,
-                 others: list[_Joined], belt_ratio: float | None):
-        self.options, self.train, self.held_out = options, train, held_out
-        self.outputs, self.offset_given, self.umax = outputs, offset_given, umax
-        self.others = others  # the logs of the other set-ups, with the closed-loop ones' laws
-        self.belt_ratio = belt_ratio  # the rig's drive ratio when its drive is a belt, else None
-        self.Ts = float(train[0].Ts)  # the logs' sample period, for a belt's start and bounds
+    def __init__(self, plan: FitPlan):
+        self.options, self.train, self.held_out = plan.options, plan.train, plan.held_out
+        self.outputs, self.offset_given, self.umax = plan.outputs, plan.offset_given, plan.umax
+        self.others = plan.others  # the logs of the other set-ups, with the closed-loop ones' laws
+        self.drive_ratio = plan.drive_ratio  # the rig's drive ratio when its drive is a belt, else None
+        self.Ts = plan.Ts  # the logs' sample period, for a drive model's start and bounds
 
     def plant(self, options: LogFitOptions, params: LumpedParameters, belt: BeltParameters | None = None) -> Plant:
-        """The plant of ``options``' structure with ``params`` (and ``belt``; without it a belt structure starts
-        from :func:`belt_start`)."""
-        if not options.belt:
+        """The plant of ``options``' structure with ``params`` (and ``belt``; without it a structure with a drive
+        model starts from the drive's start, :attr:`iwp.models.terms.DriveModel.start`)."""
+        drive = options.drive
+        if drive is None:
             return Plant(params, model=options.model)
         if belt is None:
-            belt = belt_start(params, ratio=self.belt_ratio, Ts=self.Ts)
+            belt = drive.start(params, ratio=self.drive_ratio, Ts=self.Ts)
         return Plant(params, model=options.model, belt=belt)
 
     def joint(self, options: LogFitOptions, start: LumpedParameters, logs=None, x0=None,
               belt: BeltParameters | None = None, max_nfev: int | None = None) -> RefineResult:
         """The joint simulation-error fit of ``options``' structure on ``logs`` (default: the training logs) and
         the logs of the other set-ups; ``x0``: initial-state guesses per experiment (a simpler structure's);
-        ``belt``: the belt's start (a belt structure's); ``max_nfev``: the optimiser's budget (default
+        ``belt``: the drive model's start; ``max_nfev``: the optimiser's budget (default
         :class:`~iwp.ident.problem.SolverOptions`')."""
         model = options.model
         logs = [model_input(d, model, "train") for d in (self.train if logs is None else logs)]
@@ -1154,21 +1202,23 @@ class _Fitting:
                                    x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else (),
                                    controller=o.controller))
         plant = self.plant(options, start, belt)
-        bounds = (belt_bounds(ratio=plant.belt.N, Ts=self.Ts, speed_per_input=plant.belt.kTbeta_over_Rgamma)
-                  if options.belt else None)
-        solver = replace(BELT_OPTIONS if options.belt else SolverOptions(), max_nfev=max_nfev)
+        drive = options.drive
+        bounds = (drive.bounds(ratio=plant.belt.N, Ts=self.Ts, speed_per_input=plant.belt.kTbeta_over_Rgamma)
+                  if drive is not None else None)
+        solver = (SolverOptions(rtol=drive.rtol, atol=drive.rtol, scaling="start") if drive is not None
+                  else SolverOptions())
         return refine(exps, plant, free=options.free(), outputs=self.outputs, bounds=bounds, loss=options.loss,
-                      options=solver, warn=False)
+                      options=replace(solver, max_nfev=max_nfev), warn=False)
 
-    def belt_starts(self, options: LogFitOptions, rigid: Sequence[LumpedParameters]) -> list[LumpedParameters]:
-        """The starts of ``options``' belt structure: from each of the first :data:`BELT_STARTS` rigid fits
-        ``rigid`` (richest first)."""
-        return [options.starting_values(p, self.umax) for p in rigid[:BELT_STARTS]]
+    def drive_starts(self, options: LogFitOptions, rigid: Sequence[LumpedParameters]) -> list[LumpedParameters]:
+        """The starts of ``options``' structure with a drive model: from each of the first
+        :attr:`~iwp.models.terms.DriveModel.starts` rigid fits ``rigid`` (richest first)."""
+        return [options.starting_values(p, self.umax) for p in rigid[:options.drive.starts]]
 
-    def belt_fit(self, options: LogFitOptions, rigid: Sequence[LumpedParameters]) -> RefineResult:
-        """The fit of ``options``' belt structure from each of :meth:`belt_starts`, side by side; the one with the
-        lowest cost."""
-        return lowest_cost(thread_map(lambda s: self.joint(options, s), self.belt_starts(options, rigid)))
+    def drive_fit(self, options: LogFitOptions, rigid: Sequence[LumpedParameters]) -> RefineResult:
+        """The fit of ``options``' structure with a drive model from each of :meth:`drive_starts`, side by side;
+        the one with the lowest cost."""
+        return lowest_cost(thread_map(lambda s: self.joint(options, s), self.drive_starts(options, rigid)))
 
     def score(self, r: RefineResult, options: LogFitOptions, logs: list[ExperimentData]) -> list[LogFit]:
         """``logs`` simulated from their measured state with the fit ``r`` (the training logs' mean offset)."""
@@ -1183,26 +1233,27 @@ class _Fitting:
         """Each structure of the ladder fitted (from the fit of the one it extends) and scored.
 
         A structure starts once every structure it extends is fitted; structures that do not extend each
-        other (the offset, the dead zone and the belt, all on the widths) are fitted side by side, as are the
-        belt's starts (:data:`BELT_STARTS`) and the cross-validation folds (:func:`iwp.threads.thread_map`).
+        other (the offset, the dead zone and the belt, all on the widths) are fitted side by side, as are a
+        drive model's starts (:attr:`~iwp.models.terms.DriveModel.starts`) and the cross-validation folds
+        (:func:`iwp.threads.thread_map`).
         """
         raw = all(d.input_name == "v" for d in self.train + self.held_out)
         folds = len(self.train) >= 2 and not self.held_out
-        rungs = ladder(raw, belt_drive=self.belt_ratio is not None)
+        rungs = ladder(raw, belt_drive=self.drive_ratio is not None, extra=self.options.try_terms)
         done: dict[str, RungOutcome] = {}
         # entered once for the whole ladder: the fits side by side (thread_map enters it too) and the work between
         # the waves on one BLAS thread, the limit not set and restored at every wave
         with one_blas_thread():
             while len(done) < len(rungs):
                 wave = [rg for rg in rungs if rg.name not in done
-                        and all(o.name in done for o in rungs if o.flags < rg.flags)]
-                extended = {rg.name: [done[o.name] for o in rungs if o.flags < rg.flags] for rg in wave}
-                # the tasks: a belt's fit from each of its starts (first: they are the slowest fits), then each
-                # other structure fitted and scored
-                tasks = [(rg, s) for rg in wave if "belt" in rg.flags
-                         for s in self.belt_starts(self.options.with_rung(rg),
-                                                   [o.result.params for o in _parents(extended[rg.name])] or [start])]
-                tasks += [(rg, None) for rg in wave if "belt" not in rg.flags]
+                        and all(o.name in done for o in rungs if o.terms < rg.terms)]
+                extended = {rg.name: [done[o.name] for o in rungs if o.terms < rg.terms] for rg in wave}
+                # the tasks: a drive model's fit from each of its starts (first: they are the slowest fits), then
+                # each other structure fitted and scored
+                tasks = [(rg, s) for rg in wave if drive_of(rg.terms) is not None
+                         for s in self.drive_starts(self.options.with_rung(rg),
+                                                    [o.result.params for o in _parents(extended[rg.name])] or [start])]
+                tasks += [(rg, None) for rg in wave if drive_of(rg.terms) is None]
 
                 def run(task: tuple[Rung, LumpedParameters | None]) -> RefineResult | RungOutcome:
                     rg, s = task
@@ -1212,7 +1263,7 @@ class _Fitting:
 
                 ran = thread_map(run, tasks)
                 for rg in wave:
-                    if "belt" in rg.flags:
+                    if drive_of(rg.terms) is not None:
                         fit = lowest_cost([r for (t, s), r in zip(tasks, ran) if t is rg and s is not None])
                         done[rg.name] = self._rung(rg, extended[rg.name], start, folds, fit=fit)
                     else:
@@ -1235,8 +1286,9 @@ class _Fitting:
         base = parent.params if parent else start
         first = opts.starting_values(base, self.umax)
         r = fit if fit is not None else self.joint(opts, first, max_nfev=LADDER_MAX_NFEV)
-        # the most this structure's fit may cost: that of the structure it extends (a belt holds it only in a limit)
-        nested = parent is not None and "belt" not in rg.flags
+        # the most this structure's fit may cost: that of the structure it extends (a drive model holds it only in a
+        # limit)
+        nested = parent is not None and drive_of(rg.terms) is None
         bound = parent.cost * (1.0 + NESTED_SLACK) if nested else math.inf
         if nested and not r.cost <= bound:
             # next to that optimum, then from each simpler structure's (a width the richest one drove to its
@@ -1274,7 +1326,7 @@ class _Fitting:
 
 def _parents(extended: Sequence[RungOutcome]) -> list[RungOutcome]:
     """The converged structures of ``extended``, richest first."""
-    return sorted((o for o in extended if o.success), key=lambda o: len(o.rung.flags), reverse=True)
+    return sorted((o for o in extended if o.success), key=lambda o: len(o.rung.terms), reverse=True)
 
 
 def lowest_cost(fits: Sequence[RefineResult]) -> RefineResult:

@@ -60,6 +60,7 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import PARAMETER_INFO, BeltParameters, LumpedParameters
 from ..models.plant import MODELS, Plant
+from ..models.terms import BELT_RTOL
 from .covariance import Reliability
 from .fit import fit_percent
 from .output_error import Experiment, OutputError, offset_name, x0_name
@@ -100,7 +101,7 @@ FREE_PENDULUM = ("p1", "sigma_a1", "sigma_v1", "sigma_b1")
 #: the columns of its forward-difference Jacobian, the belt's fit stopped (xtol) at 16 times the cost it reached
 #: in the log coordinates (2.12 against 0.131, ladder study, belt truth, seed 2, at 1e-6) and the ladder chose a
 #: rigid structure in 3 of 10 seeds.
-BELT_OPTIONS = SolverOptions(rtol=1e-10, atol=1e-10, scaling="start")
+BELT_OPTIONS = SolverOptions(rtol=BELT_RTOL, atol=BELT_RTOL, scaling="start")
 #: forward-difference step on the log scale, per square root of the simulation's rtol (the step's
 #: truncation error against the simulation's error)
 STEP_PER_SQRT_RTOL = 3.0

@@ -20,14 +20,18 @@ rung                    terms freed on top of the rung before
                         figure 5, model ``"belt-full"``: k/I2, d, b2/I2,
                         k/gamma, kT beta/(R gamma) in place of p2 and p3 (for a
                         rig whose drive is a belt only)
+``stribeck``            the Stribeck rise of the wheel's friction, sigma_s2 and
+                        v_s2, on ``coulomb`` (off the default ladder: ``iwp fit
+                        --try stribeck``)
 ======================  =====================================================
 
-``offset``, ``dead-zone`` and ``belt`` all build on ``widths``. The belt's
+The rungs follow from the terms (:data:`iwp.models.terms.TERMS`): each term
+names the rung it extends and its place. ``offset``, ``dead-zone`` and ``belt`` all build on ``widths``. The belt's
 rung needs no motor angle: its simulation error compares the wheel's own
 signal, as :func:`iwp.ident.belt_fit.refine_belt` does with the pendulum
 locked; its ratio ``N`` is the rig description's ``drive.ratio``. Its fit
 starts from the ``widths`` fit and from the ``pendulum-coulomb`` one, and keeps
-the lower cost (:data:`iwp.ident.logfit.BELT_STARTS`).
+the lower cost (:data:`iwp.models.terms.BELT_STARTS`).
 
 The rule (:func:`select`): each rung's score per scoring log is its
 simulation error there, the mean over the outputs of ``1 - fit/100`` (the
@@ -68,8 +72,9 @@ import numpy as np
 from scipy import stats
 
 from ..errors import InputError
+from ..models.terms import TERMS, term
 
-__all__ = ["Rung", "RUNGS", "TERMS", "MIN_GAIN", "ALPHA", "SIGNED_RANK_MIN", "NOTABLE_FIT_GAIN", "ladder", "rung",
+__all__ = ["Rung", "RUNGS", "MIN_GAIN", "ALPHA", "SIGNED_RANK_MIN", "NOTABLE_FIT_GAIN", "ladder", "rung",
            "RungOutcome", "LadderResult",
            "Selection", "select", "information_criteria"]
 
@@ -96,55 +101,60 @@ class Rung:
         What ``iwp fit --model`` takes (``"9"``, ``"coulomb"``, ...).
     label : str
         What the summary's table prints.
-    flags : frozenset of str
-        The terms on (the fields of :class:`~iwp.ident.logfit.LogFitOptions`):
-        ``coulomb``, ``pendulum_coulomb``, ``widths``, ``input_offset``, ``dead_zone``, ``belt``.
+    terms : frozenset of str
+        The optional terms on (:data:`iwp.models.terms.TERMS`).
+    default : bool
+        On the ladder ``iwp fit`` climbs by default (else only when asked: ``--try``).
     """
 
     name: str
     label: str
-    flags: frozenset[str]
-
-    def options(self) -> dict[str, bool]:
-        """The flags as keyword arguments of :class:`~iwp.ident.logfit.LogFitOptions`."""
-        return {f: f in self.flags for f in TERMS}
+    terms: frozenset[str]
+    default: bool = True
 
 
-#: the terms a rung can switch on (fields of :class:`~iwp.ident.logfit.LogFitOptions`)
-TERMS = ("coulomb", "pendulum_coulomb", "widths", "input_offset", "dead_zone", "belt")
-_C2 = frozenset({"coulomb"})
-_C12 = _C2 | {"pendulum_coulomb"}
-_W = _C12 | {"widths"}
+def _rungs() -> dict[str, Rung]:
+    """The rungs of :data:`iwp.models.terms.TERMS`: model (9), then each term's place on the ladder, its structure
+    the one it extends with the term added, simplest first (by :attr:`~iwp.models.terms.LadderPlace.position`)."""
+    out = {"9": Rung("9", "model (9)", frozenset())}
+    for t in sorted(TERMS.values(), key=lambda t: t.rung.position):
+        parent = out[t.rung.extends]
+        out[t.rung.name] = Rung(t.rung.name, t.rung.label, parent.terms | {t.name}, t.rung.default and parent.default)
+    return out
+
+
 #: The rungs, simplest first.
-RUNGS: dict[str, Rung] = {r.name: r for r in (
-    Rung("9", "model (9)", frozenset()),
-    Rung("coulomb", "+ wheel Coulomb (sigma_c2)", _C2),
-    Rung("pendulum-coulomb", "+ pendulum Coulomb (sigma_c1)", _C12),
-    Rung("widths", "+ Coulomb widths (eps_c1, eps_c2)", _W),
-    Rung("offset", "+ input offset (u_offset)", _W | {"input_offset"}),
-    Rung("dead-zone", "+ dead zone (v_dz_pos, v_dz_neg), model (6)", _W | {"dead_zone"}),
-    Rung("belt", "+ belt (15) in place of p2, p3 (5 terms)", _W | {"belt"}),
-)}
+RUNGS: dict[str, Rung] = _rungs()
 
 
-def ladder(raw_command: bool, belt_drive: bool = False) -> tuple[Rung, ...]:
+def ladder(raw_command: bool, belt_drive: bool = False, extra=()) -> tuple[Rung, ...]:
     """The rungs for logs whose input is a raw command ``v`` (with the dead zone rung) or a compensated ``u``,
     of a rig with a belt drive (with the belt's rung) or not.
 
     Parameters
     ----------
     raw_command : bool
-        True for logs of ``v`` (with the dead zone's rung), False for logs of ``u`` (without it).
+        True for logs of ``v`` (the rungs of terms that need the raw command, the dead zone's), False for logs of
+        ``u`` (without them).
     belt_drive : bool
-        True for a rig whose drive is a belt (with the belt's rung).
+        True for a rig whose drive is a belt (the rungs of terms that need it, the belt's).
+    extra : iterable of str
+        Terms off the default ladder whose rungs are tried too (``iwp fit --try stribeck``).
 
     Returns
     -------
     tuple of Rung
         The rungs, simplest first (the order of :data:`RUNGS`).
     """
+    asked = {term(n, argument="try").name for n in extra}
+
+    def fits(t) -> bool:
+        return ((t.input is None or (t.input == "v") == raw_command)
+                and (t.drive is None or (t.drive == "belt") == belt_drive))
+
     return tuple(r for r in RUNGS.values()
-                 if (raw_command or "dead_zone" not in r.flags) and (belt_drive or "belt" not in r.flags))
+                 if all(fits(TERMS[n]) for n in r.terms)
+                 and (r.default or all(TERMS[n].rung.default or n in asked for n in r.terms)))
 
 
 def rung(name: str, *, argument: str = "model") -> Rung:

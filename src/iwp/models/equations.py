@@ -31,7 +31,7 @@ from numba.extending import overload
 from ..jit import jit
 from .actuator import dead_zone_saturation, effective_input
 from .belt import rhs_belt
-from .friction import coulomb_sign, pendulum_friction
+from .friction import coulomb_sign, pendulum_friction, stribeck_rise
 from .layout import (
     DZ,
     E_BETA,
@@ -69,12 +69,15 @@ from .layout import (
     P2,
     P3,
     RHO,
-    SC1,
     SC2,
-    UOFF,
+    SWITCH_SLOTS,
+    TERM_INDEX,
 )
 from .mathfn import sincos
 from .pendulum import pendulum_accel_terms, pendulum_coulomb, rhs_free_pendulum
+
+#: the disk's Stribeck level and speed (:mod:`iwp.models.terms`, ``stribeck``)
+SS2, VS2 = TERM_INDEX["sigma_s2"], TERM_INDEX["v_s2"]
 
 
 @jit(inline=True)
@@ -82,7 +85,9 @@ def rhs_state_space(x, w, P, dx, optional):
     """Models (6) and (9), and the pendulum clamped at ``q1 = q3 = 0``.
 
     With ``xi`` the pendulum terms and ``m = p3 w_eff - p2 q4 - s_c2 sgn q4``
-    the net disk torque over ``I1_hat``: ``q3' = -xi - m`` and
+    the net disk torque over ``I1_hat`` (with the Stribeck rise
+    ``s_s2 exp(-(q4/v_s2)^2) sgn q4`` of the disk's friction when ``s_s2 > 0``,
+    :func:`~iwp.models.friction.stribeck_rise`): ``q3' = -xi - m`` and
     ``q4' = xi + (1 + rho) m`` -- eq. (6) when ``w_eff = v - f(v)`` (dead
     zone (5) active), eq. (9) when ``w_eff = u``.
 
@@ -99,6 +104,8 @@ def rhs_state_space(x, w, P, dx, optional):
     m = P[P3] * weff - P[P2] * q4
     if optional and P[SC2] != 0.0:
         m -= P[SC2] * coulomb_sign(q4, P[EPSC])
+    if optional and P[SS2] != 0.0:  # the Stribeck rise of the disk's friction
+        m -= P[SS2] * stribeck_rise(q4, P[VS2]) * coulomb_sign(q4, P[EPSC])
     dx[0] = q3
     dx[1] = q4
     if optional and P[LOCK] != 0.0:
@@ -192,7 +199,12 @@ def optional_terms_off(model, P):
     """
     if model != M_RAW and model != M_COMP:
         return False
-    return P[DZ] == 0.0 and P[SC2] == 0.0 and P[LOCK] == 0.0 and P[SC1] == 0.0 and P[UOFF] == 0.0
+    if P[DZ] != 0.0 or P[LOCK] != 0.0:
+        return False
+    for i in SWITCH_SLOTS:  # each optional term's switch (iwp.models.terms.SWITCHES)
+        if P[i] != 0.0:
+            return False
+    return True
 
 
 def rhs_of(model, x, w, P, dx):

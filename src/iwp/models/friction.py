@@ -2,8 +2,9 @@
 
 Pendulum joint (section 3.1): viscous friction ``sigma_v1 q3`` and rolling
 friction ``sigma_a1 |cos q1| q3 + sigma_b1 q3^3``. Disk joint (section 3.2):
-the optional Coulomb term ``sigma_c2 sgn q4`` (the dead zone, the main
-effect at this joint, is in :mod:`iwp.models.actuator`).
+the optional Coulomb term ``sigma_c2 sgn q4`` and its Stribeck rise at low
+speed (the dead zone, the main effect at this joint, is in
+:mod:`iwp.models.actuator`).
 
 The functions take the coefficients, so that the same law serves the lumped
 models (coefficients over ``I1_hat``) and the Euler-Lagrange model (SI).
@@ -42,4 +43,18 @@ def coulomb_sign(x, eps):
         return 1.0
     if x < 0.0:
         return -1.0
+    return 0.0
+
+
+@jit
+def stribeck_rise(x, v_s):
+    """The Stribeck curve's share of the static friction's excess at speed ``x``: ``exp(-(x / v_s)^2)``.
+
+    The disk's friction with the Stribeck effect is ``(sigma_c + sigma_s exp(-(q4/v_s)^2)) sgn q4``
+    (Armstrong-Helouvry's model): at rest the static level ``sigma_c + sigma_s``, falling to the Coulomb level
+    ``sigma_c`` above the Stribeck speed ``v_s`` [rad/s]. 1 at ``x = 0``; 0 for ``v_s <= 0`` (no rise).
+    """
+    if v_s > 0.0:
+        r = x / v_s
+        return math.exp(-r * r)
     return 0.0

@@ -6,11 +6,17 @@ compiled right-hand sides of :mod:`iwp.models.equations` read it at the
 indices below. The layout is internal to iwp: the public API takes
 parameter objects, never vectors.
 
+The optional terms' slots follow from their registry (:mod:`iwp.models.terms`);
+the compiled code reads these constants, so this module is part of the
+compiled sources' stamp (:mod:`iwp.jit`, marker: compiled-constants).
+
 Model codes are the compiled counterpart of the model names of
 :data:`iwp.models.plant.MODELS`.
 """
 
 from __future__ import annotations
+
+from .terms import SWITCHES, term_parameters
 
 # --------------------------------------------------------------------------
 # model codes
@@ -34,19 +40,29 @@ BELT_CODES = (M_BELT, M_BELT_FULL)
 # --------------------------------------------------------------------------
 # lumped layout (models (6), (9), (14), (15), free pendulum)
 # --------------------------------------------------------------------------
-P1, P2, P3, RHO, SA, SV, SB, VPOS, VNEG, SC2, EPSC, BRK, WS, LOCK, DZ = range(15)
-#: belt (15): k/I2, play half-width d, ratio N, b2/I2, k/gamma, kT beta/(R gamma)
-KI2, DPLAY, NB, B2I2, KG, KBRG = range(15, 21)
-#: options of other rigs: Coulomb friction of the pendulum joint, offset of the input
-SC1, UOFF = range(21, 23)
-#: belt (15): motor gain for a negative net input over the positive one (section 3.2 allows them to differ)
-KNEG = 23
-#: smoothing width of the pendulum's Coulomb sign (the disk's is EPSC)
-EPSC1 = 24
-#: belt (15): the play's branch, held through a step by the engine (0, as packed: decided from the state at every
-#: evaluation; see :func:`iwp.models.belt.play_rate`)
-PMODE = 25
-N_LUMPED = 26
+#: model (9)'s parameters (section 4)
+P1, P2, P3, RHO, SA, SV, SB = range(7)
+#: the plant's options: break-away ratio and speed of the dead zone, the clamp, the dead zone on; the belt's play
+#: branch, held through a step by the engine (0, as packed: decided from the state at every evaluation; see
+#: :func:`iwp.models.belt.play_rate`); the disk's and the pendulum's Coulomb smoothing as packed (the fitted widths,
+#: or the plant's ``coulomb_eps`` where they are 0)
+BRK, WS, LOCK, DZ, PMODE, EPSC, EPSC1 = range(7, 14)
+#: belt (15): k/I2, play half-width d, ratio N, b2/I2, k/gamma, kT beta/(R gamma), the motor gain for a negative net
+#: input over the positive one (section 3.2 allows them to differ)
+KI2, DPLAY, NB, B2I2, KG, KBRG, KNEG = range(14, 21)
+#: the optional terms' parameters (:data:`iwp.models.terms.TERMS`), in the registry's order; the smoothing widths
+#: eps_c1/eps_c2 are packed at EPSC1/EPSC, the plant's default in place of 0
+_FIRST_TERM = 21
+TERM_INDEX = {p.name: _FIRST_TERM + i for i, p in enumerate(p for p in term_parameters()
+                                                              if p.name not in ("eps_c1", "eps_c2"))}
+TERM_INDEX.update(eps_c1=EPSC1, eps_c2=EPSC)
+VPOS, VNEG = TERM_INDEX["v_dz_pos"], TERM_INDEX["v_dz_neg"]  # the dead zone's thresholds (5)
+SC2 = TERM_INDEX["sigma_c2"]  # the disk's Coulomb friction (section 5.1)
+SC1 = TERM_INDEX["sigma_c1"]  # the pendulum joint's Coulomb friction
+UOFF = TERM_INDEX["u_offset"]  # the input's offset
+#: the slots whose non-zero value puts a term into the compiled models (:data:`iwp.models.terms.SWITCHES`)
+SWITCH_SLOTS = tuple(TERM_INDEX[n] for n in SWITCHES)
+N_LUMPED = _FIRST_TERM + len(TERM_INDEX) - 2
 
 # --------------------------------------------------------------------------
 # physical layout (model "el")
@@ -62,11 +78,8 @@ PHYSICAL_FIELDS = ("m1", "m2", "I1", "I2", "l", "c", "g", "kT", "kF", "R", "N", 
 N_PACK = max(N_LUMPED, N_PHYS)
 
 #: lumped parameter name -> index (the fields of :class:`~iwp.models.parameters.LumpedParameters`)
-LUMPED_INDEX = {
-    "p1": P1, "p2": P2, "p3": P3, "rho": RHO, "sigma_a1": SA, "sigma_v1": SV, "sigma_b1": SB,
-    "v_dz_pos": VPOS, "v_dz_neg": VNEG, "sigma_c2": SC2, "sigma_c1": SC1, "u_offset": UOFF, "eps_c1": EPSC1,
-    "eps_c2": EPSC,
-}
+LUMPED_INDEX = {"p1": P1, "p2": P2, "p3": P3, "rho": RHO, "sigma_a1": SA, "sigma_v1": SV, "sigma_b1": SB,
+                **TERM_INDEX}
 #: belt parameter name -> index (the fields of :class:`~iwp.models.parameters.BeltParameters`)
 BELT_INDEX = {
     "k_over_I2": KI2, "d": DPLAY, "N": NB, "b2_over_I2": B2I2, "k_over_gamma": KG, "kTbeta_over_Rgamma": KBRG,

@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 import warnings
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -32,6 +33,9 @@ from typing import Any
 
 from ..errors import InputError
 from ..files import prepare_output_file, read_json
+from .belt_parameters import BELT_INFO, BeltParameters
+from .parameter_info import ParameterInfo, check_fields, info_table, names_with_sign
+from .terms import term_parameters
 
 __all__ = [
     "BELT_INFO",
@@ -53,70 +57,8 @@ __all__ = [
 ]
 
 
-#: Largest magnitude of any parameter: a guard against overflow in the models, far beyond any rig's value.
-MAX_MAGNITUDE = 1e9
-
-
-@dataclass(frozen=True)
-class ParameterInfo:
-    """What iwp knows about one model parameter: the one place a fit, a report or a check looks it up.
-
-    Attributes
-    ----------
-    name : str
-        Field name in :class:`LumpedParameters` or :class:`BeltParameters`.
-    owner : {"lumped", "belt"}
-        The parameter set that holds it.
-    unit : str
-        Its unit ("in" is one unit of the input ``u`` or ``v``).
-    typical : float
-        A typical magnitude (Table 1, section 5.1): the scale of fits and of
-        difference steps when a value is 0.
-    sign : {"positive", "nonnegative", "signed"}
-        The physical sign (:meth:`LumpedParameters.check_physical`), and so
-        the default bounds of a fit.
-    description : str
-    fit_range : (float, float) or None
-        Bounds of a fit on a log scale (the belt's parameters and the disk's
-        Coulomb friction, fitted by simulation error from the disk velocity);
-        None: the parameter is not fitted on a log scale.
-    floor : float
-        The lowest value a fit on a linear scale may give (default 0). The
-        Coulomb signs' smoothing widths have 1e-3 rad/s: thirty times finer
-        than the speed resolution of any logged rig (one count per sample:
-        0.03 rad/s for 4,096 counts at 50 ms), so a narrower width is not
-        told apart by data, and it makes the model stiff (a width of 3e-7
-        rad/s took a fit of 100 s instead of 2 s).
-    """
-
-    name: str
-    owner: str
-    unit: str
-    typical: float
-    sign: str
-    description: str
-    fit_range: tuple[float, float] | None = None
-    floor: float = 0.0
-
-    def default_bounds(self, log: bool = False) -> tuple[float, float]:
-        """Default ``(low, high)`` of a fit: ``fit_range`` on a log scale, else from the physical sign."""
-        if log:
-            if self.fit_range is None:
-                raise InputError(f"parameter {self.name!r} is not fitted on a log scale")
-            return self.fit_range
-        if self.sign == "positive":
-            return (1e-12 * self.typical, math.inf)
-        if self.sign == "nonnegative":
-            return (self.floor, math.inf)
-        return (-math.inf, math.inf)
-
-
-def _info(owner: str, rows) -> dict[str, ParameterInfo]:
-    return {r[0]: ParameterInfo(r[0], owner, *r[1:]) for r in rows}
-
-
-#: The lumped parameters of section 4 and the options of other rigs, by name.
-LUMPED_INFO: dict[str, ParameterInfo] = _info("lumped", (
+#: The lumped parameters of section 4, then the optional terms' (:data:`iwp.models.terms.TERMS`), by name.
+LUMPED_INFO: dict[str, ParameterInfo] = {**info_table("lumped", (
     ("p1", "1/s^2", 26.0, "positive", "gravity term (m1 c + m2 l) g / I1_hat"),
     ("p2", "1/s", 0.01, "nonnegative", "back-emf and viscous friction of the disk over I1_hat"),
     ("p3", "rad/(s^2 in)", 0.03, "positive", "input gain beta N kT / (I1_hat R)"),
@@ -124,28 +66,7 @@ LUMPED_INFO: dict[str, ParameterInfo] = _info("lumped", (
     ("sigma_a1", "1/s", 0.003, "nonnegative", "rolling friction |cos q1| q3 of the pendulum (section 3.1)"),
     ("sigma_v1", "1/s", 0.01, "nonnegative", "viscous friction of the pendulum (section 3.1)"),
     ("sigma_b1", "s/rad^2", 5e-4, "nonnegative", "centrifugal rolling friction q3^3 of the pendulum (section 3.1)"),
-    ("v_dz_pos", "in", 31.0, "nonnegative", "dead-zone threshold v+ (5)"),
-    ("v_dz_neg", "in", 31.0, "nonnegative", "dead-zone threshold v- (5)"),
-    ("sigma_c2", "rad/s^2", 0.1, "nonnegative", "Coulomb friction of the disk over I1_hat (section 5.1)",
-     (1e-5, 10.0)),
-    ("sigma_c1", "rad/s^2", 0.05, "nonnegative", "Coulomb friction of the pendulum joint over I1_hat"),
-    ("u_offset", "in", 1.0, "signed", "offset of the input"),
-    ("eps_c1", "rad/s", 0.01, "nonnegative", "smoothing width of the pendulum's Coulomb sign (0: the plant's)",
-     (1e-3, 2.0), 1e-3),
-    ("eps_c2", "rad/s", 0.01, "nonnegative", "smoothing width of the disk's Coulomb sign (0: the plant's)",
-     (1e-3, 2.0), 1e-3),
-))
-
-#: The belt (15) and figure 5, by name.
-BELT_INFO: dict[str, ParameterInfo] = _info("belt", (
-    ("k_over_I2", "1/s^2", 60.0, "positive", "belt stiffness over the disk inertia", (1.0, 1e6)),
-    ("d", "rad", 2.0, "nonnegative", "half-width of the belt's play (figure 5)", (1e-4, 20.0)),
-    ("N", "-", 13.5, "positive", "reduction ratio (measured)"),
-    ("b2_over_I2", "1/s", 10.0, "nonnegative", "viscous friction of the disk over its inertia", (1e-4, 100.0)),
-    ("k_over_gamma", "1/s", 780.0, "positive", "belt stiffness over the motor's damping gamma", (1e-2, 1e9)),
-    ("kTbeta_over_Rgamma", "rad/(s in)", 26.0, "positive", "motor's no-load speed per input unit", (1e-2, 1e4)),
-    ("gain_neg", "-", 1.0, "positive", "motor gain for a negative over a positive input (section 3.2)", (0.3, 3.0)),
-))
+)), **{p.name: p for p in term_parameters()}}
 
 #: Every model parameter by name (lumped and belt).
 PARAMETER_INFO: dict[str, ParameterInfo] = {**LUMPED_INFO, **BELT_INFO}
@@ -159,10 +80,6 @@ DERIVED: dict[str, tuple[str, str]] = {
 
 #: Typical magnitudes by name (:attr:`ParameterInfo.typical`).
 TYPICAL: dict[str, float] = {n: i.typical for n, i in PARAMETER_INFO.items()}
-
-
-def _names_with_sign(owner: str, sign: str) -> tuple[str, ...]:
-    return tuple(n for n, i in PARAMETER_INFO.items() if i.owner == owner and i.sign == sign)
 
 
 def parameter_info(name: str) -> ParameterInfo:
@@ -189,27 +106,23 @@ def parameter_info(name: str) -> ParameterInfo:
         raise InputError(f"unknown parameter {name!r}; known: {', '.join(PARAMETER_INFO)}") from None
 
 
-def _check_fields(obj, where: str, positive: tuple[str, ...], nonneg: tuple[str, ...]) -> None:
-    for f in fields(obj):
-        val = getattr(obj, f.name)
-        if isinstance(val, bool) or not isinstance(val, (int, float)):
-            raise InputError(f"{where}: field {f.name!r} must be a number, got {val!r}")
-        if not math.isfinite(val):
-            raise InputError(f"{where}: field {f.name!r} must be finite, got {val!r}")
-        if abs(val) > MAX_MAGNITUDE:
-            raise InputError(f"{where}: field {f.name!r} = {val:.3g} is beyond +-{MAX_MAGNITUDE:.0e}, "
-                             "no rig of this kind has such a value (check the units)")
-    for name in positive:
-        val = getattr(obj, name)
-        if val <= 0.0:
-            raise InputError(f"{where}: field {name!r} must be > 0, got {val!r}")
-    for name in nonneg:
-        val = getattr(obj, name)
-        if val < 0.0:
-            raise InputError(f"{where}: field {name!r} must be >= 0, got {val!r}")
+def _with_term_fields(cls):
+    """Give ``cls`` a field of default 0 for each optional term's parameter (:func:`iwp.models.terms.term_parameters`),
+    after its own, and a line of its docstring for each that it does not already describe."""
+    doc = cls.__doc__ or ""
+    extra = []
+    for info in term_parameters():
+        cls.__annotations__[info.name] = "float"
+        setattr(cls, info.name, 0.0)
+        if not re.search(rf"^ {{4}}(\w+, )*{info.name}(, \w+)* :", doc, re.M):
+            extra.append(f"    {info.name} : float\n        {info.description} [{info.unit}]; 0 by default.\n")
+    if extra:
+        cls.__doc__ = doc.rstrip() + "\n" + "".join(extra) + "    "
+    return cls
 
 
 @dataclass(frozen=True)
+@_with_term_fields
 class LumpedParameters:
     """Lumped parameters of the state-space models (6) and (9).
 
@@ -269,20 +182,14 @@ class LumpedParameters:
     sigma_a1: float  # [s^-1]
     sigma_v1: float  # [s^-1]
     sigma_b1: float  # [s rad^-2]
-    v_dz_pos: float = 0.0  # [input units]
-    v_dz_neg: float = 0.0  # [input units]
-    sigma_c2: float = 0.0  # [rad s^-2]
-    sigma_c1: float = 0.0  # [rad s^-2]
-    u_offset: float = 0.0  # [input units]
-    eps_c1: float = 0.0  # [rad/s]
-    eps_c2: float = 0.0  # [rad/s]
+    # then the optional terms' parameters, 0 by default (off): added from iwp.models.terms by _with_term_fields
 
     def __post_init__(self) -> None:
         # Structural checks only: finiteness and rho > 0 (the models divide by
         # it). Physical signs are checked by :meth:`check_physical`, because
         # an unconstrained least-squares fit (the paper's eq. (16)) may give a
         # negative friction coefficient that one still wants to simulate.
-        _check_fields(self, "LumpedParameters", positive=("rho",), nonneg=())
+        check_fields(self, "LumpedParameters", positive=("rho",), nonneg=())
 
     def check_physical(self, where: str = "LumpedParameters") -> "LumpedParameters":
         """Check the physical signs; return ``self``.
@@ -291,8 +198,8 @@ class LumpedParameters:
         thresholds ``>= 0``. Raises :class:`~iwp.errors.InputError` naming the
         first offending field.
         """
-        _check_fields(self, where, positive=_names_with_sign("lumped", "positive"),
-                      nonneg=_names_with_sign("lumped", "nonnegative"))
+        check_fields(self, where, positive=names_with_sign(LUMPED_INFO, "positive"),
+                      nonneg=names_with_sign(LUMPED_INFO, "nonnegative"))
         return self
 
     # Derived quantities ---------------------------------------------------
@@ -387,7 +294,7 @@ class PhysicalParameters:
     V_dz_neg: float = 0.0  # [V]
 
     def __post_init__(self) -> None:
-        _check_fields(
+        check_fields(
             self,
             "PhysicalParameters",
             positive=("m1", "m2", "I1", "I2", "l", "g", "kT", "R", "N", "beta"),
@@ -423,113 +330,6 @@ class PhysicalParameters:
             v_dz_pos=self.V_dz_pos / self.beta,
             v_dz_neg=self.V_dz_neg / self.beta,
             sigma_c2=self.sigma_c2 / I1h,
-        )
-
-    def to_dict(self) -> dict[str, float]:
-        """Field name -> value."""
-        return {f.name: float(getattr(self, f.name)) for f in fields(self)}
-
-
-@dataclass(frozen=True)
-class BeltParameters:
-    """Flexible rubber belt of eq. (15) with the hysteresis of figure 5.
-
-    The motor inertia ``J_m`` is neglected (as in the paper), so the motor
-    position ``q_m`` follows ``gamma q_m' - Psi/N = (kT beta / R) u``. The
-    parameters are normalised as the paper gives them. ``Psi`` is the belt
-    force: a linear spring ``k`` acting on the output of a play (backlash)
-    operator of half-width ``d`` applied to the belt stretch
-    ``delta = q2 - q_m / N`` (our reading of figure 5, whose drawing is not in
-    the text: a parallelogram loop of slope ``k`` and width ``2 d``).
-
-    Parameters
-    ----------
-    k_over_I2 : float
-        Belt stiffness over the disk inertia ``k / I2`` [s^-2].
-    d : float
-        Half-width of the hysteresis (play) [rad of disk angle].
-    N : float
-        Reduction ratio [-].
-    b2_over_I2 : float
-        Viscous friction of the disk joint over its inertia ``b2 / I2`` [s^-1].
-    k_over_gamma : float
-        ``k / gamma`` with ``gamma = N^2 kT kF / R + b_m`` [s^-1].
-    kTbeta_over_Rgamma : float
-        ``kT beta / (R gamma)`` [rad s^-1 per input unit]: the motor's no-load
-        speed per input unit (for a positive net input).
-    gain_neg : float
-        Ratio of the motor gain ``N kT / R`` for a negative net input to that
-        for a positive one [-]; section 3.2: "a more general model may also
-        use different values for coefficient ``N kT / R`` depending on the sign
-        of ``V_i``". 1 (symmetric) by default. It scales the dead zone's
-        torque (5) with the drive, since both are ``N kT / R`` times a voltage.
-    """
-
-    k_over_I2: float = 60.0  # [s^-2]
-    d: float = 2.0  # [rad]
-    N: float = 13.5  # [-]
-    b2_over_I2: float = 10.0  # [s^-1]
-    k_over_gamma: float = 780.0  # [s^-1]
-    kTbeta_over_Rgamma: float = 26.0  # [rad s^-1 / in]
-    gain_neg: float = 1.0  # [-]
-
-    def __post_init__(self) -> None:
-        _check_fields(self, "BeltParameters", positive=_names_with_sign("belt", "positive"),
-                      nonneg=_names_with_sign("belt", "nonnegative"))
-
-    @property
-    def rigid_p2rho(self) -> float:
-        """Disk damping of the rigid limit ``(b2 + N^2 gamma) / I2`` [s^-1]."""
-        gamma_over_I2 = self.k_over_I2 / self.k_over_gamma
-        return self.b2_over_I2 + self.N**2 * gamma_over_I2
-
-    @property
-    def rigid_p3rho(self) -> float:
-        """Input gain of the rigid limit ``N kT beta / (R I2)`` [rad s^-2 / in]."""
-        gamma_over_I2 = self.k_over_I2 / self.k_over_gamma
-        return self.N * self.kTbeta_over_Rgamma * gamma_over_I2
-
-    @classmethod
-    def from_rigid(
-        cls,
-        p2rho: float,
-        p3rho: float,
-        *,
-        k_over_I2: float,
-        d: float,
-        N: float = 13.5,
-        b2_over_I2: float = 0.5,
-        gain_neg: float = 1.0,
-    ) -> "BeltParameters":
-        """A belt whose rigid limit (``k -> inf``, ``d = 0``) has the given disk dynamics.
-
-        With the pendulum locked the rigid model is
-        ``q4' = -p2rho q4 + p3rho u``; this solves
-        ``p2rho = b2/I2 + N^2 gamma/I2`` and ``p3rho = N kT beta / (R I2)``
-        for ``gamma`` and ``kT beta / R``.
-
-        Parameters
-        ----------
-        p2rho, p3rho : float
-            Rigid-limit damping [s^-1] and gain [rad s^-2 / in] (for a free
-            pendulum these are ``p2 rho`` and ``p3 rho``).
-        k_over_I2, d, N, b2_over_I2, gain_neg : float
-            As in the class; ``b2_over_I2`` must be below ``p2rho``; ``p3rho``
-            is the gain for a positive input.
-        """
-        if not b2_over_I2 < p2rho:
-            raise InputError(
-                f"b2_over_I2 = {b2_over_I2} must be below the rigid damping p2rho = {p2rho}"
-            )
-        gamma_over_I2 = (p2rho - b2_over_I2) / N**2
-        return cls(
-            k_over_I2=k_over_I2,
-            d=d,
-            N=N,
-            b2_over_I2=b2_over_I2,
-            k_over_gamma=k_over_I2 / gamma_over_I2,
-            kTbeta_over_Rgamma=p3rho / N / gamma_over_I2,
-            gain_neg=gain_neg,
         )
 
     def to_dict(self) -> dict[str, float]:

@@ -49,6 +49,7 @@ from .layout import (
     WS,
 )
 from .parameters import BELT_INFO, LUMPED_INFO, BeltParameters, LumpedParameters, PhysicalParameters
+from .terms import model_parameters
 
 __all__ = ["ModelInfo", "MODELS", "Plant", "model_info", "EXPERIMENT_KINDS", "plant_for_kind"]
 
@@ -100,35 +101,39 @@ class ModelInfo:
 
 
 _ALL4 = (0, 1, 2, 3)
-_PENDULUM = ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c1", "eps_c1")
-_LUMPED = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2", "sigma_c1", "u_offset", "eps_c1",
-           "eps_c2")
-_DEAD_ZONE = ("v_dz_pos", "v_dz_neg")
-_MOTOR_DISK = ("p2", "p3", "rho", "sigma_c2", "u_offset", "eps_c2")
-_BELT = ("k_over_I2", "d", "b2_over_I2", "k_over_gamma", "kTbeta_over_Rgamma", "gain_neg", "sigma_c2")
+#: each model's own parameters; those of the optional terms it admits follow (:func:`iwp.models.terms.model_parameters`)
+_PENDULUM = ("p1", "sigma_a1", "sigma_v1", "sigma_b1")
+_LUMPED = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1")
+_MOTOR_DISK = ("p2", "p3", "rho")
+_BELT = ("k_over_I2", "d", "b2_over_I2", "k_over_gamma", "kTbeta_over_Rgamma", "gain_neg")
 #: The models, by name.
 MODELS: dict[str, ModelInfo] = {m.name: m for m in (
     ModelInfo("el", M_EL, "(4) with (3), (5)", "v", 4, _ALL4, (0, 2, 3), True,
               "Euler-Lagrange equations with the dc motor, dead zone and friction, in SI parameters"),
     ModelInfo("raw", M_RAW, "(6) with (5)", "v", 4, _ALL4, (0, 2, 3), False,
-              "state-space model driven by the raw command v through the dead zone", _LUMPED + _DEAD_ZONE),
+              "state-space model driven by the raw command v through the dead zone",
+              model_parameters("raw", _LUMPED)),
     ModelInfo("compensated", M_COMP, "(9)", "u", 4, _ALL4, (0, 2, 3), False,
-              "the feedforward-compensated model, driven by the ideal input u", _LUMPED),
+              "the feedforward-compensated model, driven by the ideal input u",
+              model_parameters("compensated", _LUMPED)),
     ModelInfo("motor-disk", M_MD, "(14), exact compensation", "u", 4, (1, 3), (3,), False,
               "motor-disk subsystem with the pendulum locked, input u (Coulomb term when sigma_c2 > 0)",
-              _MOTOR_DISK, True),
+              model_parameters("motor-disk", _MOTOR_DISK), True),
     ModelInfo("motor-disk-raw", M_MD_RAW, "(14)", "v", 4, (1, 3), (3,), False,
               "motor-disk subsystem with the pendulum locked, raw command v through the dead zone",
-              _MOTOR_DISK + _DEAD_ZONE, True),
+              model_parameters("motor-disk-raw", _MOTOR_DISK), True),
     ModelInfo("belt", M_BELT, "(15), pendulum locked", "u", 6, (1, 3, 4, 5), (3, 4, 5), False,
-              "flexible belt with the play hysteresis of figure 5, motor inertia neglected", _BELT, True),
+              "flexible belt with the play hysteresis of figure 5, motor inertia neglected",
+              model_parameters("belt", _BELT), True),
     ModelInfo("belt-full", M_BELT_FULL, "(4a) with (15)", "u", 6, (0, 1, 2, 3, 4, 5), (0, 2, 3, 4, 5), False,
               "the belt with the pendulum free (the virtual rig's truth plant)",
-              _PENDULUM + ("rho", "eps_c2", "u_offset") + _BELT),
+              model_parameters("belt-full", _PENDULUM + ("rho",) + _BELT)),
     ModelInfo("free", M_FREE_HELD, "section 5.2, wheel held", None, 4, (0, 2), (0, 2), False,
-              "free pendulum, motor off, the wheel held to the arm: q3' = -xi rho/(1 + rho)", _PENDULUM),
+              "free pendulum, motor off, the wheel held to the arm: q3' = -xi rho/(1 + rho)",
+              model_parameters("free", _PENDULUM)),
     ModelInfo("free-nowheel", M_FREE_NOWHEEL, "section 5.2", None, 4, (0, 2), (0, 2), False,
-              "free pendulum without a wheel: q3' = -xi", _PENDULUM),
+              "free pendulum without a wheel: q3' = -xi",
+              model_parameters("free-nowheel", _PENDULUM)),
 )}
 
 #: models that can have their pendulum clamped (``locked=True``)
