@@ -97,7 +97,9 @@ def test_the_registry_describes_every_model_parameter():
     # stiff); zero stays their "the plant's" value
     for n in ("eps_c1", "eps_c2"):
         assert PARAMETER_INFO[n].default_bounds() == (1e-3, math.inf) and PARAMETER_INFO[n].sign == "nonnegative"
-    assert [n for n, i in PARAMETER_INFO.items() if i.floor > 0] == ["eps_c1", "eps_c2"]
+    # so does the Stribeck speed of the disk's friction (1e-2 rad/s), for the same reasons
+    assert PARAMETER_INFO["v_s2"].default_bounds() == (1e-2, math.inf)
+    assert [n for n, i in PARAMETER_INFO.items() if i.floor > 0] == ["eps_c1", "eps_c2", "v_s2"]
 
 
 # --------------------------------------------------------------------------

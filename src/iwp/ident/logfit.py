@@ -808,12 +808,12 @@ def _drive_ratio(rig_d: RigDescription | None, options: LogFitOptions) -> float 
     ratio = rig_d.drive.ratio if belt_drive and not at_motor else None
     for t in (TERMS[n] for n in options.terms if TERMS[n].drive == "belt"):
         if at_motor:
-            raise InputError(f"{t.name}: {t.description} compares the wheel's own signal, but the rig description "
+            raise InputError(f"{t.name}: {t.called} compares the wheel's own signal, but the rig description "
                              "measures it at the motor shaft (wheel.at 'motor'), which the belt's stretch separates "
                              "from the wheel", argument=t.name)
         if ratio is None:
             drive = "no rig description" if rig_d is None else f"a {rig_d.drive.kind} drive"
-            raise InputError(f"{t.name}: {t.description} needs a rig description with \"drive\": {{\"kind\": "
+            raise InputError(f"{t.name}: {t.called} needs a rig description with \"drive\": {{\"kind\": "
                              f"\"belt\", \"ratio\": N}} (N motor turns per wheel turn); the logs have {drive}",
                              argument=t.name)
     return ratio

@@ -13,54 +13,45 @@ module                    what
 :mod:`.encoder`           encoder quantisation (section 5)
 :mod:`.plant`             :class:`Plant`: model, parameters and options, packed for the compiled code
 :mod:`.analysis`          energy (2), linearisation of (9)
+:mod:`.terms`             the optional terms (Coulomb, widths, offset, dead zone, belt, Stribeck), one object each
 :mod:`.layout`            the packed parameter layout (internal)
 ========================  ==========================================================
 
 ``docs/models.md`` maps every equation of the paper to its function and its test.
+
+Names are loaded on first use (as :mod:`iwp`'s), so that the command line can
+read the optional terms (:mod:`.terms`) without compiling the models.
 """
 
 from __future__ import annotations
 
-from .actuator import StartupFriction, dead_zone, dead_zone_output, feedforward
-from .analysis import energy, linearize, pendulum_energy, to_statespace
-from .encoder import encoder_step, quantize
-from .friction import COULOMB_EPS
-from .mathfn import SINCOS_MAX
-from .parameters import (
-    BeltParameters,
-    LumpedParameters,
-    PhysicalParameters,
-    load_params,
-    named_params,
-    paper_belt,
-    save_params,
-    table1,
-)
-from .plant import MODELS, ModelInfo, Plant, model_info
+import importlib
 
-__all__ = [
-    "BeltParameters",
-    "COULOMB_EPS",
-    "LumpedParameters",
-    "MODELS",
-    "ModelInfo",
-    "PhysicalParameters",
-    "Plant",
-    "SINCOS_MAX",
-    "StartupFriction",
-    "dead_zone",
-    "dead_zone_output",
-    "encoder_step",
-    "energy",
-    "feedforward",
-    "linearize",
-    "load_params",
-    "model_info",
-    "named_params",
-    "paper_belt",
-    "pendulum_energy",
-    "quantize",
-    "save_params",
-    "table1",
-    "to_statespace",
-]
+#: public name -> the module that defines it
+_EXPORTS: dict[str, str] = {
+    "BeltParameters": "iwp.models.parameters", "COULOMB_EPS": "iwp.models.friction",
+    "LumpedParameters": "iwp.models.parameters", "MODELS": "iwp.models.plant", "ModelInfo": "iwp.models.plant",
+    "PhysicalParameters": "iwp.models.parameters", "Plant": "iwp.models.plant", "SINCOS_MAX": "iwp.models.mathfn",
+    "StartupFriction": "iwp.models.actuator", "TERMS": "iwp.models.terms", "Term": "iwp.models.terms",
+    "dead_zone": "iwp.models.actuator", "dead_zone_output": "iwp.models.actuator",
+    "encoder_step": "iwp.models.encoder", "energy": "iwp.models.analysis", "feedforward": "iwp.models.actuator",
+    "linearize": "iwp.models.analysis", "load_params": "iwp.models.parameters", "model_info": "iwp.models.plant",
+    "named_params": "iwp.models.parameters", "paper_belt": "iwp.models.parameters",
+    "pendulum_energy": "iwp.models.analysis", "quantize": "iwp.models.encoder", "save_params": "iwp.models.parameters",
+    "table1": "iwp.models.parameters", "to_statespace": "iwp.models.analysis",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'iwp.models' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

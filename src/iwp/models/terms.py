@@ -145,6 +145,8 @@ class Term:
         The model a fit with it simulates (``"raw"``, ``"belt-full"``); None: model (9), ``"compensated"``.
     replacement : DriveModel or None
         Its own model in place of rigid parameters (the belt's), or None.
+    label : str
+        What messages call it (``"the belt model (15)"``); default: its description.
     start : callable or None
         ``start(params, umax, fraction)``: ``params`` with its parameters that are 0 started from what the
         logs' largest input ``umax`` and ``params`` allow, scaled by ``fraction``; None: they start at 0.
@@ -164,6 +166,12 @@ class Term:
     model: str | None = None
     replacement: DriveModel | None = None
     start: Callable[[Lumped, float, float], Lumped] | None = None
+    label: str = ""
+
+    @property
+    def called(self) -> str:
+        """What messages call it."""
+        return self.label or self.description
 
     @property
     def flag(self) -> str:
@@ -359,7 +367,7 @@ TERMS: dict[str, Term] = {t.name: t for t in (
          LadderPlace("belt", "+ belt (15) in place of p2, p3 (5 terms)", "widths", 6),
          excludes=("dead_zone",), drive="belt", model="belt-full",
          replacement=DriveModel(("p2", "p3"), BELT_FREE, BELT_STARTS, BELT_RTOL, belt_start, belt_bounds),
-         start=_start_belt),
+         start=_start_belt, label="the belt model (15)"),
     Term("stribeck", "the Stribeck rise of the wheel's friction at low speed (sigma_s2, v_s2)",
          LadderPlace("stribeck", "+ wheel Stribeck (sigma_s2, v_s2)", "coulomb", 7, default=False),
          (_lumped("sigma_s2", "rad/s^2", 0.05, "nonnegative",
@@ -413,8 +421,8 @@ def closure(names) -> frozenset[str]:
     for n in sorted(on):
         for x in TERMS[n].excludes:
             if x in on:
-                raise InputError(f"{TERMS[n].flag} and {TERMS[x].flag} exclude each other: "
-                                 f"{TERMS[n].description}; fit one of them", argument=TERMS[n].name)
+                raise InputError(f"{TERMS[n].flag} and {TERMS[x].flag} exclude each other ({TERMS[n].called} and "
+                                 f"{TERMS[x].called}); fit one of them", argument=TERMS[n].name)
     return frozenset(on)
 
 
