@@ -16,9 +16,9 @@ from iwp.errors import InputError
 from iwp.ident import logfit
 from iwp.ident.logfit import LogFitOptions, fit_logs
 from iwp.ident.structure import RUNGS, ladder
-from iwp.models.terms import BELT_FREE, BELT_STARTS, belt_bounds, belt_start
 from iwp.ident.validation import validation_plant
 from iwp.models.parameters import BeltParameters, LumpedParameters, stored_belt
+from iwp.models.terms import BELT_FREE, BELT_STARTS, belt_bounds, belt_start
 from iwp.rig.described import DescribedRig, prbs, write_rig_csv
 from iwp.sim.inputs import Chirp
 
