@@ -51,6 +51,7 @@ from ..ident.jacobian import forward_difference_jacobian
 from ..ident.parameters import Parameter, Parameters
 from ..ident.problem import FitProblem, SolverOptions
 from ..models.parameters import BeltParameters
+from ..models.terms import TERMS
 from ..rig.truth import RigTruth, default_truth
 from .statistics import paper_numbers
 from .targets import PaperTarget, TargetRow, compare_targets, load_targets
@@ -118,8 +119,11 @@ COORDINATES: dict[str, TruthCoordinate] = {c.name: c for c in (
 #: twin by more than 0.17 of its tolerance).
 DEFAULT_FREE = tuple(n for n in COORDINATES if n != "noise_std")
 
-#: Where the values of a truth that no calibration varies come from.
+#: Where the values of a truth that no calibration varies come from (the optional terms' parameters of
+#: :data:`iwp.models.terms.TERMS` are 0 unless said otherwise here or calibrated).
 PROVENANCE_PAPER = {
+    **{f"lumped.{i.name}": f"assumed: 0 ({i.description})" for t in TERMS.values() for i in t.parameters
+       if f"lumped.{i.name}" not in COORDINATES},
     "counts_per_rev": "paper, section 5: 2000 counts/rev",
     "Ts": "paper, section 5: sample time 5 ms",
     "belt.N": "paper, section 5.1: N = 13.5 (measured)",
