@@ -76,3 +76,31 @@ def test_outputs_say_file_or_folder_as_their_metavar():
             if action.metavar != "DIR" and "folder" in help_text:
                 wrong.append(" ".join(path))
     assert wrong == []
+
+
+def _usage_error(argv, capsys) -> str:
+    """The one line argparse's usage error prints (it exits 2)."""
+    from iwp.cli import main
+
+    try:
+        main(argv)
+    except SystemExit as exc:
+        assert exc.code == 2
+    else:
+        raise AssertionError(f"{argv} was accepted")
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    return err.strip()
+
+
+def test_a_typo_gets_a_suggestion_on_its_one_error_line(capsys):
+    assert _usage_error(["fit", "log.csv", "--out", "o", "--modle", "9"], capsys) == (
+        "iwp: error: unrecognized arguments: --modle 9 (--modle: did you mean --model?)")
+    assert _usage_error(["fit", "log.csv", "--out", "o", "--model", "coulomn"], capsys).endswith(
+        "(did you mean 'coulomb'?)")
+    assert _usage_error(["fitt", "log.csv"], capsys).endswith("(did you mean 'fit'?)")
+    assert _usage_error(["rig", "run", "full-chirp", "--out", "x.csv", "--durration", "3"], capsys).endswith(
+        "(--durration: did you mean --duration?)")
+    # nothing is suggested where nothing is close
+    assert _usage_error(["fit", "log.csv", "--out", "o", "--zzz"], capsys) == (
+        "iwp: error: unrecognized arguments: --zzz")

@@ -104,6 +104,17 @@ def test_write_all_does_not_replace_a_file_that_appeared_meanwhile(tmp_path):
     assert p.read_text() == "mine"
 
 
+@pytest.mark.parametrize("argv", [["simulate", "--t-end", "1", "--out"], ["reproduce", "--out"]])
+def test_an_output_in_a_folder_that_does_not_exist_is_refused_and_nothing_is_created(tmp_path, capsys, argv):
+    """iwp creates what the user names (a file, or a report's folder), never the folders above it: a typo in a
+    path (``/nonexistent/dir/x.csv``) would otherwise leave folders anywhere."""
+    target = tmp_path / "missing" / "deeper" / ("x.csv" if argv[0] == "simulate" else "report")
+    assert main([*argv, str(target)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("iwp: error: --out") and f"folder {target.parent} does not exist" in err and "\n" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
 # --------------------------------------------------------------------------
 # a second run into the same output
 # --------------------------------------------------------------------------

@@ -31,10 +31,12 @@ FIGURE_SUFFIXES = (".png", ".svg", ".pdf", ".eps", ".ps", ".jpg", ".jpeg", ".tif
 
 
 def _check_writable_place(p: Path, argument: str) -> None:
-    """The nearest existing folder at or above ``p`` (``p`` itself if it is a folder) must be a writable folder."""
+    """The folder ``p`` goes into (``p`` itself if it is a folder) must exist and be writable: iwp creates what the
+    user names, never the folders above it (a typo in a path would otherwise leave folders anywhere)."""
     anc = p if p.is_dir() else p.parent
-    while not anc.exists() and anc != anc.parent:
-        anc = anc.parent
+    if not anc.exists():
+        raise InputError(f"{argument} {p}: folder {anc} does not exist; create it first, or give a path in an "
+                         "existing folder", argument=argument)
     if not anc.is_dir():
         raise InputError(f"{argument} {p}: {anc} is a file, not a folder", argument=argument)
     if not os.access(anc, os.W_OK | os.X_OK):
@@ -71,10 +73,8 @@ def check_output_file(path: str | Path, *, force: bool = False, argument: str = 
 
 
 def prepare_output_file(path: str | Path, force: bool = False, *, argument: str = "out", suffixes=None) -> Path:
-    """:func:`check_output_file`, then create the parent folder."""
-    p = check_output_file(path, force=force, argument=argument, suffixes=suffixes)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    return p
+    """:func:`check_output_file` (its folder exists: nothing is created)."""
+    return check_output_file(path, force=force, argument=argument, suffixes=suffixes)
 
 
 #: Extensions that make a new output folder's name a file name (``--out report.html``): refused.
@@ -100,7 +100,7 @@ def check_output_dir(path: str | Path, *, force: bool = False, argument: str = "
 def prepare_output_dir(path: str | Path, *, force: bool = False, argument: str = "out") -> Path:
     """:func:`check_output_dir`, then create the folder."""
     p = check_output_dir(path, force=force, argument=argument)
-    p.mkdir(parents=True, exist_ok=True)
+    p.mkdir(exist_ok=True)
     return p
 
 
@@ -227,7 +227,6 @@ def staged_dir(path: str | Path, *, force: bool = False, argument: str = "out"):
     (:func:`output_lock`) from the start to the end.
     """
     p = check_output_dir(path, force=force, argument=argument)
-    p.parent.mkdir(parents=True, exist_ok=True)
     with output_lock(p, argument=argument):
         check_output_dir(p, force=force, argument=argument)
         tmp = p.parent / f".{p.name}.{os.getpid()}.{secrets.token_hex(4)}.partial"

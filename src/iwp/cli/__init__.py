@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import difflib
 import importlib
 import os
 import re
@@ -58,8 +59,46 @@ class _Parser(argparse.ArgumentParser):
         # iwp has no option that starts with a digit, so anything "-<digit>..." is a value
         self._negative_number_matcher = re.compile(r"^-\.?\d")
 
-    def error(self, message):  # one line, exit 2, as argparse does, but with our prefix
-        self.exit(2, f"iwp: error: {_one_line(message)}\n")
+    def error(self, message):  # one line, exit 2, as argparse does, but with our prefix and a suggestion
+        self.exit(2, f"iwp: error: {_one_line(message + _suggestion(self, message))}\n")
+
+    def parse_known_args(self, args=None, namespace=None):
+        self.argv = list(sys.argv[1:] if args is None else args)  # what the user typed, for the suggestions
+        return super().parse_known_args(args, namespace)
+
+
+#: argparse's messages of an unknown flag and of a choice not among the valid ones
+_UNKNOWN = re.compile(r"^unrecognized arguments: (.*)$")
+_CHOICE = re.compile(r"invalid choice: '([^']*)' \(choose from (.*)\)$")
+
+
+def _suggestion(parser: argparse.ArgumentParser, message: str) -> str:
+    """`` (did you mean ...?)`` for a flag or a choice close to a valid one (:func:`difflib.get_close_matches`), or
+    an empty string."""
+    if m := _CHOICE.search(message):
+        valid = [c.strip().strip("'") for c in m.group(2).split(",")]
+        near = difflib.get_close_matches(m.group(1), valid, n=1, cutoff=0.6)
+        return f" (did you mean {near[0]!r}?)" if near else ""
+    if m := _UNKNOWN.match(message):
+        flags = [s for a in _command_parser(parser)._actions for s in a.option_strings if s.startswith("--")]
+        pairs = [(w, difflib.get_close_matches(w.split("=")[0], flags, n=1, cutoff=0.6))
+                 for w in m.group(1).split() if w.startswith("--")]
+        said = [f"{w.split('=')[0]}: did you mean {near[0]}?" for w, near in pairs if near]
+        return f" ({'; '.join(said)})" if said else ""
+    return ""
+
+
+def _command_parser(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """The (sub)subcommand's parser the user's words chose (argparse reports unknown flags from the top parser)."""
+    words = getattr(parser, "argv", [])
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            chosen = next((w for w in words if w in action.choices), None)
+            if chosen is not None:
+                sub = action.choices[chosen]
+                sub.argv = words[words.index(chosen) + 1:]
+                return _command_parser(sub)
+    return parser
 
 
 def build_parser() -> argparse.ArgumentParser:
