@@ -674,3 +674,12 @@ def test_reader_refuses_magnitudes_beyond_any_rig_and_implausible_sample_periods
         io.read_csv(write_experiment(fast, tmp_path / "fast.csv"))
     far = dataclasses.replace(ok, t=t + 1e9)  # absolute UNIX-like times: 1e9 s keeps 5 ms with 12 digits
     assert io.read_csv(write_experiment(far, tmp_path / "far.csv")).n_samples == 500
+
+
+def test_a_folder_given_as_a_log_is_named_as_a_folder(tmp_path):
+    from iwp.data import read_experiment
+
+    with pytest.raises(InputError, match=r": is a folder; give a log file in it \(\.csv"):
+        read_experiment(tmp_path)
+    with pytest.raises(InputError, match="from a name without an extension"):
+        read_experiment(tmp_path / "chirp")

@@ -37,14 +37,15 @@ def format_of(path: str | os.PathLike, *, writing: bool = False) -> str:
 
 
 def _format_of(path: str | os.PathLike, kinds: dict[str, Any], what: str) -> str:
+    if what == "input" and Path(path).is_dir():
+        raise InputError(f"{path}: is a folder; give a log file in it ({', '.join(sorted(set(LOG_SUFFIXES)))})")
     ext = Path(path).suffix.lower()
     fmt = LOG_SUFFIXES.get(ext)
     if fmt is None or fmt not in kinds:
         known = ", ".join(e for e, f in LOG_SUFFIXES.items() if f in kinds)
-        raise InputError(
-            f"{path}: cannot tell the {what} format from the extension {ext or '(none)'!r}; "
-            f"use one of {known} or give the format ({', '.join(kinds)})"
-        )
+        got = f"the extension {ext!r}" if ext else "a name without an extension"
+        raise InputError(f"{path}: cannot tell the {what} format from {got}; use one of {known} or give the format "
+                         f"({', '.join(kinds)})")
     return fmt
 
 

@@ -302,9 +302,12 @@ def read_rig_log(
     if fmt is None:
         ext = Path(path).suffix.lower()
         fmt = {".csv": "csv", ".txt": "csv", ".mat": "mat"}.get(ext)
+        if fmt is None and Path(path).is_dir():
+            raise InputError(f"{path}: is a folder; give a log file in it (.csv, .txt or .mat)")
         if fmt is None:
+            got = f"the extension {ext!r}" if ext else "a name without an extension"
             raise InputError(f"{path}: a log read with a rig description must be CSV (.csv, .txt) or MATLAB "
-                             f"(.mat), got the extension {ext or '(none)'!r}")
+                             f"(.mat), got {got}")
     if fmt not in ("csv", "mat"):
         raise InputError(f"format must be 'csv' or 'mat' for a log read with a rig description, got {fmt!r}")
     if struct is not None and fmt != "mat":
