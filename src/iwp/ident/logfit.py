@@ -274,7 +274,7 @@ class LogFitResult:
                 for o, m in self.validation_fit.items()))
         for w in self.warnings if warnings else ():
             lines.append(f"warning: {w}")
-        lines.append(f"{self.elapsed:.3g} s")
+        lines.append(f"fitted in {self.elapsed:.3g} s")
         return "\n".join(lines)
 
     def __str__(self) -> str:

@@ -409,7 +409,7 @@ def _minimise(obj: _Objective, z0: np.ndarray, loss: Loss, options: SolverOption
                                      xtol=options.tol, gtol=options.tol, max_nfev=budget,
                                      tr_solver=options.tr_solver)
         z = sol.x
-        success, message = bool(sol.success) and sol.status != 0, str(sol.message)
+        success, message = bool(sol.success) and sol.status != 0, str(sol.message).replace("`", "")  # plain words
         budget = max(budget - sol.nfev, 1)
     return z, success, message, float(scale)
 
