@@ -152,8 +152,9 @@ class Setup(ABC):
         if pendulum is not None and not self.takes_pendulum:
             raise InputError(f"pendulum is used by set-up 'two-step' only, not {self.name!r}", argument="pendulum")
         if pendulum is None and self.takes_pendulum:
-            raise InputError(f"pendulum is required by set-up {self.name!r}: the free-pendulum result (set-up "
-                             "'free'), an IdentificationResult or LumpedParameters", argument="pendulum")
+            raise InputError(f"pendulum is required by set-up {self.name!r}: the free pendulum's parameters: the "
+                             "result of set-up 'free' (CLI: --pendulum FREE.json) or a lumped parameter set",
+                             argument="pendulum")
         if p2 is not None and not self.takes_p2:
             raise InputError(f"p2 is used by set-up 'free' only, not {self.name!r}", argument="p2")
 

@@ -36,7 +36,8 @@ def known_p2(p2: Any) -> tuple[float, float]:
     try:
         v = float(p2)
     except (TypeError, ValueError):
-        raise InputError(f"p2 must be a number [1/s], a two-step result or LumpedParameters, got {p2!r}") from None
+        raise InputError(f"p2 must be a number [1/s], the result of set-up 'two-step' or 'full', or a lumped "
+                         f"parameter set, got {p2!r}") from None
     if not math.isfinite(v):
         raise InputError(f"p2 must be finite, got {v!r}")
     return v, 0.0

@@ -27,8 +27,8 @@ def pendulum_values(pendulum: Any) -> tuple[dict[str, float], np.ndarray | None,
     covariance is kept), a :class:`LumpedParameters` or a mapping of values.
     """
     if pendulum is None:
-        raise InputError("set-up 'two-step' needs the free-pendulum parameters: pass pendulum= (an "
-                         "IdentificationResult of set-up 'free' or LumpedParameters); CLI: --pendulum FREE.json")
+        raise InputError("set-up 'two-step' needs the free-pendulum parameters: pass pendulum= (the "
+                         "result of set-up 'free', or a lumped parameter set); CLI: --pendulum FREE.json")
     if isinstance(pendulum, LumpedParameters):
         return {n: float(getattr(pendulum, n)) for n in PENDULUM}, None, "given parameter set (no uncertainty)"
     if hasattr(pendulum, "parameters") and hasattr(pendulum, "covariance") and hasattr(pendulum, "setup"):
@@ -49,8 +49,7 @@ def pendulum_values(pendulum: Any) -> tuple[dict[str, float], np.ndarray | None,
         if missing:
             raise InputError(f"pendulum: missing {', '.join(missing)}")
         return {n: float(pendulum[n]) for n in PENDULUM}, None, "given values (no uncertainty)"
-    raise InputError(f"pendulum must be an IdentificationResult of set-up 'free' or LumpedParameters, "
-                     f"got {type(pendulum).__name__}")
+    raise InputError(f"pendulum must be the result of set-up 'free' or a lumped parameter set, got {pendulum!r}"[:300])
 
 
 class TwoStep(Setup):
