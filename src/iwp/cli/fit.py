@@ -55,6 +55,9 @@ def register(sub) -> None:
     p.add_argument("--try", dest="try_terms", metavar="TERM[,TERM...]",
                    help="also try these terms off the default ladder on it: "
                         + ", ".join(t.replace("_", "-") for t, v in TERMS.items() if not v.rung.default))
+    p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
+                   help="hold a parameter at this value in every structure fitted (repeat for more), e.g. "
+                        "--fix rho=247.2: known from elsewhere, or not identified by these logs")
     p.add_argument("--loss", default="linear", choices=["linear", "soft_l1", "huber", "cauchy", "arctan"],
                    help="loss of the simulation-error fit (default linear)")
     p.add_argument("--t-start", type=float, metavar="S", help="window start of every training log [s]")
@@ -82,9 +85,15 @@ def run(args) -> int:
         raise InputError("--try adds rungs to the ladder, which --model and the term flags replace; give one of them",
                          argument="--try")
     terms = RUNGS[args.model].terms if args.model is not None else given
+    fixed = {}
+    for item in args.fix:
+        name, sep, value = item.partition("=")
+        if not sep or not name.strip():
+            raise InputError(f"--fix {item}: give NAME=VALUE, e.g. --fix rho=247.2", argument="--fix")
+        fixed[name.strip()] = value.strip()
     options = LogFitOptions(terms=terms, select=args.model is None and not given,
                             try_terms=parse_terms(args.try_terms, argument="--try") if args.try_terms else (),
-                            loss=args.loss, window=(args.t_start, args.t_end))
+                            fixed=fixed, loss=args.loss, window=(args.t_start, args.t_end))
     kinds = {k: v for k, v in (("clamped", args.clamped), ("wheel-locked", args.wheel_locked),
                                 ("closed-loop", args.closed_loop)) if v}
     res = fit_logs(args.train, rig=args.rig, validate=args.validate, kinds=kinds, controller=controller_of(args),

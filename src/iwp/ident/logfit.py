@@ -530,6 +530,9 @@ class LogFitOptions:
         default); ``terms`` is then ignored.
     try_terms : iterable of str
         Terms off the default ladder whose rungs the ladder tries too (``iwp fit --try``).
+    fixed : mapping of str to float
+        Lumped parameters held at these values in every structure fitted, e.g. ``{"rho": 247.2}`` (``iwp fit
+        --fix rho=247.2``): known from a data sheet or another experiment, or not identified by these logs.
     loss : str
         ``"linear"`` or a robust loss (:class:`~iwp.ident.problem.Loss`).
     start : LumpedParameters, optional
@@ -546,6 +549,7 @@ class LogFitOptions:
     terms: frozenset[str] = frozenset()
     select: bool = False
     try_terms: frozenset[str] = frozenset()
+    fixed: Mapping[str, float] = field(default_factory=dict)
     loss: str = "linear"
     start: LumpedParameters | None = None
     window: tuple[float | None, float | None] = (None, None)
@@ -556,6 +560,7 @@ class LogFitOptions:
             raise InputError("terms: give a set of term names, e.g. {'coulomb', 'widths'}", argument="terms")
         object.__setattr__(self, "terms", closure(self.terms))
         object.__setattr__(self, "try_terms", frozenset(term(n, argument="try").name for n in self.try_terms))
+        object.__setattr__(self, "fixed", _checked_fixed(self.fixed))
         if self.start is not None and not isinstance(self.start, LumpedParameters):
             raise InputError(f"start must be LumpedParameters, got {type(self.start).__name__}", argument="start")
 
@@ -571,8 +576,9 @@ class LogFitOptions:
         return drive_of(self.terms)
 
     def free(self) -> tuple[str, ...]:
-        """The parameters fitted: model (9)'s (a drive model's in place of those it replaces) and the terms'."""
-        return free_parameters(self.terms)
+        """The parameters fitted: model (9)'s (a drive model's in place of those it replaces) and the terms', less
+        the fixed ones."""
+        return tuple(n for n in free_parameters(self.terms) if n not in self.fixed)
 
     def with_rung(self, rung: Rung) -> "LogFitOptions":
         """These options with the structure of ``rung`` (and no ladder)."""
@@ -581,12 +587,37 @@ class LogFitOptions:
     def starting_values(self, start: LumpedParameters, umax: float, *, fraction: float = 1.0) -> LumpedParameters:
         """The terms' parameters that are 0 in ``start`` started at a fraction of what the logs' input and ``start``
         allow (terms a simpler structure fitted keep their values); ``fraction`` scales those starts (a start
-        next to the simpler structure's optimum, :data:`NESTED_RESTART`)."""
-        return starting_values(self.terms, start, umax, fraction=fraction)
+        next to the simpler structure's optimum, :data:`NESTED_RESTART`); the fixed parameters at their values."""
+        return starting_values(self.terms, start, umax, fraction=fraction).replace(**self.fixed)
 
     def to_dict(self, offset_given: bool) -> dict[str, Any]:
         return {**{n: n in self.terms for n in TERMS}, "loss": self.loss,
-                "q1_offset": "given by the rig" if offset_given else "estimated per log"}
+                "q1_offset": "given by the rig" if offset_given else "estimated per log",
+                **({"fixed": dict(self.fixed)} if self.fixed else {})}
+
+
+def _checked_fixed(fixed) -> dict[str, float]:
+    """``fixed`` as ``{name: value}`` of lumped parameters, each a finite number of its physical sign."""
+    if not isinstance(fixed, Mapping):
+        raise InputError(f"fixed must map parameter names to values, e.g. {{'rho': 247.2}}, got {fixed!r}",
+                         argument="fixed")
+    out = {}
+    for name, value in fixed.items():
+        info = PARAMETER_INFO.get(name)
+        if info is None or info.owner != "lumped":
+            known = ", ".join(n for n, i in PARAMETER_INFO.items() if i.owner == "lumped")
+            raise InputError(f"fixed: {name!r} is not a lumped parameter that a fit can hold; choose among {known}",
+                             argument="fixed")
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise InputError(f"fixed: {name} = {value!r} is not a number", argument="fixed") from None
+        lo, _hi = info.default_bounds()
+        if not math.isfinite(v) or (info.sign == "positive" and v <= 0) or v < min(lo, 0.0):
+            raise InputError(f"fixed: {name} = {value!r} is not a physical value ({info.description}: "
+                             f"{info.sign} [{info.unit}])", argument="fixed")
+        out[name] = v
+    return out
 
 
 def fit_logs(
