@@ -187,6 +187,23 @@ def test_without_uncertainty_the_balance_outcome_is_the_nominal():
     assert r.to_dict()["covariance_reliable"] is False
 
 
+def test_a_parameter_the_logs_do_not_identify_is_held_and_the_design_runs():
+    """A fit that left a friction at 1e-6 +- 2 (its interval spans both signs): drawn, its draws would be a
+    half-normal of scale 2 (a pendulum damped a thousand times the rig's); held at its estimate, the identified
+    parameters are drawn and the design runs, and its summary names what was held."""
+    free = (*FREE, "sigma_a1")
+    cov = np.diag([*(SD ** 2), 2.0 ** 2])
+    unidentified = ParameterUncertainty(P.replace(sigma_a1=1e-6), free, cov)
+    assert unidentified.identified() == FREE
+    assert np.median([p.sigma_a1 for p in unidentified.draws(200)]) > 0.5
+    held = unidentified.identified_only()
+    assert held.free == FREE and np.array_equal(held.covariance, np.diag(SD ** 2))
+    assert all(p.sigma_a1 == 1e-6 for p in held.draws(50))
+    r = robust_balance(unidentified, draws=20, t_end=3.0)
+    assert "held at their estimates" in r.summary() and "sigma_a1" in r.summary()
+    assert r.capture.trials == 20 * len(r.capture_by_state)
+
+
 # --------------------------------------------------------------------------
 # the swing-up
 # --------------------------------------------------------------------------

@@ -45,7 +45,7 @@ from ..models.plant import Plant
 from ..plotting.robust import plot_capture, plot_distribution
 from ..sim.inputs import HopfController
 from ..sim.simulate import simulate_batch
-from ..sim.uncertainty import MAX_DRAWS, ParameterUncertainty
+from ..sim.uncertainty import HELD_NOTE, MAX_DRAWS, ParameterUncertainty
 from .balance import LQRBalance, lqr_balance, wrap_angle
 from .conditions import RigConditions
 from .design import HopfDesign, design_hopf, refined_peak
@@ -89,10 +89,12 @@ def check_draws(draws) -> int:
 
 
 def _uncertainty(u) -> ParameterUncertainty:
+    """``u`` checked, with the parameters its fit's logs do not identify held at their estimates
+    (:meth:`~iwp.sim.uncertainty.ParameterUncertainty.identified_only`; the results' notes name them)."""
     if not isinstance(u, ParameterUncertainty):
         raise InputError("uncertainty must be a ParameterUncertainty (iwp.sim.uncertainty.load_uncertainty reads "
                          f"one from the parameters.json of iwp fit), got {type(u).__name__}")
-    return u
+    return u.identified_only()
 
 
 @dataclass(frozen=True)
@@ -335,10 +337,14 @@ class RobustHopf:
 
 
 def _reliability_line_of(r) -> list[str]:
+    """The summary's line on the draws' covariance: the fit's flag, and the parameters held at their estimates."""
+    held = [n for n in r.notes if n.startswith(HELD_NOTE)]
+    lines = [f"  {n}" for n in held]
     if r.reliable:
-        return []
+        return lines
+    others = [n for n in r.notes if n not in held]
     return ["  the fit flagged its covariance as UNRELIABLE: this distribution is no better than it"
-            + (f" ({'; '.join(r.notes)})" if r.notes else "")]
+            + (f" ({'; '.join(others)})" if others else "")] + lines
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ a draw with a negative friction or inertia ratio is drawn again.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
@@ -50,6 +51,11 @@ SIGNAL_INDEX = {"q1": 0, "q2": 1, "q3": 2, "q4": 3}
 MAX_DRAWS = 100_000
 #: fewest share of physical draws (the rest drawn again) before the estimate counts as too uncertain to draw from
 MIN_ACCEPTED = 0.05
+#: a free parameter is identified by a fit's logs when its 95 % interval is at most this many times its magnitude
+#: wide (:meth:`ParameterUncertainty.identified`)
+IDENTIFIED_WIDTH = 1.0
+#: how the note on the parameters :meth:`ParameterUncertainty.identified_only` held begins
+HELD_NOTE = "held at their estimates"
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,6 +119,29 @@ class ParameterUncertainty:
         """Standard error of each free parameter."""
         return {n: float(math.sqrt(max(self.covariance[i, i], 0.0))) for i, n in enumerate(self.free)}
 
+    def identified(self) -> tuple[str, ...]:
+        """The free parameters the fit's logs identify: the width of the 95 % interval, ``2 x 1.96`` standard
+        errors, is at most the estimate's magnitude (:data:`IDENTIFIED_WIDTH`). An interval wider than the value
+        (a friction estimated at ``1e-6 +- 2``, a term the logs barely excite) says the logs do not tell it."""
+        se = self.stderr
+        return tuple(n for n in self.free
+                     if 2.0 * 1.96 * se[n] <= IDENTIFIED_WIDTH * abs(getattr(self.params, n)))
+
+    def identified_only(self) -> "ParameterUncertainty":
+        """This uncertainty with the parameters the logs do not identify (:meth:`identified`) held at their
+        estimates: the others keep their marginal covariance, and a note names the held ones. What a design drawn
+        over a fit's uncertainty uses (:mod:`iwp.control.robust`): drawing an unidentified friction from an
+        interval that spans both signs makes half the draws unphysical and says nothing about the rig."""
+        keep = self.identified()
+        held = [n for n in self.free if n not in keep]
+        if not held:
+            return self
+        idx = [self.free.index(n) for n in keep]
+        note = (f"{HELD_NOTE}, as the fit's logs do not identify them (95 % interval wider than the value): "
+                f"{', '.join(held)}")
+        return dataclasses.replace(self, free=keep, covariance=self.covariance[np.ix_(idx, idx)],
+                                   notes=(*self.notes, note))
+
     def draws(self, n: int, seed: int = 0) -> list[LumpedParameters]:
         """``n`` parameter sets drawn from the normal distribution of the estimates, physical signs kept.
 
@@ -131,8 +160,9 @@ class ParameterUncertainty:
         tries = accepted = 0
         while len(out) < n:
             m = 4 * (n - len(out)) + 64
-            z = rng.multivariate_normal(mean, self.covariance, size=m, method="eigh") if self.free else \
-                np.zeros((m, 0))
+            # the covariance was checked positive semi-definite to rounding (__post_init__)
+            z = rng.multivariate_normal(mean, self.covariance, size=m, method="eigh", check_valid="ignore") \
+                if self.free else np.zeros((m, 0))
             ok = np.all(z >= lo, axis=1) if self.free else np.ones(m, dtype=bool)
             out.extend(z[ok][: n - len(out)])
             tries += m
@@ -142,8 +172,8 @@ class ParameterUncertainty:
                 worst = ", ".join(f"{k} in {100 * b:.0f} %" for k, b in
                                   sorted(zip(self.free, below), key=lambda kb: -kb[1]) if b > MIN_ACCEPTED)
                 raise InputError(f"only {100 * accepted / tries:.1f} % of the parameter draws are physical (outside "
-                                 f"the physical range: {worst}): the estimates are too uncertain to draw from; fix "
-                                 "the parameters the data do not determine and fit again")
+                                 f"the physical range: {worst}): the estimates are too uncertain to draw from; hold "
+                                 "the parameters the logs do not determine (iwp fit --fix NAME=VALUE) and fit again")
         return [self.params.replace(**dict(zip(self.free, (float(v) for v in row)))) for row in out]
 
 
