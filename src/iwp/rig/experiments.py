@@ -35,6 +35,7 @@ __all__ = [
     "InputLaw",
     "law_input",
     "HostInput",
+    "prbs",
     "EXPERIMENTS",
     "PAPER_V_DZ",
     "VELOCITY_FILTER_TAU",
@@ -324,8 +325,6 @@ def law_input(law: InputLaw, settings: Mapping[str, Any], Ts: float | None = Non
         return Chirp(check_finite("amplitude", settings["amplitude"]), check_positive("w0", settings["w0"]),
                      check_positive("tau", settings["tau"]))
     if law is InputLaw.PRBS:
-        from .described import prbs  # (described imports this module)
-
         if Ts is None:
             raise InputError("a PRBS needs the sample period Ts")
         hold = max(1, int(round(check_positive("hold_time", settings["hold_time"]) / Ts)))
@@ -341,6 +340,34 @@ def law_input(law: InputLaw, settings: Mapping[str, Any], Ts: float | None = Non
         T = check_positive("step_time", settings["step_time"])
         return HostInput(lambda t: levels[int(t // T) % len(levels)], f"steps {levels} each {T:g} s, repeated")
     raise InputError(f"law must be an InputLaw, got {law!r}")
+
+
+def prbs(n: int, *, hold: int, amplitude: float, seed: int = 0) -> np.ndarray:
+    """A pseudo-random binary sequence of ``n`` samples: +-``amplitude``, each level held ``hold`` samples.
+
+    (The levels come from ``numpy.random.default_rng(seed)``; the sign changes at random multiples of
+    ``hold``, as a PRBS of a rig's test does.)
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    hold : int
+        Samples each level is held at least.
+    amplitude : float
+        The two levels are ``+-amplitude`` [the rig's input units].
+    seed : int
+        Seed of the random signs.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    if n < 1 or hold < 1:
+        raise InputError("prbs: n and hold must be >= 1")
+    rng = np.random.default_rng(seed)
+    levels = rng.integers(0, 2, size=n // hold + 1) * 2 - 1
+    return amplitude * np.repeat(levels, hold)[:n].astype(float)
 
 
 @dataclass(frozen=True)
