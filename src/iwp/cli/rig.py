@@ -195,19 +195,14 @@ def run_run(args) -> int:
 
 def run_port(args) -> int:
     """``iwp rig run NAME --port PORT``: the experiment on a rig in the loop."""
-    from ..device.experiments import RUN_NAMES, run_on_rig
+    from ..device.experiments import RUN_NAMES, run_kind, run_on_rig
     from ..files import check_output_file
-    from ..rig import check_output_path, write_result
+    from ..rig import write_result
+    from ..rig.output import result_suffixes
 
     if args.name not in RUN_NAMES:
         raise InputError(f"unknown experiment or input {args.name!r}; valid: {', '.join(RUN_NAMES)}")
-    if args.name.startswith("static-curve") or args.name in ("chirp", "prbs", "steps", "sine", "release"):
-        from ..files import LOG_SUFFIXES
-
-        suffixes = (".csv", ".txt") if args.name.startswith("static-curve") else tuple(LOG_SUFFIXES)
-        out = check_output_file(args.out, force=args.force, argument="out", suffixes=suffixes)
-    else:
-        out = check_output_path(args.name, args.out, force=args.force)
+    out = check_output_file(args.out, force=args.force, argument="out", suffixes=result_suffixes(run_kind(args.name)))
     if args.truth is not None and args.port != "twin":
         raise InputError("--truth sets the twin's truth: use it with --port twin (or with iwp rig emulate)")
     options = {"amplitude": args.amplitude, "step": args.step, "duration": args.duration, "seed": args.seed,

@@ -30,23 +30,24 @@ from ..checks import check_finite, check_nonnegative, check_positive
 from ..data import ExperimentData, StaticCurve
 from ..errors import InputError
 from ..rig.controller import EncoderHopfController
-from ..rig.described import prbs
 from ..rig.experiments import (
     EXPERIMENTS,
+    ExperimentKind,
+    InputLaw,
+    RunKind,
     compensation_thresholds,
     experiment_spec,
     initial_state,
-    open_loop_input,
+    law_input,
 )
 from ..rig.virtual import STATIC_WINDOW
-from ..sim.inputs import Chirp, Sine
 from .errors import DeviceError, LinkLost
 from .loop import HostLimits, LoopResult, run_loop
 from .record import loop_log
 from .rig import Rig
 
-__all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "RUN_NAMES", "PAPER_SERIES", "arrange", "hold_at", "releaser",
-           "settle", "default_operator"]
+__all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "USER_INPUT_KINDS", "RUN_NAMES", "PAPER_SERIES", "run_kind",
+           "arrange", "hold_at", "releaser", "settle", "default_operator"]
 
 #: User inputs and the options each takes (with their defaults).
 USER_INPUTS: dict[str, dict[str, Any]] = {
@@ -57,10 +58,19 @@ USER_INPUTS: dict[str, dict[str, Any]] = {
               "v_dz": 31.0},
     "release": {"x0": -1.0, "duration": 30.0},
 }
+#: How each user input runs (compensated by default: ``v_dz = none`` switches it off; ``locked`` by default
+#: free, the option ``locked`` clamps it).
+USER_INPUT_KINDS: dict[str, ExperimentKind] = {
+    "chirp": ExperimentKind(RunKind.OPEN_LOOP, InputLaw.CHIRP, compensated=True),
+    "sine": ExperimentKind(RunKind.OPEN_LOOP, InputLaw.SINE, compensated=True),
+    "prbs": ExperimentKind(RunKind.OPEN_LOOP, InputLaw.PRBS, compensated=True),
+    "steps": ExperimentKind(RunKind.OPEN_LOOP, InputLaw.STEPS, compensated=True),
+    "release": ExperimentKind(RunKind.RELEASE),
+}
 #: Every name :func:`run_on_rig` takes.
 RUN_NAMES = tuple(EXPERIMENTS) + tuple(USER_INPUTS)
 #: The paper's time-series experiments.
-PAPER_SERIES = tuple(n for n in EXPERIMENTS if not n.startswith("static-curve"))
+PAPER_SERIES = tuple(n for n, spec in EXPERIMENTS.items() if spec.kind.run is not RunKind.STATIC_CURVE)
 #: Options that only the virtual rig's simulation has.
 _SIMULATION_ONLY = ("seed", "noise_std")
 #: Time for the device's velocity estimates to settle after the pendulum is put somewhere [s].
@@ -99,6 +109,31 @@ def default_operator(message: str) -> None:
                       "(the command line asks you)")
 
 
+def run_kind(name: str) -> ExperimentKind:
+    """How experiment or user input ``name`` runs.
+
+    Parameters
+    ----------
+    name : str
+        One of the paper's experiments (:data:`~iwp.rig.EXPERIMENTS`) or of :data:`USER_INPUTS`.
+
+    Returns
+    -------
+    ExperimentKind
+        The experiment's :attr:`~iwp.rig.ExperimentSpec.kind`, or the user input's (:data:`USER_INPUT_KINDS`).
+
+    Raises
+    ------
+    InputError
+        An unknown name (the message lists the valid ones).
+    """
+    if name in EXPERIMENTS:
+        return EXPERIMENTS[name].kind
+    if name in USER_INPUT_KINDS:
+        return USER_INPUT_KINDS[name]
+    raise InputError(f"unknown experiment or input {name!r}; valid: {', '.join(RUN_NAMES)}", argument="name")
+
+
 def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = False,
                operator: Callable[[str], None] | None = None, progress: Callable[[dict], None] | None = None,
                limits: HostLimits | None = None, **options) -> RigRun:
@@ -121,10 +156,16 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
         The host's check (default: the device's own limits).
     **options
         The experiment's options (``iwp rig list``; for user inputs :data:`USER_INPUTS`).
+
+    Notes
+    -----
+    It runs as its kind says (:func:`run_kind`: open loop with its input law, static curve, release or
+    closed loop), whatever its name.
     """
     if name not in RUN_NAMES:
         raise InputError(f"unknown experiment or input {name!r}; valid: {', '.join(RUN_NAMES)}", argument="name")
-    s = _settings(name, options)
+    kind = run_kind(name)
+    s = _settings(name, kind, options)
     operator = operator or default_operator
     if fast:
         if not rig.has("HOST_CLOCK"):
@@ -140,9 +181,9 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
         spec = experiment_spec(name)
         meta.update(reference=spec.reference, description=spec.description, session=spec.session)
     meta["settings"] = ", ".join(f"{k}={v}" for k, v in s.items())
-    if name.startswith("static-curve"):
+    if kind.run is RunKind.STATIC_CURVE:
         return _static_curve(rig, name, s, compensated, operator, progress, limits, meta)
-    locked = bool(s.get("locked", False))
+    locked = bool(s.get("locked", kind.locked))
     meta["pendulum"] = "locked" if locked else "free"
     x0 = initial_state(s["x0"]) if "x0" in s else None
     if x0 is not None and not abs(x0[0]) < limits.q1_max:
@@ -157,9 +198,9 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
     kw: dict[str, Any] = {}
     arm = True
     input_name = "u" if compensated else "v"
-    if name in ("free-pendulum", "release"):
+    if kind.run is RunKind.RELEASE:
         arm, input_name = False, None
-    elif name == "closed-loop":
+    elif kind.run is RunKind.CLOSED_LOOP:
         k1, k2 = check_finite("k1", s["k1"]), check_finite("k2", s["k2"])
         tau = check_nonnegative("filter_tau", s["filter_tau"])
         meta.update(k1=repr(k1), k2=repr(k2), filter_tau=repr(tau), controller=controller)
@@ -172,8 +213,9 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
         else:
             raise InputError(f"controller must be 'device' or 'host', got {controller!r}")
     else:
-        kw["input"] = _input_function(name, s, rig.info.params["period_us"] * 1e-6)
-    if name != "closed-loop":
+        inp = law_input(kind.law, s, rig.info.params["period_us"] * 1e-6)
+        kw["input"] = lambda t: inp.evaluate(t)
+    if kind.run is not RunKind.CLOSED_LOOP:
         rig.mode("HOST")
     res = run_loop(rig, duration=check_positive("duration", s["duration"]), arm=arm, limits=limits,
                    progress=progress, on_start=on_start, **kw)
@@ -189,7 +231,7 @@ def json_list(x) -> str:
 # --------------------------------------------------------------------------
 # settings
 # --------------------------------------------------------------------------
-def _settings(name: str, options: dict) -> dict:
+def _settings(name: str, kind: ExperimentKind, options: dict) -> dict:
     if name in EXPERIMENTS:
         spec = experiment_spec(name)
         allowed = [o for o in spec.options if o not in _SIMULATION_ONLY]
@@ -207,33 +249,9 @@ def _settings(name: str, options: dict) -> dict:
     s.update(given)
     if "v_dz" in given and given["v_dz"] == "none":
         s["v_dz"] = None
-    if name == "static-curve":
+    if kind.run is RunKind.STATIC_CURVE and not kind.compensated:
         s["v_dz"] = None
     return s
-
-
-def _input_function(name: str, s: dict, Ts: float) -> Callable[[float], float]:
-    """The open-loop ideal input ``u(t)`` of ``name``."""
-    inp = open_loop_input(name, s) if name in EXPERIMENTS else None
-    if inp is None and name == "chirp":
-        inp = Chirp(check_finite("amplitude", s["amplitude"]), check_positive("w0", s["w0"]),
-                    check_positive("tau", s["tau"]))
-    if inp is None and name == "sine":
-        inp = Sine(check_finite("amplitude", s["amplitude"]), check_finite("omega", s["omega"]))
-    if inp is not None:
-        return lambda t: inp.evaluate(t)
-    if name == "prbs":
-        hold = max(1, int(round(check_positive("hold_time", s["hold_time"]) / Ts)))
-        n = int(math.floor(check_positive("duration", s["duration"]) / Ts)) + 2
-        values = prbs(n, hold=hold, amplitude=check_finite("amplitude", s["amplitude"]), seed=int(s["seed"]))
-        return lambda t: float(values[min(int(round(t / Ts)), n - 1)])
-    if name == "steps":
-        levels = [check_finite("levels", x) for x in s["levels"]]
-        if not levels:
-            raise InputError("levels must hold at least one value", argument="levels")
-        T = check_positive("step_time", s["step_time"])
-        return lambda t: levels[int(t // T) % len(levels)]
-    raise InputError(f"{name!r} has no open-loop input")
 
 
 # --------------------------------------------------------------------------

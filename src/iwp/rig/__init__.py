@@ -14,7 +14,8 @@ module                  what
                         the belt (15), asymmetric dead zone (5) with break-away, Coulomb friction)
                         and the sensors; its JSON format, the default values and why
 :mod:`.experiments`     :data:`EXPERIMENTS`, :func:`list_experiments`: the paper's experiments by
-                        name, their settings and open-loop inputs
+                        name, their settings, how each runs (:class:`ExperimentKind`) and the
+                        open-loop input laws
 :mod:`.controller`      the rig's digital Hopf controller (section 5.3) on the encoder readings
 :mod:`.virtual`         :class:`VirtualRig`, :func:`run_experiment`: the truth plant run through
                         the encoders, the sampling, the compensator (7)-(8) and the driver's
@@ -34,7 +35,16 @@ from __future__ import annotations
 
 from ..models.encoder import quantize
 from .controller import EncoderHopfController
-from .experiments import EXPERIMENTS, PAPER_V_DZ, VELOCITY_FILTER_TAU, ExperimentSpec, list_experiments
+from .experiments import (
+    EXPERIMENTS,
+    PAPER_V_DZ,
+    VELOCITY_FILTER_TAU,
+    ExperimentKind,
+    ExperimentSpec,
+    InputLaw,
+    RunKind,
+    list_experiments,
+)
 from .output import check_output_path, write_result
 from .rigid_fit import rigid_fit_error
 from .truth import DEFAULT_TRUTH_FILE, RigTruth, default_truth, truth_record, uncalibrated_truth
@@ -43,6 +53,9 @@ from .virtual import RIG_ATOL, RIG_RTOL, STATIC_WINDOW, VirtualRig, run_experime
 __all__ = [
     "RigTruth",
     "ExperimentSpec",
+    "ExperimentKind",
+    "RunKind",
+    "InputLaw",
     "VirtualRig",
     "EncoderHopfController",
     "default_truth",

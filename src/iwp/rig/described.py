@@ -33,7 +33,7 @@ from ..models.parameters import BeltParameters, LumpedParameters
 from ..models.plant import Plant, plant_for_kind
 from ..sim.inputs import Input, Sampled
 from ..sim.simulate import simulate
-from .experiments import check_seed
+from .experiments import check_seed, prbs  # prbs is defined with the other input laws, exported here too
 from .sensors import motor_current, pendulum_reading, time_reading, wheel_reading
 
 __all__ = ["DescribedRig", "RigRun", "write_rig_csv", "prbs"]
@@ -238,34 +238,6 @@ class DescribedRig:
         if ins is not None:
             cols[ins.column] = x_log
         return RigRun(cols, t, X, w)
-
-
-def prbs(n: int, *, hold: int, amplitude: float, seed: int = 0) -> np.ndarray:
-    """A pseudo-random binary sequence of ``n`` samples: +-``amplitude``, each level held ``hold`` samples.
-
-    (The levels come from ``numpy.random.default_rng(seed)``; the sign changes at random multiples of
-    ``hold``, as a PRBS of a rig's test does.)
-
-    Parameters
-    ----------
-    n : int
-        Number of samples.
-    hold : int
-        Samples each level is held at least.
-    amplitude : float
-        The two levels are ``+-amplitude`` [the rig's input units].
-    seed : int
-        Seed of the random signs.
-
-    Returns
-    -------
-    ndarray, shape (n,)
-    """
-    if n < 1 or hold < 1:
-        raise InputError("prbs: n and hold must be >= 1")
-    rng = np.random.default_rng(seed)
-    levels = rng.integers(0, 2, size=n // hold + 1) * 2 - 1
-    return amplitude * np.repeat(levels, hold)[:n].astype(float)
 
 
 def write_rig_csv(run: RigRun, path: str | os.PathLike, *, force: bool = False,

@@ -4,24 +4,38 @@
 (section 5.1), ``sine-60``, ``sine-40``, ``sine-20`` (figures 3, 4),
 ``free-pendulum`` (figure 8), ``full-chirp`` (figure 9) and ``closed-loop``
 (figure 10), each with the paper's settings (:data:`EXPERIMENTS`,
-:func:`list_experiments`). :func:`open_loop_input` gives the ideal input
-``u(t)`` an open-loop experiment applies; the checks of the options that
-:meth:`iwp.rig.VirtualRig.run` accepts are here too.
+:func:`list_experiments`). Each says how it runs (:class:`ExperimentKind`:
+open loop with its input law, static curve, release, closed loop; with or
+without the compensation (7)-(8); pendulum clamped or free), and the virtual
+rig (:mod:`iwp.rig.virtual`) and a rig in the loop
+(:mod:`iwp.device.experiments`) run it by that kind, not by its name.
+:func:`law_input` builds the ideal input ``u(t)`` of an input law (the one
+place that does), :func:`open_loop_input` that of an open-loop experiment;
+the checks of the options that :meth:`iwp.rig.VirtualRig.run` accepts are
+here too.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Mapping
+import enum
+import math
+from dataclasses import dataclass, field
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..checks import check_finite, check_nonnegative
+from ..checks import check_finite, check_nonnegative, check_positive
 from ..errors import InputError
 from ..sim.inputs import Chirp, Input, Sine
 
 __all__ = [
     "ExperimentSpec",
+    "ExperimentKind",
+    "RunKind",
+    "InputLaw",
+    "law_input",
+    "HostInput",
+    "prbs",
     "EXPERIMENTS",
     "PAPER_V_DZ",
     "VELOCITY_FILTER_TAU",
@@ -34,6 +48,84 @@ __all__ = [
 PAPER_V_DZ = 31.0
 #: Time constant of the first-order filter of the rig's velocity estimate [s].
 VELOCITY_FILTER_TAU = 0.01
+
+
+class RunKind(enum.Enum):
+    """How an experiment drives the rig (:attr:`ExperimentKind.run`)."""
+
+    #: The motor follows an input law ``u(t)`` fixed in advance (:class:`InputLaw`).
+    OPEN_LOOP = "open-loop"
+    #: Figure 2: each input of a grid held from rest and the steady wheel speed read; pendulum clamped.
+    STATIC_CURVE = "static-curve"
+    #: The pendulum let go from rest at an angle, the motor off (the free pendulum, figure 8).
+    RELEASE = "release"
+    #: The input computed every sample from the measured angles (the Hopf law of section 5.3).
+    CLOSED_LOOP = "closed-loop"
+
+
+class InputLaw(enum.Enum):
+    """The input law of an open-loop experiment (:attr:`ExperimentKind.law`, :func:`law_input`)."""
+
+    #: ``u = A sin(omega t)``.
+    SINE = "sine"
+    #: ``u = A sin((w0 + t/tau) t)``.
+    CHIRP = "chirp"
+    #: A pseudo-random binary sequence ``+-A``, each level held at least ``hold_time``.
+    PRBS = "prbs"
+    #: Levels each held ``step_time``, repeated.
+    STEPS = "steps"
+
+
+@dataclass(frozen=True)
+class ExperimentKind:
+    """How an experiment runs: what the virtual rig and a rig in the loop dispatch on.
+
+    Attributes
+    ----------
+    run : RunKind
+        Open loop, static curve, release or closed loop.
+    law : InputLaw or None
+        The input law of an open-loop experiment; None for the others.
+    compensated : bool
+        True: the rig's feedforward (7)-(8) is on (the settings' ``v_dz``) and the logged input is the ideal
+        ``u``; False: the input is the raw driver command ``v`` (or none: a release). For a static curve this
+        is what the curve is (``u`` or ``v`` against the wheel speed); the other experiments' ``v_dz = None``
+        switches the compensation off.
+    locked : bool
+        The pendulum is clamped at ``q1 = 0`` (section 5.1).
+
+    Raises
+    ------
+    InputError
+        A ``run`` that is not a :class:`RunKind`, an input law on an experiment that is not open loop (or none
+        on one that is), or a static curve with the pendulum free.
+    """
+
+    run: RunKind
+    law: InputLaw | None = None
+    compensated: bool = False
+    locked: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.run, RunKind):
+            raise InputError(f"run must be a RunKind, got {self.run!r}")
+        if self.law is not None and not isinstance(self.law, InputLaw):
+            raise InputError(f"law must be an InputLaw or None, got {self.law!r}")
+        if (self.law is not None) != (self.run is RunKind.OPEN_LOOP):
+            raise InputError(f"an open-loop experiment has an input law and no other has one, got run={self.run}, "
+                             f"law={self.law}")
+        if self.run is RunKind.STATIC_CURVE and not self.locked:
+            raise InputError("a static curve runs with the pendulum clamped (locked=True)")
+
+
+#: Ways the paper's experiments run (:attr:`ExperimentSpec.kind`).
+_STATIC = ExperimentKind(RunKind.STATIC_CURVE, locked=True)
+_STATIC_COMPENSATED = ExperimentKind(RunKind.STATIC_CURVE, compensated=True, locked=True)
+_CLAMPED_SINE = ExperimentKind(RunKind.OPEN_LOOP, InputLaw.SINE, compensated=True, locked=True)
+_CLAMPED_CHIRP = ExperimentKind(RunKind.OPEN_LOOP, InputLaw.CHIRP, compensated=True, locked=True)
+_FREE_CHIRP = ExperimentKind(RunKind.OPEN_LOOP, InputLaw.CHIRP, compensated=True)
+_RELEASE = ExperimentKind(RunKind.RELEASE)
+_CLOSED_LOOP = ExperimentKind(RunKind.CLOSED_LOOP, compensated=True)
 
 
 @dataclass(frozen=True)
@@ -58,6 +150,14 @@ class ExperimentSpec:
         pendulum, the full chirp and the closed loop of sections 5.2 and 5.3).
         The truth may differ between sessions
         (:attr:`iwp.rig.RigTruth.resistance_ratio`).
+    kind : ExperimentKind
+        How it runs (keyword only): the rigs dispatch on it, never on the name.
+
+    Raises
+    ------
+    InputError
+        A ``kind`` that is not an :class:`ExperimentKind`, or one that the settings contradict (``locked``,
+        ``v_dz`` present or not).
     """
 
     name: str
@@ -66,6 +166,17 @@ class ExperimentSpec:
     settings: dict
     options: tuple[str, ...]
     session: str = "5.1"
+    kind: ExperimentKind = field(kw_only=True)
+
+    def __post_init__(self):
+        if not isinstance(self.kind, ExperimentKind):
+            raise InputError(f"experiment {self.name!r}: kind must be an ExperimentKind, got {self.kind!r}")
+        if bool(self.settings.get("locked", False)) != self.kind.locked:
+            raise InputError(f"experiment {self.name!r}: settings locked={self.settings.get('locked')!r} "
+                             f"contradict its kind (locked={self.kind.locked})")
+        if (self.settings.get("v_dz") is not None) != self.kind.compensated:
+            raise InputError(f"experiment {self.name!r}: settings v_dz={self.settings.get('v_dz')!r} contradict "
+                             f"its kind (compensated={self.kind.compensated})")
 
     def settings_text(self) -> str:
         """The settings as ``key=value`` pairs."""
@@ -93,6 +204,7 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
             "section 5.1, figure 2(a)",
             {"input": "v", "amplitude": 100.0, "step": 2.0, "duration": 6.0, "locked": True, "compensated": False},
             _STATIC_OPTS,
+            kind=_STATIC,
         ),
         ExperimentSpec(
             "static-curve-compensated",
@@ -100,6 +212,7 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
             "section 5.1, figure 2(b)",
             {"input": "u", "amplitude": 60.0, "step": 2.0, "duration": 6.0, "locked": True, "v_dz": PAPER_V_DZ},
             _STATIC_OPTS + ("v_dz",),
+            kind=_STATIC_COMPENSATED,
         ),
         ExperimentSpec(
             "motor-disk-chirp",
@@ -107,6 +220,7 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
             "section 5.1 (identification of p2(1+rho), p3(1+rho))",
             {"amplitude": 60.0, "w0": 3.2, "tau": 75.0, "duration": 300.0, "locked": True, "v_dz": PAPER_V_DZ},
             ("amplitude",) + _COMMON + ("v_dz",),
+            kind=_CLAMPED_CHIRP,
         ),
         *[
             ExperimentSpec(
@@ -115,6 +229,7 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
                 f"section 5.1, figure {'3(a)' if A == 60 else '3(b)' if A == 40 else '4'}",
                 {"amplitude": float(A), "omega": 5.0, "duration": 20.0, "locked": True, "v_dz": PAPER_V_DZ},
                 ("amplitude",) + _COMMON + ("v_dz",),
+                kind=_CLAMPED_SINE,
             )
             for A in (60, 40, 20)
         ],
@@ -125,6 +240,7 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
             {"x0": [-1.422, 0.0, 0.0, 0.0], "duration": 60.0, "locked": False},
             _COMMON + ("x0",),
             "5.2",
+            kind=_RELEASE,
         ),
         ExperimentSpec(
             "full-chirp",
@@ -133,6 +249,7 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
             {"amplitude": 60.0, "w0": 3.0, "tau": 100.0, "duration": 300.0, "locked": False, "v_dz": PAPER_V_DZ},
             ("amplitude",) + _COMMON + ("v_dz", "x0"),
             "5.2",
+            kind=_FREE_CHIRP,
         ),
         ExperimentSpec(
             "closed-loop",
@@ -142,6 +259,7 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
              "v_dz": PAPER_V_DZ, "filter_tau": VELOCITY_FILTER_TAU},
             _COMMON + ("k1", "k2", "x0", "v_dz", "filter_tau"),
             "5.2",
+            kind=_CLOSED_LOOP,
         ),
     ]
 }
@@ -170,35 +288,135 @@ def experiment_spec(name: str) -> ExperimentSpec:
     return EXPERIMENTS[name]
 
 
-def open_loop_input(name: str, settings: Mapping[str, Any]) -> Input | None:
-    """The ideal input ``u(t)`` of the open-loop experiment ``name`` with ``settings``; ``None`` for the others.
+def law_input(law: InputLaw, settings: Mapping[str, Any], Ts: float | None = None):
+    """The ideal input ``u(t)`` of the input law ``law`` with ``settings``: the one place that builds them.
 
-    The sinusoids ``u = A sin(omega t)`` (figures 3, 4) and the chirps
-    ``u = A sin((w0 + t/tau) t)`` (section 5.1 and eq. (16)).
+    The sinusoids ``u = A sin(omega t)`` (figures 3, 4), the chirps
+    ``u = A sin((w0 + t/tau) t)`` (section 5.1 and eq. (16)), and for a rig in
+    the loop a PRBS and steps.
 
     Parameters
     ----------
-    name : str
-        Experiment name.
+    law : InputLaw
+        The input law.
     settings : mapping of str to object
-        Its settings: ``amplitude`` [input units], and ``omega`` [rad/s] (sinusoids) or ``w0`` [rad/s] and
-        ``tau`` [s^2/rad] (chirps).
+        Its settings: ``amplitude`` [input units] (sine, chirp, PRBS); ``omega`` [rad/s] (sine); ``w0``
+        [rad/s] and ``tau`` [s^2/rad] (chirp); ``hold_time`` [s], ``duration`` [s] and ``seed`` (PRBS);
+        ``levels`` [input units] and ``step_time`` [s] (steps).
+    Ts : float, optional
+        Sample period [s]; needed by the PRBS (its levels are held a whole number of samples).
 
     Returns
     -------
-    Input or None
-        :class:`Sine` for ``"sine-*"``, :class:`Chirp` for ``"*chirp"``, None otherwise.
+    Input or HostInput
+        :class:`~iwp.sim.inputs.Sine` or :class:`~iwp.sim.inputs.Chirp` (signals the simulation evaluates),
+        or a :class:`HostInput` (PRBS, steps: evaluated by the host of a rig in the loop). Each has
+        ``evaluate(t)`` [input units], ``t`` [s].
 
     Raises
     ------
     InputError
-        A non-finite amplitude.
+        A non-finite amplitude or level, a frequency, ``tau``, hold or step time that is not > 0, no
+        levels, or a PRBS without ``Ts``.
     """
-    if name.startswith("sine-"):
-        return Sine(check_finite("amplitude", settings["amplitude"]), settings["omega"])
-    if name.endswith("chirp"):
-        return Chirp(check_finite("amplitude", settings["amplitude"]), settings["w0"], settings["tau"])
-    return None
+    if law is InputLaw.SINE:
+        return Sine(check_finite("amplitude", settings["amplitude"]), check_finite("omega", settings["omega"]))
+    if law is InputLaw.CHIRP:
+        return Chirp(check_finite("amplitude", settings["amplitude"]), check_positive("w0", settings["w0"]),
+                     check_positive("tau", settings["tau"]))
+    if law is InputLaw.PRBS:
+        if Ts is None:
+            raise InputError("a PRBS needs the sample period Ts")
+        hold = max(1, int(round(check_positive("hold_time", settings["hold_time"]) / Ts)))
+        n = int(math.floor(check_positive("duration", settings["duration"]) / Ts)) + 2
+        amplitude = check_finite("amplitude", settings["amplitude"])
+        values = prbs(n, hold=hold, amplitude=amplitude, seed=int(settings["seed"]))
+        return HostInput(lambda t: float(values[min(int(round(t / Ts)), n - 1)]),
+                         f"PRBS +-{abs(amplitude):g}, each level held at least {hold} samples")
+    if law is InputLaw.STEPS:
+        levels = [check_finite("levels", x) for x in settings["levels"]]
+        if not levels:
+            raise InputError("levels must hold at least one value", argument="levels")
+        T = check_positive("step_time", settings["step_time"])
+        return HostInput(lambda t: levels[int(t // T) % len(levels)], f"steps {levels} each {T:g} s, repeated")
+    raise InputError(f"law must be an InputLaw, got {law!r}")
+
+
+def prbs(n: int, *, hold: int, amplitude: float, seed: int = 0) -> np.ndarray:
+    """A pseudo-random binary sequence of ``n`` samples: +-``amplitude``, each level held ``hold`` samples.
+
+    (The levels come from ``numpy.random.default_rng(seed)``; the sign changes at random multiples of
+    ``hold``, as a PRBS of a rig's test does.)
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    hold : int
+        Samples each level is held at least.
+    amplitude : float
+        The two levels are ``+-amplitude`` [the rig's input units].
+    seed : int
+        Seed of the random signs.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    if n < 1 or hold < 1:
+        raise InputError("prbs: n and hold must be >= 1")
+    rng = np.random.default_rng(seed)
+    levels = rng.integers(0, 2, size=n // hold + 1) * 2 - 1
+    return amplitude * np.repeat(levels, hold)[:n].astype(float)
+
+
+@dataclass(frozen=True)
+class HostInput:
+    """An input law evaluated by a host in Python (not by the compiled simulation): ``u = function(t)``.
+
+    Attributes
+    ----------
+    function : callable
+        ``function(t) -> u`` [input units], ``t`` [s].
+    text : str
+        What it is, one line.
+    """
+
+    function: Callable[[float], float]
+    text: str
+
+    def evaluate(self, t: float, x=None) -> float:
+        """The input at time ``t`` [s] [input units] (``x`` is ignored)."""
+        return self.function(t)
+
+    def describe(self) -> str:
+        """One line."""
+        return self.text
+
+
+def open_loop_input(name: str, settings: Mapping[str, Any]) -> Input | None:
+    """The ideal input ``u(t)`` of the paper's experiment ``name`` with ``settings``; ``None`` if not open loop.
+
+    Parameters
+    ----------
+    name : str
+        Experiment name (:data:`EXPERIMENTS`).
+    settings : mapping of str to object
+        Its settings (see :func:`law_input`).
+
+    Returns
+    -------
+    Input or None
+        The input of its law (:attr:`ExperimentKind.law`): :class:`Sine` or :class:`Chirp`; None for an
+        experiment that is not open loop.
+
+    Raises
+    ------
+    InputError
+        An unknown experiment, or a bad setting of its law.
+    """
+    law = experiment_spec(name).kind.law
+    return None if law is None else law_input(law, settings)
 
 
 # --------------------------------------------------------------------------

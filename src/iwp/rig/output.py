@@ -8,9 +8,9 @@ from pathlib import Path
 from ..data import ExperimentData, StaticCurve, write_experiment, write_static_curve
 from ..errors import InputError
 from ..files import LOG_SUFFIXES, check_output_file
-from .experiments import experiment_spec
+from .experiments import ExperimentKind, RunKind, experiment_spec
 
-__all__ = ["check_output_path", "write_result"]
+__all__ = ["check_output_path", "write_result", "result_suffixes"]
 
 _STATIC_EXT = (".csv", ".txt")
 _SERIES_EXT = tuple(LOG_SUFFIXES)  # those of iwp.data.write_experiment
@@ -43,9 +43,24 @@ def check_output_path(name: str, path: str | os.PathLike, *, force: bool = False
         Unknown experiment, an extension the result cannot be written as, a folder, or an existing file
         without ``force``.
     """
-    experiment_spec(name)
-    suffixes = _STATIC_EXT if name.startswith("static-curve") else _SERIES_EXT
-    return check_output_file(path, force=force, argument="out", suffixes=suffixes)
+    return check_output_file(path, force=force, argument="out", suffixes=result_suffixes(experiment_spec(name).kind))
+
+
+def result_suffixes(kind: ExperimentKind) -> tuple[str, ...]:
+    """The file extensions the result of an experiment of ``kind`` may be written as.
+
+    Parameters
+    ----------
+    kind : ExperimentKind
+        How the experiment runs.
+
+    Returns
+    -------
+    tuple of str
+        ``(".csv", ".txt")`` for a static curve, the extensions of :func:`iwp.data.write_experiment` for a
+        time series.
+    """
+    return _STATIC_EXT if kind.run is RunKind.STATIC_CURVE else _SERIES_EXT
 
 
 def write_result(result, path: str | os.PathLike, *, force: bool = False) -> Path:

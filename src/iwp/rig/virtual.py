@@ -58,12 +58,13 @@ from .controller import EncoderHopfController
 from .experiments import (
     PAPER_V_DZ,
     ExperimentSpec,
+    RunKind,
     check_seed,
     compensation_thresholds,
     experiment_spec,
     initial_state,
+    law_input,
     list_experiments,
-    open_loop_input,
 )
 from .truth import RigTruth, default_truth
 
@@ -169,6 +170,8 @@ class VirtualRig:
 
         Notes
         -----
+        The experiment runs as its kind says (:attr:`ExperimentSpec.kind`: open loop with its input law,
+        static curve, release or closed loop; clamped or free), whatever its name.
         The experiment runs on the truth of its session
         (:attr:`ExperimentSpec.session`, :meth:`RigTruth.for_session`); the
         log's metadata ``truth`` is that session's truth.
@@ -190,17 +193,18 @@ class VirtualRig:
             if abs(a) > MAX_INPUT:
                 raise InputError(f"amplitude = {a:g}: beyond any rig's input (|amplitude| <= {MAX_INPUT:g}); the "
                                  "driver saturates far below", argument="amplitude")
-        if name.startswith("static-curve"):
+        kind = spec.kind
+        if kind.run is RunKind.STATIC_CURVE:
             return self._static_curve(spec, s, seed, noise)
         duration = check_positive("duration", s["duration"])
         v_dz = compensation_thresholds(s.get("v_dz"))
         meta = {"experiment": name, "reference": spec.reference, "description": spec.description,
                 "session": spec.session}
         x0 = initial_state(s["x0"]) if "x0" in s else None
-        if name == "free-pendulum":
-            return self.record(None, duration=duration, x0=x0, locked=False, v_dz=None, seed=seed,
+        if kind.run is RunKind.RELEASE:  # the motor off: no compensation, no input logged
+            return self.record(None, duration=duration, x0=x0, locked=kind.locked, v_dz=None, seed=seed,
                                noise_std=noise, metadata=meta, log_input=None)
-        if name == "closed-loop":
+        if kind.run is RunKind.CLOSED_LOOP:
             k1 = check_finite("k1", s["k1"])
             k2 = check_finite("k2", s["k2"])
             tau = check_nonnegative("filter_tau", s["filter_tau"])
@@ -208,10 +212,13 @@ class VirtualRig:
             meta.update(k1=repr(k1), k2=repr(k2), filter_tau=repr(tau),
                         controller="u = k1 q3^ + k2 q3^3, q3^ = first-order filtered backward difference of the "
                                    "measured q1, sampled every Ts and held")
-            return self.record(None, controller=ctrl, duration=duration, x0=x0, locked=False, v_dz=v_dz,
+            return self.record(None, controller=ctrl, duration=duration, x0=x0, locked=kind.locked, v_dz=v_dz,
                                seed=seed, noise_std=noise, metadata=meta)
-        inp = open_loop_input(name, s)
-        return self.record(inp, duration=duration, x0=x0, locked=bool(s["locked"]), v_dz=v_dz, seed=seed,
+        inp = law_input(kind.law, s, self.truth.Ts)
+        if not isinstance(inp, Input):
+            raise InputError(f"experiment {name!r}: the virtual rig simulates sine and chirp inputs, not "
+                             f"{kind.law.value}")
+        return self.record(inp, duration=duration, x0=x0, locked=kind.locked, v_dz=v_dz, seed=seed,
                            noise_std=noise, metadata=meta)
 
     # ------------------------------------------------------------------
@@ -354,10 +361,10 @@ class VirtualRig:
         if m > 10_000:
             raise InputError(f"amplitude/step gives {2 * m + 1} points; at most 20001 are allowed")
         grid = step_in * np.arange(-m, m + 1)
-        compensated = spec.name.endswith("compensated")
+        compensated = spec.kind.compensated
         pair = compensation_thresholds(s.get("v_dz")) if compensated else None
         if compensated and pair is None:
-            raise InputError("static-curve-compensated needs v_dz (use static-curve for no compensation)")
+            raise InputError(f"{spec.name} needs v_dz (use static-curve for no compensation)")
         rng = np.random.default_rng(seed)
         Ts = truth.Ts
         n = check_samples(np.floor(hold / Ts + 1e-9) + 1.0, argument="duration",
