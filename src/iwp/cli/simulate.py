@@ -61,6 +61,7 @@ def run(args) -> int:
     from ..errors import InputError
     from ..models.plant import Plant
     from ..sim.inputs import make_input
+    from ..sim.options import CommandChain, Feedforward, Tolerances
     from ..sim.tasks import SimulationTask, write_simulation
     from ..sim.uncertainty import load_uncertainty
 
@@ -87,8 +88,10 @@ def run(args) -> int:
             raise InputError(f"{flag} is for the draws of --band monte-carlo; without it, it would do nothing")
     uncertainty = load_uncertainty(args.params) if args.band is not None else None
     params = uncertainty.params if uncertainty is not None else load_lumped(args.params)
-    task = SimulationTask(Plant(params, model=args.model), inp, x0=args.x0, t0=args.t0, t_end=args.t_end, Ts=args.ts,
-                          feedforward=args.feedforward, saturation=args.saturation, rtol=args.rtol, atol=args.atol,
+    plant = Plant(params, model=args.model)
+    chain = CommandChain(inp, Feedforward.of_plant(plant) if args.feedforward else None, args.saturation)
+    task = SimulationTask(plant, chain, x0=args.x0, t0=args.t0, t_end=args.t_end, Ts=args.ts,
+                          tolerances=Tolerances(rtol=args.rtol, atol=args.atol),
                           uncertainty=uncertainty, band=args.band, draws=1000 if args.draws is None else args.draws,
                           seed=0 if args.seed is None else args.seed)
     print(write_simulation(task, args.out, plot=args.plot, force=args.force))

@@ -5,6 +5,7 @@ module                      what
 ==========================  =====================================================
 :mod:`.simulate`            :func:`simulate`, :func:`simulate_batch`, :func:`simulate_scipy`
 :mod:`.inputs`              signals and feedback laws that drive a simulation
+:mod:`.options`             :class:`Tolerances`, :class:`CommandChain` (options of every entry point)
 :mod:`.sensitivity`         simulations with forward sensitivities (fits, shooting)
 :mod:`.result`              :class:`SimulationResult`, :class:`BatchResult`
 :mod:`.engine`              the compiled adaptive DOP853 (one engine for everything)
@@ -27,6 +28,7 @@ from .inputs import (
     Step,
     make_input,
 )
+from .options import CommandChain, Feedforward, Tolerances
 from .result import BatchResult, SimulationResult
 from .simulate import simulate, simulate_batch, simulate_scipy
 
@@ -35,13 +37,16 @@ __all__ = [
     "BatchResult",
     "CallableController",
     "Chirp",
+    "CommandChain",
     "Constant",
+    "Feedforward",
     "HopfController",
     "Input",
     "Sampled",
     "SimulationResult",
     "Sine",
     "Step",
+    "Tolerances",
     "make_input",
     "simulate",
     "simulate_batch",

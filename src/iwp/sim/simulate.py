@@ -23,7 +23,8 @@ import numpy as np
 
 from ..checks import check_finite, check_positive, check_samples
 from ..errors import InputError, SimulationError
-from ..models.actuator import command, command_vector
+from ..models.actuator import command as command_value
+from ..models.actuator import command_vector
 from ..models.mathfn import SINCOS_MAX
 from ..models.parameters import LumpedParameters, PhysicalParameters
 from ..models.plant import Plant
@@ -44,12 +45,17 @@ from .engine import (
     samples_output,
 )
 from .inputs import I_EXTERNAL, I_ZERO, N_INPUT_PARAMS, CallableController, Input, Sampled, input_value
+from .options import CommandChain, as_chain, as_tolerances
+from .options import Tolerances as TolerancesOptions
 from .result import BatchResult, SimulationResult
 
 __all__ = ["BATCH_STORES", "simulate", "simulate_batch", "simulate_scipy", "as_plant", "output_times", "X_MAX"]
 
 #: States beyond this magnitude count as divergence [rad, rad/s].
 X_MAX = 1e7
+
+#: :func:`simulate_scipy`'s default tolerances (its reference runs: a tighter ``atol``).
+SCIPY_TOLERANCES = TolerancesOptions(rtol=1e-10, atol=1e-12)
 
 
 # --------------------------------------------------------------------------
@@ -164,6 +170,16 @@ def tolerances(
     if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
         raise InputError(f"max_steps must be a positive integer, got {max_steps!r}")
     return Tolerances(rtol, a, h_max, int(max_steps), X_MAX, n if n_err is None else int(n_err))
+
+
+def engine_tolerances(n: int, opts: TolerancesOptions, *, n_err: int | None = None) -> Tolerances:
+    """The engine's :class:`~iwp.sim.engine.Tolerances` of the options ``opts`` for ``n`` states."""
+    return tolerances(n, opts.rtol, opts.atol, n_err=n_err, max_step=opts.max_step, max_steps=opts.max_steps)
+
+
+def chain_command(plant: Plant, chain: CommandChain) -> np.ndarray:
+    """The command vector of ``chain``'s feedforward and saturation for ``plant`` (:func:`command_of`)."""
+    return command_of(plant, chain.feedforward_pair(), chain.saturation)
 
 
 def initial_state(x0, plant: Plant) -> np.ndarray:
@@ -452,7 +468,7 @@ def _simulate_callable_continuous(plant, x0a, t0, t_end, t_out, ctrl, command_pa
     from scipy.integrate import solve_ivp
 
     def f(t, y):
-        return plant.rhs(y, command(ctrl.evaluate(t, y), command_params))
+        return plant.rhs(y, command_value(ctrl.evaluate(t, y), command_params))
 
     sol = solve_ivp(
         f,
@@ -468,7 +484,7 @@ def _simulate_callable_continuous(plant, x0a, t0, t_end, t_out, ctrl, command_pa
     X = np.full((t_out.size, n), np.nan)
     X[: sol.y.shape[1]] = sol.y.T
     U = np.array([ctrl.evaluate(t, x) if np.all(np.isfinite(x)) else np.nan for t, x in zip(t_out, X)])
-    W = np.array([command(u, command_params) if np.isfinite(u) else np.nan for u in U])
+    W = np.array([command_value(u, command_params) if np.isfinite(u) else np.nan for u in U])
     status = ST_OK if sol.status == 0 else ST_STEP_TOO_SMALL
     t_reached = float(sol.t[-1]) if sol.t.size else t0
     return _finish(plant, t_out, X, (U, W), engine.RunStats(status, sol.nfev, 0, 0, t_reached, -1.0), check, ctrl)
@@ -692,18 +708,13 @@ def _is_state(v) -> bool:
 def simulate_scipy(
     plant,
     *,
-    model: str | None = None,
     x0=None,
     t_end: float,
     t0: float = 0.0,
     Ts: float = 0.005,
-    input: Input | None = None,
-    feedforward=None,
-    saturation: float | None = None,
-    method: str = "DOP853",
-    rtol: float = 1e-10,
-    atol: float | Sequence[float] = 1e-12,
     t_eval=None,
+    command: CommandChain | Input | None = None,
+    tolerances: TolerancesOptions | None = None,
 ) -> SimulationResult:
     """The same simulation through :func:`scipy.integrate.solve_ivp` (a reference).
 
@@ -714,27 +725,24 @@ def simulate_scipy(
     Parameters
     ----------
     plant : Plant or LumpedParameters or PhysicalParameters
-        As :func:`simulate`.
-    model : str, optional
-        As :func:`simulate`.
+        As :func:`simulate` (a parameter set alone: model ``"compensated"``;
+        another model: ``Plant(params, model=...)``).
     x0 : array_like, optional
         Initial state ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s] at ``t0``.
     t_end, t0 : float
         Final and initial time [s].
     Ts : float
         Output sample period [s].
-    input : Input, optional
-        A continuous input or law (:mod:`iwp.sim.inputs`); sampled inputs are refused.
-    feedforward : bool or (float, float), optional
-        The dead-zone feedforward (7)-(8), as :func:`simulate`.
-    saturation : float, optional
-        ``|command| <= saturation`` [input units].
-    method : str
-        The :func:`scipy.integrate.solve_ivp` method (default ``"DOP853"``).
-    rtol, atol : float
-        Tolerances of ``solve_ivp`` (``atol`` in the state's units).
     t_eval : array_like, optional
         Output times [s] instead of the grid of ``Ts``.
+    command : CommandChain or Input, optional
+        The input (a continuous input or law of :mod:`iwp.sim.inputs`;
+        sampled inputs are refused), feedforward (7)-(8) and saturation
+        [input units]; a bare input is the chain of that input alone.
+    tolerances : Tolerances, optional
+        ``rtol`` [-] and ``atol`` [state units] of ``solve_ivp``'s DOP853
+        (default ``Tolerances(rtol=1e-10, atol=1e-12)``; ``max_step`` [s] is
+        passed on, ``max_steps`` unused).
 
     Returns
     -------
@@ -742,12 +750,15 @@ def simulate_scipy(
     """
     from scipy.integrate import solve_ivp
 
-    plant = as_plant(plant, model)
+    plant = as_plant(plant)
+    chain = as_chain(command)
+    input = chain.input
+    opts = as_tolerances(tolerances, SCIPY_TOLERANCES)
     t0, t_end, Ts = _check_span(t0, t_end, Ts)
     _check_input(input, t0, t_end)
     x0a = initial_state(x0, plant)
-    tol = tolerances(plant.n_states, rtol, atol)
-    command_params = command_of(plant, feedforward, saturation)
+    tol = engine_tolerances(plant.n_states, opts)
+    command_params = chain_command(plant, chain)
     seg = segments_of(input, t0)
     if seg.mode != SEG_CONT or isinstance(input, CallableController):
         raise InputError("simulate_scipy supports continuous built-in inputs only")
@@ -755,12 +766,13 @@ def simulate_scipy(
     t_out = output_times(t0, t_end, Ts, t_eval)
 
     def f(t, y):
-        return plant.rhs(y, command(input_value(system.kind, system.input_params, t, y), command_params))
+        return plant.rhs(y, command_value(input_value(system.kind, system.input_params, t, y), command_params))
 
-    sol = solve_ivp(f, (t0, t_end), x0a, method=method, t_eval=t_out, rtol=tol.rtol, atol=tol.atol)
+    sol = solve_ivp(f, (t0, t_end), x0a, method="DOP853", t_eval=t_out, rtol=tol.rtol, atol=tol.atol,
+                    **({} if opts.max_step is None else {"max_step": opts.max_step}))
     X = sol.y.T
     U = np.array([input_value(system.kind, system.input_params, t, x) for t, x in zip(sol.t, X)])
-    W = np.array([command(u, command_params) for u in U])
+    W = np.array([command_value(u, command_params) for u in U])
     status = ST_OK if sol.status == 0 else ST_STEP_TOO_SMALL
     return SimulationResult(
         t=sol.t,

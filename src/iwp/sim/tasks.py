@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -17,7 +17,7 @@ from ..errors import InputError, SimulationError
 from ..files import FIGURE_SUFFIXES, LOG_SUFFIXES, check_output_file, write_all
 from ..models.plant import Plant
 from ..plotting import plot_simulation, savefig
-from .inputs import Input
+from .options import CommandChain, Tolerances
 from .result import SimulationResult
 from .simulate import simulate
 from .uncertainty import ParameterUncertainty, prediction_band
@@ -68,18 +68,16 @@ class SimulationTask:
     Parameters
     ----------
     plant : Plant
-    input : Input or None
-        An open-loop input or a controller (:func:`~iwp.sim.inputs.make_input`); None: zero.
+    command : CommandChain
+        The input (an open-loop input or a controller, :func:`~iwp.sim.inputs.make_input`; None: zero),
+        the dead-zone feedforward (7)-(8) (:class:`~iwp.sim.options.Feedforward`, e.g.
+        ``Feedforward.of_plant(plant)``) and the saturation [input units].
     x0 : sequence of float, optional
         Initial state ``q1, q2, q3, q4`` [rad, rad, rad/s, rad/s] (default rest).
     t0, t_end, Ts : float
         Initial and final time, output sample time [s].
-    feedforward : bool
-        Apply the dead-zone feedforward (7)-(8).
-    saturation : float, optional
-        Clip the command to ``+-saturation`` [input units].
-    rtol, atol : float
-        Tolerances of the integration.
+    tolerances : Tolerances
+        Of the integration (``rtol`` [-], ``atol`` [state units], ``max_step`` [s], ``max_steps``).
     uncertainty : ParameterUncertainty, optional
         The fit's parameters and covariance (:func:`~iwp.sim.uncertainty.load_uncertainty`): with ``band``,
         the 95 % parameter and prediction bands are computed and written beside the log.
@@ -90,30 +88,34 @@ class SimulationTask:
     """
 
     plant: Plant
-    input: Input | None = None
+    command: CommandChain = field(default_factory=CommandChain)
     x0: Sequence[float] | None = None
     t0: float = 0.0
     t_end: float = 10.0
     Ts: float = 0.005
-    feedforward: bool = False
-    saturation: float | None = None
-    rtol: float = 1e-10
-    atol: float = 1e-10
+    tolerances: Tolerances = field(default_factory=Tolerances)
     uncertainty: ParameterUncertainty | None = None
     band: str | None = None
     draws: int = 1000
     seed: int = 0
 
     def __post_init__(self) -> None:
+        if not isinstance(self.command, CommandChain):
+            raise InputError(f"command must be an iwp.sim.CommandChain, got {type(self.command).__name__}",
+                             argument="command")
+        if not isinstance(self.tolerances, Tolerances):
+            raise InputError(f"tolerances must be an iwp.sim.Tolerances, got {type(self.tolerances).__name__}",
+                             argument="tolerances")
         if self.band is not None and self.uncertainty is None:
             raise InputError("band needs the fit's uncertainty: the parameters.json that iwp fit writes",
                              argument="band")
 
     def run(self) -> SimulationResult:
         """Simulate; a run that stops short or gives NaN is an error (nothing to write), an unphysical one a warning."""
-        res = simulate(self.plant, x0=self.x0, t0=self.t0, t_end=self.t_end, Ts=self.Ts, input=self.input,
-                       feedforward=True if self.feedforward else None, saturation=self.saturation, rtol=self.rtol,
-                       atol=self.atol)
+        c, tol = self.command, self.tolerances
+        res = simulate(self.plant, x0=self.x0, t0=self.t0, t_end=self.t_end, Ts=self.Ts, input=c.input,
+                       feedforward=c.feedforward_pair(), saturation=c.saturation, rtol=tol.rtol, atol=tol.atol,
+                       max_step=tol.max_step, max_steps=tol.max_steps)
         if not res.success:
             raise SimulationError(f"the simulation stopped at t = {res.t[-1]:g} s: {res.message}; nothing written")
         if not all(np.all(np.isfinite(c)) for c in res.to_experiment().as_columns().values()):
@@ -161,7 +163,7 @@ def write_simulation(task: SimulationTask, out, *, plot=None, force: bool = Fals
     log = res.to_experiment()
     band = None
     if task.band is not None:
-        band = prediction_band(task.plant, task.uncertainty, input=task.input, x0=task.x0, t_eval=res.t,
+        band = prediction_band(task.plant, task.uncertainty, input=task.command.input, x0=task.x0, t_eval=res.t,
                                method=task.band, draws=task.draws, seed=task.seed,
                                signals=tuple(s for s in ("q1", "q2", "q3", "q4") if s in task.plant.outputs))
         log = replace(log, extra={**log.extra, **band.columns()},
