@@ -28,9 +28,9 @@ from __future__ import annotations
 
 from .belt_fit import refine_belt
 from .differentiate import Differentiator
-from .fit import fit_percent
 from .identification import default_differentiator, identify, identify_dead_zone, load_pendulum
 from .lsq import LeastSquaresResult, solve_least_squares
+from .metrics import fit_percent
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError
 from .parameters import Parameter, ParameterEstimate, Parameters
 from .problem import FitProblem, FitResult, Loss, SolverOptions

@@ -61,7 +61,7 @@ from ..sim.uncertainty import ParameterUncertainty, prediction_band
 from ..threads import one_blas_thread, thread_map
 from .belt_fit import BELT_FREE
 from .differentiate import Differentiator
-from .fit import fit_percent
+from .metrics import fit_percent
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_initial_state, measured_state_covariance
 from .problem import Loss, SolverOptions
 from .refinement import BELT_OPTIONS, RefineResult, as_experiments, refine
