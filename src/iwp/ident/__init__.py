@@ -28,11 +28,11 @@ from __future__ import annotations
 
 from .belt_fit import refine_belt
 from .differentiate import Differentiator
+from .fit_parameters import Parameter, ParameterEstimate, Parameters
 from .identification import default_differentiator, identify, identify_dead_zone, load_pendulum
 from .lsq import LeastSquaresResult, solve_least_squares
 from .metrics import fit_percent
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError
-from .parameters import Parameter, ParameterEstimate, Parameters
 from .problem import FitProblem, FitResult, Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, fit_plant, refine, refine_identification
 from .result import IdentificationResult

@@ -61,9 +61,9 @@ from ..files import json_float
 from ..models.parameters import PARAMETER_INFO, BeltParameters, LumpedParameters
 from ..models.plant import MODELS, Plant
 from .covariance import Reliability
+from .fit_parameters import Parameter
 from .metrics import fit_percent
 from .output_error import Experiment, OutputError, offset_name, x0_name
-from .parameters import Parameter
 from .problem import FitProblem, FitResult, Loss, SolverOptions
 from .setups import get_setup
 

@@ -13,7 +13,7 @@ optimiser's coordinates ``z`` (``value / scale``, or ``log value``) and
 back, evaluates the expressions, and gives derived parameters their
 uncertainty by the delta method.
 
->>> from iwp.ident.parameters import Parameter, Parameters
+>>> from iwp.ident.fit_parameters import Parameter, Parameters
 >>> ps = Parameters([Parameter("p2", 0.0106), Parameter("rho", 247.24, vary=False),
 ...                  Parameter("p2_1rho", 0.0, expr="p2 * (1 + rho)")])
 >>> round(ps.values()["p2_1rho"], 4)
