@@ -30,6 +30,7 @@ from iwp.data import ExperimentData, read_experiment
 from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
 from iwp.device.cheader import HEADER_PATH, c_header
+from iwp.device.connection import REQUEST_REPEAT, REQUEST_TIMEOUT, Rig
 from iwp.device.core import DeviceCore
 from iwp.device.emulator import TwinDevice, check_link, stop_device
 from iwp.device.errors import DeviceError
@@ -46,7 +47,6 @@ from iwp.device.protocol import (
     markdown_table,
     params_table,
 )
-from iwp.device.rig import REQUEST_REPEAT, REQUEST_TIMEOUT, Rig
 from iwp.device.runs import run_on_rig
 from iwp.device.twin import TwinRig
 from iwp.errors import InputError
