@@ -10,7 +10,7 @@ from scipy.signal import fftconvolve
 
 from iwp.errors import IdentificationError, InputError
 from iwp.ident.covariance import correlation_messages, hac_bandwidth
-from iwp.ident.fit_parameters import ParameterEstimate
+from iwp.ident.fit_parameters import Parameter
 from iwp.ident.lsq import (
     LeastSquaresResult,
     solve_least_squares,
@@ -269,7 +269,7 @@ def test_result_access_export_and_summary() -> None:
     res = system.solve()
     assert isinstance(res, LeastSquaresResult)
     p = res["p3r"]
-    assert isinstance(p, ParameterEstimate) and p.name == "p3r" and not p.fixed
+    assert isinstance(p, Parameter) and p.name == "p3r" and not p.fixed
     assert p.ci95_low < p.value < p.ci95_high
     assert p.ci95_high - p.value == pytest.approx(res.critical_value * p.stderr)
     assert res.ci95("p3r") == (p.ci95_low, p.ci95_high)

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from .belt_fit import refine_belt
 from .differentiate import Differentiator
-from .fit_parameters import Parameter, ParameterEstimate, Parameters
+from .fit_parameters import Parameter, Parameters
 from .identification import default_differentiator, identify, identify_dead_zone, load_pendulum
 from .lsq import LeastSquaresResult, solve_least_squares
 from .metrics import fit_percent
@@ -61,7 +61,6 @@ __all__ = [
     "PARAMETER_NAMES",
     "PARAMETER_UNITS",
     "Parameter",
-    "ParameterEstimate",
     "Parameters",
     "RefineResult",
     "SETUPS",

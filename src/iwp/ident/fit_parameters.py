@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import InputError
 from ..files import json_float
 
-__all__ = ["Parameter", "Parameters", "ParameterEstimate", "evaluate_expression", "parameter_table", "closing_lines"]
+__all__ = ["Parameter", "Parameters", "evaluate_expression", "parameter_table", "closing_lines"]
 
 
 @dataclass(frozen=True)
@@ -144,10 +144,6 @@ class Parameter:
     def given(cls, name: str, value: float, **kw: Any) -> "Parameter":
         """A fixed parameter (not estimated): stderr 0, interval ``[value, value]``."""
         return cls(name, float(value), vary=False, **kw)
-
-
-#: The name older code used for an estimated parameter (the same class).
-ParameterEstimate = Parameter
 
 
 # --------------------------------------------------------------------------
