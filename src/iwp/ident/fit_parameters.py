@@ -17,7 +17,7 @@ uncertainty by the delta method.
 >>> ps = Parameters([Parameter("p2", 0.0106), Parameter("rho", 247.24, vary=False),
 ...                  Parameter("p2_1rho", 0.0, expr="p2 * (1 + rho)")])
 >>> round(ps.values()["p2_1rho"], 4)
-2.6314
+2.6313
 """
 
 from __future__ import annotations
