@@ -35,10 +35,10 @@ import numpy as np
 from iwp.calibration import compare_targets, load_targets, paper_numbers
 from iwp.calibration.statistics import PAPER_EXPERIMENTS
 from iwp.data import read_experiment
-from iwp.device.experiments import run_on_rig
+from iwp.device.connection import Rig
 from iwp.device.framing import FrameDecoder, encode_frame
 from iwp.device.protocol import encode
-from iwp.device.rig import Rig
+from iwp.device.runs import run_on_rig
 from iwp.device.twin import TwinRig
 from iwp.ident.identification import identify
 from iwp.rig import VirtualRig

@@ -30,10 +30,10 @@ from iwp.data import ExperimentData, read_experiment
 from iwp.data.rig_description import RigDescription
 from iwp.data.rig_log import read_rig_log
 from iwp.device.cheader import HEADER_PATH, c_header
+from iwp.device.connection import REQUEST_REPEAT, REQUEST_TIMEOUT, Rig
 from iwp.device.core import DeviceCore
 from iwp.device.emulator import TwinDevice, check_link, stop_device
 from iwp.device.errors import DeviceError
-from iwp.device.experiments import run_on_rig
 from iwp.device.framing import FrameDecoder, encode_frame
 from iwp.device.protocol import (
     DICTIONARY_HASH,
@@ -47,7 +47,7 @@ from iwp.device.protocol import (
     markdown_table,
     params_table,
 )
-from iwp.device.rig import REQUEST_REPEAT, REQUEST_TIMEOUT, Rig
+from iwp.device.runs import run_on_rig
 from iwp.device.twin import TwinRig
 from iwp.errors import InputError
 from iwp.ident.logfit import load_logs
@@ -529,7 +529,7 @@ def test_samples_the_link_lost_are_a_warning_on_screen(tmp_path, capsys):
     import argparse
 
     from iwp.cli.rig import finish_port_run
-    from iwp.device.experiments import RigRun
+    from iwp.device.runs import RigRun
 
     log = ExperimentData(t=0.005 * np.arange(10), q1=np.zeros(10), q2=np.zeros(10),
                          metadata={"link": json.dumps({"lost": 223, "corrupt": 237, "frames": 4000})})

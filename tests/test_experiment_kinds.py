@@ -7,9 +7,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-import iwp.device.experiments as device_experiments
+import iwp.device.runs as device_experiments
 from iwp.data import ExperimentData, StaticCurve
-from iwp.device.experiments import USER_INPUT_KINDS, USER_INPUTS, run_kind, run_on_rig
+from iwp.device.runs import USER_INPUT_KINDS, USER_INPUTS, run_kind, run_on_rig
 from iwp.device.twin import TwinRig
 from iwp.errors import InputError
 from iwp.rig import EXPERIMENTS, ExperimentKind, ExperimentSpec, InputLaw, RunKind, VirtualRig, check_output_path

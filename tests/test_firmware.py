@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from iwp.device.rig import Rig
+from iwp.device.connection import Rig
 
 FIRMWARE = Path(__file__).resolve().parents[1] / "firmware"
 BUDGET_1KHZ = 16_000  # cycles of a 16 MHz ATmega328P in one millisecond

@@ -10,12 +10,12 @@ from scipy.signal import fftconvolve
 
 from iwp.errors import IdentificationError, InputError
 from iwp.ident.covariance import correlation_messages, hac_bandwidth
+from iwp.ident.fit_parameters import Parameter
 from iwp.ident.lsq import (
     LeastSquaresResult,
     solve_least_squares,
     stack_rows,
 )
-from iwp.ident.parameters import ParameterEstimate
 
 TS = 0.005
 TRUE = dict(p1=26.76, sa1=0.12, sv1=0.76, sb1=0.058, p2=0.0054, p3=0.0284, p2r=2.606, p3r=7.139)
@@ -269,7 +269,7 @@ def test_result_access_export_and_summary() -> None:
     res = system.solve()
     assert isinstance(res, LeastSquaresResult)
     p = res["p3r"]
-    assert isinstance(p, ParameterEstimate) and p.name == "p3r" and not p.fixed
+    assert isinstance(p, Parameter) and p.name == "p3r" and not p.fixed
     assert p.ci95_low < p.value < p.ci95_high
     assert p.ci95_high - p.value == pytest.approx(res.critical_value * p.stderr)
     assert res.ci95("p3r") == (p.ci95_low, p.ci95_high)

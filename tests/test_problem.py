@@ -12,9 +12,9 @@ import pytest
 from scipy.optimize import curve_fit
 
 from iwp.errors import InputError
+from iwp.ident.fit_parameters import Parameter, Parameters, evaluate_expression
 from iwp.ident.jacobian import forward_difference_jacobian
 from iwp.ident.output_error import Experiment, OutputError, plant_for_kind
-from iwp.ident.parameters import Parameter, Parameters, evaluate_expression
 from iwp.ident.problem import FitProblem, Loss, SolverOptions
 from iwp.ident.refinement import as_experiments, fit_plant, refine
 from iwp.models import Plant, table1

@@ -47,8 +47,8 @@ import numpy as np
 
 from ..errors import InputError, IwpError
 from ..files import atomic_write, jsonable, prepare_output_file
+from ..ident.fit_parameters import Parameter, Parameters
 from ..ident.jacobian import forward_difference_jacobian
-from ..ident.parameters import Parameter, Parameters
 from ..ident.problem import FitProblem, SolverOptions
 from ..models.parameters import BeltParameters
 from ..models.terms import TERMS

@@ -172,7 +172,7 @@ def run_run(args) -> int:
     rig = VirtualRig(truth)
     spec_opts = {s.name: s.options for s in rig.list_experiments()}
     if args.name not in spec_opts:
-        from ..device.experiments import USER_INPUTS
+        from ..device.runs import USER_INPUTS
 
         if args.name in USER_INPUTS:
             raise InputError(f"{args.name!r} runs on a rig in the loop: add --port PORT (--port twin for the twin)")
@@ -195,7 +195,7 @@ def run_run(args) -> int:
 
 def run_port(args) -> int:
     """``iwp rig run NAME --port PORT``: the experiment on a rig in the loop."""
-    from ..device.experiments import RUN_NAMES, run_kind, run_on_rig
+    from ..device.runs import RUN_NAMES, run_kind, run_on_rig
     from ..files import check_output_file
     from ..rig import write_result
     from ..rig.output import result_suffixes

@@ -28,12 +28,12 @@ module                 what
 
 from __future__ import annotations
 
+from .connection import DeviceInfo, Rig, Sample, connect
 from .control import CONTROLLERS, run_control
 from .errors import DeviceError, LinkLost
-from .experiments import RUN_NAMES, USER_INPUTS, RigRun, run_on_rig
 from .loop import HostLimits, LoopResult, run_loop
 from .protocol import DICTIONARY_HASH, PROTOCOL_VERSION
-from .rig import DeviceInfo, Rig, Sample, connect
+from .runs import RUN_NAMES, USER_INPUTS, RigRun, run_on_rig
 from .twin import TWIN_PORT, TwinRig, open_rig
 
 __all__ = [

@@ -1,10 +1,10 @@
 """iwp's controllers on a rig in the loop: the Hopf law, the upright LQR, swing-up and balance.
 
-:func:`run_control` runs one of them on a :class:`~iwp.device.rig.Rig`,
+:func:`run_control` runs one of them on a :class:`~iwp.device.connection.Rig`,
 on the device (its Hopf law or its state feedback, with the gains uploaded)
 or from the host (the Python controllers of :mod:`iwp.control` and
 :mod:`iwp.rig.controller`, one period of delay), and returns the run as
-:func:`iwp.device.experiments.run_on_rig` does.
+:func:`iwp.device.runs.run_on_rig` does.
 
 * ``hopf``: the closed loop of section 5.3, ``u = k1 q3 + k2 q3^3``, from
   the pendulum released at ``x0`` (the experiment ``closed-loop``).
@@ -30,10 +30,10 @@ from ..control import RigConditions, SwingUpController, lqr_balance
 from ..control.balance import wrap_angle
 from ..errors import InputError
 from ..models.parameters import LumpedParameters
-from .experiments import RigRun, arrange, default_operator, hold_at, releaser, run_on_rig
+from .connection import Rig
 from .loop import HostLimits, run_loop
 from .record import loop_log
-from .rig import Rig
+from .runs import RigRun, arrange, default_operator, hold_at, releaser, run_on_rig
 
 __all__ = ["run_control", "CONTROLLERS", "balanced", "BALANCE_START", "V_DZ"]
 

@@ -29,9 +29,9 @@ from typing import Callable
 import numpy as np
 
 from ..interruption import Terminated as InterruptTerminated
+from .connection import Rig, Sample
 from .errors import DeviceError, LinkLost
 from .realtime import realtime_priority
-from .rig import Rig, Sample
 
 __all__ = ["run_loop", "LoopResult", "HostLimits", "Terminated", "stop_signals", "DEFAULT_LEAD"]
 

@@ -24,10 +24,10 @@ import numpy as np
 
 from ..data import ExperimentData
 from ..files import jsonable
+from .connection import DeviceInfo
 from .link import LinkStats
 from .loop import LoopResult
 from .protocol import FLAGS
-from .rig import DeviceInfo
 
 __all__ = ["loop_log", "rig_description"]
 

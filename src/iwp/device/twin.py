@@ -1,6 +1,6 @@
 """The virtual rig behind the rig interface: the emulator in this process, on a pseudo-terminal of its own.
 
-:class:`TwinRig` is a :class:`~iwp.device.rig.Rig` whose device is the
+:class:`TwinRig` is a :class:`~iwp.device.connection.Rig` whose device is the
 emulator (:mod:`iwp.device.emulator`: the firmware's core with the twin as
 its plant) served by a thread of this process on a private pseudo-terminal:
 the host's code path is exactly that of a real rig, down to the bytes.
@@ -14,8 +14,8 @@ import os
 
 from ..rig.stepper import TwinStepper
 from ..rig.truth import RigTruth
+from .connection import Rig
 from .emulator import Emulator, TwinDevice, open_pty
-from .rig import Rig
 
 __all__ = ["TwinRig", "open_rig", "TWIN_PORT"]
 
@@ -90,7 +90,7 @@ def open_rig(port: str, *, baudrate: int | None = None, truth: RigTruth | None =
     Returns
     -------
     Rig
-        A :class:`TwinRig` or a :class:`~iwp.device.rig.Rig`, to be closed
+        A :class:`TwinRig` or a :class:`~iwp.device.connection.Rig`, to be closed
         (a context manager).
     """
     if port == TWIN_PORT:

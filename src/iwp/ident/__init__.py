@@ -28,11 +28,11 @@ from __future__ import annotations
 
 from .belt_fit import refine_belt
 from .differentiate import Differentiator
-from .fit import fit_percent
+from .fit_parameters import Parameter, Parameters
 from .identification import default_differentiator, identify, identify_dead_zone, load_pendulum
 from .lsq import LeastSquaresResult, solve_least_squares
+from .metrics import fit_percent
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError
-from .parameters import Parameter, ParameterEstimate, Parameters
 from .problem import FitProblem, FitResult, Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, fit_plant, refine, refine_identification
 from .result import IdentificationResult
@@ -61,7 +61,6 @@ __all__ = [
     "PARAMETER_NAMES",
     "PARAMETER_UNITS",
     "Parameter",
-    "ParameterEstimate",
     "Parameters",
     "RefineResult",
     "SETUPS",

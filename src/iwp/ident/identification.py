@@ -129,9 +129,9 @@ from ..errors import IdentificationError, InputError
 from ..files import read_json
 from ..models.parameters import load_params, table1
 from .differentiate import Differentiator
+from .fit_parameters import Parameter
 from .lsq import LeastSquaresResult, lstsq_projection, solve_least_squares
 from .noise import noise_covariance, row_weights
-from .parameters import Parameter
 from .result import IdentificationResult
 from .setups import PARAMETER_NAMES, PARAMETER_UNITS, SETUPS, Setup, fit_static_curve, get_setup, pendulum_values
 from .signals import Signals, as_list, prepare_signals

@@ -70,7 +70,7 @@ from ..sim.inputs import HopfController, Input
 from ..sim.uncertainty import ParameterUncertainty, prediction_band
 from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
-from .fit import fit_percent
+from .metrics import fit_percent
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_initial_state, measured_state_covariance
 from .problem import Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, refine

@@ -50,7 +50,7 @@ from .covariance import (
     hac_bandwidth,
     null_space_message,
 )
-from .parameters import Parameter, closing_lines, parameter_table
+from .fit_parameters import Parameter, closing_lines, parameter_table
 
 __all__ = [
     "LeastSquaresResult",

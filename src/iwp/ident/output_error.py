@@ -41,7 +41,7 @@ from ..sim.inputs import Input, Sampled
 from ..sim.sensitivity import simulate_sensitivities
 from ..threads import thread_map
 from .differentiate import Differentiator
-from .parameters import Parameter, Parameters
+from .fit_parameters import Parameter, Parameters
 
 __all__ = [
     "measured_initial_state",

@@ -5,7 +5,7 @@ Every nonlinear fit of iwp -- the refinement by simulation error
 the initial state of a validation, ``iwp fit``'s joint fit of a rig's logs,
 and the calibration of the virtual twin -- is a :class:`FitProblem`:
 
-* **prepare**: :class:`~iwp.ident.parameters.Parameters` (values, bounds,
+* **prepare**: :class:`~iwp.ident.fit_parameters.Parameters` (values, bounds,
   free or fixed, expressions, the optimiser's scale) and a residual model
   that turns parameter values into weighted residuals, and, where it can,
   their derivatives (:class:`~iwp.ident.output_error.OutputError` for logs);
@@ -48,8 +48,8 @@ from .covariance import (
     reliability,
     white_covariance,
 )
+from .fit_parameters import Parameters
 from .jacobian import forward_difference_jacobian
-from .parameters import Parameters
 
 __all__ = ["FitProblem", "FitResult", "Loss", "SolverOptions", "ResidualModel", "LOSSES"]
 

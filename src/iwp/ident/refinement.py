@@ -62,9 +62,9 @@ from ..models.parameters import PARAMETER_INFO, BeltParameters, LumpedParameters
 from ..models.plant import MODELS, Plant
 from ..models.terms import BELT_RTOL
 from .covariance import Reliability
-from .fit import fit_percent
+from .fit_parameters import Parameter
+from .metrics import fit_percent
 from .output_error import Experiment, OutputError, offset_name, x0_name
-from .parameters import Parameter
 from .problem import FitProblem, FitResult, Loss, SolverOptions
 from .setups import get_setup
 

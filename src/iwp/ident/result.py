@@ -12,8 +12,8 @@ import numpy as np
 from ..errors import IdentificationError, InputError
 from ..files import json_float, jsonable
 from ..models.parameters import LumpedParameters, table1
+from .fit_parameters import Parameter, closing_lines, parameter_table
 from .lsq import LeastSquaresResult
-from .parameters import Parameter, closing_lines, parameter_table
 from .setups import PARAMETER_UNITS, SETUPS
 
 __all__ = ["IdentificationResult"]

@@ -35,7 +35,7 @@ the lower cost (:data:`iwp.models.terms.BELT_STARTS`).
 
 The rule (:func:`select`): each rung's score per scoring log is its
 simulation error there, the mean over the outputs of ``1 - fit/100`` (the
-normalised RMS error of :func:`iwp.ident.fit.fit_percent`). The best rung has
+normalised RMS error of :func:`iwp.ident.metrics.fit_percent`). The best rung has
 the lowest mean log score (the geometric mean: one log whose prediction
 wandered off, a chaotic swing over the top, does not outweigh the others);
 the chosen one is the simplest whose paired log

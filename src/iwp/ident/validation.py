@@ -41,7 +41,7 @@ from ..models.plant import MODELS, Plant
 from ..plotting.validation import plot_validation
 from ..sim.inputs import Input
 from ..sim.uncertainty import ParameterUncertainty, PredictionBand, prediction_band
-from .fit import fit_percent
+from .metrics import fit_percent
 from .output_error import (
     Experiment,
     OutputError,

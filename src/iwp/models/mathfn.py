@@ -5,7 +5,7 @@ integrator, overlaps with the stage arithmetic and vectorises across
 simulations run side by side (:mod:`iwp.sim.lanes`); libm's ``sin`` and
 ``cos`` are two library calls that do neither. :func:`log_vec` and
 :func:`exp_vec` do the same for the step-size controller
-(:mod:`iwp.sim.controller`), whose factor every lane computes after every
+(:mod:`iwp.sim.step_size`), whose factor every lane computes after every
 step: exponent and mantissa taken apart by their bits, a series on the
 reduced argument.
 """

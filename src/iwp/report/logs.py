@@ -18,7 +18,7 @@ import numpy as np
 from ..data import StaticCurve, read_experiment, read_static_curve
 from ..errors import DataFormatError, InputError
 from ..files import check_output_dir, jsonable, staged_dir
-from ..ident.fit import fit_percent
+from ..ident.metrics import fit_percent
 from ..ident.validation import auto_model, held_out_q1_offset, model_input, validate
 from ..models.parameters import LumpedParameters
 from ..models.plant import Plant

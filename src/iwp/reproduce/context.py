@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import SimulationError
 from ..files import jsonable
-from ..ident.fit import fit_percent
+from ..ident.metrics import fit_percent
 from ..ident.validation import UninformativeValidation, validate
 from ..report import decimate, save_figure
 from ..rig import write_result
@@ -234,7 +234,7 @@ class ReproduceResult:
 # helpers
 # --------------------------------------------------------------------------
 def fit_of(y: np.ndarray, yh: np.ndarray) -> float:
-    """Fit [%] ``100 (1 - |y - yh| / |y - mean y|)`` (:func:`iwp.ident.fit.fit_percent`)."""
+    """Fit [%] ``100 (1 - |y - yh| / |y - mean y|)`` (:func:`iwp.ident.metrics.fit_percent`)."""
     n = min(y.size, yh.size)
     return float(fit_percent(y[:n], yh[:n]))
 

@@ -13,7 +13,7 @@ simulation-error fits (:mod:`iwp.sim.sensitivity`), the shooting of periodic
 orbits and the one-sample predictions of the observer and the Gymnasium
 environment. Many simulations side by side (:mod:`iwp.sim.lanes`) take the
 same steps with the same pieces: the tableau (:mod:`iwp.sim.dop853`), the
-step-size controller (:mod:`iwp.sim.controller`), the plan of a step and the
+step-size controller (:mod:`iwp.sim.step_size`), the plan of a step and the
 kink bridge (:func:`plan_step`, :func:`rk4_bridge`, :func:`kink_step`), the
 held segments of the input (:func:`hold_of`) and the writing of outputs
 (:func:`put_sample` and its kin).
@@ -87,7 +87,10 @@ from ..models.layout import (
     SA,
 )
 from ..threads import once_per_argument
-from .controller import (
+from .dop853 import N_STAGES, dense_coefficients, dense_eval, dense_eval_row, error_norm, stage_input
+from .dop853 import C as NODE_TUPLE
+from .inputs import I_EXTERNAL, I_STEP, N_INPUT_PARAMS, input_value
+from .step_size import (
     LERR_FLOOR,
     accept_step,
     first_step_size,
@@ -95,9 +98,6 @@ from .controller import (
     next_step_size,
     reject_factor,
 )
-from .dop853 import N_STAGES, dense_coefficients, dense_eval, dense_eval_row, error_norm, stage_input
-from .dop853 import C as NODE_TUPLE
-from .inputs import I_EXTERNAL, I_STEP, N_INPUT_PARAMS, input_value
 from .views import LaneViewType, row, tuple_of, vec
 
 # --------------------------------------------------------------------------
@@ -531,7 +531,7 @@ def bridge_work(wk, tol):
 
 @jit
 def first_step(fld, t, y, f, wk, n, tol):
-    """Hairer's first step size from ``f = f(t, y)`` (one more evaluation, :mod:`iwp.sim.controller`)."""
+    """Hairer's first step size from ``f = f(t, y)`` (one more evaluation, :mod:`iwp.sim.step_size`)."""
     n_err = min(n, tol.n_err)
     h0 = first_trial(y, f, n_err, tol.rtol, tol.atol, tol.h_max)
     for i in range(n):
@@ -1245,7 +1245,7 @@ def kernel(n_states: int):
     Returns
     -------
     numba dispatcher
-        The DOP853 run (one stepper, :mod:`iwp.sim.controller` for the step size) for that state size, the same
+        The DOP853 run (one stepper, :mod:`iwp.sim.step_size` for the step size) for that state size, the same
         object on every call.
     """
     return _make_kernel(int(n_states))

@@ -46,7 +46,7 @@ is one segment from ``t0`` to ``t_end``: none of the engine's held-segment
 bookkeeping is needed here.
 
 Parts 1, 3 and 4 are made of the pieces :func:`iwp.sim.engine.integrate`
-uses -- the controller (:mod:`iwp.sim.controller`), :func:`~iwp.sim.engine.plan_step`
+uses -- the step-size controller (:mod:`iwp.sim.step_size`), :func:`~iwp.sim.engine.plan_step`
 and :func:`~iwp.sim.engine.kink_plan`, the bridge and the output writers of :mod:`iwp.sim.engine`
 -- so a simulation takes the same steps here as alone and gives the same
 result up to rounding (the compiler may order sums differently in vector
@@ -68,7 +68,6 @@ from ..models.actuator import command
 from ..models.equations import optional_terms_off, rhs_of
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
 from ..threads import once_per_argument
-from .controller import LERR_FLOOR, MIN_FACTOR, accept_step, next_step_size, reject_factor
 from .dop853 import (
     N_STAGES,
     dense_coefficients_lanes,
@@ -122,6 +121,7 @@ from .engine import (
     switch_of,
 )
 from .inputs import I_CHIRP, I_CONST, I_HOPF, I_SINE, I_ZERO, N_INPUT_PARAMS, input_value
+from .step_size import LERR_FLOOR, MIN_FACTOR, accept_step, next_step_size, reject_factor
 from .views import lane, slab_lane, tuple_of, vec
 
 #: simulations per thread advanced together (two 8-wide vectors)

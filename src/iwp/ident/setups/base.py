@@ -20,7 +20,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ...errors import InputError
-from ..parameters import Parameter
+from ..fit_parameters import Parameter
 from ..regressors import columns, q3_row, q4_row
 
 __all__ = ["Setup", "Regression", "RefineSpec", "Derived", "PARAMETER_UNITS", "PENDULUM", "LOCK_TOL"]

@@ -14,8 +14,8 @@ import numpy as np
 
 from ...data import ExperimentData, StaticCurve
 from ...errors import IdentificationError, InputError
+from ..fit_parameters import Parameter
 from ..lsq import solve_least_squares
-from ..parameters import Parameter
 from .base import RefineSpec, Setup
 
 __all__ = ["DeadZone", "StaticFit", "fit_static_curve"]

@@ -3,7 +3,7 @@
 :func:`run_on_rig` runs one of the paper's experiments (section 5, the names
 of :mod:`iwp.rig.experiments`, with their settings) or a user input
 (:data:`USER_INPUTS`: a chirp, a PRBS, steps, a sine, a release with the
-wheel held) on any :class:`~iwp.device.rig.Rig`, and returns the log as the
+wheel held) on any :class:`~iwp.device.connection.Rig`, and returns the log as the
 virtual rig returns it (:class:`~iwp.data.ExperimentData`, or a
 :class:`~iwp.data.StaticCurve` for the static curves), marked
 ``interrupted`` if it stopped early.
@@ -41,10 +41,10 @@ from ..rig.experiments import (
     law_input,
 )
 from ..rig.virtual import STATIC_WINDOW
+from .connection import Rig
 from .errors import DeviceError, LinkLost
 from .loop import HostLimits, LoopResult, run_loop
 from .record import loop_log
-from .rig import Rig
 
 __all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "USER_INPUT_KINDS", "RUN_NAMES", "PAPER_SERIES", "run_kind",
            "arrange", "hold_at", "releaser", "settle", "default_operator"]

@@ -13,11 +13,11 @@ optimiser's coordinates ``z`` (``value / scale``, or ``log value``) and
 back, evaluates the expressions, and gives derived parameters their
 uncertainty by the delta method.
 
->>> from iwp.ident.parameters import Parameter, Parameters
+>>> from iwp.ident.fit_parameters import Parameter, Parameters
 >>> ps = Parameters([Parameter("p2", 0.0106), Parameter("rho", 247.24, vary=False),
 ...                  Parameter("p2_1rho", 0.0, expr="p2 * (1 + rho)")])
 >>> round(ps.values()["p2_1rho"], 4)
-2.6314
+2.6313
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import InputError
 from ..files import json_float
 
-__all__ = ["Parameter", "Parameters", "ParameterEstimate", "evaluate_expression", "parameter_table", "closing_lines"]
+__all__ = ["Parameter", "Parameters", "evaluate_expression", "parameter_table", "closing_lines"]
 
 
 @dataclass(frozen=True)
@@ -144,10 +144,6 @@ class Parameter:
     def given(cls, name: str, value: float, **kw: Any) -> "Parameter":
         """A fixed parameter (not estimated): stderr 0, interval ``[value, value]``."""
         return cls(name, float(value), vary=False, **kw)
-
-
-#: The name older code used for an estimated parameter (the same class).
-ParameterEstimate = Parameter
 
 
 # --------------------------------------------------------------------------
