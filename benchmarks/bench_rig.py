@@ -42,7 +42,8 @@ from iwp.device.runs import run_on_rig
 from iwp.device.twin import TwinRig
 from iwp.ident.identification import identify
 from iwp.rig import VirtualRig
-from iwp.rig.experiments import experiment_spec, open_loop_input
+from iwp.rig.experiments import experiment_spec
+from iwp.rig.input_laws import open_loop_input
 from iwp.sim.inputs import Sampled
 
 ROOT = Path(__file__).resolve().parents[1]

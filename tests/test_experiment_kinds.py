@@ -13,7 +13,7 @@ from iwp.device.runs import USER_INPUT_KINDS, USER_INPUTS, run_kind, run_on_rig
 from iwp.device.twin import TwinRig
 from iwp.errors import InputError
 from iwp.rig import EXPERIMENTS, ExperimentKind, ExperimentSpec, InputLaw, RunKind, VirtualRig, check_output_path
-from iwp.rig.experiments import HostInput, law_input, open_loop_input
+from iwp.rig.input_laws import HostInput, law_input, open_loop_input
 from iwp.sim.inputs import Chirp, Sine
 
 OPEN, STATIC, RELEASE, CLOSED = RunKind.OPEN_LOOP, RunKind.STATIC_CURVE, RunKind.RELEASE, RunKind.CLOSED_LOOP

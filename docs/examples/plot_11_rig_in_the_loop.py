@@ -15,12 +15,12 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from iwp import table1
-from iwp.device import TwinRig, run_control, run_on_rig
+from iwp.device import ControlRun, TwinRig, run_control, run_on_rig
 
 with TwinRig(fast=True) as rig:
     sine = run_on_rig(rig, "sine-60", fast=True, duration=10)
 with TwinRig(fast=True) as rig:
-    hopf = run_control(rig, "hopf", params=table1(), duration=40, fast=True)
+    hopf = run_control(rig, ControlRun("hopf", duration=40), params=table1(), fast=True)
 
 log = hopf.log
 print(f"sine-60: {sine.reason}, {len(sine.log.t)} samples; hopf: {hopf.reason}, {len(log.t)} samples")

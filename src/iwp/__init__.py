@@ -65,7 +65,7 @@ _EXPORTS: dict[str, str] = {
     "VirtualRig": "iwp.rig", "RigTruth": "iwp.rig", "default_truth": "iwp.rig",
     # the rig in the loop
     "Rig": "iwp.device", "TwinRig": "iwp.device", "open_rig": "iwp.device", "run_on_rig": "iwp.device",
-    "run_control": "iwp.device",
+    "run_control": "iwp.device", "ControlRun": "iwp.device",
     # errors
     "IwpError": "iwp.errors", "InputError": "iwp.errors", "DataFormatError": "iwp.errors",
     "SimulationError": "iwp.errors", "IdentificationError": "iwp.errors", "OutputExistsError": "iwp.errors",

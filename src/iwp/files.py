@@ -14,8 +14,6 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
-
 from .errors import InputError, OutputExistsError
 from .interruption import raise_pending
 
@@ -392,12 +390,13 @@ def jsonable(obj: Any) -> Any:
         return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return [jsonable(v) for v in obj.tolist()]
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
+    if type(obj).__module__ == "numpy":  # an array or a scalar: told by its module, so that numpy is not loaded
+        # here for the commands that compute nothing (iwp rig list)
+        return jsonable(obj.tolist())
+    if isinstance(obj, bool):
+        return obj
+    if isinstance(obj, int):
         return int(obj)
-    if isinstance(obj, (float, np.floating)):
+    if isinstance(obj, float):
         return json_float(obj)
     return obj

@@ -269,20 +269,22 @@ class InertiaWheelPendulumEnv(gym.Env):
     def render(self):
         if self.render_mode != "rgb_array":
             return None
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
-        import matplotlib.pyplot as plt
+        # an off-screen figure of its own (matplotlib's Agg canvas, no pyplot): the user's backend is left alone
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+        from matplotlib.patches import Circle
 
         if self._fig is None:
-            self._fig, ax = plt.subplots(figsize=(2.5, 2.5), dpi=64)
+            self._fig = Figure(figsize=(2.5, 2.5), dpi=64)
+            FigureCanvasAgg(self._fig)
+            ax = self._fig.add_subplot()
             ax.set_xlim(-1.4, 1.4)
             ax.set_ylim(-1.4, 1.4)
             ax.set_aspect("equal")
             ax.axis("off")
             ax.plot([0], [0], "ko", ms=3)
             (self._arm,) = ax.plot([], [], "-", color="0.3", lw=3)
-            self._disk = plt.Circle((0, 0), 0.25, fc="C0", ec="k", alpha=0.6)
+            self._disk = Circle((0, 0), 0.25, fc="C0", ec="k", alpha=0.6)
             ax.add_patch(self._disk)
             (self._spoke,) = ax.plot([], [], "-", color="C3", lw=2)
         q1, q2 = self.state[0], self.state[1]
@@ -296,11 +298,7 @@ class InertiaWheelPendulumEnv(gym.Env):
         return img
 
     def close(self):
-        if self._fig is not None:
-            import matplotlib.pyplot as plt
-
-            plt.close(self._fig)
-            self._fig = None
+        self._fig = None  # not pyplot's: nothing to close but the reference
 
 
 def register_envs() -> None:

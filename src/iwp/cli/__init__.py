@@ -208,17 +208,17 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(argv: list[str] | None) -> int:
     """:func:`main` itself: parse, run the command, turn its errors into one line and an exit status."""
-    # numba (through iwp.threads) takes a third of a second to load: here, not at the module's import, so
-    # that an interrupt while it loads is reported by main like any other
-    from ..threads import one_blas_thread
-
+    # the command line draws into files: matplotlib's file backend unless the user chose one (the library itself
+    # never sets a backend, so that a notebook's stays as it is)
+    os.environ.setdefault("MPLBACKEND", "Agg")
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(argv)  # --help and usage errors end here, before any numerical library loads
     cli_parser = getattr(args, "cli_parser", None)
     # warnings are one line on stderr, like errors, without source lines
     warnings.showwarning = lambda message, category, filename, lineno, file=None, line=None: print(
         f"iwp: warning: {user_message(message, cli_parser)}", file=sys.stderr)
-    if getattr(args, "command", None) != "warmup":
+    numerical = getattr(args, "numerical", True)  # False: a command that computes nothing (iwp rig list)
+    if getattr(args, "command", None) != "warmup" and numerical:
         from ..compiling import compile_notices
 
         compile_notices(lambda line: print(f"iwp: {line}", file=sys.stderr, flush=True))
@@ -228,7 +228,10 @@ def _run(argv: list[str] | None) -> int:
     try:
         with contextlib.ExitStack() as stack:
             stack.enter_context(interrupts_as_exceptions())
-            stack.enter_context(one_blas_thread())  # iwp's parallel work is its own; BLAS threads only spin
+            if numerical:  # numba and BLAS (iwp.threads) load for commands that compute
+                from ..threads import one_blas_thread
+
+                stack.enter_context(one_blas_thread())  # iwp's parallel work is its own; BLAS threads only spin
             for dest in ("out", "plot"):  # a second run into the same output is refused, not mixed
                 target = getattr(args, dest, None)
                 if isinstance(target, str) and target.strip():

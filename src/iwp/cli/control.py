@@ -208,7 +208,7 @@ def run_lqr(args) -> int:
 
 
 def run_on_port(args) -> int:
-    from ..device.control import run_control
+    from ..device.control import ControlRun, run_control
     from ..files import LOG_SUFFIXES, check_output_file
     from ..rig import write_result
     from .rig import finish_port_run
@@ -223,8 +223,9 @@ def run_on_port(args) -> int:
     if duration <= 0:
         raise InputError(f"--duration must be > 0, got {duration}")
     with open_port_rig(args) as rig:
-        run = run_control(rig, args.what, where=where, params=params, duration=duration, k1=args.k1, k2=args.k2,
-                          x0=args.x0, fast=args.fast, operator=port_operator(args), progress=port_progress(args))
+        spec = ControlRun(args.what, duration=duration, where=where, k1=args.k1, k2=args.k2, x0=args.x0)
+        run = run_control(rig, spec, params=params, fast=args.fast, operator=port_operator(args),
+                          progress=port_progress(args))
     args.name = f"control {args.what}"
     status = finish_port_run(run, out, args, write_result)
     if status == 0 and args.what in ("balance", "swingup") and run.log is not None \

@@ -19,8 +19,8 @@ import argparse
 import json
 import sys
 
-from ..models.terms import TERMS
-from ._common import LazyChoices, add_controller_args, add_force_arg, controller_of, plain
+from ..models.terms import TERMS, rung_names
+from ._common import add_controller_args, add_force_arg, controller_of, plain
 
 
 def register(sub) -> None:
@@ -44,7 +44,7 @@ def register(sub) -> None:
                            "units")
     p.add_argument("--out", "-o", required=True, metavar="DIR", help="output folder (new or empty)")
     add_force_arg(p)
-    p.add_argument("--model", metavar="STRUCTURE", choices=LazyChoices("iwp.ident.structure", "RUNGS"),
+    p.add_argument("--model", metavar="STRUCTURE", choices=rung_names(),
                    help="fit this structure of the ladder only: %(choices)s (default: fit them all and keep the "
                    "simplest within noise of the best on held-out data; see docs/fit.md)")
     for t in TERMS.values():  # a flag for each optional term of the models (iwp.models.terms)

@@ -59,7 +59,7 @@ def register(sub) -> None:
     pl = rs.add_parser("list", help="name the paper's experiments with their settings",
                        description="Name the paper's experiments that iwp rig run NAME runs, one a line, with "
                                    "where the paper uses them and their settings.")
-    pl.set_defaults(func=run_list)
+    pl.set_defaults(func=run_list, numerical=False)  # computes nothing: starts without numba
 
     pr = rs.add_parser("run", help="run one experiment and write its log",
                        description="Run one of the paper's experiments on the virtual rig, or with --port on a rig "

@@ -19,7 +19,6 @@ import numpy as np
 from ..checks import check_finite, check_positive
 from ..errors import InputError, SimulationError
 from ..models.parameters import LumpedParameters
-from ..plotting import plot_bifurcation
 from .closed_loop import lumped_parameters
 from .hopf import HopfPoint, hopf_point
 from .orbits import Correction, OrbitShooter, PeriodicOrbit, nontrivial_multipliers
@@ -110,6 +109,8 @@ class HopfBranch:
 
         ``prediction=True`` adds the normal-form prediction over the branch.
         """
+        from ..plotting import plot_bifurcation  # plotting only when asked
+
         return plot_bifurcation(self, ax=ax, simulations=simulations, design=design,
                                 prediction=self.prediction() if prediction else None, **kw)
 

@@ -42,7 +42,6 @@ from ..checks import check_finite, check_positive
 from ..errors import InputError
 from ..files import json_float
 from ..models.plant import Plant
-from ..plotting.robust import plot_capture, plot_distribution
 from ..sim.inputs import HopfController
 from ..sim.simulate import simulate_batch
 from ..sim.uncertainty import HELD_NOTE, MAX_DRAWS, ParameterUncertainty
@@ -332,6 +331,8 @@ class RobustHopf:
         """Histogram and ECDF of the amplitude, the nominal marked; see :func:`iwp.plotting.plot_distribution`."""
         title = (f"Hopf design k1 = {self.design.k1:.4g}, k2 = {self.design.k2:.4g}: no stable orbit in "
                  f"{100 * self.no_orbit.p:.1f} % of {self.no_orbit.trials} draws")
+        from ..plotting.robust import plot_distribution  # plotting only when asked
+
         return plot_distribution(self.amplitude, nominal=self.nominal_amplitude,
                                  label=r"amplitude $\max q_1$ [rad]", title=title, **kw)
 
@@ -595,6 +596,8 @@ class RobustBalance:
         """Capture probability per initial state, histogram and ECDF of the settling time, the nominal marked."""
         labels = [f"{wrap_angle(x0[0] - math.pi):+.3g} rad" for x0 in self.initial_states]
         nominal = float(np.nanmedian(self.nominal_settling)) if np.any(self.nominal_captured) else float("nan")
+        from ..plotting.robust import plot_capture  # plotting only when asked
+
         return plot_capture(self.capture_by_state, labels=labels, nominal_captured=self.nominal_captured,
                             settling=self.settling_time, nominal_settling=nominal,
                             title=f"balance LQR: capture {self.capture.p:.3f} "
@@ -794,6 +797,8 @@ class RobustSwingUp:
         title = (f"swing-up ({self.conditions}): success {self.probability.p:.3f} "
                  f"[{self.probability.low:.3f}, {self.probability.high:.3f}] over {self.success.size} draws")
         nominal = self.nominal_t_catch if self.nominal_success else float("nan")
+        from ..plotting.robust import plot_distribution  # plotting only when asked
+
         return plot_distribution(self.time_to_capture, nominal=nominal, label="time to capture [s]", title=title,
                                  **kw)
 

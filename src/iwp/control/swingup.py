@@ -21,7 +21,6 @@ from ..models.analysis import pendulum_energy
 from ..models.encoder import quantize
 from ..models.parameters import LumpedParameters
 from ..models.plant import Plant
-from ..plotting import animate_pendulum, plot_swingup
 from ..sim.inputs import CallableController
 from ..sim.simulate import simulate
 from .balance import LQRBalance, lqr_balance, wrap_angle
@@ -228,11 +227,15 @@ class SwingUpResult:
 
     def plot(self, **kw):
         """Angle, velocities and input; see :func:`iwp.plotting.plot_swingup`."""
+        from ..plotting import plot_swingup  # plotting only when asked
+
         return plot_swingup(self, **kw)
 
     def animate(self, path, *, frames: int = 100, force: bool = False, **kw):
         """Write a GIF of the pendulum; see :func:`iwp.plotting.animate_pendulum`."""
         p = prepare_output_file(path, force=force)
+        from ..plotting import animate_pendulum  # plotting only when asked
+
         return animate_pendulum(self.result.t, self.result.q1, self.result.q2, p, frames=frames,
                                 u=self.result.u, **kw)
 

@@ -29,7 +29,7 @@ module                 what
 from __future__ import annotations
 
 from .connection import DeviceInfo, Rig, Sample, connect
-from .control import CONTROLLERS, run_control
+from .control import CONTROLLERS, ControlRun, run_control
 from .errors import DeviceError, LinkLost
 from .loop import HostLimits, LoopResult, run_loop
 from .protocol import DICTIONARY_HASH, PROTOCOL_VERSION
@@ -52,6 +52,7 @@ __all__ = [
     "RUN_NAMES",
     "USER_INPUTS",
     "run_control",
+    "ControlRun",
     "CONTROLLERS",
     "DeviceError",
     "LinkLost",

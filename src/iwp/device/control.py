@@ -22,6 +22,7 @@ or from the host (the Python controllers of :mod:`iwp.control` and
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -31,11 +32,11 @@ from ..control.balance import wrap_angle
 from ..errors import InputError
 from ..models.parameters import LumpedParameters
 from .connection import Rig
-from .loop import HostLimits, run_loop
+from .loop import DeviceLaw, HostLaw, HostLimits, LoopCommand, run_loop
 from .record import loop_log
 from .runs import RigRun, arrange, default_operator, hold_at, releaser, run_on_rig
 
-__all__ = ["run_control", "CONTROLLERS", "balanced", "BALANCE_START", "V_DZ"]
+__all__ = ["run_control", "ControlRun", "CONTROLLERS", "balanced", "BALANCE_START", "V_DZ"]
 
 #: The balance starts this far from the upright [rad] (the capture region of the LQR with |u| <= 69 is 0.05 rad).
 BALANCE_START = 0.02
@@ -72,22 +73,54 @@ def balanced(q1, t, *, tolerance: float = 0.05, hold: float = 3.0) -> bool:
     return bool(np.all(np.abs(wrap_angle(q1[t >= t[-1] - hold] - math.pi)) < tolerance))
 
 
-def run_control(rig: Rig, what: str, *, where: str = "device", params: LumpedParameters, duration: float,
-                k1: float = -10.0, k2: float = 0.1, x0=None, fast: bool = False, operator=None, progress=None,
-                limits: HostLimits | None = None) -> RigRun:
-    """Run controller ``what`` (:data:`CONTROLLERS`) on ``rig``; see the module's docstring.
+@dataclass(frozen=True)
+class ControlRun:
+    """Which controller runs on a rig, where, for how long and from where (:func:`run_control`).
+
+    Attributes
+    ----------
+    what : str
+        A controller of :data:`CONTROLLERS`: ``"hopf"``, ``"balance"`` or ``"swingup"``.
+    duration : float
+        Length of the run [s].
+    where : str
+        ``"device"`` (the firmware's law) or ``"host"`` (the law on the host, over the link).
+    k1, k2 : float
+        The Hopf gains (``u = k1 q3 + k2 q3^3``, section 5.3).
+    x0 : float, optional
+        Where the pendulum is released [rad] (hopf: 0.3; balance: pi - 0.05; swingup: rest at the bottom).
+    """
+
+    what: str
+    duration: float
+    where: str = "device"
+    k1: float = -10.0
+    k2: float = 0.1
+    x0: float | None = None
+
+
+def run_control(rig: Rig, run: ControlRun, *, params: LumpedParameters, fast: bool = False, operator=None,
+                progress=None, limits: HostLimits | None = None) -> RigRun:
+    """Run the controller of ``run`` (:class:`ControlRun`) on ``rig``; see the module's docstring.
 
     Parameters
     ----------
+    rig : Rig
+        Connected.
+    run : ControlRun
+        The controller, where it runs, the run's length and the release.
     params : LumpedParameters
         The model the LQR and the swing-up are designed on (e.g. Table 1).
-    duration : float
-        Length of the run [s].
-    k1, k2 : float
-        Hopf gains.
-    x0 : float or sequence, optional
-        Where the pendulum is released [rad] (hopf: 0.3; balance: pi - 0.05; swingup: rest at the bottom).
+    fast : bool
+        On the host's clock, faster than real time (the emulator and the twin only).
+    operator, progress : callable, optional
+        Who clamps and releases the pendulum; called with the run's progress.
+    limits : HostLimits, optional
+        The host's limits (default: the device's).
     """
+    if not isinstance(run, ControlRun):
+        raise InputError(f"run must be a ControlRun, got {type(run).__name__}", argument="run")
+    what, where, duration, k1, k2, x0 = run.what, run.where, run.duration, run.k1, run.k2, run.x0
     if what not in CONTROLLERS:
         raise InputError(f"unknown controller {what!r}; valid: {', '.join(CONTROLLERS)}")
     if where not in CONTROLLERS[what]:
@@ -121,13 +154,13 @@ def run_control(rig: Rig, what: str, *, where: str = "device", params: LumpedPar
     if q1_start != 0.0:
         hold_at(rig, q1_start, operator)
         on_start = releaser(rig)
-    kw = {}
+    command: LoopCommand
     if what == "balance" and where == "device":
         lqr = lqr_balance(params, u_max=u_max, Ts=Ts)
         rig.set_params(K_q1=float(lqr.K[0]), K_q3=float(lqr.K[1]), K_q4=float(lqr.K[2]), q1_ref=math.pi, u_max=u_max)
         rig.mode("STATE_FEEDBACK")
         meta["K"] = repr([float(k) for k in lqr.K])
-        kw["device_law"] = True
+        command = DeviceLaw()
     else:
         rig.mode("HOST")
         cond = RigConditions(Ts=Ts, u_max=u_max, counts_per_rev=int(rig.info.params["counts1"]))
@@ -135,10 +168,10 @@ def run_control(rig: Rig, what: str, *, where: str = "device", params: LumpedPar
         for _ in range(3):  # load its compiled observer now, not while the watchdog counts
             ctrl(0.0, np.array([q1_start, 0.0, 0.0, 0.0]))
         ctrl.reset()
-        kw["controller"] = ctrl
+        command = HostLaw(ctrl)
     if limits is None:
         limits = HostLimits(rig.info.params["q1_max"], rig.info.params["q4_max"])
-    res = run_loop(rig, duration=duration, limits=limits, progress=progress, on_start=on_start, **kw)
+    res = run_loop(rig, duration=duration, command=command, limits=limits, progress=progress, on_start=on_start)
     seq = np.array([s.seq for s in res.samples], dtype=float)
     ok = balanced([s.q1 for s in res.samples], (seq - seq[0]) * Ts if seq.size else seq)
     meta["balanced"] = "yes" if ok else "no"

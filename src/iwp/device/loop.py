@@ -33,7 +33,8 @@ from .connection import Rig, Sample
 from .errors import DeviceError, LinkLost
 from .realtime import realtime_priority
 
-__all__ = ["run_loop", "LoopResult", "HostLimits", "Terminated", "stop_signals", "DEFAULT_LEAD"]
+__all__ = ["run_loop", "LoopResult", "HostLimits", "OpenLoop", "HostLaw", "DeviceLaw", "LoopCommand", "Terminated",
+           "stop_signals", "DEFAULT_LEAD"]
 
 #: How many ticks ahead an open-loop input is sent in real time (20 ms at 5 ms: a USB-serial adapter's latency).
 DEFAULT_LEAD = 4
@@ -64,10 +65,19 @@ def stop_signals():
 
 @dataclass(frozen=True)
 class HostLimits:
-    """The host's own check of the limits (the device checks them too) [rad, rad/s]."""
+    """The host's own checks: the limits (the device checks them too) [rad, rad/s], and the link.
+
+    Attributes
+    ----------
+    q1_max, q4_max : float
+        The pendulum's angle [rad] and the wheel's speed [rad/s] past which the host stops the run.
+    link_timeout : float
+        No telemetry for this long [s] (at least 20 periods): the link is lost.
+    """
 
     q1_max: float = math.inf
     q4_max: float = math.inf
+    link_timeout: float = 1.0
 
     def violated(self, s: Sample) -> str | None:
         if abs(s.q1) > self.q1_max:
@@ -139,18 +149,47 @@ class LoopResult:
         return out
 
 
+@dataclass(frozen=True)
+class OpenLoop:
+    """The host sends an open-loop input.
+
+    Attributes
+    ----------
+    input : callable
+        The ideal input ``u(t)`` [input units], ``t`` from the run's start [s].
+    lead : int, optional
+        Sent this many ticks ahead (default :data:`DEFAULT_LEAD`).
+    """
+
+    input: Callable[[float], float]
+    lead: int | None = None
+
+
+@dataclass(frozen=True)
+class HostLaw:
+    """A controller on the host: ``controller(t, y) -> u`` with the measured ``y = [q1, q2]`` [rad]; its output
+    applies from the next tick (one period of delay, as on any host-side loop)."""
+
+    controller: Callable[[float, np.ndarray], float]
+
+
+@dataclass(frozen=True)
+class DeviceLaw:
+    """The device's own law runs (MODE HOPF or STATE_FEEDBACK); the host sends heartbeats."""
+
+
+#: what drives the motor in :func:`run_loop` (None: nothing but heartbeats, e.g. a free swing)
+LoopCommand = OpenLoop | HostLaw | DeviceLaw | None
+
+
 def run_loop(
     rig: Rig,
     *,
     duration: float,
-    input: Callable[[float], float] | None = None,
-    controller: Callable[[float, np.ndarray], float] | None = None,
-    device_law: bool = False,
+    command: LoopCommand = None,
     arm: bool = True,
-    lead: int | None = None,
     limits: HostLimits = HostLimits(),
     progress: Callable[[dict], None] | None = None,
-    link_timeout: float = 1.0,
     on_start: Callable[[], int | None] | None = None,
 ) -> LoopResult:
     """Run the loop for ``duration`` seconds and return what it recorded.
@@ -161,28 +200,25 @@ def run_loop(
         Connected; parameters and mode already set; not armed.
     duration : float
         Length of the record [s] (``floor(duration / Ts) + 1`` samples).
-    input : callable, optional
-        Open-loop ideal input ``u(t)`` [input units], ``t`` from the run's start [s]; sent ``lead`` ticks ahead.
-    controller : callable, optional
-        Host controller ``controller(t, y) -> u`` with the measured ``y = [q1, q2]`` [rad]; its output
-        applies from the next tick (one period of delay, as on any host-side loop).
-    device_law : bool
-        The device's own law runs (MODE HOPF or STATE_FEEDBACK); the host sends heartbeats.
+    command : OpenLoop, HostLaw, DeviceLaw or None
+        What drives the motor: an open-loop input sent ahead, a controller on the host, the device's own law, or
+        nothing but heartbeats.
     arm : bool
         Arm the motor (False: the motor stays off, e.g. a free swing).
-    lead : int, optional
-        Ticks ahead (default :data:`DEFAULT_LEAD`, 1 for a controller).
     limits : HostLimits
+        The host's limits and the link's timeout.
     progress : callable, optional
         Called about every 0.25 s with ``{"t", "duration", "q1", "u", "overruns", "late", "lost"}``.
-    link_timeout : float
-        No telemetry for this long [s]: the link is lost.
     on_start : callable, optional
         Called once the motor is armed (e.g. to release the pendulum); returns the device tick of the run's
-        first sample (None: as without it). Not with ``input``.
+        first sample (None: as without it). Not with an open-loop input.
     """
-    if sum(x is not None for x in (input, controller)) + bool(device_law) > 1:
-        raise DeviceError("give one of input, controller and device_law")
+    if command is not None and not isinstance(command, (OpenLoop, HostLaw, DeviceLaw)):
+        raise DeviceError(f"command must be OpenLoop, HostLaw, DeviceLaw or None, got {type(command).__name__}")
+    input = command.input if isinstance(command, OpenLoop) else None
+    controller = command.controller if isinstance(command, HostLaw) else None
+    lead = command.lead if isinstance(command, OpenLoop) else None
+    link_timeout = limits.link_timeout
     Ts = rig.info.params["period_us"] * 1e-6
     n = int(math.floor(duration / Ts + 1e-9)) + 1
     lead = (1 if controller is not None else DEFAULT_LEAD) if lead is None else max(1, int(lead))

@@ -38,12 +38,12 @@ from ..rig.experiments import (
     compensation_thresholds,
     experiment_spec,
     initial_state,
-    law_input,
 )
+from ..rig.input_laws import law_input
 from ..rig.virtual import STATIC_WINDOW
 from .connection import Rig
 from .errors import DeviceError, LinkLost
-from .loop import HostLimits, LoopResult, run_loop
+from .loop import DeviceLaw, HostLaw, HostLimits, LoopCommand, LoopResult, OpenLoop, run_loop
 from .record import loop_log
 
 __all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "USER_INPUT_KINDS", "RUN_NAMES", "PAPER_SERIES", "run_kind",
@@ -195,7 +195,7 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
         meta["x0"] = json_list(x0)
         hold_at(rig, float(x0[0]), operator)
         on_start = releaser(rig)
-    kw: dict[str, Any] = {}
+    command: LoopCommand = None
     arm = True
     input_name = "u" if compensated else "v"
     if kind.run is RunKind.RELEASE:
@@ -207,18 +207,18 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
         if controller == "device":
             rig.set_params(k1=k1, k2=k2, filter_tau=tau)
             rig.mode("HOPF")
-            kw["device_law"] = True
+            command = DeviceLaw()
         elif controller == "host":
-            kw["controller"] = EncoderHopfController(k1, k2, rig.info.params["period_us"] * 1e-6, tau)
+            command = HostLaw(EncoderHopfController(k1, k2, rig.info.params["period_us"] * 1e-6, tau))
         else:
             raise InputError(f"controller must be 'device' or 'host', got {controller!r}")
     else:
         inp = law_input(kind.law, s, rig.info.params["period_us"] * 1e-6)
-        kw["input"] = lambda t: inp.evaluate(t)
+        command = OpenLoop(lambda t: inp.evaluate(t))
     if kind.run is not RunKind.CLOSED_LOOP:
         rig.mode("HOST")
-    res = run_loop(rig, duration=check_positive("duration", s["duration"]), arm=arm, limits=limits,
-                   progress=progress, on_start=on_start, **kw)
+    res = run_loop(rig, duration=check_positive("duration", s["duration"]), command=command, arm=arm,
+                   limits=limits, progress=progress, on_start=on_start)
     log = loop_log(res, rig.info, rig.link.stats, input_name=input_name, metadata=meta,
                    source=f"{name} on {rig.port}")
     return RigRun(log, res.interrupted, res.reason, res.error, [res])
@@ -378,7 +378,8 @@ def _static_curve(rig: Rig, name: str, s: dict, compensated: bool, operator, pro
     q4, done, loops = [], [], []
     interrupted, reason, error = False, "complete", None
     for value in grid:
-        res = run_loop(rig, duration=hold, input=lambda t, a=float(value): a, limits=limits, progress=progress)
+        res = run_loop(rig, duration=hold, command=OpenLoop(lambda t, a=float(value): a), limits=limits,
+                       progress=progress)
         loops.append(res)
         if res.interrupted:
             interrupted, reason, error = True, res.reason, res.error

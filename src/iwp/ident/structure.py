@@ -72,7 +72,7 @@ import numpy as np
 from scipy import stats
 
 from ..errors import InputError
-from ..models.terms import TERMS, term
+from ..models.terms import TERMS, ladder_order, term
 
 __all__ = ["Rung", "RUNGS", "MIN_GAIN", "ALPHA", "SIGNED_RANK_MIN", "NOTABLE_FIT_GAIN", "ladder", "rung",
            "RungOutcome", "LadderResult",
@@ -117,7 +117,7 @@ def _rungs() -> dict[str, Rung]:
     """The rungs of :data:`iwp.models.terms.TERMS`: model (9), then each term's place on the ladder, its structure
     the one it extends with the term added, simplest first (by :attr:`~iwp.models.terms.LadderPlace.position`)."""
     out = {"9": Rung("9", "model (9)", frozenset())}
-    for t in sorted(TERMS.values(), key=lambda t: t.rung.position):
+    for t in ladder_order():
         parent = out[t.rung.extends]
         out[t.rung.name] = Rung(t.rung.name, t.rung.label, parent.terms | {t.name}, t.rung.default and parent.default)
     return out

@@ -38,7 +38,6 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import BeltParameters, LumpedParameters, PhysicalParameters
 from ..models.plant import MODELS, Plant
-from ..plotting.validation import plot_validation
 from ..sim.inputs import Input
 from ..sim.uncertainty import ParameterUncertainty, PredictionBand, prediction_band
 from .metrics import fit_percent
@@ -174,6 +173,8 @@ class ValidationResult:
         """Measured against simulated signals with the error below each (the paper's figures);
         see :func:`iwp.plotting.validation.plot_validation`."""
         sig = tuple(signals) if signals is not None else tuple(self.measured)
+        from ..plotting.validation import plot_validation  # plotting only when asked
+
         return plot_validation(self.t, self.measured, self.simulated, signals=sig, fit=self.fit,
                                restart_times=self.restart_times, axes=axes, band=self.band, coverage=self.coverage,
                                **kw)

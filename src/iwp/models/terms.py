@@ -53,9 +53,9 @@ from .parameter_info import ParameterInfo
 Lumped = Any
 
 __all__ = ["Term", "LadderPlace", "DriveModel", "TERMS", "SWITCHES", "term", "parse_terms", "closure",
-           "term_parameters", "free_parameters", "starting_values", "model_of", "drive_of", "model_parameters",
-           "BASE_FREE", "belt_start", "belt_bounds", "BELT_FREE", "BELT_STARTS", "BELT_START_PLAY", "BELT_BAND",
-           "BELT_SPEED_RANGE"]
+           "term_parameters", "ladder_order", "rung_names", "free_parameters", "starting_values", "model_of",
+           "drive_of", "model_parameters", "BASE_FREE", "belt_start", "belt_bounds", "BELT_FREE", "BELT_STARTS",
+           "BELT_START_PLAY", "BELT_BAND", "BELT_SPEED_RANGE"]
 
 #: the parameters of model (9) that every fit frees (section 4)
 BASE_FREE = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1")
@@ -384,6 +384,16 @@ SWITCHES: tuple[str, ...] = tuple(t.switch for t in TERMS.values() if t.switch i
 def term_parameters() -> tuple[ParameterInfo, ...]:
     """Every term's parameters, in the registry's order (the fields of ``LumpedParameters`` after model (9)'s)."""
     return tuple(p for t in TERMS.values() for p in t.parameters)
+
+
+def ladder_order() -> list[Term]:
+    """The terms in the order of their rungs on the ladder, simplest first (:attr:`LadderPlace.position`)."""
+    return sorted(TERMS.values(), key=lambda t: t.rung.position)
+
+
+def rung_names() -> tuple[str, ...]:
+    """The ladder's structures by name, simplest first: ``"9"`` (model (9)) then each term's rung."""
+    return ("9", *(t.rung.name for t in ladder_order()))
 
 
 def term(name: str, *, argument: str = "terms") -> Term:

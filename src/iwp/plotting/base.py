@@ -2,10 +2,6 @@
 
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg", force=False)
-
 import matplotlib.pyplot as plt  # noqa: E402
 
 __all__ = ["SIGNAL_LABELS", "stacked_axes", "savefig"]

@@ -12,10 +12,6 @@ decimates each one for small SVG files).
 
 from __future__ import annotations
 
-import matplotlib
-
-matplotlib.use("Agg", force=False)
-
 import matplotlib.pyplot as plt  # noqa: E402
 
 from .base import SIGNAL_LABELS  # noqa: E402

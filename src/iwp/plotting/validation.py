@@ -9,10 +9,6 @@ from __future__ import annotations
 
 import math
 
-import matplotlib
-
-matplotlib.use("Agg", force=False)
-
 import matplotlib.pyplot as plt  # noqa: E402
 
 from .simulation import plot_comparison  # noqa: E402

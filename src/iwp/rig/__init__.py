@@ -16,6 +16,7 @@ module                  what
 :mod:`.experiments`     :data:`EXPERIMENTS`, :func:`list_experiments`: the paper's experiments by
                         name, their settings, how each runs (:class:`ExperimentKind`) and the
                         open-loop input laws
+:mod:`.input_laws`      :func:`~.input_laws.law_input`: the open-loop input laws (sine, chirp, PRBS, steps)
 :mod:`.controller`      the rig's digital Hopf controller (section 5.3) on the encoder readings
 :mod:`.virtual`         :class:`VirtualRig`, :func:`run_experiment`: the truth plant run through
                         the encoders, the sampling, the compensator (7)-(8) and the driver's
@@ -29,49 +30,53 @@ The encoder quantiser :func:`quantize` is :func:`iwp.models.encoder.quantize`.
 The calibration of the twin (the paper's procedures applied to its logs, so
 that they return the paper's numbers) is :mod:`iwp.calibration`, above both
 the rig and the identification.
+
+Names are loaded on first use (as :mod:`iwp`'s), so that listing the
+experiments (``iwp rig list``) loads no simulation code.
 """
 
 from __future__ import annotations
 
-from ..models.encoder import quantize
-from .controller import EncoderHopfController
-from .experiments import (
-    EXPERIMENTS,
-    PAPER_V_DZ,
-    VELOCITY_FILTER_TAU,
-    ExperimentKind,
-    ExperimentSpec,
-    InputLaw,
-    RunKind,
-    list_experiments,
-)
-from .output import check_output_path, write_result
-from .rigid_fit import rigid_fit_error
-from .truth import DEFAULT_TRUTH_FILE, RigTruth, default_truth, truth_record, uncalibrated_truth
-from .virtual import RIG_ATOL, RIG_RTOL, STATIC_WINDOW, VirtualRig, run_experiment
+import importlib
 
-__all__ = [
-    "RigTruth",
-    "ExperimentSpec",
-    "ExperimentKind",
-    "RunKind",
-    "InputLaw",
-    "VirtualRig",
-    "EncoderHopfController",
-    "default_truth",
-    "list_experiments",
-    "run_experiment",
-    "quantize",
-    "rigid_fit_error",
-    "write_result",
-    "check_output_path",
-    "PAPER_V_DZ",
-    "EXPERIMENTS",
-    "RIG_RTOL",
-    "RIG_ATOL",
-    "VELOCITY_FILTER_TAU",
-    "STATIC_WINDOW",
-    "truth_record",
-    "uncalibrated_truth",
-    "DEFAULT_TRUTH_FILE",
-]
+#: public name -> the module that defines it
+_EXPORTS: dict[str, str] = {
+    "RigTruth": "iwp.rig.truth",
+    "default_truth": "iwp.rig.truth",
+    "truth_record": "iwp.rig.truth",
+    "uncalibrated_truth": "iwp.rig.truth",
+    "DEFAULT_TRUTH_FILE": "iwp.rig.truth",
+    "ExperimentSpec": "iwp.rig.experiments",
+    "ExperimentKind": "iwp.rig.experiments",
+    "RunKind": "iwp.rig.experiments",
+    "InputLaw": "iwp.rig.experiments",
+    "list_experiments": "iwp.rig.experiments",
+    "PAPER_V_DZ": "iwp.rig.experiments",
+    "EXPERIMENTS": "iwp.rig.experiments",
+    "VELOCITY_FILTER_TAU": "iwp.rig.experiments",
+    "VirtualRig": "iwp.rig.virtual",
+    "run_experiment": "iwp.rig.virtual",
+    "RIG_RTOL": "iwp.rig.virtual",
+    "RIG_ATOL": "iwp.rig.virtual",
+    "STATIC_WINDOW": "iwp.rig.virtual",
+    "EncoderHopfController": "iwp.rig.controller",
+    "quantize": "iwp.models.encoder",
+    "rigid_fit_error": "iwp.rig.rigid_fit",
+    "write_result": "iwp.rig.output",
+    "check_output_path": "iwp.rig.output",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'iwp.rig' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -63,9 +63,9 @@ from .experiments import (
     compensation_thresholds,
     experiment_spec,
     initial_state,
-    law_input,
     list_experiments,
 )
+from .input_laws import law_input
 from .truth import RigTruth, default_truth
 
 __all__ = ["VirtualRig", "run_experiment", "RIG_RTOL", "RIG_ATOL", "STATIC_WINDOW"]

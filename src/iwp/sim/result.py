@@ -9,7 +9,6 @@ import numpy as np
 
 from ..data import ExperimentData, write_experiment
 from ..models.plant import MODELS
-from ..plotting import plot_simulation
 from .engine import ST_OK
 
 __all__ = ["SimulationResult", "BatchResult"]
@@ -125,6 +124,8 @@ class SimulationResult:
 
     def plot(self, **kw):
         """Plot the states and the input; see :func:`iwp.plotting.plot_simulation`."""
+        from ..plotting import plot_simulation  # plotting only when asked: iwp.sim imports no matplotlib
+
         return plot_simulation(self, **kw)
 
 

@@ -16,7 +16,6 @@ from ..data import write_experiment
 from ..errors import InputError, SimulationError
 from ..files import FIGURE_SUFFIXES, LOG_SUFFIXES, check_output_file, write_all
 from ..models.plant import Plant
-from ..plotting import plot_simulation, savefig
 from .options import CommandChain, Tolerances
 from .result import SimulationResult
 from .simulate import simulate
@@ -173,6 +172,8 @@ def write_simulation(task: SimulationTask, out, *, plot=None, force: bool = Fals
     msg = (f"wrote {out} ({res.t.size} samples, t = {res.t[0]:g}..{res.t[-1]:g} s, "
            f"max |q1| = {abs(res.q1).max():.4g} rad)")
     if plot is not None:
+        from ..plotting import plot_simulation, savefig  # plotting only when a figure is asked for
+
         fig = plot_simulation(res, band=band)["figure"]
         writes.append((plot, lambda tmp: savefig(fig, tmp)))
         msg += f"; figure {plot}"
