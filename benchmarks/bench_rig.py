@@ -43,7 +43,7 @@ from iwp.device.twin import TwinRig
 from iwp.ident.identification import identify
 from iwp.rig import VirtualRig
 from iwp.rig.experiments import experiment_spec
-from iwp.rig.input_laws import open_loop_input
+from iwp.rig.run_settings import open_loop_input
 from iwp.sim.inputs import Sampled
 
 ROOT = Path(__file__).resolve().parents[1]

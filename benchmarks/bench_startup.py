@@ -48,6 +48,10 @@ def main() -> int:
         rows.append(("`iwp --help`", t, t / base))
         t = median_of(5, iwp + ["--version"], env, tmp)
         rows.append(("`iwp --version`", t, t / base))
+        t = median_of(5, iwp + ["rig", "list"], env, tmp)
+        rows.append(("`iwp rig list` (computes nothing: no numba, no matplotlib)", t, t / base))
+        t = median_of(5, [py, "-c", "import iwp.sim"], env, tmp)
+        rows.append(("`python -c 'import iwp.sim'` (numba, no matplotlib)", t, t / base))
         sim = iwp + ["simulate", "--t-end", "5", "--controller", "hopf", "--x0", "0.1,0,0,0", "--force", "--out"]
         cold_env = dict(env, NUMBA_CACHE_DIR=str(Path(tmp) / "cache1"))
         cold = wall(sim + ["a.csv"], cold_env, tmp)
@@ -72,7 +76,8 @@ def main() -> int:
     print("|---|---:|---:|")
     for name, t, r in rows:
         print(f"| {name} | {t:.2f} | {r:.1f} |")
-    print("\nTargets (issue 15): `iwp --help` under 0.3 s; first `iwp simulate` of a fresh install under 10 s and "
+    print("\nTargets (issue 15, 38): `iwp --help` and `iwp rig list` under 0.3 s warm; first `iwp simulate` of a "
+          "fresh install under 10 s and "
           "first `iwp reproduce` under 30 s, compilation included (the install compiles: the rows 'after "
           "`iwp warmup`').")
     return 0

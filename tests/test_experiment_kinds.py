@@ -13,7 +13,7 @@ from iwp.device.runs import USER_INPUT_KINDS, USER_INPUTS, run_kind, run_on_rig
 from iwp.device.twin import TwinRig
 from iwp.errors import InputError
 from iwp.rig import EXPERIMENTS, ExperimentKind, ExperimentSpec, InputLaw, RunKind, VirtualRig, check_output_path
-from iwp.rig.input_laws import HostInput, law_input, open_loop_input
+from iwp.rig.run_settings import HostInput, law_input, open_loop_input
 from iwp.sim.inputs import Chirp, Sine
 
 OPEN, STATIC, RELEASE, CLOSED = RunKind.OPEN_LOOP, RunKind.STATIC_CURVE, RunKind.RELEASE, RunKind.CLOSED_LOOP
@@ -72,7 +72,7 @@ def test_a_kind_that_contradicts_itself_or_its_settings_is_refused():
         ExperimentSpec("x", "", "", {}, (), kind="sine")
 
 
-def test_the_input_laws_are_built_in_one_place():
+def test_the_run_settings_are_built_in_one_place():
     s = {"amplitude": 60.0, "omega": 5.0, "w0": 3.0, "tau": 100.0, "hold_time": 0.05, "duration": 1.0, "seed": 3,
          "levels": (40.0, 0.0, -40.0), "step_time": 0.5}
     assert law_input(InputLaw.SINE, s) == Sine(60.0, 5.0)

@@ -41,7 +41,7 @@ def test_a_result_draws_when_asked():
 
 
 @pytest.mark.parametrize("argv, absent", [(["--help"], ("numba", "matplotlib", "numpy", "scipy")),
-                                          (["rig", "list"], ("numba", "matplotlib", "scipy", "iwp.sim")),
+                                          (["rig", "list"], ("numba", "matplotlib", "numpy", "scipy", "iwp.sim")),
                                           (["fit", "--model", "cubic"], ("numba", "matplotlib", "scipy"))])
 def test_commands_that_compute_nothing_load_no_numerical_library(argv, absent):
     code = ("import sys, json\nfrom iwp.cli import main\ntry:\n    main(%r)\nexcept SystemExit:\n    pass\n"

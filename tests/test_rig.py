@@ -24,7 +24,7 @@ from iwp.rig import (
     uncalibrated_truth,
     write_result,
 )
-from iwp.rig.input_laws import open_loop_input
+from iwp.rig.run_settings import open_loop_input
 from iwp.sim import HopfController, simulate
 
 STEP = 2 * math.pi / 2000

@@ -35,11 +35,9 @@ from ..rig.experiments import (
     ExperimentKind,
     InputLaw,
     RunKind,
-    compensation_thresholds,
     experiment_spec,
-    initial_state,
 )
-from ..rig.input_laws import law_input
+from ..rig.run_settings import compensation_thresholds, initial_state, law_input
 from ..rig.virtual import STATIC_WINDOW
 from .connection import Rig
 from .errors import DeviceError, LinkLost

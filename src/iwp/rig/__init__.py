@@ -16,7 +16,7 @@ module                  what
 :mod:`.experiments`     :data:`EXPERIMENTS`, :func:`list_experiments`: the paper's experiments by
                         name, their settings, how each runs (:class:`ExperimentKind`) and the
                         open-loop input laws
-:mod:`.input_laws`      :func:`~.input_laws.law_input`: the open-loop input laws (sine, chirp, PRBS, steps)
+:mod:`.run_settings`      :func:`~.run_settings.law_input`: the open-loop input laws (sine, chirp, PRBS, steps)
 :mod:`.controller`      the rig's digital Hopf controller (section 5.3) on the encoder readings
 :mod:`.virtual`         :class:`VirtualRig`, :func:`run_experiment`: the truth plant run through
                         the encoders, the sampling, the compensator (7)-(8) and the driver's

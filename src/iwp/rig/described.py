@@ -33,8 +33,7 @@ from ..models.parameters import BeltParameters, LumpedParameters
 from ..models.plant import Plant, plant_for_kind
 from ..sim.inputs import Input, Sampled
 from ..sim.simulate import simulate
-from .experiments import check_seed
-from .input_laws import prbs  # defined with the other input laws, exported here too
+from .run_settings import check_seed, prbs  # defined with the other input laws, exported here too
 from .sensors import motor_current, pendulum_reading, time_reading, wheel_reading
 
 __all__ = ["DescribedRig", "RigRun", "write_rig_csv", "prbs"]

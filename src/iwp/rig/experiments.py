@@ -20,9 +20,6 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass, field
 
-import numpy as np
-
-from ..checks import check_nonnegative
 from ..errors import InputError
 
 __all__ = [
@@ -279,46 +276,3 @@ def experiment_spec(name: str) -> ExperimentSpec:
     if not isinstance(name, str) or name not in EXPERIMENTS:
         raise InputError(f"unknown experiment {name!r}; valid: {', '.join(EXPERIMENTS)}")
     return EXPERIMENTS[name]
-
-
-# --------------------------------------------------------------------------
-# checks of the run options
-# --------------------------------------------------------------------------
-def check_seed(seed) -> int:
-    """``seed`` as an int >= 0 (the noise seed of ``numpy.random.default_rng``)."""
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise InputError(f"seed must be an integer >= 0, got {seed!r}")
-    return int(seed)
-
-
-def compensation_thresholds(v_dz) -> tuple[float, float] | None:
-    """The thresholds ``(v+, v-)`` of the rig's feedforward (7)-(8) [input units].
-
-    ``v_dz``: ``None`` (no compensation), a number (both sides) or a pair ``(v+, v-)``.
-    """
-    if v_dz is None:
-        return None
-    if isinstance(v_dz, (list, tuple, np.ndarray)):
-        if len(v_dz) != 2:
-            raise InputError(f"v_dz must be a number or a pair (v_dz_pos, v_dz_neg), got {list(v_dz)!r}")
-        pos, neg = v_dz
-    else:
-        pos = neg = v_dz
-    return (check_nonnegative("v_dz (positive side)", pos), check_nonnegative("v_dz (negative side)", neg))
-
-
-def initial_state(x0, what: str = "x0") -> np.ndarray:
-    """``x0`` (``q1`` or ``[q1, q2, q3, q4]`` [rad, rad/s]) as the 4 states of the pendulum and disk."""
-    if np.isscalar(x0):
-        x0 = [x0, 0.0, 0.0, 0.0]
-    try:
-        x = np.array(x0, dtype=float).ravel()
-    except (TypeError, ValueError):
-        raise InputError(f"{what} must be q1 or [q1, q2, q3, q4] (numbers), got {x0!r}") from None
-    if x.size == 1:
-        x = np.array([x[0], 0.0, 0.0, 0.0])
-    if x.size != 4:
-        raise InputError(f"{what} must be q1 or [q1, q2, q3, q4], got {x.size} values")
-    if not np.all(np.isfinite(x)):
-        raise InputError(f"{what} must be finite, got {x.tolist()}")
-    return x

@@ -8,7 +8,7 @@ from ..errors import InputError
 from ..models.plant import Plant
 from ..sim.simulate import simulate
 from .experiments import EXPERIMENTS
-from .input_laws import open_loop_input
+from .run_settings import open_loop_input
 from .truth import RigTruth
 from .virtual import RIG_ATOL, RIG_RTOL, VirtualRig
 

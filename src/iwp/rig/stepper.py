@@ -26,7 +26,7 @@ from ..errors import InputError, SimulationError
 from ..models.actuator import command_vector
 from ..sim.engine import ST_OK, STATUS_TEXT
 from ..sim.simulate import integrate_held, tolerances
-from .experiments import check_seed, initial_state
+from .run_settings import check_seed, initial_state
 from .truth import SESSIONS, RigTruth, default_truth
 from .virtual import RIG_ATOL, RIG_RTOL
 

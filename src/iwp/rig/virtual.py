@@ -59,13 +59,10 @@ from .experiments import (
     PAPER_V_DZ,
     ExperimentSpec,
     RunKind,
-    check_seed,
-    compensation_thresholds,
     experiment_spec,
-    initial_state,
     list_experiments,
 )
-from .input_laws import law_input
+from .run_settings import check_seed, compensation_thresholds, initial_state, law_input
 from .truth import RigTruth, default_truth
 
 __all__ = ["VirtualRig", "run_experiment", "RIG_RTOL", "RIG_ATOL", "STATIC_WINDOW"]

@@ -1,11 +1,12 @@
-"""The open-loop input laws of the experiments (:class:`~iwp.rig.experiments.InputLaw`): the one place that
-builds them.
+"""The settings of a run, turned into what a simulation or a rig takes: the open-loop input laws of the
+experiments (:class:`~iwp.rig.experiments.InputLaw`; the one place that builds them) and the checks of the run
+options (seed, dead-zone compensation, initial state).
 
 The sinusoids and chirps of the paper are :mod:`iwp.sim.inputs` signals the
 compiled simulation evaluates; a rig in the loop also takes a PRBS and steps,
 evaluated by its host (:class:`HostInput`). Apart from the experiments' table
-(:mod:`iwp.rig.experiments`) so that listing the experiments loads no
-simulation code.
+(:mod:`iwp.rig.experiments`) so that listing the experiments loads neither
+numpy nor simulation code.
 """
 
 from __future__ import annotations
@@ -16,12 +17,13 @@ from typing import Any, Callable, Mapping
 
 import numpy as np
 
-from ..checks import check_finite, check_positive
+from ..checks import check_finite, check_nonnegative, check_positive
 from ..errors import InputError
 from ..sim.inputs import Chirp, Input, Sine
 from .experiments import InputLaw, experiment_spec
 
-__all__ = ["law_input", "prbs", "HostInput", "open_loop_input"]
+__all__ = ["law_input", "prbs", "HostInput", "open_loop_input", "check_seed", "compensation_thresholds",
+           "initial_state"]
 
 
 def law_input(law: InputLaw, settings: Mapping[str, Any], Ts: float | None = None):
@@ -153,3 +155,46 @@ def open_loop_input(name: str, settings: Mapping[str, Any]) -> Input | None:
     """
     law = experiment_spec(name).kind.law
     return None if law is None else law_input(law, settings)
+
+
+# --------------------------------------------------------------------------
+# checks of the run options
+# --------------------------------------------------------------------------
+def check_seed(seed) -> int:
+    """``seed`` as an int >= 0 (the noise seed of ``numpy.random.default_rng``)."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError(f"seed must be an integer >= 0, got {seed!r}")
+    return int(seed)
+
+
+def compensation_thresholds(v_dz) -> tuple[float, float] | None:
+    """The thresholds ``(v+, v-)`` of the rig's feedforward (7)-(8) [input units].
+
+    ``v_dz``: ``None`` (no compensation), a number (both sides) or a pair ``(v+, v-)``.
+    """
+    if v_dz is None:
+        return None
+    if isinstance(v_dz, (list, tuple, np.ndarray)):
+        if len(v_dz) != 2:
+            raise InputError(f"v_dz must be a number or a pair (v_dz_pos, v_dz_neg), got {list(v_dz)!r}")
+        pos, neg = v_dz
+    else:
+        pos = neg = v_dz
+    return (check_nonnegative("v_dz (positive side)", pos), check_nonnegative("v_dz (negative side)", neg))
+
+
+def initial_state(x0, what: str = "x0") -> np.ndarray:
+    """``x0`` (``q1`` or ``[q1, q2, q3, q4]`` [rad, rad/s]) as the 4 states of the pendulum and disk."""
+    if np.isscalar(x0):
+        x0 = [x0, 0.0, 0.0, 0.0]
+    try:
+        x = np.array(x0, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be q1 or [q1, q2, q3, q4] (numbers), got {x0!r}") from None
+    if x.size == 1:
+        x = np.array([x[0], 0.0, 0.0, 0.0])
+    if x.size != 4:
+        raise InputError(f"{what} must be q1 or [q1, q2, q3, q4], got {x.size} values")
+    if not np.all(np.isfinite(x)):
+        raise InputError(f"{what} must be finite, got {x.tolist()}")
+    return x
