@@ -118,6 +118,7 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -129,7 +130,7 @@ from ..errors import IdentificationError, InputError
 from ..files import read_json
 from ..models.parameters import load_params, table1
 from .differentiate import Differentiator
-from .lsq import LeastSquaresResult, lstsq_projection, solve_least_squares
+from .lsq import LeastSquaresOptions, LeastSquaresResult, lstsq_projection, solve_least_squares
 from .noise import noise_covariance, row_weights
 from .parameters import Parameter
 from .result import IdentificationResult
@@ -336,14 +337,12 @@ def identify(
     # where it does not apply, lsq's HAC covariance is used
     noise_ok = covariance == "noise" and d.method != "savgol_direct" and nonlinear == "filter-terms"
     lsq_cov = "hac" if covariance == "hac" or (covariance == "noise" and not noise_ok) else "ols"
-    kw: dict[str, Any] = dict(covariance=lsq_cov, allow_rank_deficient=True, sample_index=reg.sample_index,
-                              weights=weights)
-    if reg.blocks is not None:
-        kw.update(blocks=reg.blocks)
+    lsq_options = LeastSquaresOptions(covariance=lsq_cov, weights=weights, allow_rank_deficient=True)
 
-    def solve(**extra: Any) -> LeastSquaresResult:
+    def solve(covariance: str = lsq_cov) -> LeastSquaresResult:
         try:
-            return solve_least_squares(reg.Phi, reg.phi, names, **{**kw, **extra})
+            return solve_least_squares(reg.Phi, reg.phi, names, blocks=reg.blocks, sample_index=reg.sample_index,
+                                       options=replace(lsq_options, covariance=covariance))
         except InputError as exc:
             raise IdentificationError(f"set-up {setup!r}: {exc}") from None
 

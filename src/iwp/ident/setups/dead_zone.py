@@ -14,11 +14,14 @@ import numpy as np
 
 from ...data import ExperimentData, StaticCurve
 from ...errors import IdentificationError, InputError
-from ..lsq import solve_least_squares
+from ..lsq import LeastSquaresOptions, solve_least_squares
 from ..parameters import Parameter
 from .base import RefineSpec, Setup
 
 __all__ = ["DeadZone", "StaticFit", "fit_static_curve"]
+
+#: The line through each side's straight part: ordinary least squares, a rank deficiency reported, not raised.
+_LINE_FIT = LeastSquaresOptions(covariance="ols", weights="none", allow_rank_deficient=True)
 
 
 def _bend(x: np.ndarray, y: np.ndarray, sgn: float) -> float | None:
@@ -128,7 +131,7 @@ def fit_static_curve(curve: Any, *, min_fraction: float = 0.2) -> "StaticFit":
                 f"{src}: only {m} point(s) on the straight part of the {side} side "
                 f"(|q4| >= {mf:g} x {ymax:.4g} rad/s); need at least 3 to fit the line and estimate its uncertainty")
         X = np.column_stack([x[sel], np.ones(m)])
-        r = solve_least_squares(X, y[sel], ["a", "b"], covariance="ols", weights="none", allow_rank_deficient=True)
+        r = solve_least_squares(X, y[sel], ["a", "b"], options=_LINE_FIT)
         a, b = r.values
         if not r.success or not a > 0:
             raise IdentificationError(f"{src}: the {side} side's straight part has no usable slope (a = {a:.4g})")
