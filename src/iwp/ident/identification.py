@@ -90,7 +90,7 @@ noise (quantisation ``step/sqrt(12)`` and sensor noise) passed through known
 linear maps: the target's ``K D2 / Ts^2`` and the regressor terms'
 ``K S (df/dx) ...``. The default covariance (``covariance="noise"``)
 propagates white position noise of each encoder through exactly these maps
-(adjoint filters, :func:`_noise_covariance`), with the noise level
+(adjoint filters, :func:`iwp.ident.noise.noise_covariance`), with the noise level
 estimated from the positions' fourth difference. Kernel (HAC) estimators
 get this case wrong: the noise spectrum vanishes at low frequency, so
 Newey-West overstates the spread of ``p2(1+rho)`` by 1.6x and of ``p1``
@@ -351,10 +351,7 @@ def identify(
     crit = res.critical_value
     cov_method = res.covariance_method
     if covariance == "noise":
-        vals0 = {nm: float(res.values[j]) for j, nm in enumerate(names)}
-        p2k = float(details.get("p2_known", {}).get("value", 0.0))
-        nc = (noise_covariance(spec, sig, d, reg.Phi, reg.blocks, reg.labels, res, vals0, pend_vals, p2k)
-              if noise_ok else None)
+        nc = noise_covariance(spec, sig, d, reg, res, pend_vals) if noise_ok else None
         if nc is None and lsq_cov != "hac" and res.success:
             res = solve(covariance="hac")
             cov = np.array(res.covariance, dtype=float)
@@ -364,7 +361,7 @@ def identify(
                             "'savgol_direct' or nonlinear='filtered-states'); the HAC covariance is reported")
             cov_method = "hac"
         else:
-            cov, noise_sd = nc
+            cov, noise_sd = nc.covariance, nc.noise_std
             cov_method = "noise"
             crit = float(stats.t.ppf(0.975, max(res.dof, 1)))
             details["noise_std"] = noise_sd
