@@ -73,7 +73,7 @@ corrected for the velocity noise, ``E[(v + n)^3] = v^3 + 3 var(n) v``.
 Filtering the term rather than evaluating it at the filtered state keeps
 the filtered equation exact; with a Savitzky-Golay filter (not flat in its
 pass band) the usual way, ``f(K q1, K q3)``, biases ``p1`` by 0.1-0.4 %
-and ``sigma_a1`` by 30-300 % (``nonlinear="filtered-states"`` keeps it for
+and ``sigma_a1`` by 30-300 % (``IdentifyOptions(nonlinear="filtered-states")`` keeps it for
 comparison). Discretisation errors are ``O((omega Ts)^4)``.
 ``max(D.edge_samples_at(Ts), 3)`` samples are dropped at both ends of every
 file; the files are then stacked, with sample numbers kept distinct per
@@ -88,7 +88,7 @@ Uncertainty
 The residuals of differentiated, filtered encoder data are the encoder
 noise (quantisation ``step/sqrt(12)`` and sensor noise) passed through known
 linear maps: the target's ``K D2 / Ts^2`` and the regressor terms'
-``K S (df/dx) ...``. The default covariance (``covariance="noise"``)
+``K S (df/dx) ...``. The default covariance (``IdentifyOptions(covariance="noise")``)
 propagates white position noise of each encoder through exactly these maps
 (adjoint filters, :func:`iwp.ident.noise.noise_covariance`), with the noise level
 estimated from the positions' fourth difference. Kernel (HAC) estimators
@@ -100,7 +100,7 @@ intervals (tests). When the residuals are more than twice what the noise
 explains (a model misfit: belt, Coulomb friction, dead-zone residue, wrong
 known parameters), the HAC covariance is reported instead, with a warning:
 the estimates then carry a bias that no standard error shows.
-``covariance="hac"`` or ``"ols"`` force the others.
+``IdentifyOptions(covariance="hac")`` or ``"ols"`` force the others.
 
 The free pendulum and the disk
 ------------------------------

@@ -11,7 +11,7 @@ rows of (9), and (13) writes the solution with the normal matrix
   full-rank problem keeps about twice as many correct digits;
 * **with weights per equation block**: in practice the ``dq4/dt`` equation
   is about 100 times noisier than the ``dq3/dt`` one; with
-  ``weights="blocks"`` a first ordinary least-squares pass estimates each
+  ``LeastSquaresOptions(weights="blocks")`` (the default) a first ordinary least-squares pass estimates each
   block's residual standard deviation and the rows are rescaled by its
   inverse (feasible weighted least squares);
 * **with honest uncertainty**: residuals of differentiated, low-pass

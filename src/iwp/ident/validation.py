@@ -15,7 +15,7 @@ simulated signals with the measured ones:
 
 The initial state is the measured one: positions from the log (smoothed
 with the same Savitzky-Golay filter that gives the velocities), velocities
-by differentiation, at ``t_start``; with ``estimate_x0=True`` it is instead
+by differentiation, at ``t_start``; with ``ValidationOptions(estimate_x0=True)`` it is instead
 estimated by a simulation-error fit of the initial state only
 (:func:`iwp.ident.refinement.refine` with no free parameter), which is what a
 grey-box tool's ``compare`` with estimated initial conditions does.
