@@ -44,7 +44,7 @@ import time
 import numpy as np
 
 from iwp.ident.differentiate import Differentiator
-from iwp.ident.identification import identify
+from iwp.ident.identification import IdentifyOptions, identify
 from iwp.models import LumpedParameters, StartupFriction
 from iwp.rig import RigTruth, VirtualRig, default_truth
 
@@ -96,7 +96,7 @@ def make_data(truth: RigTruth, seed: int, v_dz, quick: bool):
 def chain(data, d: Differentiator, nonlinear: str):
     """free -> two-step -> free(p2) -> two-step; motor-disk. Returns {name: (value, stderr)}."""
     free, md, full = data
-    kw = dict(differentiator=d, nonlinear=nonlinear)
+    kw = dict(options=IdentifyOptions(differentiator=d, nonlinear=nonlinear))
     f0 = identify(free, "free", **kw)
     t0 = identify(full, "two-step", pendulum=f0, **kw)
     f1 = identify(free, "free", p2=t0, **kw)

@@ -16,6 +16,7 @@ from iwp.ident.identification import (
     IDENTIFY_DIFFERENTIATOR,
     SETUPS,
     IdentificationResult,
+    IdentifyOptions,
     default_differentiator,
     identify,
     load_pendulum,
@@ -413,7 +414,7 @@ def test_fast_savgol_matches_the_differentiator(clean) -> None:
 
 def test_other_differentiators_are_accepted(clean) -> None:
     for d in (Differentiator("butter", cutoff=5.0), Differentiator("central"), Differentiator("savgol_direct")):
-        res = identify(clean["md"], "motor-disk", differentiator=d)
+        res = identify(clean["md"], "motor-disk", options=IdentifyOptions(differentiator=d))
         assert res.differentiator["method"] == d.method
         assert rel(res.value("p3_1rho"), TRUTH.p3 * TRUTH.rho) < (0.02 if d.method == "savgol_direct" else 0.005)
 
@@ -532,8 +533,9 @@ def test_pure_noise_does_not_identify_a_pendulum(tmp_path) -> None:
 def test_filtering_the_terms_beats_terms_of_filtered_states(clean) -> None:
     """The same filter on regressors and targets: K f(q) is exact, f(K q) is biased for a Savitzky-Golay filter."""
     d = Differentiator("savgol", window=41)
-    exact = identify(clean["free"], "free", p2=TRUTH.p2, differentiator=d)
-    usual = identify(clean["free"], "free", p2=TRUTH.p2, differentiator=d, nonlinear="filtered-states")
+    exact = identify(clean["free"], "free", p2=TRUTH.p2, options=IdentifyOptions(differentiator=d))
+    usual = identify(clean["free"], "free", p2=TRUTH.p2,
+                     options=IdentifyOptions(differentiator=d, nonlinear="filtered-states"))
     assert rel(usual.value("p1"), TRUTH.p1) > 10 * rel(exact.value("p1"), TRUTH.p1)
     assert rel(usual.value("p1"), TRUTH.p1) > 1e-3
     assert usual.details["covariance"] == "hac"  # the noise covariance assumes filtered terms

@@ -12,6 +12,7 @@ from iwp.errors import IdentificationError, InputError
 from iwp.ident.covariance import correlation_messages, hac_bandwidth
 from iwp.ident.fit_parameters import Parameter
 from iwp.ident.lsq import (
+    LeastSquaresOptions,
     LeastSquaresResult,
     solve_least_squares,
     stack_rows,
@@ -55,7 +56,7 @@ def test_recovers_exact_parameters_from_noise_free_paper_setup() -> None:
     assert np.all(system.Phi[1500:, 4] == 0) and np.all(system.Phi[:1500, 6] == 0)
     for cov in ("hac", "ols"):
         for weights in ("blocks", "none"):
-            res = system.solve(covariance=cov, weights=weights)
+            res = system.solve(options=LeastSquaresOptions(covariance=cov, weights=weights))
             assert res.success and res.rank == 8
             for name, value in TRUE.items():
                 assert res.value(name) == pytest.approx(value, rel=1e-8)
@@ -73,7 +74,7 @@ def test_ill_conditioned_full_rank_is_solved_stably() -> None:
     X = Q1 @ np.diag(np.logspace(0, -7, p)) @ Q2.T  # condition number 1e7
     theta = np.array([1.0, -2.0, 3.0, 0.5, -1.5])
     y = X @ theta
-    res = solve_least_squares(X, y, ["a", "b", "c", "d", "e"], covariance="ols", cond_warn=1e6)
+    res = solve_least_squares(X, y, ["a", "b", "c", "d", "e"], options=LeastSquaresOptions(covariance="ols", cond_warn=1e6))
     assert 1e6 < res.condition_number < 1e8
     assert res.success and res.rank == 5
     assert any("condition number" in w for w in res.warnings)
@@ -110,7 +111,7 @@ def test_rank_deficient_regressor_raises_naming_the_collinear_columns() -> None:
     assert "rank" in msg and "p2," in msg and "p2r" in msg
     assert "p3" not in msg and "sv1" not in msg
 
-    res = solve_least_squares(X, y, names, allow_rank_deficient=True)
+    res = solve_least_squares(X, y, names, options=LeastSquaresOptions(allow_rank_deficient=True))
     assert not res.success and res.rank == 3
     assert np.isnan(res["p2"].stderr) and np.isnan(res["p2r"].stderr)
     assert np.isfinite(res["p3"].stderr) and np.isfinite(res["sv1"].stderr)
@@ -155,11 +156,11 @@ def test_nan_and_shape_errors_name_the_culprit() -> None:
     with pytest.raises(InputError, match="phi"):
         solve_least_squares(X, y[:-1], ["a", "b"])
     with pytest.raises(InputError, match="covariance"):
-        solve_least_squares(X, y, ["a", "b"], covariance="white")
+        solve_least_squares(X, y, ["a", "b"], options=LeastSquaresOptions(covariance="white"))
     with pytest.raises(InputError, match="bandwidth"):
-        solve_least_squares(X, y, ["a", "b"], bandwidth=-3)
+        solve_least_squares(X, y, ["a", "b"], options=LeastSquaresOptions(bandwidth=-3))
     with pytest.raises(InputError, match="weights"):
-        solve_least_squares(X, y, ["a", "b"], weights="equal")
+        solve_least_squares(X, y, ["a", "b"], options=LeastSquaresOptions(weights="equal"))
     with pytest.raises(InputError, match="more equations"):
         solve_least_squares(X[:2], y[:2], ["a", "b"])
     with pytest.raises(InputError, match="fixed"):
@@ -181,7 +182,7 @@ NAMES = ["a", "b", "c"]
 def _monte_carlo(X: np.ndarray, E: np.ndarray, **kwargs) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     est, se, covered = [], [], []
     for e in E:
-        res = solve_least_squares(X, X @ THETA + e, NAMES, **kwargs)
+        res = solve_least_squares(X, X @ THETA + e, NAMES, options=LeastSquaresOptions(**kwargs))
         est.append(res.values)
         se.append(res.stderr)
         covered.append([res[n].ci95_low <= t <= res[n].ci95_high for n, t in zip(NAMES, THETA)])
@@ -225,8 +226,8 @@ def test_hac_treats_rows_of_one_sample_jointly() -> None:
     X = _regressor(n)
     e = rng.standard_normal(n)
     system = stack_rows((X, X @ THETA + e), (X, X @ THETA + e), names=NAMES)
-    hac = system.solve(covariance="hac", weights="none", bandwidth=0)
-    ols = system.solve(covariance="ols", weights="none")
+    hac = system.solve(options=LeastSquaresOptions(covariance="hac", weights="none", bandwidth=0))
+    ols = system.solve(options=LeastSquaresOptions(covariance="ols", weights="none"))
     np.testing.assert_allclose(hac.stderr / ols.stderr, np.sqrt(2.0), rtol=0.03)
     assert hac.n_samples == n and hac.n_equations == 2 * n
 
@@ -240,8 +241,8 @@ def test_block_weighting_helps_when_noise_levels_differ_100x() -> None:
     noise = rng.standard_normal((R, 2, n)) * np.array([0.01, 1.0])[None, :, None]
     for e in noise:
         system = stack_rows((X, X @ THETA + e[0]), (X2, X2 @ THETA + e[1]), labels=("q3", "q4"), names=NAMES)
-        w = system.solve(weights="blocks", covariance="ols")
-        u = system.solve(weights="none", covariance="ols")
+        w = system.solve(options=LeastSquaresOptions(weights="blocks", covariance="ols"))
+        u = system.solve(options=LeastSquaresOptions(weights="none", covariance="ols"))
         est_w.append(w.values)
         est_u.append(u.values)
         se_w.append(w.stderr)

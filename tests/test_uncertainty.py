@@ -19,7 +19,7 @@ from iwp.ident.covariance import cluster_covariance
 from iwp.ident.output_error import OutputError
 from iwp.ident.problem import FitProblem, SolverOptions
 from iwp.ident.refinement import as_experiments, refine
-from iwp.ident.validation import validate
+from iwp.ident.validation import ValidationOptions, validate
 from iwp.models import Plant, quantize, save_params, table1
 from iwp.rig.described import prbs
 from iwp.sim import simulate, simulate_batch
@@ -202,7 +202,7 @@ def test_validate_with_a_fit_reports_the_share_inside_its_band():
     u = ParameterUncertainty.from_refinement(r)
     # the held-out log's initial state estimated with the parameters fixed (as MATLAB's compare does); its
     # uncertainty joins the band's
-    v = validate(logs[2], u, signals=("q1",), estimate_x0=True)
+    v = validate(logs[2], u, signals=("q1",), options=ValidationOptions(estimate_x0=True))
     assert v.band is not None and v.band.method == "linear"
     # the model is right: the held-out log falls inside its 95 % prediction band about as often as it says
     assert 0.90 <= v.coverage["q1"] <= 0.99

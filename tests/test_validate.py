@@ -14,7 +14,14 @@ from scipy.integrate import solve_ivp
 from iwp.cli import main
 from iwp.data import write_experiment
 from iwp.errors import InputError
-from iwp.ident.validation import UninformativeValidation, ValidationResult, auto_model, fit_percent, validate
+from iwp.ident.validation import (
+    UninformativeValidation,
+    ValidationOptions,
+    ValidationResult,
+    auto_model,
+    fit_percent,
+    validate,
+)
 from iwp.models import Plant, save_params, table1
 from iwp.rig import VirtualRig
 from iwp.sim.inputs import HopfController
@@ -51,7 +58,8 @@ def test_fit_percent_on_known_signals():
 # validate
 # ---------------------------------------------------------------------------
 def test_validate_the_truth_on_the_free_decay(rig, free_log):
-    v = validate(free_log, rig.truth.lumped, model="free", estimate_x0=True, window=(1.0, None))
+    v = validate(free_log, rig.truth.lumped, model="free",
+                 options=ValidationOptions(estimate_x0=True, window=(1.0, None)))
     assert isinstance(v, ValidationResult)
     assert v.t[0] == pytest.approx(1.0) and v.t.size == free_log.n_samples - 200
     assert v.fit["q1"] > 99.0
@@ -86,7 +94,7 @@ def test_a_validation_that_says_nothing_warns_and_a_caller_can_filter_it(free_lo
 def test_estimated_initial_state_fits_better_than_the_measured_one(rig, free_log):
     p = rig.truth.lumped
     meas = validate(free_log, p, model="free", signals=("q1",))
-    est = validate(free_log, p, model="free", signals=("q1",), estimate_x0=True)
+    est = validate(free_log, p, model="free", signals=("q1",), options=ValidationOptions(estimate_x0=True))
     assert est.fit["q1"] >= meas.fit["q1"]
     assert meas.fit["q1"] > 95.0  # the measured state at t = 0 (differentiated at the log's edge) is close
 
@@ -95,7 +103,8 @@ def test_restart_reduces_the_error_of_a_long_validation(rig, free_log):
     """Figure 9(b): restarting from the measured state removes the accumulated (phase) error."""
     p = rig.truth.lumped.replace(p1=rig.truth.lumped.p1 * 1.005)  # a slightly wrong model
     plain = validate(free_log, p, model="free", signals=("q1",))
-    restarted = validate(free_log, p, model="free", signals=("q1",), restart_times=[30.0])
+    restarted = validate(free_log, p, model="free", signals=("q1",),
+                         options=ValidationOptions(restart_times=[30.0]))
     assert restarted.restart_times == (pytest.approx(30.0),)
     late = plain.t >= 30.0
     e_plain = np.sqrt(np.mean(plain.error["q1"][late] ** 2))
@@ -122,7 +131,7 @@ def test_locked_motor_disk_log(rig):
 def test_closed_loop_with_the_hopf_controller(rig):
     data = rig.run("closed-loop", duration=20.0)
     v = validate(data, table1(), model="compensated", controller=HopfController(-10.0, 0.1),
-                 window=(10.0, None), estimate_x0=True, signals=("q1",))
+                 options=ValidationOptions(window=(10.0, None), estimate_x0=True), signals=("q1",))
     assert v.closed_loop
     amp_meas = np.max(np.abs(v.measured["q1"]))
     amp_sim = np.max(np.abs(v.simulated["q1"]))
@@ -131,12 +140,13 @@ def test_closed_loop_with_the_hopf_controller(rig):
 
 
 def test_velocity_signals_and_input_errors(rig, free_log):
-    v = validate(free_log, rig.truth.lumped, model="free", signals=("q3",), window=(None, 20.0))
+    v = validate(free_log, rig.truth.lumped, model="free", signals=("q3",),
+                 options=ValidationOptions(window=(None, 20.0)))
     assert v.fit["q3"] > 90.0  # against the differentiated velocity
     with pytest.raises(InputError, match="model must be one of"):
         validate(free_log, table1(), model="bogus")
     with pytest.raises(InputError, match="outside the window"):
-        validate(free_log, table1(), model="free", restart_times=[100.0])
+        validate(free_log, table1(), model="free", options=ValidationOptions(restart_times=[100.0]))
     with pytest.raises(InputError, match="unknown signal"):
         validate(free_log, table1(), model="free", signals=("q5",))
     data_v = VirtualRig(seed=0).run("sine-60", duration=2.0)
@@ -148,7 +158,8 @@ def test_velocity_signals_and_input_errors(rig, free_log):
 def test_plot(rig, free_log):
     from iwp.plotting.validation import plot_correlation
 
-    v = validate(free_log, rig.truth.lumped, model="free", window=(None, 10.0), restart_times=[5.0])
+    v = validate(free_log, rig.truth.lumped, model="free",
+                 options=ValidationOptions(window=(None, 10.0), restart_times=[5.0]))
     h = v.plot()
     assert len(h["axes"]) == 4 and len(h["restart_lines"]) == 4
     h2 = plot_correlation(["a", "b"], np.array([[1.0, -0.99], [-0.99, 1.0]]))

@@ -11,15 +11,17 @@ half-way as in figure 9b.
 
 import matplotlib.pyplot as plt
 
-from iwp import VirtualRig, identify, refine_identification, validate
+from iwp import ValidationOptions, VirtualRig, identify, refine_identification, validate
 
 free = VirtualRig().run("free-pendulum", duration=30)
 ls = identify(free, "free", t_start=0.5)
 refined = refine_identification("free", free, ls.to_params(), window=(0.5, None))
 print(refined.summary() if hasattr(refined, "summary") else refined)
 
-val_ls = validate(free, ls.to_params(), model="compensated", signals=("q1",), window=(0.5, None))
-val = validate(free, refined.params, model="free", signals=("q1",), window=(0.5, None), restart_times=(15.0,))
+val_ls = validate(free, ls.to_params(), model="compensated", signals=("q1",),
+                  options=ValidationOptions(window=(0.5, None)))
+val = validate(free, refined.params, model="free", signals=("q1",),
+               options=ValidationOptions(window=(0.5, None), restart_times=(15.0,)))
 print(f"fit of q1: least squares {val_ls.fit['q1']:.2f} %, refined {val.fit['q1']:.2f} %")
 assert val.fit["q1"] > 95.0
 

@@ -15,7 +15,7 @@ import warnings
 
 import matplotlib.pyplot as plt
 
-from iwp import VirtualRig, identify, refine_identification, validate
+from iwp import ValidationOptions, VirtualRig, identify, refine_identification, validate
 from iwp.sim.uncertainty import ParameterUncertainty
 
 train = [VirtualRig(seed=s).run("free-pendulum", duration=20, x0=[q, 0, 0, 0]) for s, q in ((0, -1.4), (2, -0.9))]
@@ -28,7 +28,7 @@ with warnings.catch_warnings():
 unc = ParameterUncertainty.from_refinement(refined)
 print("standard errors:", {k: f"{v:.2g}" for k, v in unc.stderr.items()})
 
-val = validate(held, unc, model="free", signals=("q1",), window=(0.5, None))
+val = validate(held, unc, model="free", signals=("q1",), options=ValidationOptions(window=(0.5, None)))
 print(f"held-out fit {val.fit['q1']:.2f} %; inside the 95 % prediction band: {val.coverage['q1']:.1%}")
 assert val.coverage["q1"] > 0.8
 

@@ -56,7 +56,8 @@ _EXPORTS: dict[str, str] = {
     "fit_percent": "iwp.ident", "Differentiator": "iwp.ident", "IdentificationResult": "iwp.ident",
     "RefineResult": "iwp.ident", "ValidationResult": "iwp.ident", "SETUPS": "iwp.ident",
     "FitProblem": "iwp.ident", "FitResult": "iwp.ident", "Parameter": "iwp.ident", "Parameters": "iwp.ident",
-    "Experiment": "iwp.ident", "refine_belt": "iwp.ident",
+    "Experiment": "iwp.ident", "refine_belt": "iwp.ident", "IdentifyOptions": "iwp.ident",
+    "ValidationOptions": "iwp.ident",
     # control
     "hopf_point": "iwp.control", "continue_hopf": "iwp.control", "design_hopf": "iwp.control",
     "find_orbit": "iwp.control", "lqr_balance": "iwp.control", "swing_up": "iwp.control",

@@ -29,7 +29,8 @@ DISPATCHERS = {
     "integrate_6": "belt",
     "integrate_sens": "sensitivity",
     "run_lanes_4": "batch",
-    "_noise_moments": "identification",
+    "_noise_adjoints": "identification",
+    "_noise_gram": "identification",
 }
 
 

@@ -35,7 +35,7 @@ statistic                              procedure (paper)
 ``full-chirp.fit_q1``                  fit [%] of model (9) with the least-squares parameters to the
                                        ``full-chirp`` log's ``q1`` (figure 9a: "very close")
 ``full-13.*``                          set-up ``full`` solved as the paper's (13) is printed, the plain
-                                       sum over both rows (``identify(..., weights="none")``), not
+                                       sum over both rows (``IdentifyOptions(weights="none")``), not
                                        the CLI's default; ``full-13.friction_ratio`` likewise
 =====================================  ===========================================================
 
@@ -54,7 +54,7 @@ import numpy as np
 
 from ..data import ExperimentData, StaticCurve
 from ..errors import InputError
-from ..ident.identification import identify
+from ..ident.identification import IdentifyOptions, identify
 from ..ident.result import IdentificationResult
 from ..ident.validation import UninformativeValidation, validate
 from ..models.parameters import LumpedParameters, table1
@@ -405,7 +405,7 @@ def paper_numbers(truth: RigTruth | None = None, *, seed: int = 0,
         "full": identify(runs["full-chirp"], "full"),
     }
     ident["two-step"] = identify(runs["full-chirp"], "two-step", pendulum=ident["free"])
-    ident["full-13"] = identify(runs["full-chirp"], "full", weights="none")
+    ident["full-13"] = identify(runs["full-chirp"], "full", options=IdentifyOptions(weights="none"))
     ls = least_squares_parameters(ident["free"], ident["two-step"], ident["dead-zone"])
     loop = closed_loop_model(runs["closed-loop"], ls)
     return PaperNumbers(identifications=ident, compensated=compensated_line(runs["static-curve-compensated"]),

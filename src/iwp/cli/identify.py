@@ -127,7 +127,7 @@ def _p2(spec: str | None):
 def run(args) -> int:
     from ..errors import IdentificationError
     from ..files import check_output_file, write_all
-    from ..ident.identification import identify, load_pendulum
+    from ..ident.identification import IdentifyOptions, identify, load_pendulum
     from ..ident.setups import get_setup
     from ..models.parameters import save_params
     from ._common import load_lumped
@@ -147,7 +147,8 @@ def run(args) -> int:
         data = [_load_series(f) for f in args.files]
         diff = _differentiator(args, data[0].Ts)
         res = identify(data if len(data) > 1 else data[0], args.setup, pendulum=pendulum, p2=p2, t_start=args.t_start,
-                       t_end=args.t_end, differentiator=diff, base=base, covariance=args.covariance)
+                       t_end=args.t_end, base=base,
+                       options=IdentifyOptions(differentiator=diff, covariance=args.covariance))
     files = ", ".join(args.files)
     if not res.success:
         raise IdentificationError(f"{files}: {res.message}; nothing written")

@@ -65,7 +65,14 @@ def run(args) -> int:
     from ..data import read_experiment
     from ..errors import DataFormatError, InputError
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
-    from ..ident.validation import choose_model, held_out_q1_offset, model_input, validate, validation_plant
+    from ..ident.validation import (
+        ValidationOptions,
+        choose_model,
+        held_out_q1_offset,
+        model_input,
+        validate,
+        validation_plant,
+    )
     from ..models.parameters import stored_belt, stored_model, stored_q1_offset, stored_reads_v_as_u
     from ..models.plant import MODELS
     from ..plotting import savefig
@@ -97,8 +104,9 @@ def run(args) -> int:
         params = validation_plant(params, data, model, belt=stored_belt(args.params), source=f"--params {args.params}")
     offset = held_out_q1_offset(data, stored_q1_offset(args.params))
     controller = controller_of(args)
-    v = validate(data, params, model=model, estimate_x0=args.estimate_x0, window=(args.t_start, args.t_end),
-                 restart_times=args.restart or (), controller=controller, signals=signals, q1_offset=offset)
+    v = validate(data, params, model=model, controller=controller, signals=signals,
+                 options=ValidationOptions(window=(args.t_start, args.t_end), restart_times=args.restart or (),
+                                           estimate_x0=args.estimate_x0, q1_offset=offset))
     if args.plot is not None:
         fig = v.plot()["figure"]
         write_all([(args.plot, lambda tmp: savefig(fig, tmp))])

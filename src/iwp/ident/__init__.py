@@ -29,8 +29,8 @@ from __future__ import annotations
 from .belt_fit import refine_belt
 from .differentiate import Differentiator
 from .fit_parameters import Parameter, Parameters
-from .identification import default_differentiator, identify, identify_dead_zone, load_pendulum
-from .lsq import LeastSquaresResult, solve_least_squares
+from .identification import IdentifyOptions, default_differentiator, identify, identify_dead_zone, load_pendulum
+from .lsq import LeastSquaresOptions, LeastSquaresResult, solve_least_squares
 from .metrics import fit_percent
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError
 from .problem import FitProblem, FitResult, Loss, SolverOptions
@@ -40,6 +40,7 @@ from .setups import PARAMETER_NAMES, PARAMETER_UNITS, SETUPS, Setup, get_setup
 from .validation import (
     READS_V_AS_U,
     UninformativeValidation,
+    ValidationOptions,
     ValidationResult,
     auto_model,
     held_out_q1_offset,
@@ -55,6 +56,8 @@ __all__ = [
     "FitProblem",
     "FitResult",
     "IdentificationResult",
+    "IdentifyOptions",
+    "LeastSquaresOptions",
     "LeastSquaresResult",
     "Loss",
     "OutputError",
@@ -67,6 +70,7 @@ __all__ = [
     "Setup",
     "SolverOptions",
     "UninformativeValidation",
+    "ValidationOptions",
     "ValidationResult",
     "as_experiments",
     "auto_model",

@@ -73,7 +73,7 @@ corrected for the velocity noise, ``E[(v + n)^3] = v^3 + 3 var(n) v``.
 Filtering the term rather than evaluating it at the filtered state keeps
 the filtered equation exact; with a Savitzky-Golay filter (not flat in its
 pass band) the usual way, ``f(K q1, K q3)``, biases ``p1`` by 0.1-0.4 %
-and ``sigma_a1`` by 30-300 % (``nonlinear="filtered-states"`` keeps it for
+and ``sigma_a1`` by 30-300 % (``IdentifyOptions(nonlinear="filtered-states")`` keeps it for
 comparison). Discretisation errors are ``O((omega Ts)^4)``.
 ``max(D.edge_samples_at(Ts), 3)`` samples are dropped at both ends of every
 file; the files are then stacked, with sample numbers kept distinct per
@@ -88,9 +88,9 @@ Uncertainty
 The residuals of differentiated, filtered encoder data are the encoder
 noise (quantisation ``step/sqrt(12)`` and sensor noise) passed through known
 linear maps: the target's ``K D2 / Ts^2`` and the regressor terms'
-``K S (df/dx) ...``. The default covariance (``covariance="noise"``)
+``K S (df/dx) ...``. The default covariance (``IdentifyOptions(covariance="noise")``)
 propagates white position noise of each encoder through exactly these maps
-(adjoint filters, :func:`_noise_covariance`), with the noise level
+(adjoint filters, :func:`iwp.ident.noise.noise_covariance`), with the noise level
 estimated from the positions' fourth difference. Kernel (HAC) estimators
 get this case wrong: the noise spectrum vanishes at low frequency, so
 Newey-West overstates the spread of ``p2(1+rho)`` by 1.6x and of ``p1``
@@ -100,7 +100,7 @@ intervals (tests). When the residuals are more than twice what the noise
 explains (a model misfit: belt, Coulomb friction, dead-zone residue, wrong
 known parameters), the HAC covariance is reported instead, with a warning:
 the estimates then carry a bias that no standard error shows.
-``covariance="hac"`` or ``"ols"`` force the others.
+``IdentifyOptions(covariance="hac")`` or ``"ols"`` force the others.
 
 The free pendulum and the disk
 ------------------------------
@@ -118,6 +118,7 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -130,10 +131,19 @@ from ..files import read_json
 from ..models.parameters import load_params, table1
 from .differentiate import Differentiator
 from .fit_parameters import Parameter
-from .lsq import LeastSquaresResult, lstsq_projection, solve_least_squares
-from .noise import noise_covariance, row_weights
+from .lsq import LeastSquaresOptions, LeastSquaresResult, lstsq_projection, solve_least_squares
+from .noise import NoiseCovariance, noise_covariance, row_weights
 from .result import IdentificationResult
-from .setups import PARAMETER_NAMES, PARAMETER_UNITS, SETUPS, Setup, fit_static_curve, get_setup, pendulum_values
+from .setups import (
+    PARAMETER_NAMES,
+    PARAMETER_UNITS,
+    SETUPS,
+    Regression,
+    Setup,
+    fit_static_curve,
+    get_setup,
+    pendulum_values,
+)
 from .signals import Signals, as_list, prepare_signals
 
 __all__ = [
@@ -144,6 +154,7 @@ __all__ = [
     "DEFAULT_WINDOW_SECONDS",
     "default_differentiator",
     "IdentificationResult",
+    "IdentifyOptions",
     "identify",
     "identify_dead_zone",
     "load_pendulum",
@@ -216,49 +227,16 @@ _POSITIVE = ("p1", "p3", "rho", "p3_1rho")
 _NONNEG = ("p2", "p2_1rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2_1rho", "v_dz_pos", "v_dz_neg")
 
 
-def identify(
-    data: Any,
-    setup: str,
-    *,
-    pendulum: Any = None,
-    t_start: float | None = None,
-    t_end: float | None = None,
-    differentiator: Differentiator | None = None,
-    base: Any = None,
-    p2: Any = None,
-    covariance: str = "noise",
-    nonlinear: str = "filter-terms",
-    weights: str = "blocks",
-) -> IdentificationResult:
-    """Identify the parameters of one set-up of section 5 from logs.
+@dataclass(frozen=True)
+class IdentifyOptions:
+    """How :func:`identify` differentiates, builds the regressor, weighs the rows and reports the uncertainty.
 
     Parameters
     ----------
-    data : ExperimentData, list of ExperimentData, or StaticCurve
-        The log(s). Several logs of one set-up are stacked (each is
-        windowed and differentiated on its own). ``"dead-zone"`` takes a
-        :class:`~iwp.data.StaticCurve` (or a list of them, points pooled).
-    setup : str
-        One of :data:`SETUPS`: ``"full"`` (10)-(12), ``"motor-disk"``
-        (theta^a), ``"motor-disk-coulomb"`` (theta^b), ``"free"``
-        (theta^c), ``"two-step"`` (theta^d), ``"dead-zone"`` (v+, v-).
-    pendulum : IdentificationResult, LumpedParameters or mapping, optional
-        ``"two-step"`` only (required there): ``p1`` and ``sigma_a1``,
-        ``sigma_v1``, ``sigma_b1`` for ``xi``, normally the result of the
-        ``"free"`` set-up; its covariance is propagated into the two-step
-        standard errors.
-    t_start, t_end : float, optional
-        Time window [s] applied to every log before differentiation.
     differentiator : Differentiator, optional
         Default: :func:`default_differentiator` for the sample time of the
         first log (Savitzky-Golay over 0.5 s, cubic: 101 samples at 5 ms;
         chosen by the study in ``docs/identification.md``).
-    base : LumpedParameters, optional
-        Reference values for warnings (default Table 1); not used in the fit.
-    p2 : float, IdentificationResult or LumpedParameters, optional
-        ``"free"`` only: a known ``p2`` [1/s]; the term ``p2 q4`` of the first
-        row of (9), neglected by theta^c, is moved to the target (see the
-        module docstring). A result's ``p2`` variance is propagated.
     covariance : {"noise", "hac", "ols"}
         ``"noise"`` (default): the encoder noise propagated through the
         differentiator and the model (see the module docstring); falls back
@@ -281,6 +259,71 @@ def identify(
         misfit of the ``dq4/dt`` row moves the parameters shared by both rows
         (the pendulum's in ``"full"``: the paper's eq. (16)).
 
+    Raises
+    ------
+    InputError
+        An unknown covariance, nonlinear mode or weighting; a differentiator that is not a :class:`Differentiator`.
+    """
+
+    differentiator: Differentiator | None = None
+    covariance: str = "noise"
+    nonlinear: str = "filter-terms"
+    weights: str = "blocks"
+
+    def __post_init__(self) -> None:
+        if self.covariance not in ("noise", "hac", "ols"):
+            raise InputError(f"covariance must be 'noise', 'hac' or 'ols', got {self.covariance!r}")
+        if self.nonlinear not in ("filter-terms", "filtered-states"):
+            raise InputError(f"nonlinear must be 'filter-terms' or 'filtered-states', got {self.nonlinear!r}")
+        if self.weights not in ("blocks", "none"):
+            raise InputError(f"weights must be 'blocks' or 'none', got {self.weights!r}")
+        d = self.differentiator
+        if d is not None and not isinstance(d, Differentiator):
+            raise InputError(f"differentiator must be a Differentiator, got {type(d).__name__}")
+
+
+def identify(
+    data: Any,
+    setup: str,
+    *,
+    pendulum: Any = None,
+    t_start: float | None = None,
+    t_end: float | None = None,
+    base: Any = None,
+    p2: Any = None,
+    options: IdentifyOptions | None = None,
+) -> IdentificationResult:
+    """Identify the parameters of one set-up of section 5 from logs.
+
+    Parameters
+    ----------
+    data : ExperimentData, list of ExperimentData, or StaticCurve
+        The log(s). Several logs of one set-up are stacked (each is
+        windowed and differentiated on its own). ``"dead-zone"`` takes a
+        :class:`~iwp.data.StaticCurve` (or a list of them, points pooled).
+    setup : str
+        One of :data:`SETUPS`: ``"full"`` (10)-(12), ``"motor-disk"``
+        (theta^a), ``"motor-disk-coulomb"`` (theta^b), ``"free"``
+        (theta^c), ``"two-step"`` (theta^d), ``"dead-zone"`` (v+, v-).
+    pendulum : IdentificationResult, LumpedParameters or mapping, optional
+        ``"two-step"`` only (required there): ``p1`` and ``sigma_a1``,
+        ``sigma_v1``, ``sigma_b1`` for ``xi``, normally the result of the
+        ``"free"`` set-up; its covariance is propagated into the two-step
+        standard errors.
+    t_start, t_end : float, optional
+        Time window [s] applied to every log before differentiation.
+    base : LumpedParameters, optional
+        Reference values for warnings (default Table 1); not used in the fit.
+    p2 : float, IdentificationResult or LumpedParameters, optional
+        ``"free"`` only: a known ``p2`` [1/s]; the term ``p2 q4`` of the first
+        row of (9), neglected by theta^c, is moved to the target (see the
+        module docstring). A result's ``p2`` variance is propagated.
+    options : IdentifyOptions, optional
+        Differentiator, covariance (default ``"noise"``), nonlinear terms
+        (default ``"filter-terms"``) and row weights (default ``"blocks"``);
+        e.g. ``IdentifyOptions(weights="none")`` for the paper's (13) as
+        printed.
+
     Returns
     -------
     IdentificationResult
@@ -299,163 +342,252 @@ def identify(
     ``success=False``, NaN standard errors for the parameters involved and a
     warning naming the collinear columns.
     """
+    opts = IdentifyOptions() if options is None else options
+    if not isinstance(opts, IdentifyOptions):
+        raise InputError(f"options must be an IdentifyOptions, got {type(opts).__name__}")
     spec = get_setup(setup)
-    if covariance not in ("noise", "hac", "ols"):
-        raise InputError(f"covariance must be 'noise', 'hac' or 'ols', got {covariance!r}")
-    if nonlinear not in ("filter-terms", "filtered-states"):
-        raise InputError(f"nonlinear must be 'filter-terms' or 'filtered-states', got {nonlinear!r}")
-    if weights not in ("blocks", "none"):
-        raise InputError(f"weights must be 'blocks' or 'none', got {weights!r}")
     spec.check_options(pendulum, p2)
     if spec.static:
         if t_start is not None or t_end is not None:
             raise InputError("t_start/t_end do not apply to set-up 'dead-zone' (a static curve has no time)",
                              argument=("t_start", "t_end"))
         return identify_dead_zone(data)
+    plan = _plan_identification(data, spec, _Window(t_start, t_end), _Known(pendulum, p2, base), opts)
+    solved = _with_known_uncertainty(plan, _least_squares(plan, opts))
+    return _report_identification(plan, solved)
+
+
+@dataclass(frozen=True)
+class _Window:
+    """The time window [s] of every log (None: its start / end)."""
+
+    t_start: float | None
+    t_end: float | None
+
+
+@dataclass(frozen=True)
+class _Known:
+    """What the caller knows: the pendulum (two-step), ``p2`` (free) and the reference values for warnings."""
+
+    pendulum: Any
+    p2: Any
+    base: Any
+
+
+@dataclass(frozen=True, eq=False)
+class _IdentPlan:
+    """A set-up's regression (13) on the prepared signals, with the warnings found before the fit."""
+
+    spec: Setup
+    window: _Window
+    known: _Known
+    differentiator: Differentiator
+    nonlinear: str
+    sig: Signals
+    reg: Regression
+    sources: list[str]
+    pend_vals: Mapping[str, float] | None
+    warnings: tuple[str, ...]
+
+    @property
+    def names(self) -> list[str]:
+        return list(self.spec.columns)
+
+
+@dataclass(frozen=True, eq=False)
+class _Solved:
+    """The least-squares solution and the covariance reported with it (and why), in the parameters' units."""
+
+    res: LeastSquaresResult
+    cov: np.ndarray
+    critical: float
+    warnings: tuple[str, ...] = ()
+    details: dict[str, Any] = field(default_factory=dict)
+
+
+def _plan_identification(data: Any, spec: Setup, window: _Window, known: _Known, opts: IdentifyOptions) -> _IdentPlan:
+    """Window and differentiate the logs, build the set-up's regression, and warn of too few samples."""
     datas = as_list(data)
     check_distinct(datas, "data")
-    d = _differentiator_for(differentiator, datas)
-    ref = table1() if base is None else base
-    pend_vals = pendulum_values(pendulum)[0] if spec.takes_pendulum else None
-    sig = prepare_signals(spec, datas, d, t_start, t_end, nonlinear=nonlinear)
-    reg = spec.regression(sig, pendulum=pendulum, p2=p2)
+    d = _differentiator_for(opts.differentiator, datas)
+    pend_vals = pendulum_values(known.pendulum)[0] if spec.takes_pendulum else None
+    sig = prepare_signals(spec, datas, d, window.t_start, window.t_end, nonlinear=opts.nonlinear)
+    reg = spec.regression(sig, pendulum=known.pendulum, p2=known.p2)
     sources = _sources(datas)
-    names = list(spec.columns)
-    details = dict(reg.details)
     warnings = list(reg.warnings) + spec.check_signals(sig, sources)
-    n_par = len(names)
+    n_par = len(spec.columns)
     n_eff = sig.n / max(sig.corr_len, 1.0)
     if n_eff < _MIN_EFF_PER_PARAM * n_par:
         warnings.append(
-            f"too few samples for set-up {setup!r}: {sig.n} samples, about {n_eff:.0f} effectively independent "
+            f"too few samples for set-up {spec.name!r}: {sig.n} samples, about {n_eff:.0f} effectively independent "
             f"(the filter correlates ~{sig.corr_len:.0f} neighbours) for {n_par} parameters; values and "
             f"uncertainty are unreliable below ~{int(_MIN_EFF_PER_PARAM * n_par * sig.corr_len)} samples")
+    return _IdentPlan(spec=spec, window=window, known=known, differentiator=d, nonlinear=opts.nonlinear, sig=sig,
+                      reg=reg, sources=sources, pend_vals=pend_vals, warnings=tuple(warnings))
 
-    # ---- solve (13) ---------------------------------------------------------
-    # the measurement-noise covariance needs only the point estimate from lsq (its cheap "ols" pass);
-    # where it does not apply, lsq's HAC covariance is used
-    noise_ok = covariance == "noise" and d.method != "savgol_direct" and nonlinear == "filter-terms"
+
+def _solve_lsq(plan: _IdentPlan, opts: IdentifyOptions, covariance: str) -> LeastSquaresResult:
+    """Solve (13) with :func:`solve_least_squares`; its input errors name the set-up."""
+    reg = plan.reg
+    lsq_options = LeastSquaresOptions(covariance=covariance, weights=opts.weights, allow_rank_deficient=True)
+    try:
+        return solve_least_squares(reg.Phi, reg.phi, plan.names, blocks=reg.blocks, sample_index=reg.sample_index,
+                                   options=lsq_options)
+    except InputError as exc:
+        raise IdentificationError(f"set-up {plan.spec.name!r}: {exc}") from None
+
+
+def _least_squares(plan: _IdentPlan, opts: IdentifyOptions) -> _Solved:
+    """Solve (13) and choose the covariance: the measurement noise's where it applies, else lsq's HAC or OLS.
+
+    The measurement-noise covariance needs only the point estimate from lsq
+    (its cheap ``"ols"`` pass); where it does not apply, lsq's HAC
+    covariance is used.
+    """
+    covariance = opts.covariance
+    noise_ok = (covariance == "noise" and plan.differentiator.method != "savgol_direct"
+                and opts.nonlinear == "filter-terms")
     lsq_cov = "hac" if covariance == "hac" or (covariance == "noise" and not noise_ok) else "ols"
-    kw: dict[str, Any] = dict(covariance=lsq_cov, allow_rank_deficient=True, sample_index=reg.sample_index,
-                              weights=weights)
-    if reg.blocks is not None:
-        kw.update(blocks=reg.blocks)
+    res = _solve_lsq(plan, opts, lsq_cov)
+    tail = {"covariance": res.covariance_method, "regressor_terms": opts.nonlinear}
+    if covariance != "noise":
+        return _Solved(res=res, cov=np.array(res.covariance, dtype=float), critical=res.critical_value, details=tail)
+    nc = noise_covariance(plan.spec, plan.sig, plan.differentiator, plan.reg, res, plan.pend_vals) if noise_ok else None
+    if nc is None:
+        if lsq_cov != "hac" and res.success:
+            res = _solve_lsq(plan, opts, "hac")
+        return _Solved(
+            res=res, cov=np.array(res.covariance, dtype=float), critical=res.critical_value,
+            warnings=("the measurement-noise covariance does not apply here (rank deficiency, method "
+                      "'savgol_direct' or nonlinear='filtered-states'); the HAC covariance is reported",),
+            details={**tail, "covariance": "hac"})
+    return _noise_or_misfit(plan, opts, res, nc)
 
-    def solve(**extra: Any) -> LeastSquaresResult:
-        try:
-            return solve_least_squares(reg.Phi, reg.phi, names, **{**kw, **extra})
-        except InputError as exc:
-            raise IdentificationError(f"set-up {setup!r}: {exc}") from None
 
-    res = solve()
-    cov = np.array(res.covariance, dtype=float)
-    crit = res.critical_value
-    cov_method = res.covariance_method
-    if covariance == "noise":
-        vals0 = {nm: float(res.values[j]) for j, nm in enumerate(names)}
-        p2k = float(details.get("p2_known", {}).get("value", 0.0))
-        nc = (noise_covariance(spec, sig, d, reg.Phi, reg.blocks, reg.labels, res, vals0, pend_vals, p2k)
-              if noise_ok else None)
-        if nc is None and lsq_cov != "hac" and res.success:
-            res = solve(covariance="hac")
-            cov = np.array(res.covariance, dtype=float)
-            crit = res.critical_value
-        if nc is None:
-            warnings.append("the measurement-noise covariance does not apply here (rank deficiency, method "
-                            "'savgol_direct' or nonlinear='filtered-states'); the HAC covariance is reported")
-            cov_method = "hac"
-        else:
-            cov, noise_sd = nc
-            cov_method = "noise"
-            crit = float(stats.t.ppf(0.975, max(res.dof, 1)))
-            details["noise_std"] = noise_sd
-            details["noise_std_note"] = ("white-equivalent position noise per encoder [rad] from the fourth difference "
-                                         "of the positions (quantisation alone: step/sqrt(12) = 9.1e-4 rad at 2000 "
-                                         "counts/rev); from_residuals: the level the residuals of each row would need")
-            ratios = {ch: v / noise_sd[ch] for ch, v in noise_sd["from_residuals"].items() if noise_sd[ch] > 0}
-            worst = max(ratios, key=ratios.get) if ratios else None
-            if worst is not None and ratios[worst] > _MISFIT_RATIO:
-                res = solve(covariance="hac")
-                cov = np.array(res.covariance, dtype=float)
-                crit = res.critical_value
-                cov_method = "hac"
-                row = {"q1": "first (dq3/dt)", "q2": "second (dq4/dt)"}[worst]
-                warnings.append(
-                    f"model misfit: the residuals of the {row} row of (10) are {ratios[worst]:.3g} times larger than "
-                    f"the measurement noise of encoder {worst} ({noise_sd[worst]:.2g} rad) explains; the model does "
-                    "not describe these data exactly (unmodelled friction, belt, dead-zone residue, wrong known "
-                    "parameters), so the estimates carry a bias that no standard error shows. Standard errors from "
-                    "the model-free HAC covariance")
-    details["covariance"] = cov_method
-    details["regressor_terms"] = nonlinear
+def _noise_or_misfit(plan: _IdentPlan, opts: IdentifyOptions, res: LeastSquaresResult,
+                     nc: NoiseCovariance) -> _Solved:
+    """The measurement-noise covariance, or lsq's HAC one when the residuals are more than the noise explains."""
+    noise_sd = nc.noise_std
+    details: dict[str, Any] = {
+        "noise_std": noise_sd,
+        "noise_std_note": ("white-equivalent position noise per encoder [rad] from the fourth difference "
+                           "of the positions (quantisation alone: step/sqrt(12) = 9.1e-4 rad at 2000 "
+                           "counts/rev); from_residuals: the level the residuals of each row would need"),
+    }
+    ratios = {ch: v / noise_sd[ch] for ch, v in noise_sd["from_residuals"].items() if noise_sd[ch] > 0}
+    worst = max(ratios, key=ratios.get) if ratios else None
+    if worst is None or not ratios[worst] > _MISFIT_RATIO:
+        details.update(covariance="noise", regressor_terms=opts.nonlinear)
+        return _Solved(res=res, cov=nc.covariance, critical=float(stats.t.ppf(0.975, max(res.dof, 1))),
+                       details=details)
+    res = _solve_lsq(plan, opts, "hac")
+    row = {"q1": "first (dq3/dt)", "q2": "second (dq4/dt)"}[worst]
+    warning = (
+        f"model misfit: the residuals of the {row} row of (10) are {ratios[worst]:.3g} times larger than "
+        f"the measurement noise of encoder {worst} ({noise_sd[worst]:.2g} rad) explains; the model does "
+        "not describe these data exactly (unmodelled friction, belt, dead-zone residue, wrong known "
+        "parameters), so the estimates carry a bias that no standard error shows. Standard errors from "
+        "the model-free HAC covariance")
+    details.update(covariance="hac", regressor_terms=opts.nonlinear)
+    return _Solved(res=res, cov=np.array(res.covariance, dtype=float), critical=res.critical_value,
+                   warnings=(warning,), details=details)
+
+
+def _with_known_uncertainty(plan: _IdentPlan, solved: _Solved) -> _Solved:
+    """Add the uncertainty of the known parameters in the target (pendulum of two-step, known ``p2``)."""
+    reg, res, spec = plan.reg, solved.res, plan.spec
     if reg.known_sensitivity is not None and reg.known_covariance is not None and res.success:
         w = row_weights(reg.blocks, res, reg.Phi.shape[0])
         J = lstsq_projection(reg.Phi, reg.known_sensitivity, row_scale=None if np.all(w == 1.0) else w)
-        cov = cov + J @ reg.known_covariance @ J.T
-        details["stderr_includes"] = ("uncertainty of the pendulum parameters used in xi" if spec.takes_pendulum
-                                      else "uncertainty of the known p2")
-    elif spec.takes_pendulum:
-        details["stderr_includes"] = "noise of this experiment only (pendulum parameters taken as exact)"
+        note = ("uncertainty of the pendulum parameters used in xi" if spec.takes_pendulum
+                else "uncertainty of the known p2")
+        return replace(solved, cov=solved.cov + J @ reg.known_covariance @ J.T,
+                       details={**solved.details, "stderr_includes": note})
+    if spec.takes_pendulum:
+        return replace(solved, details={**solved.details, "stderr_includes": "noise of this experiment only "
+                                        "(pendulum parameters taken as exact)"})
+    return solved
 
-    # the warnings of lsq
-    warnings.extend(res.warnings)
-    params: dict[str, Parameter] = {}
+
+def _estimates(names: Sequence[str], solved: _Solved) -> dict[str, Parameter]:
+    """The estimates with standard errors and 95 % intervals from the reported covariance."""
+    cov = solved.cov
     se_all = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     se_all[~np.isfinite(np.diag(cov))] = np.nan
-    for j, nm in enumerate(names):
-        v = float(res.values[j])
-        se = float(se_all[j])
-        params[nm] = Parameter.estimate(nm, v, se, crit)
+    return {nm: Parameter.estimate(nm, float(solved.res.values[j]), float(se_all[j]), solved.critical)
+            for j, nm in enumerate(names)}
 
-    rho_info = None
-    out_names = list(names)
-    derived = spec.derive(res.values, cov, crit)
-    if derived is not None:
-        params.update(derived.parameters)
-        cov = derived.covariance
-        out_names = derived.names
-        rho_info = derived.rho
-        details.update(derived.details)
-        warnings.extend(derived.warnings)
+
+def _correlation_of(cov: np.ndarray) -> np.ndarray:
+    """Correlation matrix of a covariance (diagonal 1, clipped to [-1, 1])."""
     se_out = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(se_out, se_out)
     np.fill_diagonal(corr, 1.0)
-    corr = np.clip(corr, -1.0, 1.0)
+    return np.clip(corr, -1.0, 1.0)
 
-    # ---- interpretation warnings -----------------------------------------------
+
+def _report_identification(plan: _IdentPlan, solved: _Solved) -> IdentificationResult:
+    """Derived parameters (``rho``), correlations, interpretation warnings and the verdict, as one result."""
+    spec, sig, reg, res = plan.spec, plan.sig, plan.reg, solved.res
+    warnings = [*plan.warnings, *solved.warnings, *res.warnings]
+    details = {**reg.details, **solved.details}
+    params = _estimates(plan.names, solved)
+    cov, out_names, rho_info = solved.cov, plan.names, None
+    derived = spec.derive(res.values, cov, solved.critical)
+    if derived is not None:
+        params.update(derived.parameters)
+        cov, out_names, rho_info = derived.covariance, derived.names, derived.rho
+        details.update(derived.details)
+        warnings.extend(derived.warnings)
+    corr = _correlation_of(cov)
     warnings.extend(_explain(spec, params, corr, out_names, sig, res))
-    extra_w, extra_d = spec.extra_warnings(reg, sig, res, params, ref, p2)
+    extra_w, extra_d = spec.extra_warnings(reg, sig, res, params, _reference(plan.known.base), plan.known.p2)
     warnings.extend(extra_w)
     details.update(extra_d)
-
-    success = bool(res.success)
     explained = explained_fraction(reg.Phi, reg.phi, np.asarray(res.values, dtype=float), reg.blocks, reg.labels)
     details["explained_fraction"] = explained
-    poor = {k: v for k, v in explained.items() if not (v >= MIN_EXPLAINED)}
-    if success and poor:
-        row, frac = next(iter(poor.items()))
-        success = False
-        res_msg = (f"the data do not determine the parameters: the model explains {100 * frac:.0f} % of d{row}/dt "
-                   f"(at least {100 * MIN_EXPLAINED:.0f} % needed); too little excitation, noise only, or the "
-                   "wrong set-up for this log")
-    else:
-        res_msg = res.message
-    if success:
-        message = (f"set-up {setup!r}: identified {len(names)} parameter(s) from {sig.n} samples "
-                   f"({sig.n_files} file(s), {res.n_equations} equations)")
-        if warnings:
-            message += f"; {len(warnings)} warning(s)"
-    else:
-        message = f"set-up {setup!r}: {res_msg}"
+    verdict = _verdict(plan, res, explained, len(warnings))
     residual_rms = {reg.labels[i] if isinstance(k, (int, np.integer)) else str(k): float(v)
                     for i, (k, v) in enumerate(res.residual_rms.items())}
     return IdentificationResult(
-        setup=setup, samples=sig.n, parameters=params, names=tuple(out_names), covariance=cov, correlation=corr,
+        setup=spec.name, samples=sig.n, parameters=params, names=tuple(out_names), covariance=cov, correlation=corr,
         condition_number=float(res.condition_number), residual_rms=residual_rms, lsq=res, rho=rho_info,
-        warnings=warnings, success=success, message=message, differentiator=d.settings(), sources=sources,
-        t_start=t_start, t_end=t_end, details=details,
+        warnings=warnings, success=verdict.success, message=verdict.message,
+        differentiator=plan.differentiator.settings(), sources=plan.sources, t_start=plan.window.t_start,
+        t_end=plan.window.t_end, details=details,
     )
+
+
+def _reference(base: Any) -> Any:
+    """The reference parameter set of the warnings: ``base``, default Table 1."""
+    return table1() if base is None else base
+
+
+@dataclass(frozen=True)
+class _Verdict:
+    success: bool
+    message: str
+
+
+def _verdict(plan: _IdentPlan, res: LeastSquaresResult, explained: Mapping[str, float], n_warnings: int) -> _Verdict:
+    """Success and the one-line message: lsq's verdict, unless the model explains too little of a row of (10)."""
+    setup = plan.spec.name
+    success = bool(res.success)
+    poor = {k: v for k, v in explained.items() if not (v >= MIN_EXPLAINED)}
+    if success and poor:
+        row, frac = next(iter(poor.items()))
+        return _Verdict(success=False,
+                        message=f"set-up {setup!r}: the data do not determine the parameters: the model explains "
+                                f"{100 * frac:.0f} % of d{row}/dt (at least {100 * MIN_EXPLAINED:.0f} % needed); "
+                                "too little excitation, noise only, or the wrong set-up for this log")
+    if not success:
+        return _Verdict(success=False, message=f"set-up {setup!r}: {res.message}")
+    message = (f"set-up {setup!r}: identified {len(plan.names)} parameter(s) from {plan.sig.n} samples "
+               f"({plan.sig.n_files} file(s), {res.n_equations} equations)")
+    if n_warnings:
+        message += f"; {n_warnings} warning(s)"
+    return _Verdict(success=True, message=message)
 
 
 def _differentiator_for(differentiator: Differentiator | None, datas: list) -> Differentiator:

@@ -11,7 +11,7 @@ rows of (9), and (13) writes the solution with the normal matrix
   full-rank problem keeps about twice as many correct digits;
 * **with weights per equation block**: in practice the ``dq4/dt`` equation
   is about 100 times noisier than the ``dq3/dt`` one; with
-  ``weights="blocks"`` a first ordinary least-squares pass estimates each
+  ``LeastSquaresOptions(weights="blocks")`` (the default) a first ordinary least-squares pass estimates each
   block's residual standard deviation and the rows are rescaled by its
   inverse (feasible weighted least squares);
 * **with honest uncertainty**: residuals of differentiated, low-pass
@@ -53,6 +53,7 @@ from .covariance import (
 from .fit_parameters import Parameter, closing_lines, parameter_table
 
 __all__ = [
+    "LeastSquaresOptions",
     "LeastSquaresResult",
     "LinearSystem",
     "solve_least_squares",
@@ -234,6 +235,93 @@ class LeastSquaresResult:
         return self.summary()
 
 
+@dataclass(frozen=True)
+class LeastSquaresOptions:
+    """Options of :func:`solve_least_squares`.
+
+    Parameters
+    ----------
+    covariance : {"hac", "ols"}
+        ``"hac"`` (default): Newey-West sandwich ``B^-1 M B^-1`` with the
+        Bartlett kernel, where ``M`` sums the lagged products of the
+        per-sample scores; valid under heteroscedastic and autocorrelated
+        residuals, as produced by differentiated, filtered encoder data.
+        ``"ols"``: ``sigma^2 (X^T X)^-1``, valid for white residuals only.
+        Both are computed from the SVD, never by inverting ``X^T X``.
+    weights : {"blocks", "none"}
+        ``"blocks"`` (default): feasible weighted least squares, each row
+        divided by its block's residual standard deviation estimated by an
+        ordinary least-squares first pass.  ``"none"``: ordinary least
+        squares.  (Weights per row: ``row_weights`` of
+        :func:`solve_least_squares`.)
+    bandwidth : int or {"auto", "andrews", "nw94", "rule"}, optional
+        HAC bandwidth: number of Bartlett lags [samples], or an automatic
+        rule (see :func:`hac_bandwidth`).  Default ``"auto"``: twice the
+        Andrews (1991) AR(1) plug-in, at most a quarter of the samples.
+        Why: residuals of differentiated, low-pass filtered signals are
+        correlated over about the filter window, and the usual rules are
+        far too short for that.  Measured 95 % coverage (600 Monte Carlo
+        runs, 3 regressors incl. a constant, 3000 samples): residuals =
+        white noise through a 21-sample moving average (the correlation
+        length of the default Savitzky-Golay window) -- OLS 0.33, fixed
+        rule ``4 (T/100)^(2/9)`` (8 lags) ~0.75, Andrews (125 lags)
+        0.93-0.95, ``"auto"`` (250 lags) 0.93-0.95; AR(1) residuals with
+        rho = 0.9 / 0.95 -- Andrews 0.92-0.94 / 0.90-0.93, ``"auto"``
+        0.94-0.95 / 0.92-0.95; white residuals -- all 0.94-0.96.  The
+        doubled bandwidth widens the intervals by only ~4 % (the fixed-b
+        critical value accounts for it).  With fewer samples (1000)
+        coverage drops to ~0.92 because few effectively independent samples
+        remain.  If the correlation length ``m`` of the residuals is known,
+        ``bandwidth`` of ``3 m`` to ``10 m`` is a sound manual choice.
+    rcond : float
+        Singular values of the column-scaled regressor below ``rcond``
+        times the largest count as zero (rank deficiency).  Default 1e-10.
+    cond_warn : float
+        Condition number above which a warning is issued (default 1e8).
+    corr_warn : float
+        Absolute correlation above which a pair of estimates is reported
+        (default 0.95).
+    allow_rank_deficient : bool
+        If False (default), a rank-deficient regressor raises
+        :class:`IdentificationError`.  If True, the minimum-norm solution is
+        returned with ``success=False``, NaN standard errors for the
+        parameters involved in the non-identifiable combinations, and a
+        warning.
+
+    Raises
+    ------
+    InputError
+        An unknown covariance or weighting, ``rcond`` outside (0, 1), a
+        bandwidth that is neither a number of lags >= 0 nor a rule name.
+    """
+
+    covariance: str = "hac"
+    weights: str = "blocks"
+    bandwidth: int | str | None = None
+    rcond: float = DEFAULT_RCOND
+    cond_warn: float = DEFAULT_COND_WARN
+    corr_warn: float = DEFAULT_CORR_WARN
+    allow_rank_deficient: bool = False
+
+    def __post_init__(self) -> None:
+        if self.covariance not in ("hac", "ols"):
+            raise InputError(f"covariance must be 'hac' or 'ols', got {self.covariance!r}")
+        if self.weights not in ("blocks", "none"):
+            raise InputError(f"weights must be 'blocks' or 'none' (row weights: row_weights=), got {self.weights!r}")
+        if not (isinstance(self.rcond, (int, float)) and 0.0 < self.rcond < 1.0):
+            raise InputError(f"rcond must be in (0, 1), got {self.rcond!r}")
+        bw = self.bandwidth
+        if isinstance(bw, str):
+            if bw not in BANDWIDTH_RULES:
+                raise InputError(
+                    "bandwidth must be a number of lags or one of "
+                    f"{', '.join(map(repr, BANDWIDTH_RULES))}, got {bw!r}"
+                )
+        elif bw is not None:
+            if not isinstance(bw, (int, np.integer)) or isinstance(bw, bool) or bw < 0:
+                raise InputError(f"bandwidth must be an integer >= 0 [samples] or a rule name, got {bw!r}")
+
+
 @dataclass(frozen=True, eq=False)
 class LinearSystem:
     """A stacked regression ``Phi theta = phi`` with block labels.
@@ -261,13 +349,21 @@ class LinearSystem:
     blocks: np.ndarray
     sample_index: np.ndarray
 
-    def solve(self, names: Sequence[str] | None = None, **kwargs: Any) -> LeastSquaresResult:
-        """Solve with :func:`solve_least_squares` (keyword arguments as there)."""
+    def solve(
+        self,
+        names: Sequence[str] | None = None,
+        *,
+        fixed: Mapping[str, float] | None = None,
+        row_weights: object = None,
+        options: LeastSquaresOptions | None = None,
+    ) -> LeastSquaresResult:
+        """Solve with :func:`solve_least_squares` (``fixed``, ``row_weights`` and ``options`` as there)."""
         names = names if names is not None else self.names
         if names is None:
             raise InputError("names is required: the stacked blocks were given as arrays without column names")
         return solve_least_squares(
-            self.Phi, self.phi, names, blocks=self.blocks, sample_index=self.sample_index, **kwargs
+            self.Phi, self.phi, names, blocks=self.blocks, sample_index=self.sample_index, fixed=fixed,
+            row_weights=row_weights, options=options,
         )
 
 
@@ -322,7 +418,7 @@ def _svd_scaled(X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.n
 
 
 # ---------------------------------------------------------------------------
-# main entry point
+# main entry point: check -> factorise -> solve -> covariance -> report
 # ---------------------------------------------------------------------------
 def solve_least_squares(
     Phi: object,
@@ -331,14 +427,9 @@ def solve_least_squares(
     *,
     blocks: object = None,
     sample_index: object = None,
-    covariance: str = "hac",
-    weights: object = "blocks",
-    bandwidth: int | str | None = None,
-    rcond: float | None = None,
-    cond_warn: float = DEFAULT_COND_WARN,
-    corr_warn: float = DEFAULT_CORR_WARN,
-    allow_rank_deficient: bool = False,
     fixed: Mapping[str, float] | None = None,
+    row_weights: object = None,
+    options: LeastSquaresOptions | None = None,
 ) -> LeastSquaresResult:
     """Solve ``Phi theta ~= phi`` in the least-squares sense (paper, (13)).
 
@@ -362,55 +453,18 @@ def solve_least_squares(
         block (rows in time order, one block after another).  When joining
         separate experiments, offset their numbers by more than the
         bandwidth.
-    covariance : {"hac", "ols"}
-        ``"hac"`` (default): Newey-West sandwich ``B^-1 M B^-1`` with the
-        Bartlett kernel, where ``M`` sums the lagged products of the
-        per-sample scores; valid under heteroscedastic and autocorrelated
-        residuals, as produced by differentiated, filtered encoder data.
-        ``"ols"``: ``sigma^2 (X^T X)^-1``, valid for white residuals only.
-        Both are computed from the SVD, never by inverting ``X^T X``.
-    weights : {"blocks", "none"} or array_like, shape (n_rows,)
-        ``"blocks"`` (default): feasible weighted least squares, each row
-        divided by its block's residual standard deviation estimated by an
-        ordinary least-squares first pass.  ``"none"`` (or None): ordinary
-        least squares.  An array: inverse variances per row (> 0).
-    bandwidth : int or {"auto", "andrews", "nw94", "rule"}, optional
-        HAC bandwidth: number of Bartlett lags [samples], or an automatic
-        rule (see :func:`hac_bandwidth`).  Default ``"auto"``: twice the
-        Andrews (1991) AR(1) plug-in, at most a quarter of the samples.
-        Why: residuals of differentiated, low-pass filtered signals are
-        correlated over about the filter window, and the usual rules are
-        far too short for that.  Measured 95 % coverage (600 Monte Carlo
-        runs, 3 regressors incl. a constant, 3000 samples): residuals =
-        white noise through a 21-sample moving average (the correlation
-        length of the default Savitzky-Golay window) -- OLS 0.33, fixed
-        rule ``4 (T/100)^(2/9)`` (8 lags) ~0.75, Andrews (125 lags)
-        0.93-0.95, ``"auto"`` (250 lags) 0.93-0.95; AR(1) residuals with
-        rho = 0.9 / 0.95 -- Andrews 0.92-0.94 / 0.90-0.93, ``"auto"``
-        0.94-0.95 / 0.92-0.95; white residuals -- all 0.94-0.96.  The
-        doubled bandwidth widens the intervals by only ~4 % (the fixed-b
-        critical value accounts for it).  With fewer samples (1000)
-        coverage drops to ~0.92 because few effectively independent samples
-        remain.  If the correlation length ``m`` of the residuals is known,
-        ``bandwidth`` of ``3 m`` to ``10 m`` is a sound manual choice.
-    rcond : float, optional
-        Singular values of the column-scaled regressor below ``rcond``
-        times the largest count as zero (rank deficiency).  Default 1e-10.
-    cond_warn : float
-        Condition number above which a warning is issued (default 1e8).
-    corr_warn : float
-        Absolute correlation above which a pair of estimates is reported
-        (default 0.95).
-    allow_rank_deficient : bool
-        If False (default), a rank-deficient regressor raises
-        :class:`IdentificationError`.  If True, the minimum-norm solution is
-        returned with ``success=False``, NaN standard errors for the
-        parameters involved in the non-identifiable combinations, and a
-        warning.
     fixed : mapping of str to float, optional
         Parameters held at given values (e.g. from a separate experiment,
         as in the paper's set-up (d)); their columns are moved to the
         target.  They are reported with ``fixed=True`` and zero stderr.
+    row_weights : array_like, shape (n_rows,), optional
+        Inverse variances per row (> 0) [1/(unit of the target)^2]; given,
+        they replace ``options.weights`` (the result's ``weights`` is
+        ``"user"``).
+    options : LeastSquaresOptions, optional
+        Covariance, block weights, HAC bandwidth, rank threshold, warning
+        thresholds and whether a rank-deficient regressor raises (default
+        ``LeastSquaresOptions()``).
 
     Returns
     -------
@@ -421,10 +475,11 @@ def solve_least_squares(
     InputError
         Wrong shapes, duplicate names, NaN/inf in ``Phi`` (naming the
         parameter column and the first bad row) or in ``phi``, fewer rows
-        than parameters, unknown options.
+        than parameters, bad row weights.
     IdentificationError
-        The regressor is rank deficient and ``allow_rank_deficient`` is
-        False; the message names the collinear columns.
+        The regressor is rank deficient and
+        ``options.allow_rank_deficient`` is False; the message names the
+        collinear columns.
 
     Notes
     -----
@@ -436,25 +491,111 @@ def solve_least_squares(
     The HAC covariance includes the small-sample factor
     ``n_rows / (n_rows - rank)``.
     """
-    # ---- inputs ---------------------------------------------------------
+    opts = LeastSquaresOptions() if options is None else options
+    if not isinstance(opts, LeastSquaresOptions):
+        raise InputError(f"options must be a LeastSquaresOptions, got {type(opts).__name__}")
+    problem = _check_problem(Phi, phi, names, blocks, sample_index)
+    user_sw = _user_row_scale(row_weights, problem.n_rows)
+    part = _free_part(problem, fixed)
+    factor = _factorise(problem, part, user_sw, opts)
+    fit = _solve_factor(problem, part, factor, opts)
+    if opts.covariance == "ols":
+        unc = _ols_covariance(problem, fit)
+    else:
+        unc = _hac_covariance(problem, part, factor, fit, opts)
+    return _report(problem, part, factor, fit, unc, opts)
+
+
+@dataclass(frozen=True, eq=False)
+class _Problem:
+    """The checked inputs: regressor ``X``, target ``y``, names, block labels and sample numbers per row."""
+
+    X: np.ndarray
+    y: np.ndarray
+    names: tuple[str, ...]
+    blk: np.ndarray
+    sidx: np.ndarray
+
+    @property
+    def n_rows(self) -> int:
+        return self.X.shape[0]
+
+    @property
+    def n_par(self) -> int:
+        return self.X.shape[1]
+
+
+@dataclass(frozen=True, eq=False)
+class _FreePart:
+    """The free parameters' regression: fixed columns moved to the target."""
+
+    fixed: dict[str, float]
+    free: list[int]
+    free_names: list[str]
+    Xf: np.ndarray
+    y_free: np.ndarray
+
+    @property
+    def p(self) -> int:
+        return len(self.free)
+
+
+@dataclass(frozen=True, eq=False)
+class _Factor:
+    """The small stacked triangular factor of the weighted ``[X | y]`` and the row scale ``sw`` it used."""
+
+    Msmall: np.ndarray
+    sw: np.ndarray
+    unit_w: bool
+    wmode: str
+    block_rows: dict[Any, Any]
+
+
+@dataclass(frozen=True, eq=False)
+class _Fit:
+    """The SVD solution: rank, condition number, the free values and residuals (plain and weighted)."""
+
+    rank: int
+    cond: float
+    Vt: np.ndarray
+    sr: np.ndarray
+    Dsafe: np.ndarray
+    theta_free: np.ndarray
+    res: np.ndarray
+    res_w: np.ndarray
+    yw: np.ndarray
+    warnings: tuple[str, ...]
+
+    @property
+    def Vr(self) -> np.ndarray:
+        return self.Vt[: self.rank].T
+
+    @property
+    def dof(self) -> int:
+        return self.res.shape[0] - self.rank
+
+
+@dataclass(frozen=True, eq=False)
+class _Uncertainty:
+    """Covariance of the scaled free coordinates ``theta_s = D theta``, samples, bandwidth, critical value."""
+
+    cov_s: np.ndarray
+    n_samples: int
+    bandwidth: int | None
+    critical: float
+    warnings: tuple[str, ...] = ()
+
+
+def _check_problem(Phi: object, phi: object, names: Sequence[str], blocks: object, sample_index: object) -> _Problem:
+    """Shapes, names, finiteness, block labels and sample numbers of the regression."""
     try:
         X = np.asarray(Phi, dtype=float)
     except (TypeError, ValueError):
         raise InputError("Phi must be a 2-D array of numbers (rows: equations, columns: parameters)") from None
     if X.ndim != 2:
         raise InputError(f"Phi must be 2-D (rows: equations, columns: parameters), got shape {X.shape}")
-    n_rows, n_par = X.shape
-    if isinstance(names, str) or not isinstance(names, Iterable):
-        raise InputError("names must be a sequence of parameter names, one per column of Phi")
-    names = tuple(names)
-    if len(names) != n_par:
-        raise InputError(f"names has {len(names)} entries but Phi has {n_par} columns")
-    for nm in names:
-        if not isinstance(nm, str) or not nm:
-            raise InputError(f"names must be non-empty strings, got {nm!r}")
-    dup = sorted({nm for nm in names if names.count(nm) > 1})
-    if dup:
-        raise InputError(f"names must be unique; repeated: {', '.join(dup)}")
+    n_rows = X.shape[0]
+    names = _checked_names(names, X.shape[1])
     try:
         y = np.asarray(phi, dtype=float)
     except (TypeError, ValueError):
@@ -475,8 +616,6 @@ def solve_least_squares(
         raise InputError(
             f"phi (the target) has NaN or inf at row {int(np.argmax(bady))}; drop or repair those samples"
         )
-    if covariance not in ("hac", "ols"):
-        raise InputError(f"covariance must be 'hac' or 'ols', got {covariance!r}")
     if blocks is None:
         blk = np.zeros(n_rows, dtype=np.int64)
     else:
@@ -487,20 +626,44 @@ def solve_least_squares(
         sidx = _position_in_block(blk)
     else:
         sidx = _as_int_array("sample_index", sample_index, n_rows)
-    rcond = DEFAULT_RCOND if rcond is None else float(rcond)
-    if not (0.0 < rcond < 1.0):
-        raise InputError(f"rcond must be in (0, 1), got {rcond!r}")
-    if isinstance(bandwidth, str):
-        if bandwidth not in BANDWIDTH_RULES:
-            raise InputError(
-                "bandwidth must be a number of lags or one of "
-                f"{', '.join(map(repr, BANDWIDTH_RULES))}, got {bandwidth!r}"
-            )
-    elif bandwidth is not None:
-        if not isinstance(bandwidth, (int, np.integer)) or isinstance(bandwidth, bool) or bandwidth < 0:
-            raise InputError(f"bandwidth must be an integer >= 0 [samples] or a rule name, got {bandwidth!r}")
+    return _Problem(X=X, y=y, names=names, blk=blk, sidx=sidx)
 
-    # ---- fixed parameters -------------------------------------------------
+
+def _checked_names(names: Sequence[str], n_par: int) -> tuple[str, ...]:
+    """The column names as a tuple: one per column, non-empty strings, unique."""
+    if isinstance(names, str) or not isinstance(names, Iterable):
+        raise InputError("names must be a sequence of parameter names, one per column of Phi")
+    names = tuple(names)
+    if len(names) != n_par:
+        raise InputError(f"names has {len(names)} entries but Phi has {n_par} columns")
+    for nm in names:
+        if not isinstance(nm, str) or not nm:
+            raise InputError(f"names must be non-empty strings, got {nm!r}")
+    dup = sorted({nm for nm in names if names.count(nm) > 1})
+    if dup:
+        raise InputError(f"names must be unique; repeated: {', '.join(dup)}")
+    return names
+
+
+def _user_row_scale(row_weights: object, n_rows: int) -> np.ndarray | None:
+    """Square roots of the user's inverse variances per row (None when not given)."""
+    if row_weights is None:
+        return None
+    try:
+        wa = np.asarray(row_weights, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("row_weights must be an array of inverse variances, one per row") from None
+    if wa.shape != (n_rows,):
+        raise InputError(f"row_weights must have shape ({n_rows},) (inverse variance per row), got {wa.shape}")
+    if not np.all(np.isfinite(wa)) or np.any(wa <= 0):
+        i = int(np.argmax(~np.isfinite(wa) | (wa <= 0)))
+        raise InputError(f"row_weights must be finite and > 0; row {i} has {wa[i]!r}")
+    return np.sqrt(wa)
+
+
+def _free_part(problem: _Problem, fixed: Mapping[str, float] | None) -> _FreePart:
+    """Move the columns of the fixed parameters to the target; what remains is estimated."""
+    names, X, y = problem.names, problem.X, problem.y
     fixed = dict(fixed or {})
     for nm, v in fixed.items():
         if nm not in names:
@@ -509,7 +672,6 @@ def solve_least_squares(
     free = [j for j, nm in enumerate(names) if nm not in fixed]
     if not free:
         raise InputError("all parameters are fixed; nothing to estimate")
-    free_names = [names[j] for j in free]
     if fixed:
         y_free = y.copy()
         for nm, v in fixed.items():
@@ -517,222 +679,230 @@ def solve_least_squares(
         Xf = X[:, free]
     else:
         y_free, Xf = y, X
-    p = len(free)
-    if n_rows <= p:
+    if problem.n_rows <= len(free):
         raise InputError(
-            f"need more equations (rows of Phi) than free parameters: {n_rows} rows for {p} parameters"
+            f"need more equations (rows of Phi) than free parameters: {problem.n_rows} rows for {len(free)} "
+            "parameters"
         )
+    return _FreePart(fixed=fixed, free=free, free_names=[names[j] for j in free], Xf=Xf, y_free=y_free)
 
-    # ---- weights ------------------------------------------------------------
-    labels = _block_labels(blk)
-    block_rows = {lab: _rows_of(blk, lab, len(labels)) for lab in labels}
-    warnings: list[str] = []
-    user_sw: np.ndarray | None = None
-    if weights is None or (isinstance(weights, str) and weights == "none"):
-        wmode = "none"
-    elif isinstance(weights, str) and weights == "blocks":
-        wmode = "blocks"
-    elif isinstance(weights, str):
-        raise InputError(f"weights must be 'blocks', 'none' or an array of row weights, got {weights!r}")
-    else:
-        wmode = "user"
-        try:
-            wa = np.asarray(weights, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError("weights must be 'blocks', 'none' or an array of row weights") from None
-        if wa.shape != (n_rows,):
-            raise InputError(f"weights array must have shape ({n_rows},) (inverse variance per row), got {wa.shape}")
-        if not np.all(np.isfinite(wa)) or np.any(wa <= 0):
-            i = int(np.argmax(~np.isfinite(wa) | (wa <= 0)))
-            raise InputError(f"weights must be finite and > 0; row {i} has {wa[i]!r}")
-        user_sw = np.sqrt(wa)
 
-    # ---- solve ------------------------------------------------------------------
-    # Orthogonal factorisation of the augmented [X | y] (per block, tall-skinny
-    # Householder QR in chunks): X_b = Q_b R_b.  The weighted problem is then the
-    # small stacked system [w_b R_b]; its SVD is the SVD of the weighted regressor
-    # up to the orthogonal factor, and ||y_b - X_b theta|| = ||R_b [theta; -1]||.
-    # The normal matrix is never formed.
+def _factorise(problem: _Problem, part: _FreePart, user_sw: np.ndarray | None,
+               opts: LeastSquaresOptions) -> _Factor:
+    """The weighted problem as a small stacked triangular factor.
+
+    Orthogonal factorisation of the augmented ``[X | y]`` (per block,
+    tall-skinny Householder QR in chunks): ``X_b = Q_b R_b``.  The weighted
+    problem is then the small stacked system ``[w_b R_b]``; its SVD is the
+    SVD of the weighted regressor up to the orthogonal factor, and
+    ``||y_b - X_b theta|| = ||R_b [theta; -1]||``.  The normal matrix is
+    never formed.
+    """
+    n_rows, p = problem.n_rows, part.p
+    labels = _block_labels(problem.blk)
+    block_rows = {lab: _rows_of(problem.blk, lab, len(labels)) for lab in labels}
     if user_sw is not None:
-        sw = user_sw
-        Msmall = tsqr_augmented(Xf, y_free, slice(None), sw)
+        Msmall = tsqr_augmented(part.Xf, part.y_free, slice(None), user_sw)
+        return _Factor(Msmall=Msmall, sw=user_sw, unit_w=False, wmode="user", block_rows=block_rows)
+    Rs = {lab: tsqr_augmented(part.Xf, part.y_free, rows, None) for lab, rows in block_rows.items()}
+    wb = {lab: 1.0 for lab in labels}
+    if opts.weights == "blocks" and len(labels) > 1:
+        counts = {lab: _count(rows, n_rows) for lab, rows in block_rows.items()}
+        wb = _block_weights_R(Rs, counts, opts.rcond, p, n_rows)
+    Msmall = np.vstack([wb[lab] * Rs[lab] for lab in labels])
+    unit_w = all(w == 1.0 for w in wb.values())
+    if unit_w:
+        sw = np.ones(n_rows)
     else:
-        Rs = {lab: tsqr_augmented(Xf, y_free, rows, None) for lab, rows in block_rows.items()}
-        wb = {lab: 1.0 for lab in labels}
-        if wmode == "blocks" and len(labels) > 1:
-            counts = {lab: _count(rows, n_rows) for lab, rows in block_rows.items()}
-            wb = _block_weights_R(Rs, counts, rcond, p, n_rows)
-        Msmall = np.vstack([wb[lab] * Rs[lab] for lab in labels])
-        if all(w == 1.0 for w in wb.values()):
-            sw = np.ones(n_rows)
-        else:
-            sw = np.empty(n_rows)
-            for lab, rows in block_rows.items():
-                sw[rows] = wb[lab]
-    Bm, cm = Msmall[:, :p], Msmall[:, p]
+        sw = np.empty(n_rows)
+        for lab, rows in block_rows.items():
+            sw[rows] = wb[lab]
+    return _Factor(Msmall=Msmall, sw=sw, unit_w=unit_w, wmode=opts.weights, block_rows=block_rows)
+
+
+def _solve_factor(problem: _Problem, part: _FreePart, factor: _Factor, opts: LeastSquaresOptions) -> _Fit:
+    """Column-scaled SVD of the small factor: rank, condition number, minimum-norm solution, residuals."""
+    p, rcond = part.p, opts.rcond
+    Bm, cm = factor.Msmall[:, :p], factor.Msmall[:, p]
     D = np.sqrt(np.einsum("ij,ij->j", Bm, Bm))
     Dsafe = np.where(D > 0, D, 1.0)
     Ub, s, Vt = np.linalg.svd(Bm / Dsafe, full_matrices=False)
     smax = s[0] if s.size else 0.0
     rank = int(np.sum(s > rcond * smax)) if smax > 0 else 0
     cond = float(s[0] / s[-1]) if s[-1] > 0 else math.inf
+    warnings: tuple[str, ...] = ()
     if rank < p:
-        null = Vt[rank:]
-        msg = null_space_message(null, free_names)
+        msg = null_space_message(Vt[rank:], part.free_names)
         text = (
             f"regressor is rank deficient (numerical rank {rank} of {p}, rcond {rcond:g}): "
             f"{msg}. Excite the system so that these columns differ, or fix/remove a parameter"
         )
-        if not allow_rank_deficient:
+        if not opts.allow_rank_deficient:
             raise IdentificationError(text)
-        warnings.append(text)
+        warnings = (text,)
     sr, Vr = s[:rank], Vt[:rank].T  # Vr: p x rank
     coef_u = (Ub[:, :rank].T @ cm) / sr  # coordinates in the row space
     theta_s = Vr @ coef_u
     theta_free = theta_s / Dsafe
-    res = y_free - _mv(Xf, theta_free)
-    unit_w = user_sw is None and all(w == 1.0 for w in wb.values())
-    res_w = res if unit_w else res * sw
-    yw = y_free if unit_w else y_free * sw
+    res = part.y_free - _mv(part.Xf, theta_free)
+    res_w = res if factor.unit_w else res * factor.sw
+    yw = part.y_free if factor.unit_w else part.y_free * factor.sw
+    return _Fit(rank=rank, cond=cond, Vt=Vt, sr=sr, Dsafe=Dsafe, theta_free=theta_free, res=res, res_w=res_w,
+                yw=yw, warnings=warnings)
 
-    dof = n_rows - rank
 
-    # ---- covariance (scaled coordinates: theta_s = D * theta) ---------------
-    A = Vr / sr  # p x rank; theta_s - true = A @ (Ur^T e)
-    if covariance == "ols":
-        s_min, s_max = int(sidx.min()), int(sidx.max())
-        if s_max - s_min + 1 <= 10 * n_rows + 1000:  # count distinct sample numbers without sorting
-            present = np.zeros(s_max - s_min + 1, dtype=bool)
-            present[sidx - s_min] = True
-            n_samples = int(np.count_nonzero(present))
-        else:
-            n_samples = int(np.unique(sidx).size)
-        sigma2 = _dot(res_w, res_w) / dof if dof > 0 else math.nan
-        cov_s = sigma2 * (A @ A.T)
-        L_used: int | None = None
-        crit = float(stats.t.ppf(0.975, dof)) if dof > 0 else math.nan
-    else:
-        s_min, s_max = int(sidx.min()), int(sidx.max())
-        span = s_max - s_min + 1
-        if span > 10 * n_rows + 1000:
-            raise InputError(
-                f"sample_index spans {span} samples for {n_rows} rows; number the samples "
-                "consecutively (gaps only between separate experiments)"
-            )
-        present = np.zeros(span, dtype=bool)
+def _ols_covariance(problem: _Problem, fit: _Fit) -> _Uncertainty:
+    """``sigma^2 (X^T X)^-1`` in the scaled coordinates, from the SVD; Student t critical value."""
+    n_rows, sidx, dof = problem.n_rows, problem.sidx, fit.dof
+    s_min, s_max = int(sidx.min()), int(sidx.max())
+    if s_max - s_min + 1 <= 10 * n_rows + 1000:  # count distinct sample numbers without sorting
+        present = np.zeros(s_max - s_min + 1, dtype=bool)
         present[sidx - s_min] = True
         n_samples = int(np.count_nonzero(present))
-        # left singular vectors of the weighted, column-scaled regressor: U = (Xw / D) V S^-1
-        Ur = _mm(Xf, Vr / (Dsafe[:, None] * sr[None, :]))
-        if not unit_w:
-            Ur *= sw[:, None]
-        Hrows = Ur * res_w[:, None]
-        H = np.zeros((span, rank))
-        for rows in block_rows.values():
-            _scatter_add(H, sidx[rows] - s_min, Hrows[rows])
-        if bandwidth is None or isinstance(bandwidth, str):
-            L_used = hac_bandwidth(H if n_samples == span else H[present], bandwidth or "auto")
-        else:
-            L_used = int(bandwidth)
-        if L_used > n_samples // 2:
-            raise InputError(
-                f"bandwidth ({L_used}) must not exceed half the number of samples ({n_samples})"
-            )
-        exact = float(np.sqrt(np.mean(res_w**2))) <= 1e-10 * max(float(np.sqrt(np.mean(yw**2))), 1e-300)
-        if L_used > n_samples // 10 and not exact:
-            warnings.append(
-                f"HAC bandwidth {L_used} is more than a tenth of the {n_samples} samples: "
-                "few effectively independent samples, the uncertainty itself is uncertain"
-            )
-        M = bartlett_long_run_covariance(H, L_used) * (n_rows / dof if dof > 0 else math.nan)
-        cov_s = A @ M @ A.T
-        crit = fixed_b_critical_value(L_used / max(n_samples, 1))
-    cov_free = cov_s / np.outer(Dsafe, Dsafe)
+    else:
+        n_samples = int(np.unique(sidx).size)
+    A = fit.Vr / fit.sr  # p x rank; theta_s - true = A @ (Ur^T e)
+    sigma2 = _dot(fit.res_w, fit.res_w) / dof if dof > 0 else math.nan
+    crit = float(stats.t.ppf(0.975, dof)) if dof > 0 else math.nan
+    return _Uncertainty(cov_s=sigma2 * (A @ A.T), n_samples=n_samples, bandwidth=None, critical=crit)
 
-    # non-identifiable parameters: NaN
-    if rank < p:
-        weight_null = np.sum(Vt[rank:] ** 2, axis=0)
-        bad_free = weight_null > 1e-12
+
+def _hac_covariance(problem: _Problem, part: _FreePart, factor: _Factor, fit: _Fit,
+                    opts: LeastSquaresOptions) -> _Uncertainty:
+    """Newey-West (Bartlett) sandwich of the per-sample scores in the scaled coordinates; fixed-b critical value."""
+    n_rows, sidx, dof, rank = problem.n_rows, problem.sidx, fit.dof, fit.rank
+    s_min, s_max = int(sidx.min()), int(sidx.max())
+    span = s_max - s_min + 1
+    if span > 10 * n_rows + 1000:
+        raise InputError(
+            f"sample_index spans {span} samples for {n_rows} rows; number the samples "
+            "consecutively (gaps only between separate experiments)"
+        )
+    present = np.zeros(span, dtype=bool)
+    present[sidx - s_min] = True
+    n_samples = int(np.count_nonzero(present))
+    # left singular vectors of the weighted, column-scaled regressor: U = (Xw / D) V S^-1
+    Ur = _mm(part.Xf, fit.Vr / (fit.Dsafe[:, None] * fit.sr[None, :]))
+    if not factor.unit_w:
+        Ur *= factor.sw[:, None]
+    Hrows = Ur * fit.res_w[:, None]
+    H = np.zeros((span, rank))
+    for rows in factor.block_rows.values():
+        _scatter_add(H, sidx[rows] - s_min, Hrows[rows])
+    bandwidth = opts.bandwidth
+    if bandwidth is None or isinstance(bandwidth, str):
+        L_used = hac_bandwidth(H if n_samples == span else H[present], bandwidth or "auto")
+    else:
+        L_used = int(bandwidth)
+    if L_used > n_samples // 2:
+        raise InputError(
+            f"bandwidth ({L_used}) must not exceed half the number of samples ({n_samples})"
+        )
+    res_w, yw = fit.res_w, fit.yw
+    exact = float(np.sqrt(np.mean(res_w**2))) <= 1e-10 * max(float(np.sqrt(np.mean(yw**2))), 1e-300)
+    warnings: tuple[str, ...] = ()
+    if L_used > n_samples // 10 and not exact:
+        warnings = (
+            f"HAC bandwidth {L_used} is more than a tenth of the {n_samples} samples: "
+            "few effectively independent samples, the uncertainty itself is uncertain",
+        )
+    A = fit.Vr / fit.sr  # p x rank; theta_s - true = A @ (Ur^T e)
+    M = bartlett_long_run_covariance(H, L_used) * (n_rows / dof if dof > 0 else math.nan)
+    crit = fixed_b_critical_value(L_used / max(n_samples, 1))
+    return _Uncertainty(cov_s=A @ M @ A.T, n_samples=n_samples, bandwidth=L_used, critical=crit, warnings=warnings)
+
+
+def _not_identifiable(fit: _Fit, p: int) -> np.ndarray:
+    """Mask of the free parameters that take part in a direction of the null space."""
+    if fit.rank < p:
+        return np.sum(fit.Vt[fit.rank:] ** 2, axis=0) > 1e-12
+    return np.zeros(p, dtype=bool)
+
+
+def _full_covariance(problem: _Problem, part: _FreePart, fit: _Fit, unc: _Uncertainty) -> np.ndarray:
+    """Covariance of all parameters: fixed ones 0, non-identifiable ones NaN."""
+    Dsafe = fit.Dsafe
+    cov_free = unc.cov_s / np.outer(Dsafe, Dsafe)
+    bad_free = _not_identifiable(fit, part.p)
+    if bad_free.any():
         cov_free[bad_free, :] = np.nan
         cov_free[:, bad_free] = np.nan
-    else:
-        bad_free = np.zeros(p, dtype=bool)
+    cov = np.zeros((problem.n_par, problem.n_par))
+    cov[np.ix_(part.free, part.free)] = cov_free
+    return cov
 
-    # ---- assemble full-size outputs ----------------------------------------
-    values = np.empty(n_par)
-    cov = np.zeros((n_par, n_par))
-    for k, j in enumerate(free):
-        values[j] = theta_free[k]
-    for nm, v in fixed.items():
-        values[names.index(nm)] = float(v)
-    cov[np.ix_(free, free)] = cov_free
-    stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    stderr[np.isnan(np.diag(cov))] = np.nan
+
+def _correlation(names: tuple[str, ...], fixed: Mapping[str, float], cov: np.ndarray,
+                 stderr: np.ndarray) -> np.ndarray:
+    """Correlation of the estimates (rows/columns of fixed parameters 0, diagonal 1 or NaN)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov / np.outer(stderr, stderr)
-    for j in range(n_par):
+    for j in range(len(names)):
         if names[j] in fixed:
             corr[j, :] = 0.0
             corr[:, j] = 0.0
         corr[j, j] = 1.0 if math.isfinite(stderr[j]) else math.nan
-    corr = np.clip(corr, -1.0, 1.0)
+    return np.clip(corr, -1.0, 1.0)
 
-    params: dict[str, Parameter] = {}
-    for j, nm in enumerate(names):
-        if nm in fixed:
-            v = float(values[j])
-            params[nm] = Parameter.given(nm, v)
-        else:
-            se = float(stderr[j])
-            params[nm] = Parameter.estimate(nm, float(values[j]), se, crit)
 
-    # ---- diagnostics ---------------------------------------------------------
-    if rank == p and cond > cond_warn:
-        warnings.append(
-            f"poor excitation / ill-conditioned regressor: condition number {cond:.3g} of the "
-            f"column-scaled regressor exceeds {cond_warn:.3g}; the estimates are sensitive to noise"
+def _diagnostics(names: tuple[str, ...], fit: _Fit, corr: np.ndarray, p: int,
+                 opts: LeastSquaresOptions) -> list[str]:
+    """Warnings on ill conditioning and on strongly correlated pairs of estimates."""
+    out = []
+    if fit.rank == p and fit.cond > opts.cond_warn:
+        out.append(
+            f"poor excitation / ill-conditioned regressor: condition number {fit.cond:.3g} of the "
+            f"column-scaled regressor exceeds {opts.cond_warn:.3g}; the estimates are sensitive to noise"
         )
     pairs = []
-    for a in range(n_par):
-        for b in range(a + 1, n_par):
+    for a in range(len(names)):
+        for b in range(a + 1, len(names)):
             r = corr[a, b]
-            if math.isfinite(r) and abs(r) > corr_warn:
+            if math.isfinite(r) and abs(r) > opts.corr_warn:
                 pairs.append(f"{names[a]} & {names[b]} (r = {r:+.3f})")
     if pairs:
-        warnings.append(
-            f"strongly correlated estimates (|r| > {corr_warn:g}): {', '.join(pairs)}; "
+        out.append(
+            f"strongly correlated estimates (|r| > {opts.corr_warn:g}): {', '.join(pairs)}; "
             "their individual values are poorly determined, only combinations are"
         )
-    residual_rms = {lab: float(np.sqrt(np.mean(res[rows] ** 2))) for lab, rows in block_rows.items()}
-    block_sigma = _block_sigmas(res, block_rows, rank, n_rows)
-    success = rank == p
+    return out
+
+
+def _report(problem: _Problem, part: _FreePart, factor: _Factor, fit: _Fit, unc: _Uncertainty,
+            opts: LeastSquaresOptions) -> LeastSquaresResult:
+    """Assemble the full-size estimates, their statistics and the diagnostics into the result."""
+    names, n_rows, p = problem.names, problem.n_rows, part.p
+    values = np.empty(problem.n_par)
+    for k, j in enumerate(part.free):
+        values[j] = fit.theta_free[k]
+    for nm, v in part.fixed.items():
+        values[names.index(nm)] = float(v)
+    cov = _full_covariance(problem, part, fit, unc)
+    stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    stderr[np.isnan(np.diag(cov))] = np.nan
+    corr = _correlation(names, part.fixed, cov, stderr)
+    params: dict[str, Parameter] = {}
+    for j, nm in enumerate(names):
+        if nm in part.fixed:
+            params[nm] = Parameter.given(nm, float(values[j]))
+        else:
+            params[nm] = Parameter.estimate(nm, float(values[j]), float(stderr[j]), unc.critical)
+    warnings = [*fit.warnings, *unc.warnings, *_diagnostics(names, fit, corr, p, opts)]
+    res, block_rows = fit.res, factor.block_rows
+    success = fit.rank == p
     if success:
-        message = f"identified {p} parameter(s) from {n_samples} samples ({n_rows} equations)"
+        message = f"identified {p} parameter(s) from {unc.n_samples} samples ({n_rows} equations)"
     else:
-        lost = ", ".join(free_names[k] for k in np.nonzero(bad_free)[0])
+        lost = ", ".join(part.free_names[k] for k in np.nonzero(_not_identifiable(fit, p))[0])
         message = f"rank deficient: {lost} not identifiable; values are a minimum-norm solution"
     return LeastSquaresResult(
-        names=names,
-        parameters=params,
-        values=values,
-        stderr=stderr,
-        covariance=cov,
-        correlation=corr,
-        condition_number=cond if rank == p else math.inf,
-        rank=rank,
-        residual_rms=residual_rms,
-        block_sigma=block_sigma,
-        n_samples=n_samples,
-        n_equations=n_rows,
-        dof=dof,
-        covariance_method=covariance,
-        bandwidth=L_used,
-        critical_value=float(crit),
-        weights=wmode,
-        residuals=res,
-        warnings=warnings,
-        success=success,
-        message=message,
+        names=names, parameters=params, values=values, stderr=stderr, covariance=cov, correlation=corr,
+        condition_number=fit.cond if success else math.inf, rank=fit.rank,
+        residual_rms={lab: float(np.sqrt(np.mean(res[rows] ** 2))) for lab, rows in block_rows.items()},
+        block_sigma=_block_sigmas(res, block_rows, fit.rank, n_rows), n_samples=unc.n_samples,
+        n_equations=n_rows, dof=fit.dof, covariance_method=opts.covariance, bandwidth=unc.bandwidth,
+        critical_value=float(unc.critical), weights=factor.wmode, residuals=res, warnings=warnings,
+        success=success, message=message,
     )
 
 
@@ -991,86 +1161,115 @@ def stack_rows(
     """
     if not equations:
         raise InputError("stack_rows needs at least one equation block")
-    if labels is None:
-        labels = list(range(len(equations)))
-    labels = list(labels)
-    if len(labels) != len(equations):
-        raise InputError(f"labels has {len(labels)} entries for {len(equations)} equation blocks")
-    if len(set(map(str, labels))) != len(labels):
-        raise InputError("labels must be unique")
-    parsed = []
-    for k, eq in enumerate(equations):
-        if not isinstance(eq, (tuple, list)) or len(eq) not in (2, 3):
-            raise InputError(
-                f"equation block {labels[k]!r} must be a tuple (columns, target) or (columns, target, sample_index)"
-            )
-        cols, target = eq[0], eq[1]
-        try:
-            t = np.asarray(target, dtype=float)
-        except (TypeError, ValueError):
-            raise InputError(f"target of equation block {labels[k]!r} must be an array of numbers") from None
-        if t.ndim != 1:
-            raise InputError(f"target of equation block {labels[k]!r} must be 1-D, got shape {t.shape}")
-        si = None
-        if len(eq) == 3 and eq[2] is not None:
-            si = _as_int_array(f"sample_index of block {labels[k]!r}", eq[2], len(t))
-        parsed.append((cols, t, si))
-
-    mapping_form = [isinstance(c, Mapping) for c, _, _ in parsed]
+    labels = _equation_labels(labels, len(equations))
+    parsed = [_parse_equation(eq, lab) for eq, lab in zip(equations, labels)]
+    mapping_form = [isinstance(b.columns, Mapping) for b in parsed]
     if any(mapping_form) and not all(mapping_form):
         raise InputError("give the columns of every equation block in the same form: all mappings or all arrays")
-
-    if all(mapping_form):
-        order: list[str] = list(names) if names is not None else []
-        if names is None:
-            for cols, _, _ in parsed:
-                for nm in cols:
-                    if nm not in order:
-                        order.append(nm)
-        known = set(order)
-        mats = []
-        for k, (cols, t, _) in enumerate(parsed):
-            extra = [nm for nm in cols if nm not in known]
-            if extra:
-                raise InputError(f"equation block {labels[k]!r} has columns not in names: {', '.join(map(str, extra))}")
-            M = np.zeros((len(t), len(order)))
-            for j, nm in enumerate(order):
-                if nm in cols:
-                    try:
-                        c = np.asarray(cols[nm], dtype=float)
-                        M[:, j] = np.broadcast_to(c, (len(t),))
-                    except (TypeError, ValueError):
-                        raise InputError(
-                            f"column {nm!r} of equation block {labels[k]!r} must be a scalar or an array of "
-                            f"{len(t)} numbers"
-                        ) from None
-            mats.append(M)
-        out_names: tuple[str, ...] | None = tuple(order)
-    else:
-        mats = []
-        width = None
-        for k, (cols, t, _) in enumerate(parsed):
-            M = np.asarray(cols, dtype=float)
-            if M.ndim != 2 or M.shape[0] != len(t):
-                raise InputError(
-                    f"regressor of equation block {labels[k]!r} must have shape ({len(t)}, n_params), got {M.shape}"
-                )
-            if width is None:
-                width = M.shape[1]
-            elif M.shape[1] != width:
-                raise InputError(
-                    f"regressor of equation block {labels[k]!r} has {M.shape[1]} columns, the first block has {width}"
-                )
-            mats.append(M)
-        out_names = tuple(names) if names is not None else None
-        if out_names is not None and len(out_names) != width:
-            raise InputError(f"names has {len(out_names)} entries but the regressors have {width} columns")
-
-    Phi = np.concatenate(mats, axis=0)
-    phi = np.concatenate([t for _, t, _ in parsed])
+    stacked = _mapping_regressors(parsed, names) if all(mapping_form) else _array_regressors(parsed, names)
     lab_arr = np.asarray(labels)
-    blocks = np.concatenate([np.full(len(t), lab_arr[k], dtype=lab_arr.dtype) for k, (_, t, _) in enumerate(parsed)])
+    blocks = np.concatenate([np.full(len(b.target), lab_arr[k], dtype=lab_arr.dtype) for k, b in enumerate(parsed)])
     sidx = np.concatenate(
-        [si if si is not None else np.arange(len(t), dtype=np.int64) for _, t, si in parsed]
+        [b.sample_index if b.sample_index is not None else np.arange(len(b.target), dtype=np.int64) for b in parsed]
     )
-    return LinearSystem(Phi=Phi, phi=phi, names=out_names, blocks=blocks, sample_index=sidx)
+    return LinearSystem(Phi=np.concatenate(stacked.matrices, axis=0), phi=np.concatenate([b.target for b in parsed]),
+                        names=stacked.names, blocks=blocks, sample_index=sidx)
+
+
+@dataclass(frozen=True, eq=False)
+class _Equation:
+    """One equation block of :func:`stack_rows`: its columns as given, its target and sample numbers."""
+
+    label: Any
+    columns: Any
+    target: np.ndarray
+    sample_index: np.ndarray | None
+
+
+@dataclass(frozen=True, eq=False)
+class _Stacked:
+    """The regressor of every block in a common column order, and that order's names (None if unnamed)."""
+
+    matrices: list[np.ndarray]
+    names: tuple[str, ...] | None
+
+
+def _equation_labels(labels: Sequence[Any] | None, n: int) -> list[Any]:
+    """The blocks' labels (default ``0, 1, ...``), one per block and unique."""
+    if labels is None:
+        labels = list(range(n))
+    labels = list(labels)
+    if len(labels) != n:
+        raise InputError(f"labels has {len(labels)} entries for {n} equation blocks")
+    if len(set(map(str, labels))) != len(labels):
+        raise InputError("labels must be unique")
+    return labels
+
+
+def _parse_equation(eq: Any, label: Any) -> _Equation:
+    """Check one ``(columns, target[, sample_index])`` tuple."""
+    if not isinstance(eq, (tuple, list)) or len(eq) not in (2, 3):
+        raise InputError(
+            f"equation block {label!r} must be a tuple (columns, target) or (columns, target, sample_index)"
+        )
+    try:
+        t = np.asarray(eq[1], dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"target of equation block {label!r} must be an array of numbers") from None
+    if t.ndim != 1:
+        raise InputError(f"target of equation block {label!r} must be 1-D, got shape {t.shape}")
+    si = None
+    if len(eq) == 3 and eq[2] is not None:
+        si = _as_int_array(f"sample_index of block {label!r}", eq[2], len(t))
+    return _Equation(label=label, columns=eq[0], target=t, sample_index=si)
+
+
+def _mapping_regressors(parsed: list[_Equation], names: Sequence[str] | None) -> _Stacked:
+    """Regressors of blocks given as ``{name: column}``: absent names are zero columns, as in (11)."""
+    order: list[str] = list(names) if names is not None else []
+    if names is None:
+        for b in parsed:
+            for nm in b.columns:
+                if nm not in order:
+                    order.append(nm)
+    known = set(order)
+    mats = []
+    for b in parsed:
+        extra = [nm for nm in b.columns if nm not in known]
+        if extra:
+            raise InputError(f"equation block {b.label!r} has columns not in names: {', '.join(map(str, extra))}")
+        n = len(b.target)
+        M = np.zeros((n, len(order)))
+        for j, nm in enumerate(order):
+            if nm in b.columns:
+                try:
+                    M[:, j] = np.broadcast_to(np.asarray(b.columns[nm], dtype=float), (n,))
+                except (TypeError, ValueError):
+                    raise InputError(
+                        f"column {nm!r} of equation block {b.label!r} must be a scalar or an array of {n} numbers"
+                    ) from None
+        mats.append(M)
+    return _Stacked(matrices=mats, names=tuple(order))
+
+
+def _array_regressors(parsed: list[_Equation], names: Sequence[str] | None) -> _Stacked:
+    """Regressors of blocks given as 2-D arrays with the same columns in every block."""
+    mats = []
+    width = None
+    for b in parsed:
+        M = np.asarray(b.columns, dtype=float)
+        if M.ndim != 2 or M.shape[0] != len(b.target):
+            raise InputError(
+                f"regressor of equation block {b.label!r} must have shape ({len(b.target)}, n_params), got {M.shape}"
+            )
+        if width is None:
+            width = M.shape[1]
+        elif M.shape[1] != width:
+            raise InputError(
+                f"regressor of equation block {b.label!r} has {M.shape[1]} columns, the first block has {width}"
+            )
+        mats.append(M)
+    out_names = tuple(names) if names is not None else None
+    if out_names is not None and len(out_names) != width:
+        raise InputError(f"names has {len(out_names)} entries but the regressors have {width} columns")
+    return _Stacked(matrices=mats, names=out_names)

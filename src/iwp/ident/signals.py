@@ -13,7 +13,7 @@ low-pass filter is ``K``. The targets are ``dq3/dt = K D2 q1 / Ts^2`` and
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -225,104 +225,182 @@ def prepare_signals(setup, datas: list, d: Differentiator, t_start, t_end, *, no
         A static curve or another object, an input the set-up cannot use (no ``u``, a raw ``v``, or a motor
         that is on for set-up ``free``), a bad window, too few samples, non-uniform sampling, or no ``q2``.
     """
-    coulomb = setup.coulomb
-    n_params = len(setup.columns)
-    parts = []
+    parts: list[_FileSignals] = []
     files: list[dict] = []
     offset = 0
     corr = 0.0
-    q1_range, in_max, q4_max = [], [], []
     for data in datas:
-        if isinstance(data, StaticCurve):
-            raise InputError(f"{data.source}: is a static curve (input, q4); set-up {setup.name!r} needs a time-series "
-                             "log (t, q1, q2, ...). Use setup 'dead-zone' for static curves")
-        if not isinstance(data, ExperimentData):
-            raise InputError(f"data must be ExperimentData (or a list of them), got {type(data).__name__}")
-        src = data.source
-        if setup.needs_input and data.input_name != "u":
-            if data.input_name is None:
-                raise InputError(f"{src}: set-up {setup.name!r} needs the input column u; the log has no input")
-            raise InputError(
-                f"{src}: set-up {setup.name!r} needs the dead-zone-compensated input u (model (9)); the log has the "
-                "raw driver input v. Identify v+, v- (set-up 'dead-zone') and log u with the feedforward (7)-(8)")
-        if setup.motor_off and data.input_name is not None:
-            amax = float(np.max(np.abs(data.input))) if data.n_samples else 0.0
-            if amax > 0:
-                raise InputError(
-                    f"{src}: set-up 'free' needs the motor off (u = 0), but the log's input {data.input_name} "
-                    f"reaches |{data.input_name}| = {amax:.4g}; use a window where it is zero, or set-up "
-                    "'full'/'two-step'")
-        try:
-            w = data.window(t_start, t_end)
-        except InputError as exc:
-            raise InputError(f"{src}: {exc}", argument=exc.argument) from None
-        Ts = w.Ts
-        k = d.edge_samples_at(Ts)
-        need = max(d.min_samples(Ts), 4) + 2 * max(k, EDGE_MIN) + n_params + 1
-        if w.n_samples < need:
-            win = "" if t_start is None and t_end is None else f" (t_start={t_start}, t_end={t_end})"
-            raise InputError(
-                f"{src}: {w.n_samples} samples{win}, too few for set-up {setup.name!r}: the differentiator "
-                f"({d.method}) drops {k} at each end and {n_params} parameters need at least {need}")
-        dt = np.diff(w.t)
-        if float(np.max(np.abs(dt - Ts))) > 0.01 * Ts:
-            raise InputError(
-                f"{src}: the sampling is not uniform (steps from {dt.min():.6g} to {dt.max():.6g} s); "
-                "resample the log first (ExperimentData.resample)")
-        if w.q2 is None:
-            raise InputError(f"{src}: set-up {setup.name!r} differentiates the wheel angle q2, which this log does "
-                             "not have (only the wheel speed q4); fit it with `iwp fit` (iwp.ident.logfit)")
-        q = np.column_stack([w.q1, w.q2])
-        pos, vel, acc = fast_derivatives(d, Ts, q)
-        noise_sd = _position_noise(q)
-        if nonlinear == "filter-terms":
-            # The target K D2 q / Ts^2 equals K (tri * d2q/dt2) exactly, tri the triangle of width
-            # 2 Ts (Peano kernel of the second difference). Each term of the model is therefore
-            # evaluated at the sample points (position as measured, velocity from the central
-            # difference corrected to a point value), triangle-averaged by _tri3 and filtered by K.
-            v_pt = _point_velocity(central_first(q, Ts))
-            q1r = w.q1
-            u_raw = np.asarray(w.input, dtype=float)
-            # errors in variables: E[(v + n)^3] = v^3 + 3 var(n) v, removed with the noise of the
-            # point velocity estimated from the positions
-            var_v = float(noise_sd[0]) ** 2 * PD1_GAIN / (Ts * Ts)
-            cube = v_pt[:, 0] ** 3 - 3.0 * var_v * v_pt[:, 0]
-            terms = [np.sin(q1r), np.abs(np.cos(q1r)) * v_pt[:, 0], cube, v_pt[:, 0], v_pt[:, 1], u_raw]
-            if coulomb:
-                terms.append(np.sign(vel[:, 1]))
-            sm = apply_KS(d, Ts, np.column_stack(terms))
-            q3c, q4c = sm[:, 3], sm[:, 4]
-            sm = np.delete(sm, [3, 4], axis=1)
-        else:  # "filtered-states": f(K q1, K q3), the usual way (for comparison)
-            uf = d.smooth(Ts, np.asarray(w.input, dtype=float))
-            q1f, q3f = pos[:, 0], vel[:, 0]
-            cols = [np.sin(q1f), np.abs(np.cos(q1f)) * q3f, q3f ** 3, uf]
-            if coulomb:
-                cols.append(np.sign(vel[:, 1]))
-            sm = np.column_stack(cols)
-            q3c, q4c = vel[:, 0], vel[:, 1]
-        kk = max(k, EDGE_MIN)
-        keep = slice(kk, w.n_samples - kk)
-        n = w.n_samples - 2 * kk
-        files.append(dict(n_full=w.n_samples, kk=kk, Ts=Ts, start=sum(p["sidx"].size for p in parts),
-                          noise=noise_sd,
-                          q1=np.asarray(w.q1, dtype=float),
-                          v1=v_pt[:, 0] if nonlinear == "filter-terms" else None))
-        parts.append(dict(
-            q1=w.q1[keep], q3=q3c[keep], q4=q4c[keep], dq3=acc[keep, 0], dq4=acc[keep, 1],
-            S=sm[keep, 0], C=sm[keep, 1], B=sm[keep, 2], u=sm[keep, 3], G=sm[keep, 4] if coulomb else None,
-            sidx=offset + np.arange(n, dtype=np.int64),
-        ))
+        _check_log(setup, data)
+        w = _checked_window(setup, data, d, t_start, t_end)
+        part = _file_signals(setup, w, d, nonlinear)
+        f = part.file
+        files.append(dict(n_full=f["n_full"], kk=f["kk"], Ts=f["Ts"], start=sum(p.n for p in parts), noise=f["noise"],
+                          q1=f["q1"], v1=f["v1"]))
+        parts.append(replace(part, sidx=offset + part.sidx))
         # the next file's sample numbers start after a gap longer than any HAC bandwidth used
-        offset += n + n // 4 + 2 * int(math.ceil(corr_len(d, Ts))) + 8
-        corr = max(corr, corr_len(d, Ts))
-        q1_range.append(float(np.ptp(w.q1)))
-        in_max.append(float(np.max(np.abs(w.input))))
-        q4_max.append(float(np.max(np.abs(vel[kk : w.n_samples - kk, 1]))))
-    cat = {key: (np.concatenate([p[key] for p in parts]) if parts[0][key] is not None else None) for key in parts[0]}
-    return Signals(**cat, n_files=len(parts), corr_len=corr, q1_range=q1_range, input_max=in_max, q4_max=q4_max,
-                    files=files)
+        offset += part.n + part.n // 4 + 2 * int(math.ceil(corr_len(d, w.Ts))) + 8
+        corr = max(corr, corr_len(d, w.Ts))
+    cat = {key: (np.concatenate([getattr(p, key) for p in parts]) if getattr(parts[0], key) is not None else None)
+           for key in _STACKED}
+    return Signals(**cat, n_files=len(parts), corr_len=corr, q1_range=[p.q1_range for p in parts],
+                   input_max=[p.input_max for p in parts], q4_max=[p.q4_max for p in parts], files=files)
 
+
+#: the signals stacked over the files, in the order of :class:`Signals`
+_STACKED = ("q1", "q3", "q4", "dq3", "dq4", "u", "S", "C", "B", "G", "sidx")
+
+
+@dataclass(frozen=True, eq=False)
+class _FileSignals:
+    """One file's signals without the ends the filters spoil, and its record for the noise covariance.
+
+    ``file``: ``n_full``, ``kk`` (samples dropped at each end), ``Ts`` [s],
+    ``noise`` (position noise per encoder [rad]), ``q1`` [rad] and ``v1``
+    (point velocity [rad/s], None for ``"filtered-states"``).
+    """
+
+    q1: np.ndarray
+    q3: np.ndarray
+    q4: np.ndarray
+    dq3: np.ndarray
+    dq4: np.ndarray
+    u: np.ndarray
+    S: np.ndarray
+    C: np.ndarray
+    B: np.ndarray
+    G: np.ndarray | None
+    sidx: np.ndarray
+    file: dict[str, Any]
+    q1_range: float
+    input_max: float
+    q4_max: float
+
+    @property
+    def n(self) -> int:
+        return int(self.sidx.size)
+
+
+@dataclass(frozen=True, eq=False)
+class _Terms:
+    """The filtered model terms of one file: ``sin q1``, ``|cos q1| q3``, ``q3^3``, the input (and ``sgn q4``)
+    as columns of ``terms``, the filtered velocities ``q3``, ``q4`` [rad/s], and the point velocity ``v1``."""
+
+    terms: np.ndarray
+    q3: np.ndarray
+    q4: np.ndarray
+    v1: np.ndarray | None
+
+
+def _check_log(setup, data: Any) -> None:
+    """A time-series log whose input the set-up can use (u for a driven set-up, none or zero for ``free``)."""
+    if isinstance(data, StaticCurve):
+        raise InputError(f"{data.source}: is a static curve (input, q4); set-up {setup.name!r} needs a time-series "
+                         "log (t, q1, q2, ...). Use setup 'dead-zone' for static curves")
+    if not isinstance(data, ExperimentData):
+        raise InputError(f"data must be ExperimentData (or a list of them), got {type(data).__name__}")
+    src = data.source
+    if setup.needs_input and data.input_name != "u":
+        if data.input_name is None:
+            raise InputError(f"{src}: set-up {setup.name!r} needs the input column u; the log has no input")
+        raise InputError(
+            f"{src}: set-up {setup.name!r} needs the dead-zone-compensated input u (model (9)); the log has the "
+            "raw driver input v. Identify v+, v- (set-up 'dead-zone') and log u with the feedforward (7)-(8)")
+    if setup.motor_off and data.input_name is not None:
+        amax = float(np.max(np.abs(data.input))) if data.n_samples else 0.0
+        if amax > 0:
+            raise InputError(
+                f"{src}: set-up 'free' needs the motor off (u = 0), but the log's input {data.input_name} "
+                f"reaches |{data.input_name}| = {amax:.4g}; use a window where it is zero, or set-up "
+                "'full'/'two-step'")
+
+
+def _checked_window(setup, data: ExperimentData, d: Differentiator, t_start, t_end) -> ExperimentData:
+    """The log's window [s]: enough samples for the filter and the parameters, uniform sampling, a ``q2``."""
+    src = data.source
+    try:
+        w = data.window(t_start, t_end)
+    except InputError as exc:
+        raise InputError(f"{src}: {exc}", argument=exc.argument) from None
+    Ts = w.Ts
+    k = d.edge_samples_at(Ts)
+    n_params = len(setup.columns)
+    need = max(d.min_samples(Ts), 4) + 2 * max(k, EDGE_MIN) + n_params + 1
+    if w.n_samples < need:
+        win = "" if t_start is None and t_end is None else f" (t_start={t_start}, t_end={t_end})"
+        raise InputError(
+            f"{src}: {w.n_samples} samples{win}, too few for set-up {setup.name!r}: the differentiator "
+            f"({d.method}) drops {k} at each end and {n_params} parameters need at least {need}")
+    dt = np.diff(w.t)
+    if float(np.max(np.abs(dt - Ts))) > 0.01 * Ts:
+        raise InputError(
+            f"{src}: the sampling is not uniform (steps from {dt.min():.6g} to {dt.max():.6g} s); "
+            "resample the log first (ExperimentData.resample)")
+    if w.q2 is None:
+        raise InputError(f"{src}: set-up {setup.name!r} differentiates the wheel angle q2, which this log does "
+                         "not have (only the wheel speed q4); fit it with `iwp fit` (iwp.ident.logfit)")
+    return w
+
+
+def _filtered_terms(w: ExperimentData, d: Differentiator, coulomb: bool, noise_sd: np.ndarray,
+                    vel: np.ndarray) -> _Terms:
+    """The model's terms evaluated at the samples, then filtered by ``K`` (``"filter-terms"``).
+
+    The target ``K D2 q / Ts^2`` equals ``K (tri * d2q/dt2)`` exactly, tri the
+    triangle of width ``2 Ts`` (Peano kernel of the second difference). Each
+    term of the model is therefore evaluated at the sample points (position
+    as measured, velocity from the central difference corrected to a point
+    value), triangle-averaged by ``_tri3`` and filtered by ``K``.
+    """
+    Ts = w.Ts
+    q = np.column_stack([w.q1, w.q2])
+    v_pt = _point_velocity(central_first(q, Ts))
+    q1r = w.q1
+    u_raw = np.asarray(w.input, dtype=float)
+    # errors in variables: E[(v + n)^3] = v^3 + 3 var(n) v, removed with the noise of the
+    # point velocity estimated from the positions
+    var_v = float(noise_sd[0]) ** 2 * PD1_GAIN / (Ts * Ts)
+    cube = v_pt[:, 0] ** 3 - 3.0 * var_v * v_pt[:, 0]
+    terms = [np.sin(q1r), np.abs(np.cos(q1r)) * v_pt[:, 0], cube, v_pt[:, 0], v_pt[:, 1], u_raw]
+    if coulomb:
+        terms.append(np.sign(vel[:, 1]))
+    sm = apply_KS(d, Ts, np.column_stack(terms))
+    return _Terms(terms=np.delete(sm, [3, 4], axis=1), q3=sm[:, 3], q4=sm[:, 4], v1=v_pt[:, 0])
+
+
+def _terms_of_filtered_states(w: ExperimentData, d: Differentiator, coulomb: bool, pos: np.ndarray,
+                              vel: np.ndarray) -> _Terms:
+    """The terms of the filtered states, ``f(K q1, K q3)``: the usual way (``"filtered-states"``, for comparison)."""
+    uf = d.smooth(w.Ts, np.asarray(w.input, dtype=float))
+    q1f, q3f = pos[:, 0], vel[:, 0]
+    cols = [np.sin(q1f), np.abs(np.cos(q1f)) * q3f, q3f ** 3, uf]
+    if coulomb:
+        cols.append(np.sign(vel[:, 1]))
+    return _Terms(terms=np.column_stack(cols), q3=vel[:, 0], q4=vel[:, 1], v1=None)
+
+
+def _file_signals(setup, w: ExperimentData, d: Differentiator, nonlinear: str) -> _FileSignals:
+    """Differentiate and filter one windowed log; drop the ends the filters spoil (sample numbers from 0)."""
+    coulomb = setup.coulomb
+    Ts = w.Ts
+    q = np.column_stack([w.q1, w.q2])
+    pos, vel, acc = fast_derivatives(d, Ts, q)
+    noise_sd = _position_noise(q)
+    if nonlinear == "filter-terms":
+        tm = _filtered_terms(w, d, coulomb, noise_sd, vel)
+    else:
+        tm = _terms_of_filtered_states(w, d, coulomb, pos, vel)
+    sm = tm.terms
+    kk = max(d.edge_samples_at(Ts), EDGE_MIN)
+    keep = slice(kk, w.n_samples - kk)
+    n = w.n_samples - 2 * kk
+    return _FileSignals(
+        q1=w.q1[keep], q3=tm.q3[keep], q4=tm.q4[keep], dq3=acc[keep, 0], dq4=acc[keep, 1],
+        S=sm[keep, 0], C=sm[keep, 1], B=sm[keep, 2], u=sm[keep, 3], G=sm[keep, 4] if coulomb else None,
+        sidx=np.arange(n, dtype=np.int64),
+        file=dict(n_full=w.n_samples, kk=kk, Ts=Ts, noise=noise_sd, q1=np.asarray(w.q1, dtype=float), v1=tm.v1),
+        q1_range=float(np.ptp(w.q1)), input_max=float(np.max(np.abs(w.input))),
+        q4_max=float(np.max(np.abs(vel[kk : w.n_samples - kk, 1]))),
+    )
 
 
 def apply_K(d: Differentiator, Ts: float, X: np.ndarray) -> np.ndarray:

@@ -15,7 +15,7 @@ simulated signals with the measured ones:
 
 The initial state is the measured one: positions from the log (smoothed
 with the same Savitzky-Golay filter that gives the velocities), velocities
-by differentiation, at ``t_start``; with ``estimate_x0=True`` it is instead
+by differentiation, at ``t_start``; with ``ValidationOptions(estimate_x0=True)`` it is instead
 estimated by a simulation-error fit of the initial state only
 (:func:`iwp.ident.refinement.refine` with no free parameter), which is what a
 grey-box tool's ``compare`` with estimated initial conditions does.
@@ -53,8 +53,9 @@ from .output_error import (
 from .problem import FitProblem, SolverOptions
 from .refinement import REFINE_MODELS
 
-__all__ = ["validate", "fit_percent", "ValidationResult", "auto_model", "choose_model", "validation_plant",
-           "VALIDATION_OPTIONS", "UninformativeValidation", "READS_V_AS_U", "model_input", "held_out_q1_offset"]
+__all__ = ["validate", "ValidationOptions", "fit_percent", "ValidationResult", "auto_model", "choose_model",
+           "validation_plant", "VALIDATION_OPTIONS", "UninformativeValidation", "READS_V_AS_U", "model_input",
+           "held_out_q1_offset"]
 
 
 class UninformativeValidation(UserWarning):
@@ -424,17 +425,49 @@ def _estimated_x0(experiment: Experiment, plant: Plant, signals: tuple[str, ...]
     return model.states(res.parameters.values())[0], C
 
 
+@dataclass(frozen=True)
+class ValidationOptions:
+    """Where :func:`validate` simulates and from which states.
+
+    Parameters
+    ----------
+    window : (float or None, float or None)
+        Time window [s] (None: the log's start / end).
+    restart_times : sequence of float
+        Restart the simulation from the measured state at these times [s]
+        (figure 9(b)); each is snapped to the nearest sample inside the window.
+    estimate_x0 : bool
+        Estimate the initial state by a simulation-error fit (parameters
+        fixed) instead of taking the measured one.
+    q1_offset : float
+        A pendulum zero offset [rad] taken off the log's ``q1`` first (the
+        one ``iwp fit`` took off its held-out logs: :func:`held_out_q1_offset`).
+
+    Raises
+    ------
+    InputError
+        ``q1_offset`` not a finite number.
+    """
+
+    window: tuple[float | None, float | None] = (None, None)
+    restart_times: Sequence[float] = ()
+    estimate_x0: bool = False
+    q1_offset: float = 0.0
+
+    def __post_init__(self) -> None:
+        q = self.q1_offset
+        if isinstance(q, bool) or not isinstance(q, (int, float)) or not math.isfinite(q):
+            raise InputError(f"q1_offset must be a finite number of radians, got {q!r}")
+
+
 def validate(
     experiment: ExperimentData,
     params,
     *,
     model: str = "compensated",
     signals: Sequence[str] | None = None,
-    window: tuple[float | None, float | None] = (None, None),
-    restart_times: Sequence[float] = (),
     controller: Input | None = None,
-    estimate_x0: bool = False,
-    q1_offset: float = 0.0,
+    options: ValidationOptions | None = None,
 ) -> ValidationResult:
     """Simulate a model against a log and measure how well it predicts it.
 
@@ -458,20 +491,13 @@ def validate(
         the log are differentiated from the positions. Default: ``q1`` and
         the wheel's own signal, ``q2``, or ``q4`` when the log holds only
         the wheel's speed.
-    window : (float or None, float or None)
-        Time window [s].
-    restart_times : sequence of float
-        Restart the simulation from the measured state at these times [s]
-        (figure 9(b)); each is snapped to the nearest sample inside the window.
     controller : iwp.sim.inputs controller, optional
         Simulate in closed loop with it (e.g. ``HopfController(-10, 0.1)``,
         figure 10) instead of replaying the logged input.
-    estimate_x0 : bool
-        Estimate the initial state by a simulation-error fit (parameters
-        fixed) instead of taking the measured one.
-    q1_offset : float
-        A pendulum zero offset [rad] taken off the log's ``q1`` first (the
-        one ``iwp fit`` took off its held-out logs: :func:`held_out_q1_offset`).
+    options : ValidationOptions, optional
+        Time window [s], restart times [s], whether to estimate the initial
+        state, and a pendulum zero offset [rad] (default: the whole log from
+        the measured state, no restarts, no offset).
 
     Returns
     -------
@@ -483,14 +509,54 @@ def validate(
         When the validation says nothing: every compared signal is constant, or the model explains less of each
         than its mean (fit < 0 %). Callers that report the fits themselves filter it.
     """
+    opts = ValidationOptions() if options is None else options
     if not isinstance(experiment, ExperimentData):
         raise InputError(f"experiment must be an ExperimentData, got {type(experiment).__name__}")
-    if isinstance(q1_offset, bool) or not isinstance(q1_offset, (int, float)) or not math.isfinite(q1_offset):
-        raise InputError(f"q1_offset must be a finite number of radians, got {q1_offset!r}")
-    if q1_offset:
-        experiment = replace(experiment, q1=experiment.q1 - q1_offset)
+    if not isinstance(opts, ValidationOptions):
+        raise InputError(f"options must be a ValidationOptions, got {type(opts).__name__}")
+    if opts.q1_offset:
+        experiment = replace(experiment, q1=experiment.q1 - opts.q1_offset)
     uncertainty = params if isinstance(params, ParameterUncertainty) else None
     plant = validation_plant(params.params if uncertainty is not None else params, experiment, model)
+    signals = _compared_signals(experiment, signals)
+    if controller is not None and plant.input_name != "u":
+        raise InputError(f"a controller drives the input u; model {plant.model!r} takes "
+                         f"{plant.input_name or 'no input'}")
+    plan = _plan_validation(experiment, plant, signals, controller, opts)
+    run = _simulate_segments(plan, uncertainty)
+    return _report_validation(plan, run, experiment.source)
+
+
+@dataclass(frozen=True, eq=False)
+class _ValidationPlan:
+    """The simulated segments of a validation: the plant, the window's times, the segments and their start states."""
+
+    plant: Plant
+    signals: tuple[str, ...]
+    t: np.ndarray
+    starts: list[int]
+    experiments: list[Experiment]
+    x0_cov: list[np.ndarray]
+    estimate_x0: bool
+    closed_loop: bool
+
+
+@dataclass(frozen=True, eq=False)
+class _ValidationRun:
+    """The measured and simulated signals, the states the segments started from, and the samples compared."""
+
+    measured: dict[str, np.ndarray]
+    simulated: dict[str, np.ndarray]
+    x0s: list[np.ndarray]
+    weighed: dict[str, np.ndarray]
+    used: dict[str, np.ndarray]
+    status: list[int]
+    band: PredictionBand | None
+    coverage: dict[str, float] | None
+
+
+def _compared_signals(experiment: ExperimentData, signals: Sequence[str] | str | None) -> tuple[str, ...]:
+    """The signals compared (default ``q1`` and the wheel's own signal), checked."""
     if signals is None:
         signals = ("q1", "q2" if experiment.q2 is not None or experiment.q4 is None else "q4")
     signals = (signals,) if isinstance(signals, str) else tuple(signals)
@@ -499,29 +565,39 @@ def validate(
     for s in signals:
         if s not in _SIGNALS:
             raise InputError(f"unknown signal {s!r}; choose among {', '.join(_SIGNALS)}")
-    if controller is not None and plant.input_name != "u":
-        raise InputError(f"a controller drives the input u; model {plant.model!r} takes "
-                         f"{plant.input_name or 'no input'}")
-    wdata = experiment.window(*window)
+    return signals
+
+
+def _plan_validation(experiment: ExperimentData, plant: Plant, signals: tuple[str, ...], controller: Input | None,
+                     opts: ValidationOptions) -> _ValidationPlan:
+    """Split the window at the restarts and give each segment its start state (measured, or estimated)."""
+    wdata = experiment.window(*opts.window)
     if wdata.n_samples < 10:
         raise InputError(f"the window keeps {wdata.n_samples} samples of {experiment.source}; at least 10 are needed")
     t = np.asarray(wdata.t, dtype=float)
-    starts = _segments(t, restart_times)
+    starts = _segments(t, opts.restart_times)
     kind = "free" if controller is None else "closed-loop"
     ends = [k - 1 for k in starts[1:]] + [t.size - 1]
     exps = [Experiment(experiment, kind=kind, window=(float(t[a]), float(t[b])), estimate_x0=False,
                        controller=controller) for a, b in zip(starts, ends)]
     x0_cov = [measured_state_covariance(experiment, int(np.searchsorted(experiment.t, e.window[0])))
               for e in exps]
-    if not estimate_x0 and t[0] <= experiment.t[0]:
+    if not opts.estimate_x0 and t[0] <= experiment.t[0]:
         # at the log's first sample, the one-sided estimate iwp fit takes for its held-out logs (a smoothing
         # filter is biased there: on a 50 ms log, q3 -0.34 rad/s for a pendulum at rest)
         exps[0] = replace(exps[0], x0=plant_state(measured_initial_state(experiment), plant))
-    if estimate_x0:
+    if opts.estimate_x0:
         x0, x0_cov[0] = _estimated_x0(replace(exps[0], estimate_x0=True), plant, signals)
         exps[0] = replace(exps[0], x0=x0[:4])
-    model_ = OutputError(plant, exps, signals, rtol=VALIDATION_OPTIONS.rtol, atol=VALIDATION_OPTIONS.atol,
-                         fitting=False)
+    return _ValidationPlan(plant=plant, signals=signals, t=t, starts=starts, experiments=exps, x0_cov=x0_cov,
+                           estimate_x0=bool(opts.estimate_x0), closed_loop=controller is not None)
+
+
+def _simulate_segments(plan: _ValidationPlan, uncertainty: ParameterUncertainty | None) -> _ValidationRun:
+    """Simulate every segment; the measured and simulated signals joined, and the bands with an uncertainty."""
+    signals = plan.signals
+    model_ = OutputError(plan.plant, plan.experiments, signals, rtol=VALIDATION_OPTIONS.rtol,
+                         atol=VALIDATION_OPTIONS.atol, fitting=False)
     ev = model_.evaluate(model_.parameters().values())
     pred = model_.predictions(ev)
     measured = {s: np.concatenate([p.y[s] for p in model_.prepared]) for s in signals}
@@ -532,40 +608,50 @@ def validate(
     used = {s: w if w.any() else np.ones_like(w) for s, w in weighed.items()}
     band = coverage = None
     if uncertainty is not None:
-        band = _band(model_, x0s, x0_cov, uncertainty, signals)
+        band = _band(model_, x0s, plan.x0_cov, uncertainty, signals)
         coverage = band.coverage(measured, weighed)
+    return _ValidationRun(measured=measured, simulated=simulated, x0s=x0s, weighed=weighed, used=used,
+                          status=list(ev.status), band=band, coverage=coverage)
+
+
+def _report_validation(plan: _ValidationPlan, run: _ValidationRun, source: str) -> ValidationResult:
+    """The fits per signal (undefined when a simulation stopped), with the warnings, as one result."""
+    signals, t, measured, simulated, used = plan.signals, plan.t, run.measured, run.simulated, run.used
     fits = {s: fit_percent(measured[s][used[s]], simulated[s][used[s]]) for s in signals}
     failed = None
-    if any(st != 0 for st in ev.status):
+    if any(st != 0 for st in run.status):
         lost = ~np.all([np.isfinite(simulated[s]) for s in signals], axis=0)
         when = f" at t = {t[int(np.argmax(lost))]:.4g} s" if lost.any() else ""
         failed = f"the simulation stopped{when} (it diverged, or took too many steps): the fit is not defined"
         fits = {s: math.nan for s in signals}
-        warnings.warn(f"{experiment.source}: {failed}", UserWarning, stacklevel=2)
+        warnings.warn(f"{source}: {failed}", UserWarning, stacklevel=3)
     else:
-        _warn_uninformative(experiment.source, measured, fits)
+        _warn_uninformative(source, measured, fits, stacklevel=4)
+    plant, x0s = plan.plant, run.x0s
     return ValidationResult(
         t=t, measured=measured, simulated=simulated, error={s: measured[s] - simulated[s] for s in signals},
         fit=fits, x0=np.asarray(x0s[0], dtype=float),
-        restart_times=tuple(float(t[k]) for k in starts[1:]), model=plant.model, params=plant.lumped,
-        source=experiment.source, estimate_x0=bool(estimate_x0), closed_loop=controller is not None,
-        locked=bool(plant.locked), restart_states=[np.asarray(x, dtype=float) for x in x0s[1:]], band=band,
-        coverage=coverage, used=used, failed=failed,
+        restart_times=tuple(float(t[k]) for k in plan.starts[1:]), model=plant.model, params=plant.lumped,
+        source=source, estimate_x0=plan.estimate_x0, closed_loop=plan.closed_loop,
+        locked=bool(plant.locked), restart_states=[np.asarray(x, dtype=float) for x in x0s[1:]], band=run.band,
+        coverage=run.coverage, used=used, failed=failed,
     )
 
 
-def _warn_uninformative(source: str, measured: dict[str, np.ndarray], fits: dict[str, float]) -> None:
+def _warn_uninformative(source: str, measured: dict[str, np.ndarray], fits: dict[str, float], *,
+                        stacklevel: int = 3) -> None:
     """Warn when a validation says nothing: a log without motion, or a model that explains less than the mean."""
     flat = [s for s, y in measured.items() if y.size and float(np.ptp(y)) == 0.0]
     if flat and len(flat) == len(measured):  # one constant signal is a locked pendulum or a held wheel
         warnings.warn(f"{source}: {', '.join(flat)} {'is' if len(flat) == 1 else 'are'} constant (no motion in the "
-                      "log): the validation says nothing about the model", UninformativeValidation, stacklevel=3)
+                      "log): the validation says nothing about the model", UninformativeValidation,
+                      stacklevel=stacklevel)
     defined = {s: f for s, f in fits.items() if math.isfinite(f)}
     if defined and all(f < 0.0 for f in defined.values()):
         listing = ", ".join(f"{s} {f:.1f} %" for s, f in defined.items())
         warnings.warn(f"{source}: the model explains less of the log than the log's mean does (fit {listing}): "
                       "is it a log of this rig, with these parameters and this model?", UninformativeValidation,
-                      stacklevel=3)
+                      stacklevel=stacklevel)
 
 
 def _moving(plant: Plant, C: np.ndarray) -> np.ndarray:

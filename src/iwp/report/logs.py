@@ -19,7 +19,7 @@ from ..data import StaticCurve, read_experiment, read_static_curve
 from ..errors import DataFormatError, InputError
 from ..files import check_output_dir, jsonable, staged_dir
 from ..ident.metrics import fit_percent
-from ..ident.validation import auto_model, held_out_q1_offset, model_input, validate
+from ..ident.validation import ValidationOptions, auto_model, held_out_q1_offset, model_input, validate
 from ..models.parameters import LumpedParameters
 from ..models.plant import Plant
 from ..plotting.report import plot_comparisons, plot_static_curve
@@ -263,7 +263,8 @@ def _simulate_log(log, params, *, locked, controller, signals, q1_offset):
     """Simulate ``log`` with :func:`iwp.ident.validation.validate`, the model chosen by ``auto_model``."""
     model = auto_model(log)
     plant = Plant(params, model=model, locked=locked and model in ("compensated", "raw"))
-    r = validate(log, plant, controller=controller, signals=tuple(signals), q1_offset=q1_offset)
+    r = validate(log, plant, controller=controller, signals=tuple(signals),
+                 options=ValidationOptions(q1_offset=q1_offset))
     return model, {"t": np.asarray(r.t), "measured": {s: np.asarray(r.measured[s]) for s in signals},
                    "simulated": {s: np.asarray(r.simulated[s]) for s in signals},
                    "fit": {s: float(r.fit[s]) for s in signals}}

@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import SimulationError
 from ..files import jsonable
 from ..ident.metrics import fit_percent
-from ..ident.validation import UninformativeValidation, validate
+from ..ident.validation import UninformativeValidation, ValidationOptions, validate
 from ..report import decimate, save_figure
 from ..rig import write_result
 from .paper import PAPER
@@ -266,8 +266,8 @@ def compare(data, params, *, model: str, signals, restart_times=(), controller=N
     with warnings.catch_warnings():  # the report tabulates every fit, and says when a simulation failed
         warnings.simplefilter("ignore", UninformativeValidation)
         warnings.filterwarnings("ignore", message=".*the simulation stopped", category=UserWarning)
-        r = validate(data, params, model=model, signals=tuple(signals), restart_times=tuple(restart_times),
-                     controller=controller)
+        r = validate(data, params, model=model, signals=tuple(signals), controller=controller,
+                     options=ValidationOptions(restart_times=tuple(restart_times)))
     if r.failed:
         raise SimulationError(r.failed)
     t = np.asarray(r.t, dtype=float)

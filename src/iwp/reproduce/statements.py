@@ -194,7 +194,8 @@ def st_full_setup_far(ctx, st):
                 "those of the free pendulum, and a poor prediction.")
     st.reference = "section 5.2, eq. (16)"
     st.criterion = (f"eq. (16) computed as the paper computes it, with (13) as printed (the plain sum over both rows, "
-                    f"identify(..., weights='none')): a friction coefficient differs from the free-pendulum value by "
+                    f"identify(..., options=IdentifyOptions(weights='none'))): a friction coefficient differs from the "
+                    f"free-pendulum value by "
                     f"more than a factor {FRICTION_FAR:g} (or in sign), and the q1 fit on the full chirp is below the "
                     "two-step model's; a simulation with these parameters that fails fails this")
     _need(ctx, "full-setup", "free")

@@ -16,7 +16,7 @@ from ..calibration.statistics import (
 from ..calibration.targets import TargetRow, load_targets
 from ..errors import IwpError
 from ..ident.belt_fit import refine_belt
-from ..ident.identification import identify
+from ..ident.identification import IdentifyOptions, identify
 from ..ident.output_error import replay
 from ..ident.problem import SolverOptions
 from ..ident.refinement import refine_identification
@@ -254,7 +254,7 @@ def step_full_setup(ctx: ReproduceResult) -> str:
         num["fit_q1"] = float("nan")
         num["simulation_error"] = str(exc)
     # the paper's (13) as printed: the plain sum over both rows, without iwp's weights per row
-    plain = identify(data, "full", weights="none")
+    plain = identify(data, "full", options=IdentifyOptions(weights="none"))
     ctx.extra["full-unweighted"] = plain
     pv = {k: val(plain, k) for k in vals}
     num["unweighted"] = {"theta": pv, "rho": val(plain, "rho")}
