@@ -198,6 +198,14 @@ def test_a_parameter_the_logs_do_not_identify_is_held_and_the_design_runs():
     assert np.median([p.sigma_a1 for p in unidentified.draws(200)]) > 0.5
     held = unidentified.identified_only()
     assert held.free == FREE and np.array_equal(held.covariance, np.diag(SD ** 2))
+    # identified: the interval stays inside the physical range (0.08 +- 1.96 x 0.04 does, 0.08 +- 1.96 x 0.041
+    # does not); nothing identified holds everything
+    assert ParameterUncertainty(P.replace(sigma_v1=0.08), ("sigma_v1",), np.array([[0.04 ** 2]])).identified() == (
+        "sigma_v1",)
+    assert ParameterUncertainty(P.replace(sigma_v1=0.08), ("sigma_v1",), np.array([[0.041 ** 2]])).identified() == ()
+    nothing = unidentified.identified_only().identified_only()
+    assert ParameterUncertainty(P, ("sigma_a1",), np.array([[1.0]])).identified_only().free == ()
+    assert nothing.free == FREE
     assert all(p.sigma_a1 == 1e-6 for p in held.draws(50))
     r = robust_balance(unidentified, draws=20, t_end=3.0)
     assert "held at their estimates" in r.summary() and "sigma_a1" in r.summary()

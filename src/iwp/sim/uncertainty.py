@@ -51,9 +51,8 @@ SIGNAL_INDEX = {"q1": 0, "q2": 1, "q3": 2, "q4": 3}
 MAX_DRAWS = 100_000
 #: fewest share of physical draws (the rest drawn again) before the estimate counts as too uncertain to draw from
 MIN_ACCEPTED = 0.05
-#: a free parameter is identified by a fit's logs when its 95 % interval is at most this many times its magnitude
-#: wide (:meth:`ParameterUncertainty.identified`)
-IDENTIFIED_WIDTH = 1.0
+#: the normal quantile of the two-sided 95 % intervals :meth:`ParameterUncertainty.identified` reads
+Z95 = 1.959963984540054
 #: how the note on the parameters :meth:`ParameterUncertainty.identified_only` held begins
 HELD_NOTE = "held at their estimates"
 
@@ -101,7 +100,7 @@ class ParameterUncertainty:
         if not np.all(np.isfinite(C)):
             raise InputError("the covariance has NaN or inf: the fit did not determine every free parameter "
                              "(fix the parameters the data cannot tell apart and fit again)")
-        if np.min(np.linalg.eigvalsh(0.5 * (C + C.T))) < -1e-9 * max(np.max(np.abs(np.diag(C))), 1e-300):
+        if C.size and np.min(np.linalg.eigvalsh(0.5 * (C + C.T))) < -1e-9 * max(np.max(np.abs(np.diag(C))), 1e-300):
             raise InputError("the covariance is not positive semi-definite")
         object.__setattr__(self, "free", free)
         object.__setattr__(self, "covariance", 0.5 * (C + C.T))
@@ -120,12 +119,18 @@ class ParameterUncertainty:
         return {n: float(math.sqrt(max(self.covariance[i, i], 0.0))) for i, n in enumerate(self.free)}
 
     def identified(self) -> tuple[str, ...]:
-        """The free parameters the fit's logs identify: the width of the 95 % interval, ``2 x 1.96`` standard
-        errors, is at most the estimate's magnitude (:data:`IDENTIFIED_WIDTH`). An interval wider than the value
-        (a friction estimated at ``1e-6 +- 2``, a term the logs barely excite) says the logs do not tell it."""
+        """The free parameters the fit's logs identify: their 95 % interval, ``value +- 1.96`` standard errors,
+        lies inside the physical range (:meth:`~iwp.models.parameter_info.ParameterInfo.default_bounds`; for a
+        signed parameter, on one side of 0). An interval that reaches past it (a friction estimated at
+        ``1e-6 +- 2``, a term the logs barely excite) says the logs cannot tell the value from none."""
         se = self.stderr
-        return tuple(n for n in self.free
-                     if 2.0 * 1.96 * se[n] <= IDENTIFIED_WIDTH * abs(getattr(self.params, n)))
+        out = []
+        for n in self.free:
+            value, lo = getattr(self.params, n), PARAMETER_INFO[n].default_bounds()[0]
+            margin = value - lo if math.isfinite(lo) else abs(value)
+            if Z95 * se[n] < margin:
+                out.append(n)
+        return tuple(out)
 
     def identified_only(self) -> "ParameterUncertainty":
         """This uncertainty with the parameters the logs do not identify (:meth:`identified`) held at their
@@ -137,8 +142,8 @@ class ParameterUncertainty:
         if not held:
             return self
         idx = [self.free.index(n) for n in keep]
-        note = (f"{HELD_NOTE}, as the fit's logs do not identify them (95 % interval wider than the value): "
-                f"{', '.join(held)}")
+        note = (f"{HELD_NOTE}, as the fit's logs do not identify them (their 95 % interval reaches past the "
+                f"physical range): {', '.join(held)}")
         return dataclasses.replace(self, free=keep, covariance=self.covariance[np.ix_(idx, idx)],
                                    notes=(*self.notes, note))
 
