@@ -9,8 +9,9 @@ from scipy.optimize import brentq
 
 from iwp.errors import InputError, SimulationError
 from iwp.models import BeltParameters, LumpedParameters, PhysicalParameters, Plant, energy, table1
+from iwp.models.pendulum import kink_ahead
 from iwp.sim import Tolerances, simulate, simulate_batch, simulate_scipy
-from iwp.sim.engine import BRIDGE, BRIDGE_FRAC, KINK_MARGIN, SHORT, kink_ahead, kink_plan
+from iwp.sim.engine import BRIDGE, BRIDGE_FRAC, KINK_MARGIN, SHORT, kink_plan
 from iwp.sim.inputs import CallableController, Chirp, HopfController, Sampled, Sine, Step
 
 FRICTIONLESS = table1().replace(p2=0.0, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0)

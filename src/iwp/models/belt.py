@@ -16,6 +16,8 @@ the branch the engine holds through a step (:func:`play_branch`,
 
 from __future__ import annotations
 
+from numba.cpython.unsafe.tuple import tuple_setitem
+
 from ..jit import jit
 from .actuator import effective_input
 from .friction import coulomb_sign
@@ -68,6 +70,44 @@ def play_guard(P, y, ddelta, which):
     if which == 1.0 or which == -1.0:
         return P[DPLAY] - which * (y[4] - y[5])
     return 0.5 * which * ddelta
+
+
+@jit
+def play_held(P, y, f):
+    """The packed parameters ``P`` with the play held on the branch of the state ``y`` of (15) (figure 5), and whether
+    that changed them: ``(P, changed)``. ``f`` is the rate at ``y`` (``delta' = f[4]``); the branch is stored in
+    ``P[PMODE]``, which :func:`play_rate` follows until the engine holds another."""
+    mode = play_branch(y[4] - y[5], f[4], P[DPLAY])
+    if mode == P[PMODE]:
+        return P, False
+    return tuple_setitem(P, PMODE, mode), True
+
+
+@jit
+def play_guard_of(P, y, f, which):
+    """:func:`play_guard` ``which`` at the state ``y`` of (15) with its rate ``f`` (read only for ``which`` +2 or -2,
+    the engaged branches, whose guard is the stretch's rate ``delta' = f[4]`` [rad/s]; else [rad])."""
+    ddelta = 0.0
+    if which == 2.0 or which == -2.0:
+        ddelta = f[4]
+    return play_guard(P, y, ddelta, which)
+
+
+@jit
+def play_switch(P, y, y_new, f, f_new):
+    """Which switching function of the belt's play held on its branch changes sign over a step from ``y`` to
+    ``y_new`` (rates ``f`` and ``f_new``; :func:`play_guard`'s ``which``), or 0: free, the stretch reaching an edge;
+    engaged, its rate turning back from the edge (figure 5)."""
+    mode = P[PMODE]
+    if mode == PLAY_FREE:
+        for edge in (1.0, -1.0):
+            if play_guard(P, y, 0.0, edge) > 0.0 and play_guard(P, y_new, 0.0, edge) <= 0.0:
+                return edge
+        return 0.0
+    which = 2.0 * mode
+    if play_guard(P, y, f[4], which) > 0.0 and play_guard(P, y_new, f_new[4], which) <= 0.0:
+        return which
+    return 0.0
 
 
 @jit(inline=True)

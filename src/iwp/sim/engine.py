@@ -31,10 +31,9 @@ What one run does
   output.
 * The belt's play (15) is a hybrid system: its output ``w`` is held while
   the stretch is inside the band of figure 5 and follows it on an edge. The
-  branch is held through each step (:func:`play_held`, the plant's
-  ``PMODE``) and a step that would switch it ends just past the switch,
-  located on its own dense output like a kink (:func:`play_switch`,
-  :func:`kink_step`): no step integrates across the jump of ``w'``.
+  branch is held through each step (:func:`branch_held`) and a step that
+  would switch it ends just past the switch, located on its own dense output
+  like a kink (:func:`kink_step`): no step integrates across the jump of ``w'``.
   Deciding the branch from the state at every stage instead let steps
   straddle the switch and leave ``w`` beyond the band for good: on the soft
   belt of ``benchmarks/ladder_study.py`` (40 s chirp), median wheel-speed
@@ -71,21 +70,19 @@ from numba.extending import overload
 from ..errors import InputError
 from ..jit import jit
 from ..models.actuator import command
-from ..models.belt import PLAY_FREE, has_play, play_branch, play_guard
 from ..models.equations import rhs, rhs_of
-from ..models.layout import (
-    DPLAY,
-    E_SR,
-    M_BELT,
-    M_EL,
-    M_MD,
-    M_MD_RAW,
-    M_PLAIN,
-    N_COMMAND,
-    N_PACK,
-    PMODE,
-    SA,
+from ..models.guards import (
+    branch_of,
+    guard,
+    guard_needs_rate,
+    has_branches,
+    has_kink,
+    kink_at,
+    kink_coordinate,
+    switch_ahead,
 )
+from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
+from ..models.pendulum import kink_ahead
 from ..threads import once_per_argument
 from .dop853 import N_STAGES, dense_coefficients, dense_eval, dense_eval_row, error_norm, stage_input
 from .dop853 import C as NODE_TUPLE
@@ -201,8 +198,9 @@ Work = namedtuple("Work", ["K", "ytmp", "dx", "y_new", "F", "yo"])
 BridgeWork = namedtuple("BridgeWork", ["k1", "k2", "k3", "ytmp", "dx", "y_new", "atol", "rtol", "n_err"])
 #: A held segment of the input: its end time [s], ideal input and command.
 Hold = namedtuple("Hold", ["t_b", "uval", "hval"])
-#: The run's field with the belt's play held on a branch (:func:`play_held`), and the evaluations that took.
-PlayHold = namedtuple("PlayHold", ["fld", "nfev"])
+#: The run's field with its discrete mode (the belt's play) held on a branch (:func:`branch_held`), and the
+#: evaluations that took.
+BranchHold = namedtuple("BranchHold", ["fld", "nfev"])
 #: The next step (:func:`plan_step`): its kind (flags below) and size [s].
 Plan = namedtuple("Plan", ["flags", "h"])
 FORCED = 1  #: onto a kink located on the dense output
@@ -559,139 +557,6 @@ def is_held(kind, seg_mode):
     return seg_mode != SEG_CONT or kind == I_STEP
 
 
-@jit
-def has_kink(model, P):
-    """True if the model has the rolling-friction kink at ``cos q1 = 0`` (see :func:`switch`)."""
-    if model == M_EL:
-        return P[E_SR] != 0.0
-    if model == M_MD or model == M_MD_RAW or model == M_BELT:
-        return False
-    return P[SA] != 0.0
-
-
-@jit(inline=True)
-def switch_of(kinked, q1):
-    """Switching function of the right-hand side's kinks (its sign changes there): ``cos q1``, or 1 without kink.
-
-    The rolling friction ``sigma_a1 |cos q1| q3`` of section 3.1 has a kink
-    where ``cos q1 = 0``; a Runge-Kutta step across it loses its order and its
-    error estimate.
-    """
-    return math.cos(q1) if kinked else 1.0
-
-
-@jit(inline=True)
-def may_cross(q_a, q_b):
-    """False only if ``cos q`` surely has one sign at ``q_a`` and ``q_b`` (branch-free, vectorises).
-
-    The same half-period ``floor((q - pi/2)/pi)`` at both ends, neither within
-    1e-9 rad of a kink: then :func:`switch_of` has one sign at both, so the
-    lanes need no cosine for a step that crosses nothing.
-    """
-    m_a = (q_a - 0.5 * math.pi) / math.pi
-    m_b = (q_b - 0.5 * math.pi) / math.pi
-    f_a = math.floor(m_a)
-    f_b = math.floor(m_b)
-    near = (m_a - f_a < 1e-9) | (f_a + 1.0 - m_a < 1e-9) | (m_b - f_b < 1e-9) | (f_b + 1.0 - m_b < 1e-9)
-    return (f_a != f_b) | near | (not (abs(q_a) < 1e9)) | (not (abs(q_b) < 1e9))
-
-
-@jit
-def switch(model, P, y):
-    """:func:`switch_of` of a state ``y`` of ``model`` with parameters ``P``."""
-    return switch_of(has_kink(model, P), y[0])
-
-
-@jit(inline=True)
-def half_turns_ahead(q1, v, a, jk, H):
-    """The Taylor model of :func:`kink_ahead` at ``H``, ``qe``, and the half-turns ``floor((q - pi/2)/pi)`` of
-    ``q1`` and ``qe`` (the kinks lie where it changes)."""
-    qe = q1 + H * (v + H * (0.5 * a + H * jk / 6.0))
-    m0 = math.floor((q1 - 0.5 * math.pi) / math.pi)
-    me = math.floor((qe - 0.5 * math.pi) / math.pi)
-    return qe, m0, me
-
-
-@jit(inline=True)
-def kink_possible(q1, v, a, jk, H):
-    """True if ``cos q`` may change sign within ``H`` on the Taylor model of :func:`kink_ahead` (branch-free)."""
-    qe, m0, me = half_turns_ahead(q1, v, a, jk, H)
-    return (m0 != me) & (abs(q1) < 1e9) & (abs(qe) < 1e9)
-
-
-@jit(inline=True)
-def kink_start(q1, v, a, jk, H):
-    """The start of :func:`kink_ahead`'s search (branch-free, so that the lanes run it side by side).
-
-    Returns ``(qs, s, lo, hi, plo, possible)``: the kink ``qs = pi/2 + m pi``
-    the Taylor model may reach within ``H``, the secant's first guess ``s``,
-    the bracket ``[lo, hi] = [0, H]``, the model's offset ``plo`` from
-    ``qs`` at ``lo``, and :func:`kink_possible` (the rest is meaningless
-    without it).
-    """
-    qe, m0, me = half_turns_ahead(q1, v, a, jk, H)
-    possible = kink_possible(q1, v, a, jk, H)
-    qs = 0.5 * math.pi + math.pi * max(m0, me)
-    plo = q1 - qs
-    phi = qe - qs
-    span = plo - phi if possible else 1.0
-    return qs, H * plo / span, 0.0, H, plo, possible
-
-
-@jit(inline=True)
-def kink_newton(q1, qs, v, a, jk, H, s, lo, hi, plo):
-    """One iteration of :func:`kink_ahead`'s search: Newton on the Taylor model, kept inside its bracket.
-
-    Returns ``(s, lo, hi, plo, done)``: the next guess and bracket, and
-    whether Newton's correction fell below ``1e-15 H`` (then ``s`` is the
-    root, clamped into the bracket). Branch-free (selects only), so that a
-    loop over lanes vectorises and a lane computes what a single run does.
-    """
-    p = q1 - qs + s * (v + s * (0.5 * a + s * jk / 6.0))
-    left = p * plo > 0.0
-    lo = s if left else lo
-    plo = p if left else plo
-    hi = hi if left else s
-    dp = v + s * (a + 0.5 * s * jk)
-    mid = 0.5 * (lo + hi)
-    # (the division is computed in either case when the lanes run this side by side: not by 0)
-    s_new = s - p / (dp if dp != 0.0 else 1.0) if dp != 0.0 else mid
-    # converged: Newton's last correction is below the tolerance (tested before the bracket, which a root on its
-    # edge would otherwise leave for a bisection, and the iteration for its cap)
-    done = abs(s_new - s) <= 1e-15 * H
-    inside = (lo < s_new) & (s_new < hi)
-    s = min(max(s_new, lo), hi) if done else (s_new if inside else mid)
-    return s, lo, hi, plo, done
-
-
-#: iterations of :func:`kink_newton` at most (3-5 are usual)
-KINK_ITERATIONS = 30
-#: the smallest positive float: :func:`kink_ahead`'s root when Newton lands on 0
-KINK_TINY = 5e-324
-
-
-@jit
-def kink_ahead(q1, v, a, jk, H):
-    """First ``s`` in (0, H] where ``cos q(s)`` changes sign, or -1.
-
-    ``q(s) = q1 + v s + a s^2/2 + jk s^3/6`` is the Taylor model of the
-    pendulum angle over the coming step (``v = q3``, ``a = q3'`` and ``jk``
-    an estimate of ``q3''``); the kinks are at ``q = pi/2 + m pi``. From
-    the secant's guess, :func:`kink_newton` until it converges (the lanes run
-    the same iterations side by side).
-    """
-    qs, s, lo, hi, plo, possible = kink_start(q1, v, a, jk, H)
-    if not possible:
-        return -1.0
-    for _it in range(KINK_ITERATIONS):
-        s, lo, hi, plo, done = kink_newton(q1, qs, v, a, jk, H, s, lo, hi, plo)
-        if done:
-            break
-    # the start and the end lie on either side of the kink, so the root is after the start even when q1 is within
-    # rounding of the kink and Newton lands on 0 (hypothesis found q1 = -pi/2 + 1.4e-16 moving towards it)
-    return s if s > 0.0 else KINK_TINY
-
-
 @jit(inline=True)
 def kink_plan(t, t_b, h, h_nat, s_k, tol_t):
     """How a step of size ``h`` from ``t`` meets the kink ahead at ``s_k`` (:func:`kink_ahead`, -1 if none).
@@ -765,15 +630,11 @@ def hermite(y, y_new, f, f_new, h, th, out, n):
 
 @jit
 def guard_at(fld, t, y, dx, which):
-    """The switching function ``which`` at (t, y): 0 the kinks of ``|cos q1|`` (:func:`switch`), else the belt's
-    play (:func:`~iwp.models.belt.play_guard`; ``dx`` a scratch rate)."""
-    if which == 0.0:
-        return switch(fld.model, fld.P, y)
-    ddelta = 0.0
-    if which == 2.0 or which == -2.0:
+    """The model's switching function ``which`` at (t, y) (:func:`iwp.models.guards.guard`: 0 the kinks, else the
+    held mode's); ``dx`` a scratch rate, evaluated when the guard reads it."""
+    if guard_needs_rate(fld.model, which):
         rate(fld, t, y, dx)
-        ddelta = dx[4]
-    return play_guard(fld.P, y, ddelta, which)
+    return guard(fld.model, fld.P, y, dx, which)
 
 
 @jit
@@ -816,33 +677,16 @@ def kink_step(fld, F, y, h, t, g_a, g_b, yo, dx, n, which):
 
 
 @jit
-def play_held(fld, t, y, f):
-    """The belt's play held on its branch at (t, y) through the next steps (:func:`~iwp.models.belt.play_branch`):
-    a :class:`PlayHold`. ``f``, the rate at (t, y) under ``fld``'s branch, is made the rate under the new one."""
-    mode = play_branch(y[4] - y[5], f[4], fld.P[DPLAY])
-    if mode == fld.P[PMODE]:
-        return PlayHold(fld, 0)
-    held = Field(fld.model, tuple_setitem(fld.P, PMODE, mode), fld.kind, fld.input_params, fld.command_params,
-                 fld.held, fld.uval, fld.hval, fld.sens)
+def branch_held(fld, t, y, f):
+    """The model's discrete mode (the belt's play) held on its branch at (t, y) through the next steps
+    (:func:`iwp.models.guards.branch_of`): a :class:`BranchHold`. ``f``, the rate at (t, y) under ``fld``'s branch,
+    is made the rate under the new one."""
+    P, changed = branch_of(fld.model, fld.P, y, f)
+    if not changed:
+        return BranchHold(fld, 0)
+    held = Field(fld.model, P, fld.kind, fld.input_params, fld.command_params, fld.held, fld.uval, fld.hval, fld.sens)
     rate(held, t, y, f)
-    return PlayHold(held, 1)
-
-
-@jit
-def play_switch(P, y, y_new, ddelta, ddelta_new):
-    """Which switching function of the belt's play held on its branch changes sign over a step from ``y`` to
-    ``y_new`` (:func:`~iwp.models.belt.play_guard`'s ``which``), or 0: free, the stretch reaching an edge;
-    engaged, its rate turning back from the edge."""
-    mode = P[PMODE]
-    if mode == PLAY_FREE:
-        for edge in (1.0, -1.0):
-            if play_guard(P, y, 0.0, edge) > 0.0 and play_guard(P, y_new, 0.0, edge) <= 0.0:
-                return edge
-        return 0.0
-    which = 2.0 * mode
-    if play_guard(P, y, ddelta, which) > 0.0 and play_guard(P, y_new, ddelta_new, which) <= 0.0:
-        return which
-    return 0.0
+    return BranchHold(held, 1)
 
 
 @jit(inline=True)
@@ -1009,7 +853,7 @@ def integrate(n, system, seg, tol, sens, span, out):
     t_out = out.t
     n_out = t_out.size
     kinked = has_kink(model, P)
-    played = has_play(model, P)
+    played = has_branches(model, P)
     y = span.x0.copy()
     f = np.empty(n)
     wk = new_work(n)
@@ -1042,7 +886,7 @@ def integrate(n, system, seg, tol, sens, span, out):
         rate(fld, t, y, f)
         nfev += 1
         if played:  # the belt's play on its branch here, held through the steps until they end where it switches
-            ph = play_held(fld, t, y, f)
+            ph = branch_held(fld, t, y, f)
             fld = ph.fld
             nfev += ph.nfev
         while j < n_out and t_out[j] <= t + tol_t:
@@ -1054,7 +898,7 @@ def integrate(n, system, seg, tol, sens, span, out):
         rejected = False
         h_force = -1.0
         lerr_prev = LERR_FLOOR
-        g_cur = switch_of(kinked, y[0])
+        g_cur = kink_at(kinked, y)
         h_last = -1.0
         a_last = 0.0
         bridged = False
@@ -1062,8 +906,10 @@ def integrate(n, system, seg, tol, sens, span, out):
             if nacc + nrej >= tol.max_steps:
                 status = ST_MAX_STEPS
                 break
-            jk = (f[2] - a_last) / h_last if h_last > 0.0 else 0.0
-            plan = plan_step(t, t_b, h_nat, tol.h_max, h_force, kinked and not bridged, (y[0], f[0], f[2], jk), tol_t)
+            # the Taylor model of the kinks' coordinate over the step (its third derivative from the last step)
+            q_k, v_k, a_k = kink_coordinate(model, y, f)
+            jk = (a_k - a_last) / h_last if h_last > 0.0 else 0.0
+            plan = plan_step(t, t_b, h_nat, tol.h_max, h_force, kinked and not bridged, (q_k, v_k, a_k, jk), tol_t)
             h = plan.h
             h_force = -1.0
             bridged = False
@@ -1077,17 +923,17 @@ def integrate(n, system, seg, tol, sens, span, out):
                         hermite(y, y_new, f, wk.dx, h, (t_out[j] - t) / h, wk.yo, n)
                         put_sample(out, j, t_out[j], wk.yo, n, fld)
                         j += 1
-                    a_last = f[2]
+                    a_last = a_k
                     h_last = h
                     for i in range(n):
                         f[i] = wk.dx[i]
                         y[i] = y_new[i]
                     t = t + h
                     if played:
-                        ph = play_held(fld, t, y, f)
+                        ph = branch_held(fld, t, y, f)
                         fld = ph.fld
                         nfev += ph.nfev
-                    g_cur = switch_of(kinked, y[0])
+                    g_cur = kink_at(kinked, y)
                     nacc += 1
                     # the next step is an ordinary one: a kink the
                     # bridge did not reach is found after that step
@@ -1100,7 +946,7 @@ def integrate(n, system, seg, tol, sens, span, out):
                         j += 1
                     continue
                 # a failed bridge: an ordinary step of the natural size
-                plan = plan_step(t, t_b, h_nat, tol.h_max, -1.0, False, (y[0], f[0], f[2], jk), tol_t)
+                plan = plan_step(t, t_b, h_nat, tol.h_max, -1.0, False, (q_k, v_k, a_k, jk), tol_t)
                 h = plan.h
             forced = plan.flags & FORCED != 0
             clipped = plan.flags & CLIPPED != 0
@@ -1125,10 +971,10 @@ def integrate(n, system, seg, tol, sens, span, out):
                     status = ST_STEP_TOO_SMALL
                     break
                 continue
-            g_new = switch_of(kinked, y_new[0])
+            g_new = kink_at(kinked, y_new)
             crossing = not forced and g_cur * g_new < 0.0
             # the belt's play switching branch inside the step
-            which = play_switch(fld.P, y, y_new, f[4], K[N_STAGES, 4]) if played and not forced else 0.0
+            which = switch_ahead(model, fld.P, y, y_new, f, K[N_STAGES]) if played and not forced else 0.0
             t_new = t_b if clipped else t + h
             if crossing or which != 0.0 or (j < n_out and t_out[j] < t_new - tol_t):
                 nfev += 3
@@ -1140,8 +986,8 @@ def integrate(n, system, seg, tol, sens, span, out):
                 if crossing:
                     h_force = kink_step(fld, wk.F, y, h, t, g_cur, g_new, wk.yo, wk.dx, n, 0.0)
                 if which != 0.0:
-                    h_force = min(h_force, kink_step(fld, wk.F, y, h, t, play_guard(fld.P, y, f[4], which),
-                                                     play_guard(fld.P, y_new, K[N_STAGES, 4], which), wk.yo, wk.dx,
+                    h_force = min(h_force, kink_step(fld, wk.F, y, h, t, guard(model, fld.P, y, f, which),
+                                                     guard(model, fld.P, y_new, K[N_STAGES], which), wk.yo, wk.dx,
                                                      n, which))
                 if h_force < h:
                     nrej += 1
@@ -1164,7 +1010,7 @@ def integrate(n, system, seg, tol, sens, span, out):
             while j < n_out and t_out[j] < t_new - tol_t:
                 put_dense(out, j, t_out[j], t, h, y, n, fld, wk)
                 j += 1
-            a_last = f[2]
+            a_last = a_k
             h_last = t_new - t
             for i in range(n):
                 f[i] = K[N_STAGES, i]
@@ -1172,7 +1018,7 @@ def integrate(n, system, seg, tol, sens, span, out):
             g_cur = g_new
             t = t_new
             if played:
-                ph = play_held(fld, t, y, f)
+                ph = branch_held(fld, t, y, f)
                 fld = ph.fld
                 nfev += ph.nfev
             if beyond(y, n_err, tol.xmax):
@@ -1266,7 +1112,6 @@ __all__ = [
     "STORE_SAMPLES",
     "STORE_SUMMARY",
     "samples_output",
-    "may_cross",
     "RunStats",
     "Segments",
     "SensView",

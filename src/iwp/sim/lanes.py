@@ -30,7 +30,7 @@ Each step of a block has four parts:
    ``N_SLOTS`` such steps at once (:func:`flush_dense`, also before a run ends);
    otherwise lane by lane (:func:`~iwp.sim.engine.dense_step`);
 4. all lanes at once: plan the next steps, those near a kink of ``|cos q1|``
-   included (:func:`~iwp.sim.engine.kink_ahead`'s iterations side by side,
+   included (:func:`~iwp.models.pendulum.kink_ahead`'s iterations side by side,
    :func:`~iwp.sim.engine.kink_plan`: a step ends short of the kink, or an
    RK4 bridge of the planned size crosses it in part 1); a lane at the
    run's end or due an output is left to part 1. Its loops each write few
@@ -66,7 +66,9 @@ from numba import prange
 from ..jit import jit
 from ..models.actuator import command
 from ..models.equations import optional_terms_off, rhs_of
+from ..models.guards import has_kink
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
+from ..models.pendulum import KINK_ITERATIONS, KINK_TINY, kink_newton, kink_possible, kink_start, may_cross, switch_of
 from ..threads import once_per_argument
 from .dop853 import (
     N_STAGES,
@@ -80,8 +82,6 @@ from .engine import (
     BRIDGE,
     CLIPPED,
     FORCED,
-    KINK_ITERATIONS,
-    KINK_TINY,
     NODES,
     SHORT,
     ST_DIVERGED,
@@ -98,16 +98,11 @@ from .engine import (
     bridge_work,
     dense_step,
     first_step,
-    has_kink,
     hermite,
     input_samples,
     is_held,
-    kink_newton,
     kink_plan,
-    kink_possible,
-    kink_start,
     kink_step,
-    may_cross,
     min_step,
     min_step_bound,
     new_work,
@@ -118,7 +113,6 @@ from .engine import (
     put_unreached,
     rate,
     rk4_bridge,
-    switch_of,
 )
 from .inputs import I_CHIRP, I_CONST, I_HOPF, I_SINE, I_ZERO, N_INPUT_PARAMS, input_value
 from .step_size import LERR_FLOOR, MIN_FACTOR, accept_step, next_step_size, reject_factor
