@@ -121,7 +121,7 @@ class CommandChain:
     ----------
     input : Input, optional
         The :mod:`iwp.sim.inputs` signal or controller giving ``u``; None: zero.
-        (:func:`~iwp.sim.simulate.simulate_batch` also takes a list of one type.)
+        :func:`~iwp.sim.simulate.simulate_batch` also takes a list of one type.
     feedforward : Feedforward, optional
         The dead-zone feedforward (7)-(8) applied to ``u``; None: none.
         ``Feedforward.of_plant(plant)`` uses the plant's own thresholds.
