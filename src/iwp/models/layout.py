@@ -62,7 +62,7 @@ SC1 = TERM_INDEX["sigma_c1"]  # the pendulum joint's Coulomb friction
 UOFF = TERM_INDEX["u_offset"]  # the input's offset
 #: the slots whose non-zero value puts a term into the compiled models (:data:`iwp.models.terms.SWITCHES`)
 SWITCH_SLOTS = tuple(TERM_INDEX[n] for n in SWITCHES)
-N_LUMPED = _FIRST_TERM + len(TERM_INDEX) - 2
+N_LUMPED = max(TERM_INDEX.values()) + 1  # the last term slot (the widths sit at EPSC1, EPSC)
 
 # --------------------------------------------------------------------------
 # physical layout (model "el")
