@@ -7,7 +7,8 @@ status 2, without a traceback.
 
 from __future__ import annotations
 
-__all__ = ["IwpError", "InputError", "DataFormatError", "SimulationError", "IdentificationError", "OutputExistsError"]
+__all__ = ["IwpError", "InputError", "DataFormatError", "SimulationError", "IdentificationError", "OutputExistsError",
+           "GoalNotReached"]
 
 
 class IwpError(Exception):
@@ -47,6 +48,16 @@ class SimulationError(IwpError, RuntimeError):
 
 class IdentificationError(IwpError, RuntimeError):
     """An identification cannot give trustworthy numbers (e.g. rank deficiency)."""
+
+
+class GoalNotReached(IwpError, RuntimeError):
+    """A computation ran on valid input but did not reach its goal.
+
+    An orbit continuation that does not converge on these parameters, draws of
+    a fit's uncertainty of which too few are physical: the message says why
+    and what to change. The command line prints it on one line and exits with
+    status 1 (ran but did not reach its goal), not 2 (bad input).
+    """
 
 
 class OutputExistsError(IwpError, FileExistsError):

@@ -47,14 +47,14 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable, Mapping
 
 import numpy as np
 
 from ..data import ExperimentData, StaticCurve
 from ..errors import InputError
-from ..ident.identification import IdentifyOptions, identify
+from ..ident.identification import AS_PRINTED, identify
 from ..ident.result import IdentificationResult
 from ..ident.validation import UninformativeValidation, validate
 from ..models.parameters import LumpedParameters, table1
@@ -399,13 +399,13 @@ def paper_numbers(truth: RigTruth | None = None, *, seed: int = 0,
             runs[name] = rig.run(name, **dict(overrides.get(name, {})))
     ident = {
         "dead-zone": identify(runs["static-curve"], "dead-zone"),
-        "motor-disk": identify(runs["motor-disk-chirp"], "motor-disk"),
-        "motor-disk-coulomb": identify(runs["motor-disk-chirp"], "motor-disk-coulomb"),
-        "free": identify(runs["free-pendulum"], "free"),
-        "full": identify(runs["full-chirp"], "full"),
+        "motor-disk": identify(runs["motor-disk-chirp"], "motor-disk", options=AS_PRINTED),
+        "motor-disk-coulomb": identify(runs["motor-disk-chirp"], "motor-disk-coulomb", options=AS_PRINTED),
+        "free": identify(runs["free-pendulum"], "free", options=AS_PRINTED),
+        "full": identify(runs["full-chirp"], "full", options=AS_PRINTED),
     }
-    ident["two-step"] = identify(runs["full-chirp"], "two-step", pendulum=ident["free"])
-    ident["full-13"] = identify(runs["full-chirp"], "full", options=IdentifyOptions(weights="none"))
+    ident["two-step"] = identify(runs["full-chirp"], "two-step", pendulum=ident["free"], options=AS_PRINTED)
+    ident["full-13"] = identify(runs["full-chirp"], "full", options=replace(AS_PRINTED, weights="none"))
     ls = least_squares_parameters(ident["free"], ident["two-step"], ident["dead-zone"])
     loop = closed_loop_model(runs["closed-loop"], ls)
     return PaperNumbers(identifications=ident, compensated=compensated_line(runs["static-curve-compensated"]),

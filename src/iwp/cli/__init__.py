@@ -22,7 +22,7 @@ import re
 import sys
 import warnings
 
-from ..errors import IwpError
+from ..errors import GoalNotReached, IwpError
 from ..interruption import Terminated, deliveries, raise_if_replaced
 from .interrupts import interrupts_as_exceptions
 
@@ -237,6 +237,9 @@ def _run(argv: list[str] | None) -> int:
                 if isinstance(target, str) and target.strip():
                     stack.enter_context(output_lock(target, argument=dest))
             status = args.func(args)
+    except GoalNotReached as exc:  # ran, but did not reach its goal: the reason, and status 1
+        print(f"iwp: {user_message(exc, cli_parser)}", file=sys.stderr)
+        return 1
     except IwpError as exc:
         print(f"iwp: error: {user_message(exc, cli_parser)}", file=sys.stderr)
         return 2

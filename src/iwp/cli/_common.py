@@ -6,6 +6,7 @@ import argparse
 import importlib
 import json
 import re
+import sys
 from collections.abc import Sequence
 
 from ..errors import InputError
@@ -84,6 +85,21 @@ def controller_of(args: argparse.Namespace):
 
 def add_force_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
+
+
+def add_accept_poor_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--accept-poor", action="store_true",
+                   help="exit with status 0 when the model predicts the held-out data poorly (a mean fit below "
+                        "50 %% or a fit below 0 %%); without it such a run writes its results and exits with 1")
+
+
+def poor_status(reason: str | None, accept: bool) -> int:
+    """The exit status of a command whose prediction of held-out data may be poor: 1 with the reason on stderr
+    (unless ``accept``), else 0."""
+    if reason is None:
+        return 0
+    print(f"iwp: {reason}" + ("" if accept else " (exit status 1; --accept-poor to accept it)"), file=sys.stderr)
+    return 0 if accept else 1
 
 
 def load_lumped(spec: str, flag: str = "--params"):

@@ -20,7 +20,7 @@ import json
 import sys
 
 from ..models.terms import TERMS, rung_names
-from ._common import add_controller_args, add_force_arg, controller_of, plain
+from ._common import add_accept_poor_arg, add_controller_args, add_force_arg, controller_of, plain, poor_status
 
 
 def register(sub) -> None:
@@ -44,6 +44,7 @@ def register(sub) -> None:
                            "units")
     p.add_argument("--out", "-o", required=True, metavar="DIR", help="output folder (new or empty)")
     add_force_arg(p)
+    add_accept_poor_arg(p)
     p.add_argument("--model", metavar="STRUCTURE", choices=rung_names(),
                    help="fit this structure of the ladder only: %(choices)s (default: fit them all and keep the "
                    "simplest within noise of the best on held-out data; see docs/fit.md)")
@@ -104,4 +105,4 @@ def run(args) -> int:
     else:
         print(res.summary(warnings=False))  # the warnings went to stderr
         print(f"wrote {files['report']}, {files['json']}, {files['parameters']}", file=sys.stdout)
-    return 0
+    return poor_status(res.poor_prediction(), args.accept_poor)

@@ -5,7 +5,15 @@ from __future__ import annotations
 import argparse
 import math
 
-from ._common import add_controller_args, add_force_arg, controller_of, float_list, json_text
+from ._common import (
+    add_accept_poor_arg,
+    add_controller_args,
+    add_force_arg,
+    controller_of,
+    float_list,
+    json_text,
+    poor_status,
+)
 
 _DESCRIPTION = """\
 Simulate the model from the log's initial state with the logged input
@@ -47,6 +55,7 @@ def register(sub) -> None:
                    help="the fit's 95 %% parameter and prediction bands (linearised, from the covariance in P.json, "
                         "the parameters.json of iwp fit) and the share of the samples inside the prediction band")
     p.add_argument("--json", action="store_true", help='print {"fit": {"q1": ..., ...}, ...} as JSON')
+    add_accept_poor_arg(p)
     p.add_argument("--plot", default=None, metavar="FIG", help="save the comparison figure (PNG/SVG/PDF)")
     add_force_arg(p)
     p.set_defaults(func=run)
@@ -65,6 +74,7 @@ def run(args) -> int:
     from ..data import read_experiment
     from ..errors import DataFormatError, InputError
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
+    from ..ident.metrics import poor_fits
     from ..ident.validation import (
         ValidationOptions,
         choose_model,
@@ -122,4 +132,6 @@ def run(args) -> int:
     bad = [k for k, f in v.fit.items() if not math.isfinite(f)]
     if bad and not args.json:
         print(f"note: the fit of {', '.join(bad)} is not defined (the measured signal is constant)")
-    return 0
+    poor = poor_fits([v.fit], [k for k, f in v.fit.items() if math.isfinite(f)])
+    return poor_status(f"the model predicts {args.file} poorly (fit {', '.join(poor)})" if poor else None,
+                       args.accept_poor)

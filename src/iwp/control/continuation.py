@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..checks import check_finite, check_positive
-from ..errors import InputError, SimulationError
+from ..errors import GoalNotReached, InputError
 from ..models.parameters import LumpedParameters
 from .closed_loop import lumped_parameters
 from .hopf import HopfPoint, hopf_point
@@ -259,8 +259,8 @@ def hopf_start(shooter: OrbitShooter, hp: HopfPoint, a_start: float) -> Correcti
 
     Raises
     ------
-    SimulationError
-        If the first orbit does not converge.
+    GoalNotReached
+        If the first orbit does not converge (the message says why and what to change).
     """
     q = hp.eigenvector
     z = a_start * (q / q[0]).real
@@ -268,9 +268,29 @@ def hopf_start(shooter: OrbitShooter, hp: HopfPoint, a_start: float) -> Correcti
     row = np.array([1.0, 0.0, 0.0, 0.0])
     res = shooter.newton(y0, row, y0)
     if res is None:
-        raise SimulationError(f"could not converge the first orbit of amplitude {a_start:g} rad near the Hopf point "
-                              f"k1* = {hp.k1:.6g}")
+        raise GoalNotReached(f"could not converge the first orbit of amplitude {a_start:g} rad near the Hopf point "
+                             f"k1* = {hp.k1:.6g}: {_why_no_orbit(shooter.plant.lumped, hp)}")
     return res
+
+
+#: pendulum damping ``sigma_a1 + sigma_v1`` [1/s] below which the Hopf point is called degenerate in a message
+DAMPING_FLOOR = 1e-6
+
+
+def _why_no_orbit(p, hp: HopfPoint) -> str:
+    """What makes the small orbits near the Hopf point unreachable with parameters ``p``, and what to change."""
+    damping = p.sigma_a1 + p.sigma_v1
+    if damping < DAMPING_FLOOR:
+        return (f"the parameters give the pendulum no viscous damping (sigma_a1 + sigma_v1 = {damping:.3g} 1/s), so "
+                "the loop's linear part barely moves the equilibrium's pair and the orbits near k1* are degenerate; "
+                "identify the damping from a free release (iwp identify free.csv --setup free), or hold it at a prior "
+                "(iwp fit ... --fix sigma_v1=0.01) and fit again")
+    if hp.criticality != "supercritical":
+        return (f"the bifurcation is {hp.criticality} at k2 = {hp.k2:g} (first Lyapunov coefficient {hp.l1:.3g}): "
+                "its small orbits are unstable or absent; choose k2 on the supercritical side of "
+                f"{hp.k2_critical:.4g}")
+    return ("Newton's method on the periodic-orbit equations did not converge from the normal form's prediction; "
+            "check that the parameters describe the rig (iwp validate) or start from a larger amplitude")
 
 
 def correct_at(shooter: OrbitShooter, ys, index: int, target: float) -> Correction | None:

@@ -258,6 +258,13 @@ class IdentifyOptions:
         (13) as printed, the plain sum over both rows, in which the larger
         misfit of the ``dq4/dt`` row moves the parameters shared by both rows
         (the pendulum's in ``"full"``: the paper's eq. (16)).
+    admissible : bool
+        True (default): a friction coefficient the logs do not identify (its
+        estimate negative, or its 95 % interval reaching 0) is held at its
+        prior (``base``, Table 1 by default) and the others are estimated
+        again (:data:`HOLDABLE`), with a warning that names the experiment
+        that would identify it. False: the unconstrained least squares (13)
+        as the paper solves it, negative friction included (eq. (16)).
 
     Raises
     ------
@@ -269,6 +276,7 @@ class IdentifyOptions:
     covariance: str = "noise"
     nonlinear: str = "filter-terms"
     weights: str = "blocks"
+    admissible: bool = True
 
     def __post_init__(self) -> None:
         if self.covariance not in ("noise", "hac", "ols"):
@@ -280,6 +288,13 @@ class IdentifyOptions:
         d = self.differentiator
         if d is not None and not isinstance(d, Differentiator):
             raise InputError(f"differentiator must be a Differentiator, got {type(d).__name__}")
+        if not isinstance(self.admissible, bool):
+            raise InputError(f"admissible must be True or False, got {self.admissible!r}", argument="admissible")
+
+
+#: the paper's procedures as printed: the unconstrained least squares (13), negative friction included (eq. (16));
+#: what the reproduction and the twin's calibration run
+AS_PRINTED = IdentifyOptions(admissible=False)
 
 
 def identify(
@@ -354,7 +369,9 @@ def identify(
         return identify_dead_zone(data)
     plan = _plan_identification(data, spec, _Window(t_start, t_end), _Known(pendulum, p2, base), opts)
     solved = _with_known_uncertainty(plan, _least_squares(plan, opts))
-    return _report_identification(plan, solved)
+    if opts.admissible:
+        plan, solved = _hold_unidentified(plan, opts, solved)
+    return _report_identification(plan, _with_held(plan, solved))
 
 
 @dataclass(frozen=True)
@@ -388,10 +405,13 @@ class _IdentPlan:
     sources: list[str]
     pend_vals: Mapping[str, float] | None
     warnings: tuple[str, ...]
+    #: columns held at their prior (not identified by these logs), with the prior's value
+    held: Mapping[str, float] = field(default_factory=dict)
 
     @property
     def names(self) -> list[str]:
-        return list(self.spec.columns)
+        """The columns estimated (the set-up's, less those held)."""
+        return [c for c in self.spec.columns if c not in self.held]
 
 
 @dataclass(frozen=True, eq=False)
@@ -493,6 +513,94 @@ def _noise_or_misfit(plan: _IdentPlan, opts: IdentifyOptions, res: LeastSquaresR
                    warnings=(warning,), details=details)
 
 
+#: the columns a set-up may hold at their prior when the logs do not identify them (friction coefficients: the
+#: gains and inertias p1, p2, p3 are what every set-up is for, and a set-up that cannot find them fails), with the
+#: experiment that identifies each
+HOLDABLE: dict[str, str] = {
+    "sigma_a1": "a free-pendulum release from a large angle (90 degrees or more: |cos q1| must vary), "
+                "`iwp identify free.csv --setup free`",
+    "sigma_v1": "a free-pendulum release from a large angle (90 degrees or more: |cos q1| must vary), "
+                "`iwp identify free.csv --setup free`",
+    "sigma_b1": "a free-pendulum release at high speed (a swing through the upright, or a spin)",
+    "sigma_c2_1rho": "a motor-disk chirp with the pendulum clamped that dwells at low wheel speeds",
+}
+
+
+def _prior(name: str, base: Any) -> float:
+    """The prior of a holdable column: ``base``'s value (Table 1 by default); ``X_1rho`` is ``X (1 + rho)``."""
+    ref = _reference(base)
+    ref = ref.to_lumped() if hasattr(ref, "to_lumped") else ref
+    if name.endswith("_1rho"):
+        return float(getattr(ref, name[:-len("_1rho")])) * (1.0 + float(ref.rho))
+    return float(getattr(ref, name))
+
+
+def _unidentified(plan: _IdentPlan, solved: _Solved) -> tuple[str, float, float] | None:
+    """The holdable column the logs identify least (negative, or its 95 % interval reaching 0), or None.
+
+    Returns its name, estimate and standard error; the one with the smallest ``value / stderr`` goes first.
+    """
+    if not solved.res.success:
+        return None
+    params = _estimates(plan.names, solved)
+    worst = None
+    for name, p in params.items():
+        if name not in HOLDABLE or not math.isfinite(p.stderr):
+            continue
+        if p.value < 0.0 or p.ci95_low <= 0.0:
+            t = p.value / p.stderr if p.stderr > 0 else -math.inf
+            if worst is None or t < worst[0]:
+                worst = (t, name, p.value, p.stderr)
+    return None if worst is None else worst[1:]
+
+
+def _held_regression(plan: _IdentPlan, name: str, value: float) -> Regression:
+    """The regression with column ``name`` held at ``value``: its term moved to the target, its column removed."""
+    reg = plan.reg
+    j = plan.names.index(name)
+    keep = [k for k in range(reg.Phi.shape[1]) if k != j]
+    held = {**reg.details.get("held", {}), name: value}
+    return replace(reg, Phi=np.ascontiguousarray(reg.Phi[:, keep]), phi=reg.phi - reg.Phi[:, j] * value,
+                   details={**reg.details, "held": held})
+
+
+def _hold_unidentified(plan: _IdentPlan, opts: IdentifyOptions, solved: _Solved) -> tuple[_IdentPlan, _Solved]:
+    """Hold the friction coefficients the logs do not identify at their prior, one at a time, and solve again.
+
+    Each round holds the least identified holdable column (:func:`_unidentified`) and re-solves (13) without it,
+    until every holdable column left is positive with a 95 % interval clear of 0 (an estimate that is there).
+    A warning names each column held, its unconstrained estimate and the experiment that would identify it.
+    """
+    notes = []
+    while (worst := _unidentified(plan, solved)) is not None:
+        name, value, se = worst
+        prior = _prior(name, plan.known.base)
+        notes.append(f"{name} is not identified by these logs (estimate {value:.4g} +- {se:.2g}"
+                     f"{', negative' if value < 0 else ', its 95 % interval reaches 0'}); held at its prior "
+                     f"{prior:.4g} ({'Table 1' if plan.known.base is None else 'the base parameters'}); "
+                     f"identify it with {HOLDABLE[name]}")
+        plan = replace(plan, reg=_held_regression(plan, name, prior), held={**plan.held, name: prior})
+        solved = _with_known_uncertainty(plan, _least_squares(plan, opts))
+    if not notes:
+        return plan, solved
+    return plan, replace(solved, warnings=(*solved.warnings, *notes),
+                         details={**solved.details, "held": dict(plan.held)})
+
+
+def _with_held(plan: _IdentPlan, solved: _Solved) -> _Solved:
+    """The solution over all the set-up's columns: the held ones at their prior, with zero variance."""
+    if not plan.held:
+        return solved
+    columns = list(plan.spec.columns)
+    idx = [columns.index(c) for c in plan.names]
+    values = np.array([plan.held.get(c, 0.0) for c in columns], dtype=float)
+    values[idx] = solved.res.values
+    cov = np.zeros((len(columns), len(columns)))
+    cov[np.ix_(idx, idx)] = solved.cov
+    res = replace(solved.res, values=values, names=tuple(columns))
+    return replace(solved, res=res, cov=cov)
+
+
 def _with_known_uncertainty(plan: _IdentPlan, solved: _Solved) -> _Solved:
     """Add the uncertainty of the known parameters in the target (pendulum of two-step, known ``p2``)."""
     reg, res, spec = plan.reg, solved.res, plan.spec
@@ -532,8 +640,11 @@ def _report_identification(plan: _IdentPlan, solved: _Solved) -> IdentificationR
     spec, sig, reg, res = plan.spec, plan.sig, plan.reg, solved.res
     warnings = [*plan.warnings, *solved.warnings, *res.warnings]
     details = {**reg.details, **solved.details}
-    params = _estimates(plan.names, solved)
-    cov, out_names, rho_info = solved.cov, plan.names, None
+    columns = list(spec.columns)
+    params = _estimates(columns, solved)
+    for name in plan.held:
+        params[name] = Parameter.given(name, plan.held[name], unit=params[name].unit)
+    cov, out_names, rho_info = solved.cov, columns, None
     derived = spec.derive(res.values, cov, solved.critical)
     if derived is not None:
         params.update(derived.parameters)
@@ -545,7 +656,8 @@ def _report_identification(plan: _IdentPlan, solved: _Solved) -> IdentificationR
     extra_w, extra_d = spec.extra_warnings(reg, sig, res, params, _reference(plan.known.base), plan.known.p2)
     warnings.extend(extra_w)
     details.update(extra_d)
-    explained = explained_fraction(reg.Phi, reg.phi, np.asarray(res.values, dtype=float), reg.blocks, reg.labels)
+    theta = np.asarray([res.values[columns.index(c)] for c in plan.names], dtype=float)  # the columns of reg.Phi
+    explained = explained_fraction(reg.Phi, reg.phi, theta, reg.blocks, reg.labels)
     details["explained_fraction"] = explained
     verdict = _verdict(plan, res, explained, len(warnings))
     residual_rms = {reg.labels[i] if isinstance(k, (int, np.integer)) else str(k): float(v)
@@ -585,6 +697,8 @@ def _verdict(plan: _IdentPlan, res: LeastSquaresResult, explained: Mapping[str, 
         return _Verdict(success=False, message=f"set-up {setup!r}: {res.message}")
     message = (f"set-up {setup!r}: identified {len(plan.names)} parameter(s) from {plan.sig.n} samples "
                f"({plan.sig.n_files} file(s), {res.n_equations} equations)")
+    if plan.held:
+        message += f", {len(plan.held)} held at their prior ({', '.join(plan.held)})"
     if n_warnings:
         message += f"; {n_warnings} warning(s)"
     return _Verdict(success=True, message=message)

@@ -54,7 +54,7 @@ from ..data.rig_description import ControllerSpec, RigDescription, load_rig
 from ..data.rig_log import read_rig_log
 from ..errors import InputError
 from ..files import json_float
-from ..models.parameters import PARAMETER_INFO, TYPICAL, BeltParameters, LumpedParameters
+from ..models.parameters import PARAMETER_INFO, TYPICAL, BeltParameters, LumpedParameters, table1
 from ..models.plant import Plant
 from ..models.terms import (
     TERMS,
@@ -67,10 +67,10 @@ from ..models.terms import (
     term,
 )
 from ..sim.inputs import HopfController, Input
-from ..sim.uncertainty import ParameterUncertainty, prediction_band
+from ..sim.uncertainty import ParameterUncertainty, identified_names, prediction_band
 from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
-from .metrics import fit_percent
+from .metrics import fit_percent, poor_fits
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_initial_state, measured_state_covariance
 from .problem import Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, refine
@@ -202,6 +202,15 @@ class LogFitResult:
         """The value parameter ``name`` started from (a belt's parameter: from the belt's start)."""
         owner = PARAMETER_INFO[name].owner
         return float(getattr(self.refinement.belt_start if owner == "belt" else self.start, name))
+
+    def poor_prediction(self) -> str | None:
+        """Why the held-out logs are predicted poorly, on one line, or None (none, or no held-out log).
+
+        Poorly: a signal's mean fit below :data:`~iwp.ident.metrics.POOR_FIT` %, or below zero on a log
+        (:func:`~iwp.ident.metrics.poor_fits`). ``iwp fit`` then exits with status 1 (``--accept-poor``: 0).
+        """
+        bad = poor_fits([f.fit for f in self.validation], self.outputs)
+        return f"the model predicts the held-out logs poorly (mean fit {', '.join(bad)})" if bad else None
 
     @property
     def validation_fit(self) -> dict[str, float]:
@@ -882,29 +891,73 @@ class Fitted:
         Its start, the structure's terms started (:meth:`LogFitOptions.starting_values`).
     structures : LadderResult or None
         The ladder fitted and ranked, or None.
+    held : tuple of str
+        The pendulum's friction coefficients its logs did not identify, held at their prior
+        (:func:`hold_unidentified`; in ``options.fixed``).
     """
 
     options: LogFitOptions
     result: RefineResult
     start: LumpedParameters
     structures: LadderResult | None = None
+    held: tuple[str, ...] = ()
 
 
 def fit_plan(plan: FitPlan) -> Fitted:
-    """The joint simulation-error fit of the plan's structure, or of each structure of the ladder (``select``)."""
+    """The joint simulation-error fit of the plan's structure, or of each structure of the ladder (``select``);
+    then the pendulum's friction the logs do not identify held at its prior (:func:`hold_unidentified`)."""
     fitting = _Fitting(plan)
     options, start = plan.options, plan.start.params
     if options.select:
         structures = fitting.ladder(start)
         chosen = options.with_rung(structures.chosen.rung)
-        return Fitted(chosen, structures.chosen.result, chosen.starting_values(start, plan.umax), structures)
+        fitted = Fitted(chosen, structures.chosen.result, chosen.starting_values(start, plan.umax), structures)
+        return hold_unidentified(fitting, fitted)
     started = options.starting_values(start, plan.umax)
     if options.drive is None:
-        return Fitted(options, fitting.joint(options, started), started)
+        return hold_unidentified(fitting, Fitted(options, fitting.joint(options, started), started))
     # a drive model starts from the fits of the rigid structures, as the ladder's rung does
     rigid = [replace(options, terms=s) for s in rigid_structures(options.terms)][:options.drive.starts]
     fits = thread_map(lambda o: fitting.joint(o, o.starting_values(started, plan.umax)), rigid)
-    return Fitted(options, fitting.drive_fit(options, [f.params for f in fits]), started)
+    return hold_unidentified(fitting, Fitted(options, fitting.drive_fit(options, [f.params for f in fits]), started))
+
+
+#: the pendulum's friction coefficients a fit holds at their prior when its logs do not identify them, and the
+#: experiment that identifies them
+HOLDABLE_FRICTION: dict[str, str] = {
+    "sigma_a1": "a free release from a large angle (90 degrees or more, so that |cos q1| varies)",
+    "sigma_v1": "a free release from a large angle (90 degrees or more, so that |cos q1| varies)",
+    "sigma_b1": "a free release at high pendulum speed (a swing through the upright)",
+}
+
+
+def friction_prior(name: str) -> float:
+    """The prior of a pendulum friction coefficient a fit holds: Table 1's value [its unit] (the paper's rig; a
+    rig's own value from elsewhere goes in with ``fixed``, ``iwp fit --fix``)."""
+    return float(getattr(table1(), name))
+
+
+def hold_unidentified(fitting: "_Fitting", fitted: Fitted) -> Fitted:
+    """The fit again with the pendulum's friction coefficients its logs do not identify held at their prior.
+
+    A coefficient of :data:`HOLDABLE_FRICTION` whose 95 % interval reaches past the physical range
+    (:func:`~iwp.sim.uncertainty.identified_names`: a friction at its bound 0, or ``1e-18 +- 230`` where two of
+    them cannot be told apart) is held at :func:`friction_prior` and the structure fitted again from the fit's
+    values; the held ones are listed in ``fitted.held``.
+    """
+    r = fitted.result
+    names = [n for n in HOLDABLE_FRICTION if n in r.free and n in r.parameters]
+    known = identified_names({n: r.parameters[n].value for n in names}, {n: r.parameters[n].stderr for n in names})
+    held = {n: friction_prior(n) for n in names if n not in known}
+    if not held:
+        return fitted
+    options = replace(fitted.options, fixed={**fitted.options.fixed, **held})
+    start = r.params.replace(**held)
+    if options.drive is None:
+        result = fitting.joint(options, start, x0=[x[:4] for x in r.x0])
+    else:
+        result = fitting.joint(options, start, x0=[x[:4] for x in r.x0], belt=r.belt)
+    return replace(fitted, options=options, result=result, held=tuple(held))
 
 
 def rigid_structures(on: frozenset[str]) -> list[frozenset[str]]:
@@ -952,6 +1005,10 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
     params = r.params
     if r.belt is not None:  # p2 and p3 do not enter the belt model: its rigid limit stands for them
         params = params.replace(p2=r.belt.rigid_p2rho / params.rho, p3=r.belt.rigid_p3rho / params.rho)
+    for n in fitted.held:
+        msgs.append(f"{n} is not identified by these logs (its 95 % interval reached past 0): held at its prior "
+                    f"{friction_prior(n):.4g} (Table 1; --fix {n}=VALUE for your rig's) and the structure fitted "
+                    f"again; {HOLDABLE_FRICTION[n]} identifies it")
     msgs.extend(poor_prediction_advice(val_fits, plan.outputs, chose=fitted.structures is not None))
     if fitted.structures is not None:
         msgs.extend(fitted.structures.kept_simpler_advice())
@@ -1150,23 +1207,10 @@ def disagreeing_logs(logs: Sequence[ExperimentData], *, window=(None, None)) -> 
             "parameter set explains them (a moved counterweight, another pendulum?); fit them separately"]
 
 
-#: a mean held-out fit below this [%] is a poor prediction, and said so
-POOR_FIT = 50.0
-
-
 def poor_prediction_advice(fits: Sequence[LogFit], outputs: Sequence[str], *, chose: bool) -> list[str]:
     """A warning, with what to try, when the held-out logs are predicted poorly (mean fit below
-    :data:`POOR_FIT` % or below zero on a log), or none."""
-    if not fits:
-        return []
-    bad = []
-    for o in outputs:
-        vals = [f.fit.get(o, float("nan")) for f in fits]
-        finite = [v for v in vals if math.isfinite(v)]
-        neg = sum(1 for v in vals if not math.isfinite(v) or v < 0)
-        mean = float(np.mean(finite)) if finite else float("nan")
-        if not (mean >= POOR_FIT) or neg:
-            bad.append(f"{o} {mean:.1f} %" + (f" (below zero or failed on {neg} of {len(vals)} logs)" if neg else ""))
+    :data:`~iwp.ident.metrics.POOR_FIT` % or below zero on a log, :func:`~iwp.ident.metrics.poor_fits`), or none."""
+    bad = poor_fits([f.fit for f in fits], outputs)
     if not bad:
         return []
     tries = ["the rig description's units, signs and zero (docs/rig-description.md): a wrong encoder gain or sign "
@@ -1352,7 +1396,20 @@ class _Fitting:
         fr = r.fit_result
         aic, bic = information_criteria(fr.cost, fr.dof + len(fr.free), len(fr.free))
         return RungOutcome(rg, len(r.free), scores, _mean_fit([f.fit for f in scored], self.outputs),
-                           _mean_fit(r.fit, self.outputs), aic, bic, bool(r.success), r.message, r)
+                           _mean_fit(r.fit, self.outputs), aic, bic, bool(r.success), r.message, r,
+                           unidentified=_unidentified_added(r, rg, extended))
+
+
+def _unidentified_added(r: RefineResult, rg: Rung, extended: Sequence[RungOutcome]) -> tuple[str, ...]:
+    """The parameters rung ``rg`` frees beyond the richest structure it extends that its fit ``r`` does not
+    identify (:func:`~iwp.sim.uncertainty.identified_names`); none for the ladder's first rung."""
+    if not extended:
+        return ()
+    below = max(extended, key=lambda o: len(o.rung.terms)).rung.terms
+    added = [n for n in free_parameters(rg.terms) if n not in free_parameters(below) and n in r.parameters]
+    values = {n: r.parameters[n].value for n in added}
+    known = identified_names(values, {n: r.parameters[n].stderr for n in added})
+    return tuple(n for n in added if n not in known)
 
 
 def _parents(extended: Sequence[RungOutcome]) -> list[RungOutcome]:

@@ -8,7 +8,10 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["fit_percent"]
+__all__ = ["POOR_FIT", "fit_percent", "poor_fits"]
+
+#: a mean fit below this [%] on data the model was not fitted to is a poor prediction, and said so
+POOR_FIT = 50.0
 
 
 def fit_percent(y, y_hat) -> float:
@@ -40,3 +43,33 @@ def fit_percent(y, y_hat) -> float:
     if den == 0.0 or not math.isfinite(den):
         return float("nan")
     return 100.0 * (1.0 - float(np.linalg.norm(y - y_hat)) / den)
+
+
+def poor_fits(fits, outputs) -> list[str]:
+    """The signals predicted poorly on data the model was not fitted to, each as ``"q2 37.0 %"``.
+
+    A signal is predicted poorly when its mean fit (:func:`fit_percent`) over
+    the logs is below :data:`POOR_FIT` %, or when it is below zero (worse than
+    the measured mean) or undefined on any log.
+
+    Parameters
+    ----------
+    fits : sequence of mapping of str to float
+        Per log, the fit [%] of each signal.
+    outputs : sequence of str
+        The signals to judge (``"q1"``, ``"q2"``, ...).
+
+    Returns
+    -------
+    list of str
+        One entry per poorly predicted signal (empty: none); a signal below zero on some logs says on how many.
+    """
+    bad = []
+    for o in outputs:
+        vals = [f.get(o, float("nan")) for f in fits]
+        finite = [v for v in vals if math.isfinite(v)]
+        neg = sum(1 for v in vals if not math.isfinite(v) or v < 0)
+        mean = float(np.mean(finite)) if finite else float("nan")
+        if not (mean >= POOR_FIT) or neg:
+            bad.append(f"{o} {mean:.1f} %" + (f" (below zero or failed on {neg} of {len(vals)} logs)" if neg else ""))
+    return bad

@@ -221,7 +221,7 @@ def noise_covariance(setup: Setup, sig: Signals, d: Differentiator, reg: Regress
     factor = _weighted_factor(reg, res, sig.n)
     if factor is None:
         return None
-    vals = {nm: float(res.values[j]) for j, nm in enumerate(res.names)}
+    vals = {**reg.details.get("held", {}), **{nm: float(res.values[j]) for j, nm in enumerate(res.names)}}
     p2_known = float(reg.details.get("p2_known", {}).get("value", 0.0))
     betas = setup.row_betas(vals, pend, p2_known)
     rows = _RowNoise(labels=list(betas), chans=np.array([betas[lab][0] for lab in betas], dtype=np.int64),

@@ -302,6 +302,57 @@ def measured_state_covariance(data: ExperimentData, index: int) -> np.ndarray:
 #: the measured initial state: a quadratic fitted to the first samples over about this long [s]
 X0_SECONDS = 0.1
 
+#: an estimated initial state stays within this many standard deviations of the measured one
+#: (:func:`initial_state_bounds`)
+X0_BOUND_SD = 5.0
+
+
+def angle_quantum(y: np.ndarray) -> float:
+    """The smallest nonzero step between consecutive samples of an angle [rad] (its encoder's resolution), or 0."""
+    diffs = np.abs(np.diff(np.asarray(y, dtype=float)))
+    diffs = diffs[diffs > 0]
+    return float(diffs.min()) if diffs.size else 0.0
+
+
+def initial_state_bounds(data: ExperimentData) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of an estimated initial state ``[q1, q2, q3, q4]`` at a log's first sample.
+
+    The measured state (:func:`measured_initial_state`) plus or minus
+    :data:`X0_BOUND_SD` of its standard deviations
+    (:func:`measured_state_covariance`), and at least one encoder step for an
+    angle, and for a velocity at least one step per sample period and the
+    range of the speeds over the first :data:`X0_SECONDS` (a log that starts
+    driven accelerates within them): an initial state the
+    fit may adjust within what the encoders saw, not one that explains a
+    misfit by a wheel spinning at a speed no sample shows.
+
+    Parameters
+    ----------
+    data : ExperimentData
+        The log (windowed: its first sample is the initial state's time).
+
+    Returns
+    -------
+    low, high : ndarray, shape (4,)
+        [rad, rad, rad/s, rad/s]; ``-inf, inf`` for a signal the log does not hold.
+    """
+    centre = measured_initial_state(data)
+    sd = np.sqrt(np.clip(np.diag(measured_state_covariance(data, 0)), 0.0, None))
+    half = np.full(4, np.inf)
+    m = min(max(5, int(round(X0_SECONDS / data.Ts)) + 1), data.n_samples)
+    for pos, vel, y in ((0, 2, data.q1), (1, 3, data.q2)):
+        if y is None:
+            continue
+        step = angle_quantum(y)
+        # the speeds the first samples show: a log that starts driven accelerates within them, and the quadratic's
+        # slope at its first sample is then biased by more than its standard deviation says
+        speeds = np.diff(np.asarray(y[:m], dtype=float)) / data.Ts
+        half[pos] = max(X0_BOUND_SD * sd[pos], step)
+        half[vel] = max(X0_BOUND_SD * sd[vel], step / data.Ts, float(np.ptp(speeds)) if speeds.size else 0.0)
+    if data.q4 is not None:
+        half[3] = max(X0_BOUND_SD * sd[3], angle_quantum(data.q4))
+    return centre - half, centre + half
+
 
 def measured_initial_state(d: ExperimentData) -> np.ndarray:
     """The state ``[q1, q2, q3, q4]`` a log measures at its first sample.
@@ -418,6 +469,11 @@ class Experiment:
         Initial-state guess ``[q1, q2, q3, q4]`` at the window start (default: measured).
     estimate_x0 : bool
         Estimate the initial state with the parameters (else the guess is used as it is).
+    x0_bounded : bool
+        The estimated initial state stays within what the first samples measured
+        (:func:`initial_state_bounds`); False for a log that starts unmeasured
+        (its first samples do not show the state, e.g. a glitch or a release
+        hidden by a hand).
     offsets : tuple of str
         Outputs whose sensor has an unknown constant offset, estimated (``("q1",)``).
     controller : Input, optional
@@ -429,6 +485,7 @@ class Experiment:
     window: tuple[float | None, float | None] = (None, None)
     x0: Any = None
     estimate_x0: bool = True
+    x0_bounded: bool = True
     offsets: tuple[str, ...] = ()
     controller: Input | None = None
 
@@ -684,9 +741,11 @@ class OutputError:
                 scale = max(abs(v), info.typical * 1e-3) if v != 0 else info.typical
                 out.append(Parameter(n, v, min=lo, max=hi, unit=info.unit, scale=scale))
         for p in self.prepared:
+            lo, hi = initial_state_bounds(p.data) if p.spec.x0_bounded else (np.full(4, -np.inf), np.full(4, np.inf))
             for s in p.est:
-                out.append(Parameter(x0_name(s, p.index), float(p.x0[s]), scale=1.0, kind="initial state",
-                                     unit="rad" if s < 2 else "rad/s"))
+                start = float(np.clip(p.x0[s], lo[s], hi[s]))
+                out.append(Parameter(x0_name(s, p.index), start, min=float(lo[s]), max=float(hi[s]), scale=1.0,
+                                     kind="initial state", unit="rad" if s < 2 else "rad/s"))
             for o in p.spec.offsets:
                 out.append(Parameter(offset_name(o, p.index), 0.0, scale=1.0, kind="offset",
                                      unit="rad" if o in ("q1", "q2") else "rad/s"))

@@ -236,6 +236,8 @@ class RungOutcome:
     message : str
     result : object
         The joint fit (:class:`~iwp.ident.refinement.RefineResult`).
+    unidentified : tuple of str
+        The parameters it adds that its fit does not identify (then it is not chosen).
     """
 
     rung: Rung
@@ -248,6 +250,10 @@ class RungOutcome:
     success: bool
     message: str
     result: Any = field(repr=False, default=None)
+    #: the parameters this rung adds to the structure it extends that its fit does not identify (their 95 %
+    #: interval reaches past the physical range, :func:`~iwp.sim.uncertainty.identified_names`): such a rung buys
+    #: parameters the logs cannot tell from none, and :func:`select` does not take it
+    unidentified: tuple[str, ...] = ()
 
     @property
     def score(self) -> float:
@@ -291,7 +297,8 @@ class Selection:
 
 
 def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
-    """The simplest rung within noise of the best (the module's rule).
+    """The simplest rung within noise of the best (the module's rule), among those that converged and whose
+    added parameters their fit identifies.
 
     Parameters
     ----------
@@ -303,7 +310,7 @@ def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
     S = np.array([o.scores for o in outcomes], dtype=float)
     R, n = S.shape
     nan = np.full(R, np.nan)  # a statistic no test gave (read only)
-    usable = np.array([o.success and np.all(np.isfinite(o.scores)) for o in outcomes])
+    usable = np.array([o.success and not o.unidentified and np.all(np.isfinite(o.scores)) for o in outcomes])
     if not usable.any():
         usable = np.array([np.all(np.isfinite(o.scores)) for o in outcomes])
     if not usable.any():
@@ -395,7 +402,8 @@ class LadderResult:
             d = sel.difference[i]
             dtxt = f"{d:+.2e}" if math.isfinite(d) else "-"
             lines.append(f"{mark} {r.rung.label:<44} {r.n_params:>3} {fits} {r.score:>8.4f} {dtxt:>9} "
-                         f"{r.bic:>11.4g}" + ("" if r.success else "  (did not converge)"))
+                         f"{r.bic:>11.4g}" + ("" if r.success else "  (did not converge)")
+                         + (f"  (not identified: {', '.join(r.unidentified)})" if r.unidentified else ""))
         lines.append(f"* chosen: {self.chosen.rung.label} (the simplest not significantly worse than the best"
                      + (f", {self.outcomes[sel.best].rung.label}" if sel.best != sel.chosen else "") + ")")
         return "\n".join(lines)
@@ -438,6 +446,6 @@ class LadderResult:
                        "stderr_of_log_ratio": float(sel.stderr[i]),
                        "p_worse_than_best": float(sel.p_worse[i]), "shift_to_best": float(sel.shift[i]),
                        "aic": r.aic, "bic": r.bic,
-                       "success": r.success, "message": r.message}
+                       "success": r.success, "message": r.message, "unidentified": list(r.unidentified)}
                       for i, r in enumerate(self.outcomes)],
         }

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -16,7 +17,7 @@ from ..calibration.statistics import (
 from ..calibration.targets import TargetRow, load_targets
 from ..errors import IwpError
 from ..ident.belt_fit import refine_belt
-from ..ident.identification import IdentifyOptions, identify
+from ..ident.identification import AS_PRINTED, identify
 from ..ident.output_error import replay
 from ..ident.problem import SolverOptions
 from ..ident.refinement import refine_identification
@@ -73,7 +74,7 @@ def step_motor_disk(ctx: ReproduceResult) -> str:
     """Section 5.1: ``p2(1+rho)`` and ``p3(1+rho)`` from the motor-disk chirp, pendulum locked."""
 
     data = ctx.experiment("motor-disk-chirp")
-    res = identify(data, "motor-disk")
+    res = identify(data, "motor-disk", options=AS_PRINTED)
     ctx.ident["motor-disk"] = res
     ctx.params["motor-disk"] = res.to_params(base=ctx.params["table1"])
     p2, p3 = val(res, "p2_1rho"), val(res, "p3_1rho")
@@ -195,7 +196,7 @@ def step_coulomb(ctx: ReproduceResult) -> str:
     """Figures 6 and 7: the motor-disk model with Coulomb friction, identified and compared."""
 
     data = ctx.experiment("motor-disk-chirp")
-    res = identify(data, "motor-disk-coulomb")
+    res = identify(data, "motor-disk-coulomb", options=AS_PRINTED)
     ctx.ident["motor-disk-coulomb"] = res
     params = res.to_params(base=ctx.params["table1"])
     ctx.params["coulomb"] = params
@@ -205,7 +206,7 @@ def step_coulomb(ctx: ReproduceResult) -> str:
     by_window = {}
     t_end = float(data.t[-1])
     for te in sorted({round(t_end / 5.0, 3), round(t_end / 2.0, 3)}):
-        r = identify(data, "motor-disk-coulomb", t_end=te)
+        r = identify(data, "motor-disk-coulomb", t_end=te, options=AS_PRINTED)
         by_window[f"{te:g}"] = {k: float(v) for k, v in r.values().items()}
     by_window[f"{t_end:g}"] = {"p2_1rho": p2, "p3_1rho": p3, "sigma_c2_1rho": sc}
     ctx.numbers["coulomb"]["by_window"] = by_window
@@ -228,7 +229,7 @@ def step_full_setup(ctx: ReproduceResult) -> str:
     """Eq. (16): all eight parameters from the full chirp at once, and the simulation they give."""
 
     data = ctx.experiment("full-chirp")
-    res = identify(data, "full")
+    res = identify(data, "full", options=AS_PRINTED)
     ctx.ident["full"] = res
     vals = {k: val(res, k) for k in ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "p2", "p3", "p2_1rho", "p3_1rho")}
     rel_se = {k: (float(res.parameters[k].stderr) / abs(vals[k]) if vals[k] != 0 else float("inf"))
@@ -254,7 +255,7 @@ def step_full_setup(ctx: ReproduceResult) -> str:
         num["fit_q1"] = float("nan")
         num["simulation_error"] = str(exc)
     # the paper's (13) as printed: the plain sum over both rows, without iwp's weights per row
-    plain = identify(data, "full", options=IdentifyOptions(weights="none"))
+    plain = identify(data, "full", options=replace(AS_PRINTED, weights="none"))
     ctx.extra["full-unweighted"] = plain
     pv = {k: val(plain, k) for k in vals}
     num["unweighted"] = {"theta": pv, "rho": val(plain, "rho")}
@@ -274,7 +275,7 @@ def step_free_pendulum(ctx: ReproduceResult) -> str:
     """Figure 8: the free pendulum released from -1.422 rad, identified and simulated."""
 
     data = ctx.experiment("free-pendulum")
-    res = identify(data, "free")
+    res = identify(data, "free", options=AS_PRINTED)
     ctx.ident["free"] = res
     vals = {k: val(res, k) for k in ("p1", "sigma_a1", "sigma_v1", "sigma_b1")}
     params = res.to_params(base=ctx.params["table1"])
@@ -302,7 +303,7 @@ def step_two_step(ctx: ReproduceResult) -> str:
     """Section 5.2: p2, p3, p2(1+rho), p3(1+rho) with the pendulum terms of the free pendulum; rho_1, rho_2."""
 
     data = ctx.experiment("full-chirp")
-    res = identify(data, "two-step", pendulum=ctx.ident["free"])
+    res = identify(data, "two-step", pendulum=ctx.ident["free"], options=AS_PRINTED)
     ctx.ident["two-step"] = res
     rho = dict(getattr(res, "rho", None) or {})
     params = least_squares_parameters(ctx.ident["free"], res, ctx.ident.get("dead-zone"))

@@ -31,7 +31,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 from scipy import stats
 
-from ..errors import InputError
+from ..errors import GoalNotReached, InputError
 from ..files import json_float, read_json
 from ..jit import jit
 from ..models.parameters import PARAMETER_INFO, LumpedParameters, load_params
@@ -41,7 +41,8 @@ from .inputs import Input
 from .sensitivity import simulate_sensitivities
 from .simulate import output_times, simulate_batch
 
-__all__ = ["ParameterUncertainty", "PredictionBand", "prediction_band", "uncertainty_record", "load_uncertainty",
+__all__ = ["ParameterUncertainty", "PredictionBand", "identified_names", "prediction_band", "uncertainty_record",
+           "load_uncertainty",
            "DrawTails", "BAND_METHODS", "BAND_CHUNK", "BAND_QUANTILES", "SIGNAL_INDEX"]
 
 #: How a band is computed: linearised with the sensitivities, or by Monte Carlo draws.
@@ -123,14 +124,7 @@ class ParameterUncertainty:
         lies inside the physical range (:meth:`~iwp.models.parameter_info.ParameterInfo.default_bounds`; for a
         signed parameter, on one side of 0). An interval that reaches past it (a friction estimated at
         ``1e-6 +- 2``, a term the logs barely excite) says the logs cannot tell the value from none."""
-        se = self.stderr
-        out = []
-        for n in self.free:
-            value, lo = getattr(self.params, n), PARAMETER_INFO[n].default_bounds()[0]
-            margin = value - lo if math.isfinite(lo) else abs(value)
-            if Z95 * se[n] < margin:
-                out.append(n)
-        return tuple(out)
+        return identified_names({n: getattr(self.params, n) for n in self.free}, self.stderr)
 
     def identified_only(self) -> "ParameterUncertainty":
         """This uncertainty with the parameters the logs do not identify (:meth:`identified`) held at their
@@ -176,10 +170,37 @@ class ParameterUncertainty:
                 below = np.mean(z < lo, axis=0)
                 worst = ", ".join(f"{k} in {100 * b:.0f} %" for k, b in
                                   sorted(zip(self.free, below), key=lambda kb: -kb[1]) if b > MIN_ACCEPTED)
-                raise InputError(f"only {100 * accepted / tries:.1f} % of the parameter draws are physical (outside "
-                                 f"the physical range: {worst}): the estimates are too uncertain to draw from; hold "
-                                 "the parameters the logs do not determine (iwp fit --fix NAME=VALUE) and fit again")
+                raise GoalNotReached(f"only {100 * accepted / tries:.1f} % of the parameter draws are physical "
+                                     f"(outside the physical range: {worst}): the estimates are too uncertain to draw "
+                                     "from; hold the parameters the logs do not determine (iwp fit --fix NAME=VALUE) "
+                                     "and fit again")
         return [self.params.replace(**dict(zip(self.free, (float(v) for v in row)))) for row in out]
+
+
+def identified_names(values: Mapping[str, float], stderr: Mapping[str, float]) -> tuple[str, ...]:
+    """The parameters of ``values`` that their estimates identify: ``value +- 1.96 stderr`` (:data:`Z95`) inside
+    the physical range (:meth:`~iwp.models.parameter_info.ParameterInfo.default_bounds`; a signed parameter: on one
+    side of 0). A NaN or infinite standard error identifies nothing.
+
+    Parameters
+    ----------
+    values : mapping of str to float
+        Estimates, by the names of :data:`~iwp.models.parameters.PARAMETER_INFO`.
+    stderr : mapping of str to float
+        Their standard errors, same names and units.
+
+    Returns
+    -------
+    tuple of str
+        The names identified, in the order of ``values``.
+    """
+    out = []
+    for n, value in values.items():
+        lo = PARAMETER_INFO[n].default_bounds()[0]
+        margin = value - lo if math.isfinite(lo) else abs(value)
+        if Z95 * stderr[n] < margin:
+            out.append(n)
+    return tuple(out)
 
 
 def uncertainty_record(r) -> dict[str, Any]:

@@ -100,7 +100,7 @@ class FreePendulum(Setup):
             return [], {}
         bvec = lstsq_projection(reg.Phi, sig.q4[:, None])[:, 0]
         shift = ref.p2 * bvec
-        names = self.columns
+        names = [c for c in self.columns if c not in reg.details.get("held", {})]  # the columns of reg.Phi
         big = [(nm, shift[j], params[nm].stderr) for j, nm in enumerate(names)
                if math.isfinite(params[nm].stderr) and abs(shift[j]) > params[nm].stderr]
         details = {"p2_q4_shift_per_unit_p2": {nm: float(bvec[j]) for j, nm in enumerate(names)}}
