@@ -12,9 +12,9 @@ import pytest
 from iwp.cli import main
 from iwp.data import write_experiment
 from iwp.errors import GoalNotReached
-from iwp.ident.identification import AS_PRINTED, HOLDABLE, identify
+from iwp.ident.identification import AS_PRINTED, HELD_NOTE, HOLDABLE, identify
 from iwp.ident.metrics import POOR_FIT, poor_fits
-from iwp.ident.output_error import X0_BOUND_SD, angle_quantum, initial_state_bounds
+from iwp.ident.output_error import angle_quantum, initial_state_bounds
 from iwp.ident.structure import RUNGS, RungOutcome, select
 from iwp.models import table1
 from iwp.rig import VirtualRig, default_truth
@@ -39,7 +39,8 @@ def test_the_full_set_up_on_a_short_chirp_holds_what_it_cannot_identify_and_the_
     t1 = table1()
     for name, value in held.items():
         p = res.parameters[name]
-        assert p.value == value == getattr(t1, name) and p.stderr == 0.0  # at the prior, with no spread claimed
+        assert p.value == value == getattr(t1, name)  # at the prior, with no interval claimed
+        assert math.isnan(p.stderr) and math.isnan(p.ci95_low) and p.note == HELD_NOTE
         assert any(w.startswith(f"{name} is not identified by these logs") and "free" in w for w in res.warnings)
     for name in ("sigma_a1", "sigma_v1", "sigma_b1"):
         assert res.parameters[name].value >= 0.0

@@ -47,9 +47,10 @@ def register(sub) -> None:
     p.add_argument("--t-end", type=float, default=None, help="end of the window [s]")
     p.add_argument("--restart", type=float_list, default=None, metavar="T1,T2",
                    help="restart the simulation from the measured state at these times [s] (figure 9b)")
-    p.add_argument("--signals", default=None, help="signals compared (default q1 and the wheel's q2, or q4 when "
-                                                  "the log holds only the wheel speed; q3,q4 differentiated when "
-                                                  "not logged)")
+    p.add_argument("--signals", default=None,
+                   help="signals compared, and judged for the exit status (default q1, the wheel's q2 and q4, judged "
+                        "on q1 and q4; q1 and q4 when the log holds only the wheel speed; q3, q4 differentiated when "
+                        "not logged)")
     add_controller_args(p, "simulate in closed loop with u = k1 q3 + k2 q3^3 instead of replaying the logged u")
     p.add_argument("--band", action="store_true",
                    help="the fit's 95 %% parameter and prediction bands (linearised, from the covariance in P.json, "
@@ -74,7 +75,7 @@ def run(args) -> int:
     from ..data import read_experiment
     from ..errors import DataFormatError, InputError
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
-    from ..ident.metrics import poor_fits
+    from ..ident.metrics import JUDGED, poor_fits
     from ..ident.validation import (
         ValidationOptions,
         choose_model,
@@ -114,7 +115,9 @@ def run(args) -> int:
         params = validation_plant(params, data, model, belt=stored_belt(args.params), source=f"--params {args.params}")
     offset = held_out_q1_offset(data, stored_q1_offset(args.params))
     controller = controller_of(args)
-    v = validate(data, params, model=model, controller=controller, signals=signals,
+    # default: q1 and the wheel's own signal, and its speed where that is its angle (q1 and q4 are judged)
+    shown = signals if signals is not None else (("q1", "q2", "q4") if data.q2 is not None else None)
+    v = validate(data, params, model=model, controller=controller, signals=shown,
                  options=ValidationOptions(window=(args.t_start, args.t_end), restart_times=args.restart or (),
                                            estimate_x0=args.estimate_x0, q1_offset=offset))
     if args.plot is not None:
@@ -132,6 +135,7 @@ def run(args) -> int:
     bad = [k for k, f in v.fit.items() if not math.isfinite(f)]
     if bad and not args.json:
         print(f"note: the fit of {', '.join(bad)} is not defined (the measured signal is constant)")
-    poor = poor_fits([v.fit], [k for k, f in v.fit.items() if math.isfinite(f)])
+    judged = signals if signals is not None else JUDGED  # the wheel's angle is shown, its speed judged
+    poor = poor_fits([v.fit], [k for k in judged if math.isfinite(v.fit.get(k, math.nan))])
     return poor_status(f"the model predicts {args.file} poorly (fit {', '.join(poor)})" if poor else None,
                        args.accept_poor)

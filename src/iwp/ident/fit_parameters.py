@@ -69,6 +69,8 @@ class Parameter:
         The optimiser varies ``value / scale`` (default: ``|value|``, or 1 for 0).
     kind : {"model", "initial state", "offset"}
         What it is: reports list the model's parameters apart from the nuisance ones.
+    note : str
+        A remark the tables print beside it (``"held at its prior: not identified by these logs"``).
     """
 
     name: str
@@ -84,6 +86,7 @@ class Parameter:
     log: bool = False
     scale: float | None = None
     kind: str = "model"
+    note: str = ""
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name:
@@ -132,6 +135,8 @@ class Parameter:
                "ci95": [json_float(self.ci95_low), json_float(self.ci95_high)], "fixed": self.fixed}
         if self.expr is not None:
             out["expr"] = self.expr
+        if self.note:
+            out["note"] = self.note
         return out
 
     @classmethod
@@ -432,7 +437,7 @@ def parameter_table(params: Iterable[Parameter], units: Mapping[str, str] | None
     w = max([9] + [len(p.name) for p in params])
     lines = [f"{'parameter':<{w}}  {'value':>13}  {'stderr':>11}  {'95% interval':^29}  unit"]
     for p in params:
-        note = "fixed" if p.fixed else ("not identifiable" if not math.isfinite(p.stderr) else "")
+        note = p.note or ("fixed" if p.fixed else ("not identifiable" if not math.isfinite(p.stderr) else ""))
         unit = (units or {}).get(p.name, p.unit)
         lines.append(f"{p.name:<{w}}  {p.value:>13.6g}  {p.stderr:>11.3g}  "
                      f"[{p.ci95_low:>12.6g}, {p.ci95_high:>12.6g}]  {unit} {note}".rstrip())

@@ -526,6 +526,10 @@ HOLDABLE: dict[str, str] = {
 }
 
 
+#: how a held column is marked in the tables
+HELD_NOTE = "held at its prior: not identified by these logs"
+
+
 def _prior(name: str, base: Any) -> float:
     """The prior of a holdable column: ``base``'s value (Table 1 by default); ``X_1rho`` is ``X (1 + rho)``."""
     ref = _reference(base)
@@ -642,8 +646,9 @@ def _report_identification(plan: _IdentPlan, solved: _Solved) -> IdentificationR
     details = {**reg.details, **solved.details}
     columns = list(spec.columns)
     params = _estimates(columns, solved)
-    for name in plan.held:
-        params[name] = Parameter.given(name, plan.held[name], unit=params[name].unit)
+    for name in plan.held:  # no interval: the logs say nothing of it, and its prior's spread is not known
+        params[name] = Parameter(name, plan.held[name], vary=False, stderr=math.nan, ci95=(math.nan, math.nan),
+                                 unit=params[name].unit, note=HELD_NOTE)
     cov, out_names, rho_info = solved.cov, columns, None
     derived = spec.derive(res.values, cov, solved.critical)
     if derived is not None:

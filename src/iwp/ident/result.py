@@ -198,7 +198,7 @@ class IdentificationResult:
             ci = e.get("ci95") or [None, None]
             lo = math.nan if ci[0] is None else float(ci[0])
             hi = math.nan if ci[1] is None else float(ci[1])
-            params[n] = Parameter(n, v, stderr=se, ci95=(lo, hi))
+            params[n] = Parameter(n, v, stderr=se, ci95=(lo, hi), note=str(e.get("note", "")))
         names = tuple(params)
         corr_doc = doc.get("correlation") or {}
         k = len(names)

@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..files import jsonable, staged_dir
-from ..ident.logfit import MODEL_LABELS
+from ..ident.logfit import JUDGED, MODEL_LABELS
 from ..ident.validation import READS_V_AS_U
 from ..models.parameters import save_params
 from ..plotting.report import plot_comparisons
@@ -140,23 +140,26 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                      note=("no uncertainty estimated" if r.reliability is None else r.reliability.describe())
                      + "; start: " + result.start_method)
         frows = []
+        sigs = result.predicted  # the outputs fitted, and the held-out logs' judged signals
         for f in result.train + result.validation:
             role = f.role if f.kind == "free" else f"{f.role} ({f.kind})"
-            frows.append([Path(f.source).name, role] + [fmt(f.fit.get(o), 4) for o in result.outputs]
-                         + [fmt(f.rms.get(o), 3) for o in result.outputs] + [fmt(f.q1_offset, 3)]
-                         + [fmt(100 * f.coverage[o], 3) if o in f.coverage else "-" for o in result.outputs])
+            frows.append([Path(f.source).name, role] + [fmt(f.fit.get(o), 4) for o in sigs]
+                         + [fmt(f.rms.get(o), 3) for o in sigs] + [fmt(f.q1_offset, 3)]
+                         + [fmt(100 * f.coverage[o], 3) if o in f.coverage else "-" for o in sigs])
         ftab = Table("Fits per log and signal",
-                     ["log", "role"] + [f"fit {o} [%]" for o in result.outputs]
-                     + [f"RMS {o}" for o in result.outputs] + ["q1 offset [rad]"]
-                     + [f"in band {o} [%]" for o in result.outputs], frows,
-                     note="fit = 100 (1 - |y - y_sim| / |y - mean y|); replaced glitch samples left out; in band: the "
+                     ["log", "role"] + [f"fit {o} [%]" for o in sigs]
+                     + [f"RMS {o}" for o in sigs] + ["q1 offset [rad]"]
+                     + [f"in band {o} [%]" for o in sigs], frows,
+                     note="fit = 100 (1 - |y - y_sim| / |y - mean y|); replaced glitch samples left out; a held-out "
+                          f"log is judged on {' and '.join(JUDGED)}, the pendulum's angle and the wheel's speed (the "
+                          "wheel's angle enters no equation: its error is the integral of the speed's); in band: the "
                           "share of a held-out log's samples inside the fit's 95 % prediction band (parameters, "
                           "measured initial state and the residuals' spread)")
         tables = [ptab, ftab]
         if result.structures is not None:
             lad = result.structures
             sel = lad.selection
-            outs = list(result.outputs)
+            outs = list(JUDGED)
             lrows = [[("chosen: " if i == sel.chosen else "best: " if i == sel.best else "") + o.rung.label,
                       str(o.n_params)] + [fmt(o.fit.get(k), 4) for k in outs] + [fmt(o.score, 4),
                       fmt(sel.difference[i], 3), fmt(o.bic, 6), "yes" if o.success else "no"]
