@@ -129,6 +129,7 @@ from ..data import check_distinct
 from ..errors import IdentificationError, InputError
 from ..files import read_json
 from ..models.parameters import load_params, table1
+from ..sim.uncertainty import undetermined
 from .differentiate import Differentiator
 from .fit_parameters import Parameter
 from .lsq import LeastSquaresOptions, LeastSquaresResult, lstsq_projection, solve_least_squares
@@ -260,7 +261,8 @@ class IdentifyOptions:
         (the pendulum's in ``"full"``: the paper's eq. (16)).
     admissible : bool
         True (default): a friction coefficient the logs do not identify (its
-        estimate negative, or its 95 % interval reaching 0) is held at its
+        estimate negative, or its 95 % interval a hundred times wider than its
+        value, :func:`~iwp.sim.uncertainty.undetermined`) is held at its
         prior (``base``, Table 1 by default) and the others are estimated
         again (:data:`HOLDABLE`), with a warning that names the experiment
         that would identify it. False: the unconstrained least squares (13)
@@ -540,7 +542,8 @@ def _prior(name: str, base: Any) -> float:
 
 
 def _unidentified(plan: _IdentPlan, solved: _Solved) -> tuple[str, float, float] | None:
-    """The holdable column the logs identify least (negative, or its 95 % interval reaching 0), or None.
+    """The holdable column the logs identify least (negative, or undetermined: its 95 % interval a hundred times
+    wider than its value, :func:`~iwp.sim.uncertainty.undetermined`), or None.
 
     Returns its name, estimate and standard error; the one with the smallest ``value / stderr`` goes first.
     """
@@ -551,7 +554,7 @@ def _unidentified(plan: _IdentPlan, solved: _Solved) -> tuple[str, float, float]
     for name, p in params.items():
         if name not in HOLDABLE or not math.isfinite(p.stderr):
             continue
-        if p.value < 0.0 or p.ci95_low <= 0.0:
+        if p.value < 0.0 or undetermined(name.removesuffix("_1rho"), p.value, p.stderr):
             t = p.value / p.stderr if p.stderr > 0 else -math.inf
             if worst is None or t < worst[0]:
                 worst = (t, name, p.value, p.stderr)
@@ -580,7 +583,8 @@ def _hold_unidentified(plan: _IdentPlan, opts: IdentifyOptions, solved: _Solved)
         name, value, se = worst
         prior = _prior(name, plan.known.base)
         notes.append(f"{name} is not identified by these logs (estimate {value:.4g} +- {se:.2g}"
-                     f"{', negative' if value < 0 else ', its 95 % interval reaches 0'}); held at its prior "
+                     f"{', negative' if value < 0 else ', an interval a hundred times wider than the value'}); held "
+                     f"at its prior "
                      f"{prior:.4g} ({'Table 1' if plan.known.base is None else 'the base parameters'}); "
                      f"identify it with {HOLDABLE[name]}")
         plan = replace(plan, reg=_held_regression(plan, name, prior), held={**plan.held, name: prior})

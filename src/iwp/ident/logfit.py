@@ -69,7 +69,7 @@ from ..models.terms import (
     term,
 )
 from ..sim.inputs import HopfController, Input
-from ..sim.uncertainty import ParameterUncertainty, identified_names, prediction_band
+from ..sim.uncertainty import ParameterUncertainty, identified_names, prediction_band, undetermined
 from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
 from .metrics import JUDGED, fit_percent, poor_fits
@@ -953,15 +953,15 @@ def friction_prior(name: str) -> float:
 def hold_unidentified(fitting: "_Fitting", fitted: Fitted) -> Fitted:
     """The fit again with the pendulum's friction coefficients its logs do not identify held at their prior.
 
-    A coefficient of :data:`HOLDABLE_FRICTION` whose 95 % interval reaches past the physical range
-    (:func:`~iwp.sim.uncertainty.identified_names`: a friction at its bound 0, or ``1e-18 +- 230`` where two of
-    them cannot be told apart) is held at :func:`friction_prior` and the structure fitted again from the fit's
-    values; the held ones are listed in ``fitted.held``.
+    A coefficient of :data:`HOLDABLE_FRICTION` the estimate says nothing of
+    (:func:`~iwp.sim.uncertainty.undetermined`: a friction at its bound 0, or ``1e-18 +- 230`` where two of them
+    cannot be told apart) is held at :func:`friction_prior` and the structure fitted again from the fit's values;
+    the held ones are listed in ``fitted.held``. One whose interval merely reaches 0 keeps its estimate: held at a
+    prior that is not the rig's, it would bias those it is correlated with.
     """
     r = fitted.result
     names = [n for n in HOLDABLE_FRICTION if n in r.free and n in r.parameters]
-    known = identified_names({n: r.parameters[n].value for n in names}, {n: r.parameters[n].stderr for n in names})
-    held = {n: friction_prior(n) for n in names if n not in known}
+    held = {n: friction_prior(n) for n in names if undetermined(n, r.parameters[n].value, r.parameters[n].stderr)}
     if not held:
         return fitted
     options = replace(fitted.options, fixed={**fitted.options.fixed, **held})
@@ -1019,7 +1019,8 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
     if r.belt is not None:  # p2 and p3 do not enter the belt model: its rigid limit stands for them
         params = params.replace(p2=r.belt.rigid_p2rho / params.rho, p3=r.belt.rigid_p3rho / params.rho)
     for n in fitted.held:
-        msgs.append(f"{n} is not identified by these logs (its 95 % interval reached past 0): held at its prior "
+        msgs.append(f"{n} is not identified by these logs (estimated at its bound 0, or with an interval a hundred "
+                    f"times wider than its value): held at its prior "
                     f"{friction_prior(n):.4g} (Table 1; --fix {n}=VALUE for your rig's) and the structure fitted "
                     f"again; {HOLDABLE_FRICTION[n]} identifies it")
     msgs.extend(poor_prediction_advice(val_fits, JUDGED, chose=fitted.structures is not None))

@@ -41,7 +41,8 @@ from .inputs import Input
 from .sensitivity import simulate_sensitivities
 from .simulate import output_times, simulate_batch
 
-__all__ = ["ParameterUncertainty", "PredictionBand", "identified_names", "prediction_band", "uncertainty_record",
+__all__ = ["ParameterUncertainty", "PredictionBand", "identified_names", "undetermined", "prediction_band",
+           "uncertainty_record",
            "load_uncertainty",
            "DrawTails", "BAND_METHODS", "BAND_CHUNK", "BAND_QUANTILES", "SIGNAL_INDEX"]
 
@@ -201,6 +202,33 @@ def identified_names(values: Mapping[str, float], stderr: Mapping[str, float]) -
         if Z95 * stderr[n] < margin:
             out.append(n)
     return tuple(out)
+
+
+#: an estimate whose 95 % interval is more than this many times wider than its distance to its physical bound is
+#: undetermined (:func:`undetermined`): at the bound, or ``1e-7 +- 230`` where two terms cannot be told apart
+UNDETERMINED_RATIO = 100.0
+
+
+def undetermined(name: str, value: float, stderr: float) -> bool:
+    """Whether an estimate says nothing of parameter ``name``: its 95 % half-width ``1.96 stderr`` is more than
+    :data:`UNDETERMINED_RATIO` times its distance to the lower end of the physical range (an estimate at that end, or
+    beyond it), or its standard error is not finite. What a fit holds at a prior; an estimate that is merely not
+    identified (its interval reaching the bound, :func:`identified_names`) keeps its value and interval.
+
+    Parameters
+    ----------
+    name : str
+        A parameter of :data:`~iwp.models.parameters.PARAMETER_INFO`.
+    value, stderr : float
+        The estimate and its standard error [the parameter's unit].
+
+    Returns
+    -------
+    bool
+    """
+    lo = PARAMETER_INFO[name].default_bounds()[0]
+    margin = value - lo if math.isfinite(lo) else abs(value)
+    return not (math.isfinite(stderr) and margin * UNDETERMINED_RATIO > Z95 * stderr)
 
 
 def uncertainty_record(r) -> dict[str, Any]:
