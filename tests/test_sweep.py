@@ -98,14 +98,14 @@ def test_metrics_are_those_of_the_simulator(tmp_path):
     for i in (0, 3, 5):
         k1, q10 = tab["k1"][i], tab["x0.q1"][i]
         osc = simulated_amplitude(table1(), k1, 0.1, x0=[q10, 0, 0, 0], t_end=40.0, window=10.0, Ts=0.05,
-                                  rtol=1e-8, atol=1e-8)
+                                  options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8)))
         np.testing.assert_allclose(tab["amplitude"][i], osc.amplitude, rtol=1e-7)
         np.testing.assert_allclose(tab["period"][i], osc.period, rtol=1e-7)
         end = osc.result.x[-1]
         np.testing.assert_allclose([tab[f"q{j}_end"][i] for j in (1, 2, 3, 4)], end, rtol=1e-6, atol=1e-8)
         # the 50 ms samples' refined maxima are those of the trajectory sampled every millisecond
         fine = simulated_amplitude(table1(), k1, 0.1, x0=[q10, 0, 0, 0], t_end=40.0, window=10.0, Ts=0.001,
-                                   rtol=1e-8, atol=1e-8)
+                                   options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8)))
         assert abs(tab["amplitude"][i] - fine.amplitude) < 2e-4
         assert abs(tab["period"][i] - fine.period) < 1e-3
         assert abs(tab["max_abs_q1"][i] - np.max(np.abs(fine.result.q1))) < 2e-4
