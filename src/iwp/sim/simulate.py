@@ -356,8 +356,8 @@ def simulate(
     >>> from iwp.models import Plant, table1
     >>> from iwp.sim import HopfController, simulate
     >>> r = simulate(Plant(table1()), input=HopfController(k1=-10, k2=0.1), x0=[0.1, 0, 0, 0], t_end=1)
-    >>> r.t[-1]
-    1.0
+    >>> print(r.t[-1], r.success)
+    1.0 True
     """
     opts = as_options(options, SimOptions)
     plant = as_plant(plant)
