@@ -166,7 +166,7 @@ def main():
     chirp = Chirp(60.0, 3.0, 100.0)
     print(f"machine: {os.cpu_count()} cores")
 
-    ref = simulate_scipy(p, command=chirp, t_end=T, tolerances=Tolerances(rtol=1e-12, atol=1e-12))
+    ref = simulate_scipy(p, input=chirp, t_end=T, options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12)))
     simulate(p, input=chirp, t_end=T)  # compile
     # the loosest tolerance that meets the error bound of 1e-6 rad
     t_iwp, r = best_of(lambda: simulate(p, input=chirp, t_end=T,
@@ -221,8 +221,8 @@ def main():
     idx = np.unique(np.linspace(0, n - 1, min(args.check, n)).astype(int))
     errs = []
     for i in idx:
-        rr = simulate_scipy(p, command=ctrls[i], x0=[0.1, 0, 0, 0], t_end=T, t_eval=te,
-                            tolerances=Tolerances(rtol=1e-12, atol=1e-12))
+        rr = simulate_scipy(p, input=ctrls[i], x0=[0.1, 0, 0, 0], t_end=T, t_eval=te,
+                            options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12)))
         errs.append(float(np.max(np.abs(br.x[i, :, 0] - rr.q1))))
     print(f"\n## Batch: {n} closed-loop simulations of 300 s (k1 in [-12, -6], k2 = 0.1)\n")
     print("| quantity | value |")

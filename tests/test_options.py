@@ -135,4 +135,6 @@ def test_task_refuses_other_objects():
     with pytest.raises(InputError, match="tolerances"):
         SimulationTask(Plant(table1()), tolerances=1e-9)
     with pytest.raises(InputError, match="tolerances"):
-        simulate_scipy(table1(), t_end=1.0, tolerances=1e-9)
+        simulate_scipy(table1(), t_end=1.0, options=SimOptions(tolerances=1e-9))
+    with pytest.raises(InputError, match="options must be an iwp.sim.SimOptions, got Tolerances"):
+        simulate_scipy(table1(), t_end=1.0, options=Tolerances())

@@ -69,7 +69,8 @@ def test_dop853_convergence_order():
 def test_agrees_with_scipy_dop853_at_tight_tolerance():
     inp = Chirp(60.0, 3.0, 100.0)
     ours = simulate(table1(), input=inp, t_end=40.0, options=SimOptions(tolerances=Tolerances(rtol=1e-11, atol=1e-11)))
-    ref = simulate_scipy(table1(), command=inp, t_end=40.0, tolerances=Tolerances(rtol=1e-12, atol=1e-12))
+    ref = simulate_scipy(table1(), input=inp, t_end=40.0,
+                         options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12)))
     assert np.max(np.abs(ours.x[:, :3] - ref.x[:, :3])) < 1e-8
     assert np.max(np.abs(ours.q4 - ref.q4)) < 1e-6  # q4 ~ 100 rad/s
     np.testing.assert_allclose(ours.u, 60 * np.sin((3 + ours.t / 100) * ours.t), atol=1e-12)

@@ -10,14 +10,13 @@ for :func:`~iwp.sim.simulate.simulate` and
 :func:`~iwp.sim.sensitivity.simulate_sensitivities`; :class:`BatchOptions`
 the same for :func:`~iwp.sim.simulate.simulate_batch`, with what to keep of
 each run. All are frozen and checked when built, so one object can be
-passed to every entry point (:func:`~iwp.sim.simulate.simulate_scipy` and
-:class:`~iwp.sim.tasks.SimulationTask` take a :class:`CommandChain` and
-:class:`Tolerances`).
+passed to every entry point (:func:`~iwp.sim.simulate.simulate_scipy` takes a
+:class:`SimOptions` too; :class:`~iwp.sim.tasks.SimulationTask`, which
+``iwp simulate`` builds, a :class:`CommandChain` and :class:`Tolerances`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -128,7 +127,6 @@ class CommandChain:
     ----------
     input : Input, optional
         The :mod:`iwp.sim.inputs` signal or controller giving ``u``; None: zero.
-        :func:`~iwp.sim.simulate.simulate_batch` also takes a list of one type.
     feedforward : Feedforward, optional
         The dead-zone feedforward (7)-(8) applied to ``u``; None: none.
         ``Feedforward.of_plant(plant)`` uses the plant's own thresholds.
@@ -258,27 +256,6 @@ class BatchOptions(_Drive):
         if self.store not in BATCH_STORES:
             raise InputError(f"store must be one of {', '.join(BATCH_STORES)}, got {self.store!r}", argument="store")
         _flag("inputs", self.inputs)
-
-
-def as_tolerances(tolerances, default: Tolerances) -> Tolerances:
-    """``tolerances`` (a :class:`Tolerances`), or ``default`` for None; anything else is an :class:`InputError`."""
-    if tolerances is None:
-        return default
-    if not isinstance(tolerances, Tolerances):
-        raise InputError(f"tolerances must be an iwp.sim.Tolerances, got {type(tolerances).__name__}",
-                         argument="tolerances")
-    return tolerances
-
-
-def as_chain(command) -> CommandChain:
-    """``command`` as a :class:`CommandChain`: None is the zero input, a bare input the chain of that input alone."""
-    if command is None:
-        return CommandChain()
-    if isinstance(command, CommandChain):
-        return command
-    if isinstance(command, (Sequence,)) and not isinstance(command, str):
-        return CommandChain(input=list(command))
-    return CommandChain(input=command)
 
 
 def as_options(options, kind: type):

@@ -45,7 +45,7 @@ from .engine import (
     samples_output,
 )
 from .inputs import I_EXTERNAL, I_ZERO, N_INPUT_PARAMS, CallableController, Input, Sampled, input_value
-from .options import BATCH_STORES, BatchOptions, CommandChain, SimOptions, as_chain, as_options, as_tolerances
+from .options import BATCH_STORES, BatchOptions, SimOptions, as_options
 from .options import Tolerances as TolerancesOptions
 from .result import BatchResult, SimulationResult
 
@@ -178,11 +178,6 @@ def tolerances(
 def engine_tolerances(n: int, opts: TolerancesOptions, *, n_err: int | None = None) -> Tolerances:
     """The engine's :class:`~iwp.sim.engine.Tolerances` of the options ``opts`` for ``n`` states."""
     return tolerances(n, opts.rtol, opts.atol, n_err=n_err, max_step=opts.max_step, max_steps=opts.max_steps)
-
-
-def chain_command(plant: Plant, chain: CommandChain) -> np.ndarray:
-    """The command vector of ``chain``'s feedforward and saturation for ``plant`` (:func:`command_of`)."""
-    return command_of(plant, chain.feedforward_pair(), chain.saturation)
 
 
 def initial_state(x0, plant: Plant) -> np.ndarray:
@@ -737,13 +732,13 @@ def _is_state(v) -> bool:
 def simulate_scipy(
     plant,
     *,
+    input: Input | None = None,
     x0=None,
     t_end: float,
     t0: float = 0.0,
     Ts: float = 0.005,
     t_eval=None,
-    command: CommandChain | Input | None = None,
-    tolerances: TolerancesOptions | None = None,
+    options: SimOptions | None = None,
 ) -> SimulationResult:
     """The same simulation through :func:`scipy.integrate.solve_ivp` (a reference).
 
@@ -756,6 +751,9 @@ def simulate_scipy(
     plant : Plant or LumpedParameters or PhysicalParameters
         As :func:`simulate` (a parameter set alone: model ``"compensated"``;
         another model: ``Plant(params, model=...)``).
+    input : Input, optional
+        A continuous input or law of :mod:`iwp.sim.inputs` [input units]
+        (sampled inputs and Python callables are refused). None: zero.
     x0 : array_like, optional
         Initial state ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s] at ``t0``.
     t_end, t0 : float
@@ -764,14 +762,12 @@ def simulate_scipy(
         Output sample period [s].
     t_eval : array_like, optional
         Output times [s] instead of the grid of ``Ts``.
-    command : CommandChain or Input, optional
-        The input (a continuous input or law of :mod:`iwp.sim.inputs`;
-        sampled inputs are refused), feedforward (7)-(8) and saturation
-        [input units]; a bare input is the chain of that input alone.
-    tolerances : Tolerances, optional
-        ``rtol`` [-] and ``atol`` [state units] of ``solve_ivp``'s DOP853
-        (default ``Tolerances(rtol=1e-10, atol=1e-12)``; ``max_step`` [s] is
-        passed on, ``max_steps`` unused).
+    options : SimOptions, optional
+        As :func:`simulate`'s: the feedforward (7)-(8) and saturation
+        [input units]; the tolerances ``rtol`` [-] and ``atol`` [state units]
+        of ``solve_ivp``'s DOP853 (default ``Tolerances(rtol=1e-10,
+        atol=1e-12)``; ``max_step`` [s] is passed on, ``max_steps`` unused);
+        whether a failed solve raises :class:`~iwp.errors.SimulationError`.
 
     Returns
     -------
@@ -779,18 +775,17 @@ def simulate_scipy(
     """
     from scipy.integrate import solve_ivp
 
+    opts = as_options(options, SimOptions)
     plant = as_plant(plant)
-    chain = as_chain(command)
-    input = chain.input
-    opts = as_tolerances(tolerances, SCIPY_TOLERANCES)
+    tols = opts.tolerances or SCIPY_TOLERANCES
     t0, t_end, Ts = _check_span(t0, t_end, Ts)
     _check_input(input, t0, t_end)
     x0a = initial_state(x0, plant)
-    tol = engine_tolerances(plant.n_states, opts)
-    command_params = chain_command(plant, chain)
+    tol = engine_tolerances(plant.n_states, tols)
+    command_params = command_of(plant, opts.feedforward_pair(), opts.saturation)
     seg = segments_of(input, t0)
     if seg.mode != SEG_CONT or isinstance(input, CallableController):
-        raise InputError("simulate_scipy supports continuous built-in inputs only")
+        raise InputError("simulate_scipy supports continuous built-in inputs only", argument="input")
     system = system_of(plant, input, command_params)
     t_out = output_times(t0, t_end, Ts, t_eval)
 
@@ -798,7 +793,9 @@ def simulate_scipy(
         return plant.rhs(y, command_value(input_value(system.kind, system.input_params, t, y), command_params))
 
     sol = solve_ivp(f, (t0, t_end), x0a, method="DOP853", t_eval=t_out, rtol=tol.rtol, atol=tol.atol,
-                    **({} if opts.max_step is None else {"max_step": opts.max_step}))
+                    **({} if tols.max_step is None else {"max_step": tols.max_step}))
+    if sol.status != 0 and opts.check:
+        raise SimulationError(f"solve_ivp failed: {sol.message}")
     X = sol.y.T
     U = np.array([input_value(system.kind, system.input_params, t, x) for t, x in zip(sol.t, X)])
     W = np.array([command_value(u, command_params) for u in U])
