@@ -229,6 +229,13 @@ def test_cli_band_needs_a_fit_and_writes_its_columns(tmp_path, capsys):
                  "--out", str(out)]) == 0
     header = [ln for ln in out.read_text().splitlines() if not ln.startswith("#")][0].split(",")
     assert {"q1_lo", "q1_hi", "q1_plo", "q1_phi"} <= set(header)
+    # a Monte Carlo band's draws out of range: one line naming the flag, status 2, nothing written
+    bad = tmp_path / "bad.csv"
+    capsys.readouterr()
+    assert main(["simulate", "--params", str(par), "--band", "monte-carlo", "--draws", "0", "--input", "chirp",
+                 "--t-end", "2", "--out", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--draws must be an integer from 1 to 100000, got 0" in err and "\n" not in err and not bad.exists()
 
 
 def test_intervals_cover_the_truth_over_repeated_experiments_with_noise_correlated_in_time():
