@@ -9,7 +9,8 @@ process, each repeat in turn; on cores shared with other work the best of
 the repeats over the best is the steadier figure. That ratio is what bench_simulate's batch section reports; this
 script measures only it, so that a version of iwp before and after a change
 can be compared in one session (``PYTHONPATH=<worktree>/src``). Versions
-without ``store=`` report the samples only.
+without ``store=`` report the samples only; versions before
+:class:`~iwp.sim.BatchOptions` get the options as keywords.
 
 Run: python benchmarks/bench_lanes_ratio.py [--runs N] [--repeat R]
 """
@@ -29,6 +30,11 @@ from iwp.models.actuator import command
 from iwp.models.equations import rhs_of
 from iwp.models.layout import M_PLAIN, N_COMMAND, N_PACK
 from iwp.sim import HopfController, simulate_batch
+
+try:
+    from iwp.sim import BatchOptions, Tolerances
+except ImportError:  # a version of iwp before the options objects: the options as keywords
+    BatchOptions = Tolerances = None
 from iwp.sim.dop853 import N_STAGES
 from iwp.sim.inputs import I_HOPF, input_value
 from iwp.sim.simulate import command_of
@@ -84,10 +90,17 @@ def ns_rhs_alone(p, reps=200_000):
     return 1e9 * c / (reps * N_STAGES * LANES)
 
 
+def options(store=None) -> dict:
+    """The batch's keywords of its tolerances (rtol 1e-9, atol 1e-7) and ``store``, for this version of iwp."""
+    if BatchOptions is None:
+        return {"rtol": 1e-9, "atol": 1e-7, **({} if store is None else {"store": store})}
+    tol = Tolerances(rtol=1e-9, atol=1e-7)
+    return {"options": BatchOptions(tolerances=tol) if store is None else BatchOptions(tolerances=tol, store=store)}
+
+
 def ns_batch(p, ctrls, kw, store):
     """ns per lane-RHS of one batch (CPU time over the evaluations the runs counted)."""
-    extra = {} if store is None else {"store": store}
-    c, bb = cpu_of(lambda: simulate_batch(p, input=ctrls, **kw, **extra))
+    c, bb = cpu_of(lambda: simulate_batch(p, input=ctrls, **kw, **options(store)))
     return 1e9 * c / bb.nfev.sum()
 
 
@@ -98,13 +111,13 @@ def main():
     args = ap.parse_args()
     p = table1()
     ctrls = [HopfController(float(k), 0.1) for k in np.linspace(-12.0, -6.0, args.runs)]
-    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=300.0, t_eval=np.arange(0.0, 300.0 + 1e-9, 0.5), rtol=1e-9, atol=1e-7)
+    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=300.0, t_eval=np.arange(0.0, 300.0 + 1e-9, 0.5))
     try:
-        simulate_batch(p, input=ctrls[:4], store="final", **kw)
+        simulate_batch(p, input=ctrls[:4], **kw, **options("final"))
         stores = ("samples", "final")
     except TypeError:
         stores = (None,)
-    simulate_batch(p, input=ctrls[:4], **kw)
+    simulate_batch(p, input=ctrls[:4], **kw, **options())
     rows = {s: [] for s in stores}
     rhs = []
     for _ in range(args.repeat):

@@ -32,6 +32,8 @@ from __future__ import annotations
 
 import os
 
+from iwp.sim import SimOptions, Tolerances
+
 os.environ.setdefault("OPENBLAS_NUM_THREADS", os.environ.get("IWP_BENCH_BLAS_THREADS", "1"))
 os.environ.setdefault("OMP_NUM_THREADS", os.environ.get("IWP_BENCH_BLAS_THREADS", "1"))
 os.environ.setdefault("MKL_NUM_THREADS", os.environ.get("IWP_BENCH_BLAS_THREADS", "1"))
@@ -106,8 +108,8 @@ def scipy_q1(p, x0, t, *, rtol=1e-8, atol=1e-10):
 
 def compiled_q1(p, x0, t):
     """q1 of the free pendulum by iwp's compiled DOP853 (no sensitivities), the issue's anchor."""
-    r = simulate(Plant(p, model="free"), x0=x0, t0=float(t[0]), t_end=float(t[-1]), t_eval=t, rtol=1e-8,
-                 atol=1e-8, check=False)
+    r = simulate(Plant(p, model="free"), x0=x0, t0=float(t[0]), t_end=float(t[-1]), t_eval=t,
+                 options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8), check=False))
     return r.x[:, 0] if r.success else None
 
 

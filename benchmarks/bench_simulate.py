@@ -34,12 +34,21 @@ from iwp.jit import FASTMATH
 from iwp.models import Plant, table1
 from iwp.models.equations import rhs_of
 from iwp.models.layout import M_COMP, N_COMMAND, N_PACK
-from iwp.sim import Chirp, HopfController, Tolerances, simulate, simulate_batch, simulate_scipy
+from iwp.sim import (
+    BatchOptions,
+    Chirp,
+    HopfController,
+    SimOptions,
+    Tolerances,
+    simulate,
+    simulate_batch,
+    simulate_scipy,
+)
 from iwp.sim.dop853 import N_STAGES
 from iwp.sim.inputs import I_CHIRP, I_HOPF, input_value
 from iwp.sim.lanes import LANES, plain_stages
 from iwp.sim.simulate import command_of
-from iwp.sim.uncertainty import ParameterUncertainty, prediction_band
+from iwp.sim.uncertainty import BandOptions, ParameterUncertainty, prediction_band
 
 
 def python_rhs(p, u_of):
@@ -157,13 +166,15 @@ def main():
     chirp = Chirp(60.0, 3.0, 100.0)
     print(f"machine: {os.cpu_count()} cores")
 
-    ref = simulate_scipy(p, command=chirp, t_end=T, tolerances=Tolerances(rtol=1e-12, atol=1e-12))
+    ref = simulate_scipy(p, input=chirp, t_end=T, options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12)))
     simulate(p, input=chirp, t_end=T)  # compile
     # the loosest tolerance that meets the error bound of 1e-6 rad
-    t_iwp, r = best_of(lambda: simulate(p, input=chirp, t_end=T, rtol=1e-8, atol=1e-8), 20)
+    t_iwp, r = best_of(lambda: simulate(p, input=chirp, t_end=T,
+                                        options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8))), 20)
     err_iwp = float(np.max(np.abs(r.q1 - ref.q1)))
     # the input column u(t) is computed on first access (solve_ivp does not produce it at all)
-    t_u, _ = best_of(lambda: simulate(p, input=chirp, t_end=T, rtol=1e-8, atol=1e-8).u, 20)
+    t_u, _ = best_of(lambda: simulate(p, input=chirp, t_end=T,
+                                      options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8))).u, 20)
 
     f = python_rhs(p, lambda t, x: 60.0 * math.sin((3.0 + t / 100.0) * t))
     t_sc, sol = best_of(lambda: solve_ivp(f, (0, T), [0, 0, 0, 0], method="RK45", rtol=1e-6, t_eval=ref.t), 3)
@@ -200,16 +211,18 @@ def main():
     k1s = np.linspace(-12.0, -6.0, n)
     ctrls = [HopfController(float(k), 0.1) for k in k1s]
     te = np.arange(0.0, T + 1e-9, 0.5)
-    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=T, t_eval=te, rtol=1e-9, atol=1e-7)
-    simulate_batch(p, input=ctrls[:4], **kw)  # compile
+    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=T, t_eval=te)
+    tol = Tolerances(rtol=1e-9, atol=1e-7)
+    bopts = BatchOptions(tolerances=tol)
+    simulate_batch(p, input=ctrls[:4], options=bopts, **kw)  # compile
     t0 = time.perf_counter()
-    br = simulate_batch(p, input=ctrls, **kw)
+    br = simulate_batch(p, input=ctrls, options=bopts, **kw)
     t_batch = time.perf_counter() - t0
     idx = np.unique(np.linspace(0, n - 1, min(args.check, n)).astype(int))
     errs = []
     for i in idx:
-        rr = simulate_scipy(p, command=ctrls[i], x0=[0.1, 0, 0, 0], t_end=T, t_eval=te,
-                            tolerances=Tolerances(rtol=1e-12, atol=1e-12))
+        rr = simulate_scipy(p, input=ctrls[i], x0=[0.1, 0, 0, 0], t_end=T, t_eval=te,
+                            options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12)))
         errs.append(float(np.max(np.abs(br.x[i, :, 0] - rr.q1))))
     print(f"\n## Batch: {n} closed-loop simulations of 300 s (k1 in [-12, -6], k2 = 0.1)\n")
     print("| quantity | value |")
@@ -219,7 +232,7 @@ def main():
     print(f"| all reached t_end | {bool(np.all(br.success))} |")
     print(f"| max abs q1 error over {idx.size} checked runs (vs DOP853 1e-12) | {max(errs):.2e} rad |")
     print(f"| mean right-hand-side evaluations per run | {br.nfev.mean():.0f} |")
-    t1, _ = best_of(lambda: simulate(p, input=ctrls[n // 2], **kw), 5)
+    t1, _ = best_of(lambda: simulate(p, input=ctrls[n // 2], options=SimOptions(tolerances=tol), **kw), 5)
     print(f"| one run alone with `simulate` (k1 = {k1s[n // 2]:.2f}), one core | {1e3 * t1:.2f} ms |")
     # the batch advances 16 runs side by side per thread (iwp.sim.lanes); on one
     # thread that alone is the gain over running them one by one
@@ -227,7 +240,7 @@ def main():
     threads = numba.get_num_threads()
     numba.set_num_threads(1)
     t0 = time.perf_counter()
-    simulate_batch(p, input=ctrls[:m], **kw)
+    simulate_batch(p, input=ctrls[:m], options=bopts, **kw)
     t_one = (time.perf_counter() - t0) / m
     numba.set_num_threads(threads)
     print(f"| batch on one thread ({m} runs), per simulation | {1e3 * t_one:.2f} ms |")
@@ -256,15 +269,16 @@ def main():
     print(f"| (s) DOP853 stages alone (combinations + RHS) | {w_s:.2f} | {c_s:.2f} | {ns_stage:.2f} | "
           f"{ns_stage / ns_rhs:.2f} |")
     for store, te_ in (("samples", te), ("summary", te), ("final", te)):
-        simulate_batch(p, input=ctrls[:4], store=store, **{**kw, "t_eval": te_})
-        w_b, c_b, bb = cpu_of(lambda: simulate_batch(p, input=ctrls, store=store, **{**kw, "t_eval": te_}))
+        so = BatchOptions(tolerances=tol, store=store)
+        simulate_batch(p, input=ctrls[:4], options=so, **{**kw, "t_eval": te_})
+        w_b, c_b, bb = cpu_of(lambda: simulate_batch(p, input=ctrls, options=so, **{**kw, "t_eval": te_}))
         ns = 1e9 * c_b / bb.nfev.sum()
         print(f"| batch, store={store!r} (outputs every 0.5 s) | {w_b:.2f} | {c_b:.2f} | {ns:.2f} | "
               f"{ns / ns_rhs:.2f} |")
     # a sweep's outputs: every 50 ms (its metrics need the orbit's samples); 1,000 runs (the samples take 288 MB)
     te_sweep = np.arange(0.0, 300.0 + 1e-9, 0.05)
     m = min(n, 1000)
-    w_b, c_b, bb = cpu_of(lambda: simulate_batch(p, input=ctrls[:m], store="samples", **{**kw, "t_eval": te_sweep}))
+    w_b, c_b, bb = cpu_of(lambda: simulate_batch(p, input=ctrls[:m], options=bopts, **{**kw, "t_eval": te_sweep}))
     ns = 1e9 * c_b / bb.nfev.sum()
     del bb
     print(f"| batch of {m}, store='samples' (outputs every 50 ms, as a sweep's) | {w_b:.2f} | {c_b:.2f} | {ns:.2f} | "
@@ -275,19 +289,21 @@ def main():
     # ---- Monte Carlo band on the 300 s chirp
     u = ParameterUncertainty(p, ("p1", "p3"), np.diag([0.05, 0.0005]) ** 2)
     t = np.arange(0.0, T + 1e-9, 0.005)
-    prediction_band(Plant(p), u, input=chirp, t_eval=t[:200], method="monte-carlo", draws=16)
-    w_mc, c_mc, band = cpu_of(lambda: prediction_band(Plant(p), u, input=chirp, t_eval=t, method="monte-carlo",
-                                                      draws=1000))
+    prediction_band(Plant(p), u, input=chirp, t_eval=t[:200], options=BandOptions(method="monte-carlo", draws=16))
+    w_mc, c_mc, band = cpu_of(lambda: prediction_band(Plant(p), u, input=chirp, t_eval=t,
+                                                      options=BandOptions(method="monte-carlo", draws=1000)))
     plants = [Plant(p).with_params(q) for q in u.draws(1000, 0)]
-    w_b1, c_b1, b1 = cpu_of(lambda: simulate_batch(plants, input=chirp, t_end=T, t_eval=t, rtol=1e-8, atol=1e-8))
+    w_b1, c_b1, b1 = cpu_of(lambda: simulate_batch(plants, input=chirp, t_end=T, t_eval=t,
+                                                   options=BatchOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8))))
     del b1
-    w_one, _ = best_of(lambda: simulate(p, input=chirp, t_end=T, rtol=1e-8, atol=1e-8), 5)
+    w_one, _ = best_of(lambda: simulate(p, input=chirp, t_end=T,
+                                        options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8))), 5)
     print("\n## Monte Carlo band: 1,000 draws of (p1, p3) on the 300 s chirp, 60,001 samples\n")
     print("| what | wall [s] | CPU [s] | / one run alone (wall) |")
     print("|---|---:|---:|---:|")
     print(f"| one run alone (`simulate`, rtol 1e-8) | {w_one:.4f} | | 1 |")
     print(f"| `simulate_batch` of the 1,000 plants (samples kept) | {w_b1:.2f} | {c_b1:.2f} | {w_b1 / w_one:.0f} |")
-    print(f"| `prediction_band(..., method='monte-carlo', draws=1000)` | {w_mc:.2f} | {c_mc:.2f} | "
+    print(f"| `prediction_band`, Monte Carlo, 1,000 draws | {w_mc:.2f} | {c_mc:.2f} | "
           f"{w_mc / w_one:.0f} |")
     print(f"\n{band.draws} draws simulated; target (issue 20): the band in <= 2 s on 2 cores.")
 
@@ -295,12 +311,13 @@ def main():
     pc = p.replace(sigma_c2=0.3)
     m = 64
     ctrls_c = [HopfController(float(k), 0.1) for k in np.linspace(-12.0, -6.0, m)]
-    kw_c = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=T, t_eval=te, rtol=1e-9, atol=1e-7, store="final")
-    simulate_batch(pc, input=ctrls_c[:2], **kw_c)
-    w_c, c_c, bc = cpu_of(lambda: simulate_batch(pc, input=ctrls_c, **kw_c))
+    kw_c = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=T, t_eval=te)
+    final = BatchOptions(tolerances=tol, store="final")
+    simulate_batch(pc, input=ctrls_c[:2], options=final, **kw_c)
+    w_c, c_c, bc = cpu_of(lambda: simulate_batch(pc, input=ctrls_c, options=final, **kw_c))
     t0 = time.perf_counter()
     for c in ctrls_c[:8]:
-        simulate(pc, input=c, **{k: v for k, v in kw_c.items() if k != "store"})
+        simulate(pc, input=c, options=SimOptions(tolerances=tol), **kw_c)
     w_s = (time.perf_counter() - t0) / 8
     print(f"\n## A batch the lanes do not vectorise: {m} Hopf loops of 300 s with the wheel's Coulomb friction\n")
     print("| what | per run, wall [ms] | per run, CPU [ms] |")

@@ -28,7 +28,7 @@ import numba
 import numpy as np
 
 from iwp.models import Plant, table1
-from iwp.sim import HopfController, simulate_batch
+from iwp.sim import BatchOptions, HopfController, Tolerances, simulate_batch
 from iwp.sweep import DaskExecutor, Normal, SweepSpec, Uniform, lanes_of_chunk, run_sweep
 
 #: each measurement is the best of this many
@@ -44,8 +44,8 @@ def baseline(spec: SweepSpec) -> tuple[float, float]:
     for ls in sets:
         plant = Plant(spec.params) if shared else [Plant(p) for p in ls.params]
         simulate_batch(plant, x0=[x.tolist() for x in ls.x0],
-                       input=[HopfController(float(a), float(b)) for a, b in zip(ls.k1, ls.k2)],
-                       t_end=spec.t_end, Ts=spec.sample_time, rtol=spec.rtol, atol=spec.atol)
+                       input=[HopfController(float(a), float(b)) for a, b in zip(ls.k1, ls.k2)], t_end=spec.t_end,
+                       Ts=spec.sample_time, options=BatchOptions(tolerances=Tolerances(rtol=spec.rtol, atol=spec.atol)))
     return time.perf_counter() - t0, time.process_time() - c0
 
 

@@ -31,7 +31,7 @@ from iwp.ident.refinement import as_experiments, refine_report
 from iwp.models import Plant, quantize, table1
 from iwp.rig import VirtualRig, default_truth
 from iwp.rig.described import prbs
-from iwp.sim import simulate
+from iwp.sim import SimOptions, Tolerances, simulate
 from iwp.sim.inputs import Sampled
 
 #: sigma_a1 is left at 0: with sigma_v1 the data determine only their sum, and its best value is at its bound
@@ -50,7 +50,8 @@ def experiment(rig: VirtualRig | None, seed: int, duration: float, noise: float,
     n = int(round(duration / Ts)) + 1
     u = prbs(n, hold=int(round(0.3 / Ts)), amplitude=40.0, seed=seed)
     if rig is None:
-        r = simulate(Plant(MODEL9_TRUTH), input=Sampled(u, Ts), t_end=duration, Ts=Ts, rtol=1e-9, atol=1e-9)
+        r = simulate(Plant(MODEL9_TRUTH), input=Sampled(u, Ts), t_end=duration, Ts=Ts,
+                     options=SimOptions(tolerances=Tolerances(rtol=1e-9, atol=1e-9)))
         step = 2 * math.pi / 2000
         log = ExperimentData(t=r.t, q1=quantize(r.q1, step), q2=quantize(r.q2, step), u=u[: r.t.size])
     else:

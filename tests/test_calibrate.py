@@ -35,7 +35,7 @@ from iwp.models import Plant
 from iwp.models.encoder import quantize
 from iwp.models.parameters import BeltParameters, table1
 from iwp.rig import DEFAULT_TRUTH_FILE, RigTruth, VirtualRig, default_truth, truth_record
-from iwp.sim import simulate
+from iwp.sim import SimOptions, Tolerances, simulate
 from iwp.sim.inputs import Sampled
 
 # shortened experiments for the recovery test (targets and twin run with the same settings)
@@ -228,7 +228,8 @@ def _belt_logs(belt: BeltParameters, lumped, amplitudes=(60.0, 20.0), duration=1
     t = 0.005 * np.arange(int(round(duration / 0.005)) + 1)
     for A in amplitudes:
         inp = Sampled(A * np.sin(5.0 * t), 0.005, 0.0)
-        r = simulate(plant, t_end=duration, Ts=0.005, input=inp, rtol=1e-9, atol=1e-9)
+        r = simulate(plant, t_end=duration, Ts=0.005, input=inp,
+                     options=SimOptions(tolerances=Tolerances(rtol=1e-9, atol=1e-9)))
         q2 = quantize(r.x[:, 1], 2 * math.pi / 2000)
         logs.append(ExperimentData(t=r.t, q1=np.zeros_like(r.t), q2=q2, u=r.u, source=f"belt A={A:g}"))
     return logs

@@ -6,7 +6,7 @@ import pytest
 from iwp.cli import main
 from iwp.data import read_experiment
 from iwp.models import Plant, table1
-from iwp.sim import simulate
+from iwp.sim import SimOptions, Tolerances, simulate
 from iwp.sim.inputs import Chirp
 
 
@@ -30,10 +30,11 @@ def test_simulate_chirp_and_params_file(tmp_path):
                  "--params", str(pfile), "--out", str(out)]) == 0
     # the run used the file's parameters (p1 = 30), not Table 1's: the same as simulate() with them
     log = read_experiment(out)
-    ref = simulate(Plant(table1().replace(p1=30.0)), input=Chirp(60.0, 3.0, 100.0), t_end=3.0, rtol=1e-10,
-                   atol=1e-10)
+    ref = simulate(Plant(table1().replace(p1=30.0)), input=Chirp(60.0, 3.0, 100.0), t_end=3.0,
+                   options=SimOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-10)))
     np.testing.assert_allclose(log.q1, ref.q1, atol=1e-12)
-    other = simulate(Plant(table1()), input=Chirp(60.0, 3.0, 100.0), t_end=3.0, rtol=1e-10, atol=1e-10)
+    other = simulate(Plant(table1()), input=Chirp(60.0, 3.0, 100.0), t_end=3.0,
+                     options=SimOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-10)))
     assert np.max(np.abs(other.q1 - log.q1)) > 1e-3
 
 

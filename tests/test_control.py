@@ -21,9 +21,9 @@ from iwp.control import (
     swing_up,
 )
 from iwp.errors import InputError
-from iwp.models import linearize, table1
+from iwp.models import Plant, linearize, table1
 from iwp.plotting import plot_branch_details, savefig
-from iwp.sim import CallableController, HopfController, simulate
+from iwp.sim import CallableController, Feedforward, HopfController, SimOptions, simulate
 
 P = table1()
 
@@ -177,7 +177,8 @@ def test_design_k2_for_given_k1():
 def test_design_with_sampled_controller_on_the_raw_model():
     # the rig's setting: raw model, dead zone compensated exactly, controller every 5 ms
     d = design_hopf(P, 2.0)
-    sim = simulated_amplitude(P, d.k1, d.k2, model="raw", feedforward=True, controller_Ts=0.005, t_end=200.0)
+    sim = simulated_amplitude(Plant(P, model="raw"), d.k1, d.k2, controller_Ts=0.005, t_end=200.0,
+                              options=SimOptions(feedforward=Feedforward.of_plant(P)))
     assert sim.amplitude == pytest.approx(2.0, rel=0.02)
 
 

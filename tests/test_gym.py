@@ -7,6 +7,9 @@ import sys
 import numpy as np
 import pytest
 
+from iwp.models import Plant
+from iwp.sim import Feedforward, SimOptions, Tolerances
+
 gym = pytest.importorskip("gymnasium")
 
 from gymnasium.utils.env_checker import check_env  # noqa: E402
@@ -112,8 +115,9 @@ def test_env_matches_the_simulator():
         states.append(env.state.copy())
     states = np.array(states)
     u = 100.0 * actions.astype(np.float32).astype(float)
-    r = simulate(table1().replace(v_dz_pos=33.0, v_dz_neg=29.0), model="raw", x0=[0.3, 0, 0, 0], t_end=2.0,
-                 input=Sampled(u, 0.005), feedforward=(31.0, 31.0), rtol=1e-11, atol=1e-11)
+    r = simulate(Plant(table1().replace(v_dz_pos=33.0, v_dz_neg=29.0), model="raw"), x0=[0.3, 0, 0, 0], t_end=2.0,
+                 input=Sampled(u, 0.005),
+                 options=SimOptions(feedforward=Feedforward(31.0, 31.0), tolerances=Tolerances(rtol=1e-11, atol=1e-11)))
     np.testing.assert_allclose(states[:, [0, 2]], r.x[:, [0, 2]], atol=1e-6)
     np.testing.assert_allclose(states[:, 3], r.x[:, 3], atol=1e-4)
 

@@ -22,6 +22,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from iwp.cli import main
+from iwp.sim import Feedforward, SimOptions
 
 from .hostile_corpus import cases, good_log_text
 
@@ -184,7 +185,8 @@ def test_raw_model_with_feedforward_writes_a_log_every_reader_takes(tmp_path):
     from iwp.sim import Sine, simulate
 
     log = read_experiment(out)
-    ref = simulate(Plant(table1(), model="raw"), t_end=3.0, input=Sine(40.0), feedforward=True)
+    ref = simulate(Plant(table1(), model="raw"), t_end=3.0, input=Sine(40.0),
+                   options=SimOptions(feedforward=Feedforward.of_plant(Plant(table1(), model="raw"))))
     # the logged v is what reached the raw model: u + 31 sgn(u) of (7)-(8)
     np.testing.assert_array_equal(log.v, ref.command)
     np.testing.assert_allclose(np.abs(log.v[np.abs(ref.u) > 0]), np.abs(ref.u[np.abs(ref.u) > 0]) + 31.0, rtol=1e-12)

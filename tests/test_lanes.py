@@ -13,7 +13,17 @@ from numba import njit
 from iwp.errors import InputError
 from iwp.models import Plant, table1
 from iwp.models.layout import N_PACK
-from iwp.sim import Chirp, HopfController, Sampled, lanes, simulate, simulate_batch
+from iwp.sim import (
+    BatchOptions,
+    Chirp,
+    HopfController,
+    Sampled,
+    SimOptions,
+    Tolerances,
+    lanes,
+    simulate,
+    simulate_batch,
+)
 from iwp.sim.inputs import BalanceController, Constant, Sine, Step
 from iwp.sim.simulate import segments_of
 from iwp.sim.views import tuple_of
@@ -74,11 +84,12 @@ def test_lanes_that_cross_the_rolling_frictions_kink_equal_single_runs():
     te = np.arange(0.0, t_end + 1e-9, 1e-3)
     # (k1 above about -10.4 keeps this swing inside |q1| < pi/2 for 30 s)
     inputs = [HopfController(float(k1), 0.1) for k1 in np.linspace(-14.0, -10.5, n)]
-    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=t_end, t_eval=te, rtol=1e-9, atol=1e-7)
-    br = simulate_batch(table1(), input=inputs, **kw)
+    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=t_end, t_eval=te)
+    tol = Tolerances(rtol=1e-9, atol=1e-7)
+    br = simulate_batch(table1(), input=inputs, options=BatchOptions(tolerances=tol), **kw)
     assert np.all(br.success)
     for i in (0, 5, 17, 23):
-        r = simulate(table1(), input=inputs[i], **kw)
+        r = simulate(table1(), input=inputs[i], options=SimOptions(tolerances=tol), **kw)
         crossings = np.count_nonzero(np.diff(np.sign(np.cos(r.x[:, 0]))) != 0)
         assert crossings >= 3, (i, crossings)
         assert _rel(br.x[i], r.x) < 1e-9, i
@@ -104,8 +115,8 @@ def test_store_final_and_summary_agree_with_the_samples():
     ctrls = [HopfController(float(k1), 0.1) for k1 in np.linspace(-12, -6, 20)]
     kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=30.0, t_eval=np.arange(0.0, 30.0 + 1e-9, 0.05), input=ctrls)
     full = simulate_batch(table1(), **kw)
-    final = simulate_batch(table1(), store="final", **kw)
-    summ = simulate_batch(table1(), store="summary", **kw)
+    final = simulate_batch(table1(), options=BatchOptions(store="final"), **kw)
+    summ = simulate_batch(table1(), options=BatchOptions(store="summary"), **kw)
     assert final.x is None and final.u is None and summ.x is None
     assert final.t.tolist() == [30.0]
     # the final state is the last sample (the end time is an output time)
@@ -120,14 +131,15 @@ def test_store_final_and_summary_agree_with_the_samples():
 
 def test_summary_of_a_failed_run_is_nan():
     unstable = table1().replace(sigma_v1=-5.0, sigma_a1=0.0, sigma_b1=0.0)
-    br = simulate_batch(unstable, x0=[[0.0, 0.0, 0.0, 0.0], [0.1, 0.0, 0.0, 0.0]], t_end=200.0, store="summary")
+    br = simulate_batch(unstable, x0=[[0.0, 0.0, 0.0, 0.0], [0.1, 0.0, 0.0, 0.0]], t_end=200.0,
+                        options=BatchOptions(store="summary"))
     assert br.status.tolist() == [0, 1]
     assert np.all(br.summary["max"][0] == 0.0) and np.all(np.isnan(br.summary["max"][1]))
 
 
 def test_an_unknown_store_is_refused_by_name():
     with pytest.raises(InputError, match="store must be one of samples, final, summary, got 'all'"):
-        simulate_batch(table1(), t_end=1.0, store="all")
+        simulate_batch(table1(), t_end=1.0, options=BatchOptions(store="all"))
 
 
 @pytest.mark.parametrize("case", ["coulomb-hopf", "chirp", "sampled-failing"])
@@ -148,13 +160,14 @@ def test_runs_the_lanes_do_not_vectorise_are_single_runs_to_the_last_bit(case):
         plants = [Plant(table1()), Plant(table1().replace(sigma_v1=-5.0, sigma_a1=0.0, sigma_b1=0.0)),
                   Plant(table1())]
         inputs = [Sampled(10.0 * np.sin(np.arange(0.0, T, 0.01)), 0.01)] * 3
-    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=T, t_eval=te, rtol=1e-9, atol=1e-9)
+    kw = dict(x0=[0.1, 0.0, 0.0, 0.0], t_end=T, t_eval=te)
+    tol = Tolerances(rtol=1e-9, atol=1e-9)
     assert not lanes.vectorised(plants[0].code, inputs[0].kind, segments_of(inputs[0], 0.0).mode,
                                 np.array([p.packed() for p in plants]), 0, len(plants))
-    b = simulate_batch(plants, input=inputs, **kw)
-    s = simulate_batch(plants, input=inputs, store="summary", **kw)
+    b = simulate_batch(plants, input=inputs, options=BatchOptions(tolerances=tol), **kw)
+    s = simulate_batch(plants, input=inputs, options=BatchOptions(tolerances=tol, store="summary"), **kw)
     for i, (p, u) in enumerate(zip(plants, inputs)):
-        r = simulate(p, input=u, check=False, **kw)  # a failed run: the samples before the failure
+        r = simulate(p, input=u, options=SimOptions(tolerances=tol, check=False), **kw)  # a failed run: the samples before the failure
         m = r.t.size
         np.testing.assert_array_equal(b.x[i, :m], r.x)
         np.testing.assert_array_equal(b.u[i, :m], r.u)
@@ -188,9 +201,10 @@ def test_constant_sine_and_chirp_inputs_are_vectorised_and_the_step_and_balance_
 
 def test_a_batch_without_its_input_columns_has_the_same_states():
     plants = [Plant(table1().replace(p1=v)) for v in np.linspace(20.0, 30.0, 20)]
-    kw = dict(input=Sine(40.0, 5.0), t_end=10.0, t_eval=np.linspace(0.0, 10.0, 501), rtol=1e-9, atol=1e-9)
-    full = simulate_batch(plants, **kw)
-    lean = simulate_batch(plants, inputs=False, **kw)
+    kw = dict(input=Sine(40.0, 5.0), t_end=10.0, t_eval=np.linspace(0.0, 10.0, 501))
+    tol = Tolerances(rtol=1e-9, atol=1e-9)
+    full = simulate_batch(plants, options=BatchOptions(tolerances=tol), **kw)
+    lean = simulate_batch(plants, options=BatchOptions(tolerances=tol, inputs=False), **kw)
     assert lean.u is None and lean.command is None and full.u.shape == (20, 501)
     np.testing.assert_array_equal(lean.x, full.x)
     np.testing.assert_array_equal(lean.nfev, full.nfev)
@@ -211,7 +225,7 @@ def test_a_runs_numbers_do_not_depend_on_the_runs_beside_it():
     n = 35
     ctrls = [HopfController(float(k), 0.1) for k in rng.uniform(-12.0, -6.0, n)]
     x0 = [[float(q), 0.0, 0.0, 0.0] for q in rng.normal(0.1, 0.05, n)]
-    kw = dict(t_end=20.0, Ts=0.05, rtol=1e-8, atol=1e-8)
+    kw = dict(t_end=20.0, Ts=0.05, options=BatchOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8)))
     whole = simulate_batch(table1(), x0=x0, input=ctrls, **kw)
     assert np.all(whole.success) and whole.x.shape == (n, 401, 4)
     a = 0

@@ -151,3 +151,71 @@ def test_every_subpackage_lists_what_it_exports(sub):
     assert m.__doc__ and len(m.__all__) > 0
     for name in m.__all__:
         assert hasattr(m, name), f"iwp.{sub}.{name}"
+
+
+#: The subpackages whose signatures take at most :data:`MAX_PARAMETERS` parameters (issue 38: options objects instead).
+NARROW = ("iwp.ident", "iwp.sim", "iwp.device")
+MAX_PARAMETERS = 8
+#: Compiled numba kernels of the engine whose scalars and arrays are passed apart (numba keeps them in registers;
+#: bundling them would change the compiled code). Exempt by name, and only while they are compiled (``@jit``).
+WIDE_KERNELS = {"iwp.sim.engine.kink_step", "iwp.sim.engine.put_near", "iwp.sim.engine.put_dense",
+                "iwp.sim.lanes.plain_stages", "iwp.sim.dop853.error_norm_lanes"}
+#: The subpackages whose functions are at most :data:`MAX_LINES` lines long.
+SHORT = ("iwp.ident", "iwp.sim")
+MAX_LINES = 120
+#: The compiled kernels longer than that: the lanes' and the single run's integrators (their parts are named
+#: functions; what is left is the step loop, which numba compiles as one).
+LONG_KERNELS = {"iwp.sim.lanes.run_lanes", "iwp.sim.engine.integrate"}
+
+
+def _functions(subpackages):
+    """(qualified name, node, compiled) of every function and method defined in ``subpackages``."""
+    out = []
+    for mod, path in _modules().items():
+        if _subpackage(mod) not in subpackages:
+            continue
+
+        def walk(node, prefix):
+            for child in ast.iter_child_nodes(node):
+                if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                    compiled = any("jit" in ast.unparse(d) for d in child.decorator_list)
+                    out.append((f"{prefix}.{child.name}", child, compiled))
+                    walk(child, f"{prefix}.{child.name}")
+                elif isinstance(child, ast.ClassDef):
+                    walk(child, f"{prefix}.{child.name}")
+
+        walk(ast.parse(path.read_text(encoding="utf-8")), mod)
+    return out
+
+
+def _parameters(f: ast.FunctionDef) -> int:
+    """The parameters of ``f``'s signature (``*args`` and ``**kwargs`` count one each; a method's self or cls not)."""
+    a = f.args
+    names = [x.arg for x in a.posonlyargs + a.args]
+    n = len(names) + len(a.kwonlyargs) + (a.vararg is not None) + (a.kwarg is not None)
+    return n - 1 if names and names[0] in ("self", "cls") else n
+
+
+def test_no_signature_takes_more_than_eight_parameters():
+    """ident/, sim/ and device/ take options objects (iwp.sim.SimOptions, ...), not long lists of keywords; only the
+    engine's compiled kernels of WIDE_KERNELS are exempt."""
+    found = {name: _parameters(f) for name, f, compiled in _functions(NARROW)
+             if _parameters(f) > MAX_PARAMETERS and not (compiled and name in WIDE_KERNELS)}
+    assert found == {}
+    # the exemption is for compiled kernels that exist and still need it
+    wide = {name for name, f, compiled in _functions(NARROW) if compiled and _parameters(f) > MAX_PARAMETERS}
+    assert wide == WIDE_KERNELS
+
+
+def test_no_function_is_longer_than_120_lines():
+    found = {name: f.end_lineno - f.lineno + 1 for name, f, compiled in _functions(SHORT)
+             if f.end_lineno - f.lineno + 1 > MAX_LINES and not (compiled and name in LONG_KERNELS)}
+    assert found == {}
+    long = {name for name, f, compiled in _functions(SHORT) if compiled and f.end_lineno - f.lineno + 1 > MAX_LINES}
+    assert long == LONG_KERNELS
+
+
+def test_the_parameter_count_counts_what_a_caller_can_pass():
+    tree = ast.parse("def f(a, /, b, *c, d, e=1, **g): pass\nclass C:\n    def m(self, a, *, b): pass\n")
+    f, m = tree.body[0], tree.body[1].body[0]
+    assert (_parameters(f), _parameters(m)) == (6, 2)

@@ -25,9 +25,10 @@ from iwp.ident.refinement import (
 )
 from iwp.models import Plant, table1
 from iwp.rig import VirtualRig, uncalibrated_truth
-from iwp.sim import simulate
+from iwp.sim import SimOptions, Tolerances, simulate
 from iwp.sim.inputs import HopfController, Sampled
 from iwp.sim.sensitivity import simulate_sensitivities
+from iwp.sim.simulate import output_times
 
 #: The real log lives next to the repository (``<repo>/../shared/data/real``), never inside it;
 #: found from this test file, so that an installed (non-editable) iwp finds it too.
@@ -291,18 +292,19 @@ def test_kernel_matches_the_dop853_simulator(rig):
     x0 = [-1.422, 0.0, 0.0, 0.0]
     for model in ("free", "free-nowheel"):
         X = simulate_sensitivities(Plant(truth, model=model), t_eval=t, x0=x0, wrt=("p1",), wrt_x0=(0, 2),
-                                   rtol=1e-8, atol=1e-8).x
+                                   options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8))).x
         m, p = simulation_equivalent(model, truth)
-        ref = simulate(p, model=m, x0=x0, t_end=60.0, rtol=1e-12, atol=1e-12)
+        ref = simulate(Plant(p, model=m), x0=x0, t_end=60.0,
+                       options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12)))
         assert np.max(np.abs(X[:, 0] - ref.x[:, 0])) < 1e-6  # rad (the encoder step is 3.1e-3 rad)
         assert np.max(np.abs(X[:, 2] - ref.x[:, 2])) < 1e-5  # rad/s
     # with an input replayed on a zero-order hold, model (9)
     rng = np.random.default_rng(0)
     u = 40.0 * np.sin(5.0 * t[:2001]) + rng.normal(0, 5.0, 2001)
     X = simulate_sensitivities(Plant(table1()), t_eval=t[:2001], x0=[0.2, 0, 0, 0], input=Sampled(u, 0.005),
-                               wrt=("p3",), rtol=1e-8, atol=1e-8).x
-    ref = simulate(table1(), model="compensated", x0=[0.2, 0, 0, 0], t_end=10.0, input=Sampled(u, 0.005),
-                   rtol=1e-12, atol=1e-12)
+                               wrt=("p3",), options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8))).x
+    ref = simulate(Plant(table1(), model="compensated"), x0=[0.2, 0, 0, 0], t_end=10.0, input=Sampled(u, 0.005),
+                   options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12)))
     assert np.max(np.abs(X[:, 0] - ref.x[:, 0])) < 1e-6
     assert np.max(np.abs(X[:, 3] - ref.x[:, 3])) < 1e-4
 
@@ -311,7 +313,8 @@ def _fd_simulate(params, model, x0, t_end, u, name, rel=1e-5):
     def run(p, x):
         m, q = simulation_equivalent(model, p)
         inp = None if u is None else Sampled(u, 0.005)
-        return simulate(q, model=m, x0=x, t_end=t_end, input=inp, rtol=1e-12, atol=1e-12).x
+        return simulate(Plant(q, model=m), x0=x, t_end=t_end, input=inp,
+                        options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12))).x
 
     if name.startswith("x0"):
         i = int(name[2])
@@ -339,7 +342,8 @@ def test_sensitivities_match_finite_differences_of_simulate(model, wrt, with_inp
     u = 30.0 * np.sin(4.0 * t) if with_input else None
     x0 = [-1.2, 0.0, 0.5, 0.0] if model == "free" else [0.8, 0.0, -0.5, 3.0]
     r = simulate_sensitivities(Plant(p, model=model), t_eval=t, x0=x0, input=None if u is None else Sampled(u, 0.005),
-                               wrt=wrt, wrt_x0=(0, 1, 2, 3), rtol=1e-10, atol=1e-10)
+                               wrt=wrt, wrt_x0=(0, 1, 2, 3),
+                               options=SimOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-10)))
     S = r.S
     names = list(wrt) + ["x00", "x01", "x02", "x03"]
     states = (0, 2) if model == "free" else (0, 1, 2, 3)
@@ -359,7 +363,7 @@ def test_sensitivities_of_a_feedback_law_held_between_samples_match_finite_diffe
     # (the engine once held the command's sensitivity at 0: 86 % off in p3)
     p = table1()
     x0 = [0.3, 0.0, 0.0, 0.0]
-    kw = {"t_end": 5.0, "Ts": 0.05, "rtol": 1e-10, "atol": 1e-10}
+    kw = {"t_eval": output_times(0.0, 5.0, 0.05), "options": SimOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-10))}
 
     def run(params, k1=-10.0, x=x0):
         return simulate_sensitivities(Plant(params), x0=x, input=HopfController(k1, 0.1, Ts), **kw).x

@@ -25,7 +25,7 @@ from iwp.rig import (
     write_result,
 )
 from iwp.rig.run_settings import open_loop_input
-from iwp.sim import HopfController, simulate
+from iwp.sim import HopfController, SimOptions, Tolerances, simulate
 
 STEP = 2 * math.pi / 2000
 
@@ -256,7 +256,8 @@ def test_closed_loop_reaches_the_paper_amplitude():
     # worth a few per cent of the amplitude: allow 5 %.
     lp = rig.truth.lumped
     ref = simulate(Plant(lp, model="compensated", coulomb_eps=rig.truth.coulomb_eps), x0=[0.3, 0, 0, 0], t_end=60.0,
-                   input=HopfController(-10, 0.1, Ts=0.005), rtol=1e-8, atol=1e-8)
+                   input=HopfController(-10, 0.1, Ts=0.005),
+                   options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8)))
     amp_ref = np.max(np.abs(ref.q1[ref.t > 50]))
     assert amp == pytest.approx(amp_ref, rel=0.05)
     # the controller sees quantised positions: its output takes few distinct values when q1 rests

@@ -24,6 +24,7 @@ from iwp.ident.refinement import as_experiments, refine
 from iwp.models.parameters import LumpedParameters
 from iwp.models.plant import Plant
 from iwp.rig.described import DescribedRig, prbs, write_rig_csv
+from iwp.sim import SimOptions, Tolerances
 from iwp.sim.inputs import Chirp, HopfController
 
 #: a direct-drive rig unlike the paper's: shorter pendulum, heavy wheel, PWM duty input
@@ -496,7 +497,7 @@ def test_pendulum_coulomb_friction_decays_the_swing_linearly():
 
     p = LumpedParameters(p1=26.0, p2=0.0, p3=1.0, rho=100.0, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0, sigma_c1=0.2)
     res = simulate(Plant(p, model="free-nowheel", coulomb_eps=1e-5), x0=[0.02, 0, 0, 0], t_end=2.0, Ts=1e-4,
-                   rtol=1e-10, atol=1e-12)
+                   options=SimOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-12)))
     q1, q3 = res.x[:, 0], res.x[:, 2]
     turns = np.flatnonzero(np.sign(q3[1:]) != np.sign(q3[:-1]))
     peaks = np.abs(q1[turns[:4]])
@@ -504,7 +505,7 @@ def test_pendulum_coulomb_friction_decays_the_swing_linearly():
     assert drops == pytest.approx(2 * 0.2 / 26.0, rel=2e-3)
     # without it, no loss at all
     res0 = simulate(Plant(p.replace(sigma_c1=0.0), model="free-nowheel"), x0=[0.02, 0, 0, 0], t_end=2.0, Ts=1e-3,
-                    rtol=1e-10, atol=1e-12)
+                    options=SimOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-12)))
     assert np.max(np.abs(res0.x[:, 0])) == pytest.approx(0.02, rel=1e-6)
 
 
@@ -514,11 +515,13 @@ def test_input_offset_shifts_the_input():
     from iwp.sim.simulate import simulate
 
     p = TRUTH.replace(u_offset=0.05)
-    res = simulate(Plant(p, model="motor-disk"), input=Constant(0.2), t_end=20.0, rtol=1e-10, atol=1e-10)
+    res = simulate(Plant(p, model="motor-disk"), input=Constant(0.2), t_end=20.0,
+                   options=SimOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-10)))
     assert res.x[-1, 3] == pytest.approx(p.p3 * 0.25 / p.p2, rel=1e-8)
-    a = simulate(Plant(p), input=Chirp(0.3, 2.0, 10.0), t_end=5.0, rtol=1e-11, atol=1e-11)
-    b = simulate(Plant(p.replace(u_offset=0.0)), input=Chirp(0.3, 2.0, 10.0, offset=0.05),
-                 t_end=5.0, rtol=1e-11, atol=1e-11)
+    a = simulate(Plant(p), input=Chirp(0.3, 2.0, 10.0), t_end=5.0,
+                 options=SimOptions(tolerances=Tolerances(rtol=1e-11, atol=1e-11)))
+    b = simulate(Plant(p.replace(u_offset=0.0)), input=Chirp(0.3, 2.0, 10.0, offset=0.05), t_end=5.0,
+                 options=SimOptions(tolerances=Tolerances(rtol=1e-11, atol=1e-11)))
     np.testing.assert_allclose(a.x, b.x, atol=1e-9)
 
 

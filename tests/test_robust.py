@@ -21,7 +21,7 @@ from iwp.control import (
 from iwp.control.robust import spread_of
 from iwp.errors import InputError
 from iwp.models import save_params, table1
-from iwp.sim import BalanceController, CallableController, simulate
+from iwp.sim import BalanceController, CallableController, SimOptions, simulate
 from iwp.sim.uncertainty import ParameterUncertainty
 
 P = table1()
@@ -146,7 +146,7 @@ def test_no_orbit_is_claimed_where_the_bifurcation_analysis_has_none(design):
 def test_the_compiled_balance_law_is_the_lqrs():
     L = lqr_balance(P, Ts=0.005)
     x0 = [math.pi + 0.05, 0.0, 0.1, 2.0]
-    a = simulate(P, x0=x0, t_end=2.0, Ts=0.005, input=L.controller(), saturation=L.u_max)
+    a = simulate(P, x0=x0, t_end=2.0, Ts=0.005, input=L.controller(), options=SimOptions(saturation=L.u_max))
     b = simulate(P, x0=x0, t_end=2.0, Ts=0.005, input=CallableController(lambda t, x: L(x), L.Ts))
     np.testing.assert_allclose(a.x, b.x, rtol=0, atol=1e-9)
     assert isinstance(L.controller(), BalanceController)

@@ -10,7 +10,7 @@ from scipy.optimize import brentq
 from iwp.errors import InputError, SimulationError
 from iwp.models import BeltParameters, LumpedParameters, PhysicalParameters, Plant, energy, table1
 from iwp.models.pendulum import kink_ahead
-from iwp.sim import Tolerances, simulate, simulate_batch, simulate_scipy
+from iwp.sim import BatchOptions, Feedforward, SimOptions, Tolerances, simulate, simulate_batch, simulate_scipy
 from iwp.sim.engine import BRIDGE, BRIDGE_FRAC, KINK_MARGIN, SHORT, kink_plan
 from iwp.sim.inputs import CallableController, Chirp, HopfController, Sampled, Sine, Step
 
@@ -18,7 +18,8 @@ FRICTIONLESS = table1().replace(p2=0.0, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0
 
 
 def test_frictionless_energy_is_conserved():
-    r = simulate(FRICTIONLESS, x0=[2.5, 0.0, 0.0, 3.0], t_end=60.0, rtol=1e-12, atol=1e-12)
+    r = simulate(FRICTIONLESS, x0=[2.5, 0.0, 0.0, 3.0], t_end=60.0,
+                 options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12)))
     e = energy(FRICTIONLESS, r.x)["total"]
     assert np.max(np.abs(e - e[0])) / e[0] < 1e-10
     # with friction it decays
@@ -30,7 +31,8 @@ def test_frictionless_energy_is_conserved():
 def test_frictionless_energy_el_model_physical_units():
     ph = PhysicalParameters(m1=0.2, m2=0.3, I1=2e-3, I2=4e-5, l=0.25, c=0.12, g=9.81, kT=0.02, kF=0.0, R=5.0,
                             N=13.5, beta=0.12, sigma_v1=0.0, sigma_r=0.0, r=0.004, sigma_v2=0.0)
-    r = simulate(ph, model="el", x0=[1.0, 0.0, 0.0, 5.0], t_end=20.0, rtol=1e-12, atol=1e-12)
+    r = simulate(Plant(ph, model="el"), x0=[1.0, 0.0, 0.0, 5.0], t_end=20.0,
+                 options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12)))
     e = energy(ph, r.x)["total"]
     assert np.max(np.abs(e - e[0])) / e[0] < 1e-10
 
@@ -52,11 +54,13 @@ def test_dop853_convergence_order():
     Runge-Kutta method does on a non-smooth right-hand side.
     """
     x0 = [1.2, 0.0, 0.0, 3.0]
-    ref = simulate(table1(), x0=x0, t_end=4.0, Ts=0.5, rtol=1e-14, atol=1e-14)
+    ref = simulate(table1(), x0=x0, t_end=4.0, Ts=0.5,
+                   options=SimOptions(tolerances=Tolerances(rtol=1e-14, atol=1e-14)))
     errs = []
     hs = np.array([0.2, 0.1, 0.05, 0.025])
     for h in hs:
-        r = simulate(table1(), x0=x0, t_end=4.0, Ts=0.5, rtol=1e6, atol=1e6, max_step=h)
+        r = simulate(table1(), x0=x0, t_end=4.0, Ts=0.5,
+                     options=SimOptions(tolerances=Tolerances(rtol=1e6, atol=1e6, max_step=h)))
         errs.append(np.max(np.abs(r.x - ref.x)))
     order = np.polyfit(np.log(hs), np.log(errs), 1)[0]  # least-squares slope over the four steps
     assert 7.0 < order < 9.0, (order, errs)
@@ -64,8 +68,9 @@ def test_dop853_convergence_order():
 
 def test_agrees_with_scipy_dop853_at_tight_tolerance():
     inp = Chirp(60.0, 3.0, 100.0)
-    ours = simulate(table1(), input=inp, t_end=40.0, rtol=1e-11, atol=1e-11)
-    ref = simulate_scipy(table1(), command=inp, t_end=40.0, tolerances=Tolerances(rtol=1e-12, atol=1e-12))
+    ours = simulate(table1(), input=inp, t_end=40.0, options=SimOptions(tolerances=Tolerances(rtol=1e-11, atol=1e-11)))
+    ref = simulate_scipy(table1(), input=inp, t_end=40.0,
+                         options=SimOptions(tolerances=Tolerances(rtol=1e-12, atol=1e-12)))
     assert np.max(np.abs(ours.x[:, :3] - ref.x[:, :3])) < 1e-8
     assert np.max(np.abs(ours.q4 - ref.q4)) < 1e-6  # q4 ~ 100 rad/s
     np.testing.assert_allclose(ours.u, 60 * np.sin((3 + ours.t / 100) * ours.t), atol=1e-12)
@@ -128,7 +133,7 @@ def test_zero_order_hold_array_and_step():
     vals = np.array([0.0, 50.0, -50.0, 20.0])
     r = simulate(table1(), input=Sampled(vals, Ts=0.5), t_end=2.0, Ts=0.25)
     np.testing.assert_array_equal(r.u, [0, 0, 50, 50, -50, -50, 20, 20, 20])
-    s = simulate(table1(), model="motor-disk", input=Step(30.0, t_step=0.123), t_end=1.0, Ts=0.001)
+    s = simulate(Plant(table1(), model="motor-disk"), input=Step(30.0, t_step=0.123), t_end=1.0, Ts=0.001)
     assert np.all(s.u[s.t < 0.123 - 1e-12] == 0) and np.all(s.u[s.t >= 0.123] == 30)
     # first-order disk response of (14): q4 = K (1 - exp(-a (t - ts)))
     p = table1()
@@ -139,7 +144,8 @@ def test_zero_order_hold_array_and_step():
 
 def test_saturation_and_feedforward_command():
     p = table1()
-    r = simulate(p, model="raw", input=Sine(80.0, 5.0), feedforward=True, saturation=100.0, t_end=2.0)
+    r = simulate(Plant(p, model="raw"), input=Sine(80.0, 5.0), t_end=2.0,
+                 options=SimOptions(feedforward=Feedforward.of_plant(p), saturation=100.0))
     expect = np.clip(np.where(r.u > 0, r.u + 31, np.where(r.u < 0, r.u - 31, 0.0)), -100, 100)
     np.testing.assert_allclose(r.command, expect, atol=1e-12)
     assert np.max(np.abs(r.command)) == pytest.approx(100.0)
@@ -147,15 +153,17 @@ def test_saturation_and_feedforward_command():
 
 def test_raw_with_feedforward_equals_compensated():
     p = table1().replace(v_dz_pos=33.0, v_dz_neg=29.0)
-    a = simulate(p, model="raw", input=Sine(40.0, 5.0), feedforward=True, t_end=10.0)
-    b = simulate(p, model="compensated", input=Sine(40.0, 5.0), t_end=10.0)
+    a = simulate(Plant(p, model="raw"), input=Sine(40.0, 5.0), t_end=10.0,
+                 options=SimOptions(feedforward=Feedforward.of_plant(p)))
+    b = simulate(Plant(p, model="compensated"), input=Sine(40.0, 5.0), t_end=10.0)
     np.testing.assert_allclose(a.x, b.x, atol=1e-9)
 
 
 def test_belt_rigid_limit_matches_locked_rigid_model():
     p = table1()
     stiff = BeltParameters.from_rigid(p.p2 * p.rho, p.p3 * p.rho, k_over_I2=4e5, d=0.0, b2_over_I2=0.5)
-    a = simulate(Plant(p, model="belt", belt=stiff), input=Sine(40.0, 5.0), t_end=5.0, rtol=1e-9, atol=1e-9)
+    a = simulate(Plant(p, model="belt", belt=stiff), input=Sine(40.0, 5.0), t_end=5.0,
+                 options=SimOptions(tolerances=Tolerances(rtol=1e-9, atol=1e-9)))
     b = simulate(Plant(p, locked=True), input=Sine(40.0, 5.0), t_end=5.0)
     assert np.max(np.abs(a.q4 - b.q4)) < 0.02 * np.max(np.abs(b.q4))
 
@@ -165,7 +173,8 @@ def test_belt_play_distorts_small_inputs_more():
     belt = BeltParameters.from_rigid(p.p2 * p.rho, p.p3 * p.rho, k_over_I2=60.0, d=2.0, b2_over_I2=0.5)
     rel = []
     for A in (60.0, 20.0):
-        a = simulate(Plant(p, model="belt", belt=belt), input=Sine(A, 5.0), t_end=20.0, rtol=1e-8, atol=1e-8)
+        a = simulate(Plant(p, model="belt", belt=belt), input=Sine(A, 5.0), t_end=20.0,
+                     options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8)))
         b = simulate(Plant(p, locked=True), input=Sine(A, 5.0), t_end=20.0)
         late = a.t > 10
         rel.append(np.linalg.norm(a.q4[late] - b.q4[late]) / np.linalg.norm(b.q4[late]))
@@ -188,8 +197,8 @@ def test_the_play_keeps_its_output_on_its_band_and_its_errors_near_the_tolerance
     t = np.arange(0.0, 40.0001, 0.05)
 
     def run(tol):
-        return simulate(plant, t_end=40.0, Ts=0.05, input=Chirp(0.5, 2.0, 6.0), rtol=tol, atol=tol, t_eval=t,
-                        x0=[0.3, 0.0, 0.0, 0.0])
+        return simulate(plant, t_end=40.0, Ts=0.05, input=Chirp(0.5, 2.0, 6.0), t_eval=t, x0=[0.3, 0.0, 0.0, 0.0],
+                        options=SimOptions(tolerances=Tolerances(rtol=tol, atol=tol)))
 
     ref = run(1e-12)
     for tol in (1e-6, 1e-8):
@@ -236,12 +245,14 @@ def test_batch_lanes_and_refill_equal_single_runs(case):
                                     R=5.0, N=13.5, beta=0.12, sigma_v1=1e-3, sigma_r=0.01, r=0.004, sigma_v2=1e-5,
                                     V_dz_pos=0.0, V_dz_neg=0.0)
         inputs = [Sine(float(a), 4.0) for a in np.linspace(10, 60, n)]
-    br = simulate_batch(params, model=model, input=inputs, x0=x0, t_end=t_end, t_eval=te, rtol=1e-10, atol=1e-10)
+    plants = [Plant(q, model=model) for q in params] if isinstance(params, list) else Plant(params, model=model)
+    br = simulate_batch(plants, input=inputs, x0=x0, t_end=t_end, t_eval=te,
+                        options=BatchOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-10)))
     assert np.all(br.success)
     for i in (0, 15, 16, 31, 36):
-        r = simulate(params[i] if isinstance(params, list) else params, model=model,
+        r = simulate(Plant(params[i] if isinstance(params, list) else params, model=model),
                      input=None if inputs is None else inputs[i], x0=x0[i] if isinstance(x0[0], list) else x0,
-                     t_end=t_end, t_eval=te, rtol=1e-10, atol=1e-10)
+                     t_end=t_end, t_eval=te, options=SimOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-10)))
         np.testing.assert_allclose(br.x[i], r.x, rtol=0, atol=1e-8)
         np.testing.assert_allclose(br.u[i], r.u, rtol=0, atol=1e-8)
         assert abs(br.nfev[i] - r.nfev) <= 0.02 * r.nfev
@@ -255,7 +266,7 @@ def test_batch_reports_a_diverging_run_and_finishes_the_others():
     bad = np.isnan(br.x[1, :, 0])
     assert bad[-1] and not bad[0] and np.all(np.isnan(br.u[1][bad]))
     assert np.all(br.x[0] == 0.0) and np.all(br.x[2] == 0.0)
-    single = simulate(unstable, x0=x0[1], t_end=200.0, check=False)
+    single = simulate(unstable, x0=x0[1], t_end=200.0, options=SimOptions(check=False))
     assert single.status == 1
     # the run diverges at the same time alone and in the batch
     assert br.t[np.argmax(bad)] == pytest.approx(single.t[-1], abs=0.01)
@@ -266,7 +277,7 @@ def test_divergence_is_reported():
     unstable = table1().replace(sigma_v1=-5.0, sigma_a1=0.0, sigma_b1=0.0)
     with pytest.raises(SimulationError, match="diverged at t ="):
         simulate(unstable, x0=[0.1, 0, 0, 0], t_end=200.0)
-    r = simulate(unstable, x0=[0.1, 0, 0, 0], t_end=200.0, check=False)
+    r = simulate(unstable, x0=[0.1, 0, 0, 0], t_end=200.0, options=SimOptions(check=False))
     assert not r.success and r.status == 1 and r.t[-1] < 200.0
 
 
@@ -278,8 +289,9 @@ def test_divergence_is_reported():
         (dict(t_end=1.0, Ts=float("nan")), "Ts must be finite"),
         (dict(t_end=1.0, x0=[0, 0, 0]), "x0 must have 4 values"),
         (dict(t_end=1.0, x0=[0, 0, float("nan"), 0]), "x0 must be finite"),
-        (dict(t_end=1.0, model="nope"), "unknown model 'nope'"),
         (dict(t_end=1.0, input="sine"), "input must be an iwp.sim.inputs"),
+        (dict(t_end=1.0, options={"rtol": 1e-9}), "options must be an iwp.sim.SimOptions, got dict"),
+        (dict(t_end=1.0, options=BatchOptions()), "options must be an iwp.sim.SimOptions, got BatchOptions"),
     ],
 )
 def test_bad_arguments_name_the_argument(kw, match):
@@ -306,34 +318,39 @@ def test_kinks_are_crossed_accurately_and_without_rejected_steps():
     """
     p = table1()
     kw = dict(input=HopfController(-9.0, 0.1), x0=[0.1, 0, 0, 0], t_end=60.0, t_eval=np.linspace(0, 60, 601))
-    r = simulate(p, rtol=1e-10, atol=1e-10, **kw)
+    tight = SimOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-10))
+    r = simulate(p, options=tight, **kw)
     sol = solve_ivp(_model9_numpy(p, -9.0, 0.1), (0, 60.0), [0.1, 0, 0, 0], method="DOP853", rtol=1e-13,
                     atol=1e-13, t_eval=r.t)
     late = r.t > 30
     n_kinks = np.count_nonzero(np.diff(np.sign(np.cos(r.q1[late]))))
     assert n_kinks > 40  # the orbit swings past +-pi/2 (four crossings per 1.2 s period)
     assert np.max(np.abs(r.q1 - sol.y[0])) < 5e-8
-    smooth = simulate(p.replace(sigma_a1=0.0), rtol=1e-10, atol=1e-10, **kw)
+    smooth = simulate(p.replace(sigma_a1=0.0), options=tight, **kw)
     assert r.nfev < 1.1 * smooth.nfev
     assert r.n_rejected < 1.5 * smooth.n_rejected + 10
 
 
 def test_atol_per_state():
-    kw = dict(input=Chirp(60.0, 3.0, 100.0), t_end=20.0, rtol=1e-9)
-    a = simulate(table1(), atol=1e-8, **kw)
-    b = simulate(table1(), atol=[1e-8, 1e-8, 1e-8, 1e-8], **kw)
+    kw = dict(input=Chirp(60.0, 3.0, 100.0), t_end=20.0)
+
+    def run(atol):
+        return simulate(table1(), options=SimOptions(tolerances=Tolerances(rtol=1e-9, atol=atol)), **kw)
+
+    a = run(1e-8)
+    b = run([1e-8, 1e-8, 1e-8, 1e-8])
     np.testing.assert_array_equal(a.x, b.x)
-    loose_disk = simulate(table1(), atol=[1e-8, 1e2, 1e-8, 1e-8], **kw)  # q2 feeds nothing back
+    loose_disk = run([1e-8, 1e2, 1e-8, 1e-8])  # q2 feeds nothing back
     assert loose_disk.nfev <= a.nfev
     with pytest.raises(InputError, match="atol must be a positive number or 4 positive numbers"):
-        simulate(table1(), atol=[1e-8, 1e-8], **kw)
+        run([1e-8, 1e-8])
     with pytest.raises(InputError, match=r"atol\[2\] must be > 0"):
-        simulate(table1(), atol=[1e-8, 1e-8, -1.0, 1e-8], **kw)
+        run([1e-8, 1e-8, -1.0, 1e-8])
 
 
 def test_continuous_inputs_are_evaluated_on_demand_from_t_and_x():
-    r = simulate(table1(), model="raw", input=HopfController(-9.0, 0.1), x0=[0.1, 0, 0, 0], t_end=10.0,
-                 feedforward=True)
+    r = simulate(Plant(table1(), model="raw"), input=HopfController(-9.0, 0.1), x0=[0.1, 0, 0, 0], t_end=10.0,
+                 options=SimOptions(feedforward=Feedforward.of_plant(table1())))
     u = -9.0 * r.q3 + 0.1 * r.q3**3
     np.testing.assert_allclose(r.u, u, rtol=1e-13, atol=1e-13)
     v = np.where(u > 0, u + 31.0, np.where(u < 0, u - 31.0, 0.0))
@@ -424,8 +441,10 @@ def test_a_step_meets_the_kink_ahead_short_of_it_or_with_a_bridge_just_past_it(f
 def test_a_feedforward_on_a_plant_without_dead_zone_is_refused():
     # model (9) takes the compensated u: the thresholds would be added a second time (u = sin +- 31)
     with pytest.raises(InputError, match="feedforward compensates the dead zone .* model 'compensated' has none"):
-        simulate(table1(), input=Sine(40.0, 5.0), t_end=1.0, feedforward=True)
-    r = simulate(table1(), model="raw", input=Sine(40.0, 5.0), t_end=1.0, feedforward=True)
+        simulate(table1(), input=Sine(40.0, 5.0), t_end=1.0,
+                 options=SimOptions(feedforward=Feedforward.of_plant(table1())))
+    r = simulate(Plant(table1(), model="raw"), input=Sine(40.0, 5.0), t_end=1.0,
+                 options=SimOptions(feedforward=Feedforward.of_plant(table1())))
     assert r.status == 0
 
 

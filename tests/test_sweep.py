@@ -22,7 +22,7 @@ from iwp.cli import main
 from iwp.control import lqr_balance, simulated_amplitude
 from iwp.errors import InputError, OutputExistsError
 from iwp.models import table1
-from iwp.sim import HopfController, simulate
+from iwp.sim import HopfController, SimOptions, Tolerances, simulate
 from iwp.sim.uncertainty import ParameterUncertainty
 from iwp.sweep import Grid, Normal, SweepSpec, Uniform, lanes_of_chunk, load_spec, read_table, run_chunk, run_sweep
 from iwp.sweep import chunk as chunk_module
@@ -98,14 +98,14 @@ def test_metrics_are_those_of_the_simulator(tmp_path):
     for i in (0, 3, 5):
         k1, q10 = tab["k1"][i], tab["x0.q1"][i]
         osc = simulated_amplitude(table1(), k1, 0.1, x0=[q10, 0, 0, 0], t_end=40.0, window=10.0, Ts=0.05,
-                                  rtol=1e-8, atol=1e-8)
+                                  options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8)))
         np.testing.assert_allclose(tab["amplitude"][i], osc.amplitude, rtol=1e-7)
         np.testing.assert_allclose(tab["period"][i], osc.period, rtol=1e-7)
         end = osc.result.x[-1]
         np.testing.assert_allclose([tab[f"q{j}_end"][i] for j in (1, 2, 3, 4)], end, rtol=1e-6, atol=1e-8)
         # the 50 ms samples' refined maxima are those of the trajectory sampled every millisecond
         fine = simulated_amplitude(table1(), k1, 0.1, x0=[q10, 0, 0, 0], t_end=40.0, window=10.0, Ts=0.001,
-                                   rtol=1e-8, atol=1e-8)
+                                   options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8)))
         assert abs(tab["amplitude"][i] - fine.amplitude) < 2e-4
         assert abs(tab["period"][i] - fine.period) < 1e-3
         assert abs(tab["max_abs_q1"][i] - np.max(np.abs(fine.result.q1))) < 2e-4
@@ -154,8 +154,8 @@ def test_unphysical_lanes_are_flagged_not_simulated(tmp_path):
     assert list(tab["status"]) == [0, -1]
     assert np.isfinite(tab["amplitude"][0]) and np.isnan(tab["amplitude"][1]) and tab["nfev"][1] == 0
     # a parameter grid runs one plant per lane: its lane equals simulate() with that plant
-    ref = simulate(table1().replace(p1=26.0), x0=[0.1, 0, 0, 0], t_end=20.0, Ts=0.05,
-                   input=HopfController(-10.0, 0.1), rtol=1e-8, atol=1e-8)
+    ref = simulate(table1().replace(p1=26.0), x0=[0.1, 0, 0, 0], t_end=20.0, Ts=0.05, input=HopfController(-10.0, 0.1),
+                   options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8)))
     np.testing.assert_allclose(tab["q1_end"][0], ref.q1[-1], rtol=1e-6)
 
 
@@ -419,7 +419,8 @@ def test_the_numbers_do_not_depend_on_the_engine_threads(tmp_path, sampled):
     _same_table(one.table, run_sweep(spec, tmp_path / "all").table)
     if sampled:  # the law held over 5 ms, as on the rig: its lanes are those of simulate() with it
         ref = simulate(table1(), x0=[one.table["x0.q1"][4], 0, 0, 0], t_end=40.0, Ts=0.05,
-                       input=HopfController(one.table["k1"][4], 0.1, Ts=0.005), rtol=1e-8, atol=1e-8)
+                       input=HopfController(one.table["k1"][4], 0.1, Ts=0.005),
+                       options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8)))
         np.testing.assert_allclose(one.table["q1_end"][4], ref.q1[-1], rtol=1e-6, atol=1e-9)
 
 

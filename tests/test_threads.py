@@ -19,7 +19,7 @@ from iwp.ident.logfit import LogFitOptions, fit_logs, load_logs
 from iwp.models import equations, table1
 from iwp.models.plant import Plant
 from iwp.rig.described import DescribedRig, write_rig_csv
-from iwp.sim import engine
+from iwp.sim import SimOptions, engine
 from iwp.sim.inputs import Chirp
 from iwp.sim.sensitivity import simulate_sensitivities
 
@@ -64,7 +64,7 @@ def test_simulations_side_by_side_give_the_numbers_of_one_after_another():
 
     def run(x0):
         return simulate_sensitivities(plant, t_eval=t, x0=np.array([x0, 0.0, 0.0, 0.0]), input=Chirp(40, 0.5, 5),
-                                      wrt=("p1", "p2", "p3", "rho", "sigma_v1"), check=False)
+                                      wrt=("p1", "p2", "p3", "rho", "sigma_v1"), options=SimOptions(check=False))
 
     starts = [0.1 * k for k in range(6)]
     together = threads.thread_map(run, starts)

@@ -22,10 +22,11 @@ from iwp.ident.refinement import as_experiments, refine
 from iwp.ident.validation import ValidationOptions, validate
 from iwp.models import Plant, quantize, save_params, table1
 from iwp.rig.described import prbs
-from iwp.sim import simulate, simulate_batch
+from iwp.sim import BatchOptions, SimOptions, Tolerances, simulate, simulate_batch
 from iwp.sim.inputs import Chirp, Sampled
 from iwp.sim.uncertainty import (
     BAND_CHUNK,
+    BandOptions,
     DrawTails,
     ParameterUncertainty,
     load_uncertainty,
@@ -43,7 +44,8 @@ def _logs(truth, n: int, duration: float, noise: float = 0.0, seed0: int = 0):
     for i in range(n):
         rng = np.random.default_rng(seed0 + i)
         u = prbs(int(round(duration / TS)) + 1, hold=60, amplitude=40.0, seed=seed0 + i)
-        r = simulate(Plant(truth), input=Sampled(u, TS), t_end=duration, rtol=1e-9, atol=1e-9)
+        r = simulate(Plant(truth), input=Sampled(u, TS), t_end=duration,
+                     options=SimOptions(tolerances=Tolerances(rtol=1e-9, atol=1e-9)))
         q1 = quantize(r.q1 + rng.normal(0.0, noise, r.t.size), STEP)
         q2 = quantize(r.q2 + rng.normal(0.0, noise, r.t.size), STEP)
         out.append(ExperimentData(t=r.t, q1=q1, q2=q2, u=u[: r.t.size], source=f"prbs{seed0 + i}"))
@@ -131,9 +133,9 @@ def test_linear_and_monte_carlo_bands_agree_for_a_small_uncertainty():
     C = np.diag([0.05, 0.0005]) ** 2  # p1 +- 0.05 s^-2, p3 +- 0.0005
     u = ParameterUncertainty(p, ("p1", "p3"), C)
     t = np.arange(0.0, 20.0 + 1e-9, 0.01)
-    lin = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t, method="linear")
-    mc = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t, method="monte-carlo", draws=400,
-                         seed=2)
+    lin = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t, options=BandOptions(method="linear"))
+    mc = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t,
+                         options=BandOptions(method="monte-carlo", draws=400, seed=2))
     assert mc.draws == 400
     for s in ("q1", "q4"):
         wl = lin.upper[s] - lin.lower[s]
@@ -164,13 +166,15 @@ def test_a_monte_carlo_band_in_chunks_is_the_band_of_all_draws_at_once():
     u = ParameterUncertainty(p, ("p1", "p3"), np.diag([0.05, 0.0005]) ** 2)
     t = np.arange(0.0, 10.0 + 1e-9, 0.01)
     draws = BAND_CHUNK * 2 + 9
-    band = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t, method="monte-carlo",
-                           draws=draws, seed=4, signals=("q1", "q4"))
+    band = prediction_band(Plant(p), u, input=Chirp(60.0, 3.0, 100.0), t_eval=t, signals=("q1", "q4"),
+                           options=BandOptions(method="monte-carlo", draws=draws, seed=4))
     plants = [Plant(p).with_params(q) for q in u.draws(draws, 4)]
     # all draws in one batch: the chunks change nothing
-    X = simulate_batch(plants, t_end=10.0, t_eval=t, input=Chirp(60.0, 3.0, 100.0), rtol=1e-8, atol=1e-8).x
+    X = simulate_batch(plants, t_end=10.0, t_eval=t, input=Chirp(60.0, 3.0, 100.0),
+                       options=BatchOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8))).x
     # and each draw alone: the same up to rounding (the lanes' vector code orders some sums differently)
-    X1 = np.stack([simulate(q, t_end=10.0, t_eval=t, input=Chirp(60.0, 3.0, 100.0), rtol=1e-8, atol=1e-8).x
+    X1 = np.stack([simulate(q, t_end=10.0, t_eval=t, input=Chirp(60.0, 3.0, 100.0),
+                            options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8))).x
                    for q in plants])
     for s, i in (("q1", 0), ("q4", 3)):
         ref = np.quantile(X[:, :, i], [0.025, 0.975], axis=0)
@@ -225,6 +229,13 @@ def test_cli_band_needs_a_fit_and_writes_its_columns(tmp_path, capsys):
                  "--out", str(out)]) == 0
     header = [ln for ln in out.read_text().splitlines() if not ln.startswith("#")][0].split(",")
     assert {"q1_lo", "q1_hi", "q1_plo", "q1_phi"} <= set(header)
+    # a Monte Carlo band's draws out of range: one line naming the flag, status 2, nothing written
+    bad = tmp_path / "bad.csv"
+    capsys.readouterr()
+    assert main(["simulate", "--params", str(par), "--band", "monte-carlo", "--draws", "0", "--input", "chirp",
+                 "--t-end", "2", "--out", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--draws must be an integer from 1 to 100000, got 0" in err and "\n" not in err and not bad.exists()
 
 
 def test_intervals_cover_the_truth_over_repeated_experiments_with_noise_correlated_in_time():
@@ -239,7 +250,8 @@ def test_intervals_cover_the_truth_over_repeated_experiments_with_noise_correlat
 
     def log(seed):
         u = prbs(n, hold=30, amplitude=40.0, seed=seed)
-        r = simulate(Plant(truth), input=Sampled(u, Ts), t_end=duration, Ts=Ts, rtol=1e-9, atol=1e-9)
+        r = simulate(Plant(truth), input=Sampled(u, Ts), t_end=duration, Ts=Ts,
+                     options=SimOptions(tolerances=Tolerances(rtol=1e-9, atol=1e-9)))
         rng = np.random.default_rng(seed)
         cols = {}
         for name in ("q1", "q2"):

@@ -15,15 +15,17 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from iwp import Plant, Sine, paper_belt, simulate, table1
+from iwp.sim import Feedforward, SimOptions
 
 p = table1()
 u = Sine(amplitude=20, omega=5)
 runs = {
     "(9) compensated": simulate(Plant(p, locked=True), input=u, t_end=10),
-    "(6) raw, exact feedforward": simulate(Plant(p, model="raw", locked=True), input=u, feedforward=True, t_end=10),
+    "(6) raw, exact feedforward": simulate(Plant(p, model="raw", locked=True), input=u, t_end=10,
+                                           options=SimOptions(feedforward=Feedforward.of_plant(p))),
     "(6) raw, dead zone 33/29, feedforward 31": simulate(
-        Plant(p.replace(v_dz_pos=33.0, v_dz_neg=29.0), model="raw", locked=True), input=u, feedforward=(31.0, 31.0),
-        t_end=10),
+        Plant(p.replace(v_dz_pos=33.0, v_dz_neg=29.0), model="raw", locked=True), input=u, t_end=10,
+        options=SimOptions(feedforward=Feedforward(31.0, 31.0))),
     "(15) belt": simulate(Plant(p, model="belt", belt=paper_belt(), locked=True), input=u, t_end=10),
 }
 ref = runs["(9) compensated"].q4

@@ -47,7 +47,8 @@ _EXPORTS: dict[str, str] = {
     "simulate_sensitivities": "iwp.sim.sensitivity", "SimulationResult": "iwp.sim", "BatchResult": "iwp.sim",
     "Constant": "iwp.sim", "Sine": "iwp.sim", "Chirp": "iwp.sim", "Step": "iwp.sim", "Sampled": "iwp.sim",
     "HopfController": "iwp.sim", "CallableController": "iwp.sim", "BalanceController": "iwp.sim",
-    "Tolerances": "iwp.sim", "CommandChain": "iwp.sim", "Feedforward": "iwp.sim",
+    "Tolerances": "iwp.sim", "CommandChain": "iwp.sim", "Feedforward": "iwp.sim", "SimOptions": "iwp.sim",
+    "BatchOptions": "iwp.sim", "BandOptions": "iwp.sim.uncertainty",
     # data
     "ExperimentData": "iwp.data", "StaticCurve": "iwp.data", "read_experiment": "iwp.data",
     "write_experiment": "iwp.data", "read_static_curve": "iwp.data", "convert": "iwp.data",

@@ -37,29 +37,33 @@ from .data import ExperimentData
 from .errors import InputError
 from .ident import identify
 from .models import Plant, paper_belt, table1
-from .sim import HopfController, Sampled, Sine, simulate, simulate_batch
+from .sim import Feedforward, HopfController, Sampled, SimOptions, Sine, simulate, simulate_batch
 from .sim.sensitivity import simulate_sensitivities
+from .sim.simulate import output_times
 
 
 def _warm_simulation() -> None:
     p = table1()
     simulate(Plant(p), x0=[0.1, 0.0, 0.0, 0.0], t_end=0.05, input=HopfController(-10.0, 0.1))
-    r = simulate(Plant(p, model="raw"), t_end=0.05, input=Sine(40.0), feedforward=True)
+    r = simulate(Plant(p, model="raw"), t_end=0.05, input=Sine(40.0),
+                 options=SimOptions(feedforward=Feedforward.of_plant(p)))
     _ = r.u  # continuous inputs are evaluated afterwards
     simulate(Plant(p), t_end=0.05, input=Sampled(np.zeros(11), 0.005))
 
 
 def _warm_belt() -> None:
     plant = Plant(table1(), model="belt-full", belt=paper_belt(), dead_zone=True)
-    simulate(plant, t_end=0.05, input=Sine(40.0), feedforward=True, saturation=100.0)
-    simulate(plant, t_end=0.05, input=Sampled(np.zeros(11), 0.005), feedforward=True, saturation=100.0)
+    opts = SimOptions(feedforward=Feedforward.of_plant(plant), saturation=100.0)
+    simulate(plant, t_end=0.05, input=Sine(40.0), options=opts)
+    simulate(plant, t_end=0.05, input=Sampled(np.zeros(11), 0.005), options=opts)
 
 
 def _warm_sensitivity() -> None:
     p = table1()
-    simulate_sensitivities(Plant(p, model="free"), t_end=0.05, x0=[1.0, 0.0, 0.0, 0.0], wrt=("p1",), wrt_x0=(0, 2))
-    simulate_sensitivities(Plant(p), t_end=0.05, input=Sampled(np.zeros(11), 0.005), wrt=("p2",), wrt_x0=(0,))
-    simulate_sensitivities(Plant(p), t_end=0.05, x0=[1.0, 0.0, 0.0, 0.0], input=HopfController(-10.0, 0.1),
+    t = output_times(0.0, 0.05, 0.005)
+    simulate_sensitivities(Plant(p, model="free"), t_eval=t, x0=[1.0, 0.0, 0.0, 0.0], wrt=("p1",), wrt_x0=(0, 2))
+    simulate_sensitivities(Plant(p), t_eval=t, input=Sampled(np.zeros(11), 0.005), wrt=("p2",), wrt_x0=(0,))
+    simulate_sensitivities(Plant(p), t_eval=t, x0=[1.0, 0.0, 0.0, 0.0], input=HopfController(-10.0, 0.1),
                            wrt=("k1",), wrt_x0=(0, 2, 3))
 
 

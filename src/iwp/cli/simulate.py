@@ -63,7 +63,7 @@ def run(args) -> int:
     from ..sim.inputs import make_input
     from ..sim.options import CommandChain, Feedforward, Tolerances
     from ..sim.tasks import SimulationTask, write_simulation
-    from ..sim.uncertainty import load_uncertainty
+    from ..sim.uncertainty import BandOptions, load_uncertainty
 
     # a setting the chosen input does not take would be ignored: refused, as an unknown one is
     chosen = args.controller.lower() if args.controller is not None else (args.input or "zero").lower()
@@ -92,7 +92,8 @@ def run(args) -> int:
     chain = CommandChain(inp, Feedforward.of_plant(plant) if args.feedforward else None, args.saturation)
     task = SimulationTask(plant, chain, x0=args.x0, t0=args.t0, t_end=args.t_end, Ts=args.ts,
                           tolerances=Tolerances(rtol=args.rtol, atol=args.atol),
-                          uncertainty=uncertainty, band=args.band, draws=1000 if args.draws is None else args.draws,
-                          seed=0 if args.seed is None else args.seed)
+                          uncertainty=uncertainty, band=None if args.band is None else BandOptions(
+                              args.band, draws=1000 if args.draws is None else args.draws,
+                              seed=0 if args.seed is None else args.seed))
     print(write_simulation(task, args.out, plot=args.plot, force=args.force))
     return 0

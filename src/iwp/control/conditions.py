@@ -9,6 +9,7 @@ from ..errors import InputError
 from ..models.encoder import encoder_step
 from ..models.parameters import LumpedParameters
 from ..models.plant import Plant
+from ..sim.options import Feedforward, SimOptions
 from .closed_loop import lumped_parameters
 
 __all__ = ["RigConditions"]
@@ -81,6 +82,6 @@ class RigConditions:
         """The controller's feedforward thresholds ``(v_comp, v_comp)`` (7)-(8) [input units]."""
         return float(self.v_comp), float(self.v_comp)
 
-    def simulate_kwargs(self) -> dict:
-        """Model and feedforward options of :func:`iwp.sim.simulate` for this plant."""
-        return {"model": "raw", "feedforward": self.feedforward}
+    def simulate_options(self) -> SimOptions:
+        """The options of :func:`iwp.sim.simulate` for this rig's plant (:meth:`plant`): its feedforward."""
+        return SimOptions(feedforward=Feedforward(*self.feedforward))

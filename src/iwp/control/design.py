@@ -20,6 +20,7 @@ from ..checks import check_finite, check_positive
 from ..errors import InputError, SimulationError
 from ..models.parameters import LumpedParameters
 from ..sim.inputs import HopfController
+from ..sim.options import SimOptions
 from ..sim.simulate import simulate
 from .closed_loop import lumped_parameters
 from .continuation import continue_branch, correct_at, find_orbit, hopf_start
@@ -287,15 +288,15 @@ def simulated_amplitude(
     window: float = 20.0,
     Ts: float = 0.002,
     controller_Ts: float | None = None,
-    model: str | None = None,
-    **simulate_kw,
+    options: SimOptions | None = None,
 ) -> SimulatedOscillation:
     """Simulate ``u = k1 q3 + k2 q3^3`` for a long time and measure the oscillation.
 
     Parameters
     ----------
     params : LumpedParameters or Plant
-        The parameters (of model ``model``), or the plant itself.
+        The parameters (of the compensated model (9)), or the plant itself
+        (another model: ``Plant(params, model="raw")``).
     k1, k2 : float
         Gains.
     x0 : array_like, optional
@@ -309,20 +310,16 @@ def simulated_amplitude(
         through the three samples around it.
     controller_Ts : float, optional
         Sample the controller (zero-order hold), as on the rig.
-    model : str, optional
-        Model name when ``params`` is a parameter set (default the
-        compensated model (9)).
-    **simulate_kw
-        Other keywords of :func:`iwp.sim.simulate` (``feedforward``,
-        ``saturation``, ``rtol``, ...).
+    options : SimOptions, optional
+        The feedforward (7)-(8), saturation [input units] and tolerances of
+        the run (:func:`iwp.sim.simulate`).
 
     Returns
     -------
     SimulatedOscillation
     """
     x0 = [0.1, 0.0, 0.0, 0.0] if x0 is None else x0
-    r = simulate(params, model=model, x0=x0, t_end=t_end, Ts=Ts, input=HopfController(k1, k2, controller_Ts),
-                 **simulate_kw)
+    r = simulate(params, x0=x0, t_end=t_end, Ts=Ts, input=HopfController(k1, k2, controller_Ts), options=options)
     sel = r.t >= r.t[-1] - window
     t, q = r.t[sel], r.q1[sel]
     rotating = bool(np.max(np.abs(q)) > math.pi)

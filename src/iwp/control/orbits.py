@@ -22,6 +22,7 @@ from ..models.laws import hopf_law
 from ..models.parameters import LumpedParameters
 from ..models.plant import Plant
 from ..sim.inputs import HopfController
+from ..sim.options import SimOptions, Tolerances
 from ..sim.sensitivity import simulate_sensitivities
 from .closed_loop import REDUCED, hopf_rate, lumped_parameters
 
@@ -203,8 +204,9 @@ class OrbitShooter:
         else:
             t_eval = np.array([T])
         r = simulate_sensitivities(self.plant, t_eval=t_eval, x0=[a, 0.0, 0.0, q40], input=HopfController(k1, k2),
-                                   wrt=(self.free,), wrt_x0=REDUCED, rtol=self.rtol, atol=self.atol,
-                                   max_step=self.max_step, max_steps=_MAX_STEPS, check=False)
+                                   wrt=(self.free,), wrt_x0=REDUCED, options=SimOptions(
+                                       tolerances=Tolerances(rtol=self.rtol, atol=self.atol, max_step=self.max_step,
+                                                             max_steps=_MAX_STEPS), check=False))
         xT = r.x[-1]
         S = r.S[-1][_ROWS]  # (3, 4): d z(T) / d k, then d z(T) / d z(0)
         z0 = np.array([a, 0.0, q40])

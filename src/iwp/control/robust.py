@@ -43,6 +43,7 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.plant import Plant
 from ..sim.inputs import HopfController
+from ..sim.options import BatchOptions
 from ..sim.simulate import simulate_batch
 from ..sim.uncertainty import HELD_NOTE, MAX_DRAWS, ParameterUncertainty
 from .balance import LQRBalance, lqr_balance, wrap_angle
@@ -709,7 +710,8 @@ def robust_balance(
     m = X0.shape[0]
     plants = [pl for pl in sets for _ in range(m)]
     x0s = [list(X0[j]) for _ in sets for j in range(m)]
-    batch = simulate_batch(plants, x0=x0s, t_end=t_end, Ts=Ts_out, input=ctl.controller(), saturation=ctl.u_max)
+    batch = simulate_batch(plants, x0=x0s, t_end=t_end, Ts=Ts_out, input=ctl.controller(),
+                           options=BatchOptions(saturation=ctl.u_max))
     theta = wrap_angle(batch.x[:, :, 0] - math.pi)
     theta[batch.status != 0] = np.nan
     captured, settle = _settling(batch.t, theta, tolerance, hold, fall)

@@ -22,6 +22,7 @@ from ..models.encoder import quantize
 from ..models.parameters import LumpedParameters
 from ..models.plant import Plant
 from ..sim.inputs import CallableController
+from ..sim.options import Feedforward, SimOptions
 from ..sim.simulate import simulate
 from .balance import LQRBalance, lqr_balance, wrap_angle
 from .closed_loop import lumped_parameters
@@ -294,8 +295,9 @@ def swing_up(
     else:
         plant = Plant(truth)
         feedforward = None
-    res = simulate(plant, x0=list(x0), t_end=t_end, Ts=Ts_out, input=ctrl.as_input(), feedforward=feedforward,
-                   check=False)
+    res = simulate(plant, x0=list(x0), t_end=t_end, Ts=Ts_out, input=ctrl.as_input(),
+                   options=SimOptions(feedforward=None if feedforward is None else Feedforward(*feedforward),
+                                      check=False))
     th = np.abs(wrap_angle(res.q1 - math.pi))
     inside = th < tolerance
     success = bool(res.success and res.t[-1] >= t_end - 1e-9 and np.all(inside[res.t >= t_end - hold]))

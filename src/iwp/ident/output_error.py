@@ -38,6 +38,7 @@ from ..errors import InputError
 from ..models.parameters import PARAMETER_INFO
 from ..models.plant import EXPERIMENT_KINDS, Plant, plant_for_kind
 from ..sim.inputs import Input, Sampled
+from ..sim.options import SimOptions, Tolerances
 from ..sim.sensitivity import simulate_sensitivities
 from ..threads import thread_map
 from .differentiate import Differentiator
@@ -792,7 +793,8 @@ class OutputError:
             est = tuple(s for s in p.est if x0_name(s, p.index) in wrt)
             return est, simulate_sensitivities(plant_for_kind(base, p.spec.kind), t_eval=p.t, t0=float(p.t[0]),
                                                x0=states[i], input=p.input, wrt=wrt_model, wrt_x0=est,
-                                               rtol=self.rtol, atol=self.atol, check=False)
+                                               options=SimOptions(tolerances=Tolerances(rtol=self.rtol, atol=self.atol),
+                                                                  check=False))
 
         sims = thread_map(run, range(len(self.prepared)))  # the experiments side by side (independent)
         Xs, statuses = [], []

@@ -24,6 +24,7 @@ from ..ident.refinement import refine_identification
 from ..models.parameters import BeltParameters
 from ..models.plant import Plant
 from ..plotting.report import plot_comparisons, plot_dead_zone, plot_errors
+from ..sim.options import SimOptions
 from ..sim.simulate import simulate
 from .context import ReproduceResult, compare, fit_of, rms_of, series, val
 from .paper import PAPER
@@ -151,7 +152,7 @@ def step_sines(ctx: ReproduceResult) -> str:
             e = rigid[A]
             data = ctx.data[f"sine-{A}"]
             r = simulate(Plant(lumped, model="belt", belt=belt), t0=float(data.t[0]), t_end=float(data.t[-1]),
-                         input=replay(data, data.input_name), t_eval=e["t"], check=False)
+                         input=replay(data, data.input_name), t_eval=e["t"], options=SimOptions(check=False))
             n = r.t.size
             note = "" if r.success else f"simulation stopped: {r.message}"
             rec = ctx.add_fit("fig04_sine20" if (A == 20 and key == "identified") else "", f"sine-{A}", label,

@@ -32,6 +32,7 @@ from ..files import atomic_write, prepare_output_file
 from ..models.parameters import BeltParameters, LumpedParameters
 from ..models.plant import Plant, plant_for_kind
 from ..sim.inputs import Input, Sampled
+from ..sim.options import SimOptions, Tolerances
 from ..sim.simulate import simulate
 from .run_settings import check_seed, prbs  # defined with the other input laws, exported here too
 from .sensors import motor_current, pendulum_reading, time_reading, wheel_reading
@@ -207,7 +208,8 @@ class DescribedRig:
         if plant.n_states > 4:  # the belt's stretch and play output start relaxed
             x0a = np.concatenate([x0a, np.zeros(plant.n_states - 4)])
         drive = controller if controller is not None else None if plant.wheel_held else Sampled(w, Ts, 0.0)
-        res = simulate(plant, x0=x0a, t_end=(n - 1) * Ts, Ts=Ts, input=drive, rtol=self.rtol, atol=self.rtol)
+        res = simulate(plant, x0=x0a, t_end=(n - 1) * Ts, Ts=Ts, input=drive,
+                       options=SimOptions(tolerances=Tolerances(rtol=self.rtol, atol=self.rtol)))
         X = np.asarray(res.x, dtype=float)[:n, :4]
         if controller is not None:  # the rig logs the law's output
             w = x_log = np.asarray(res.u, dtype=float)[:n]

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..models.plant import Plant
+from ..sim.options import SimOptions, Tolerances
 from ..sim.simulate import simulate
 from .experiments import EXPERIMENTS
 from .run_settings import open_loop_input
@@ -58,7 +59,8 @@ def rigid_fit_error(name: str, *, truth: RigTruth | None = None, seed: int = 0, 
         raise InputError(f"rigid_fit_error needs an experiment with an open-loop input, not {name!r}")
     rigid = Plant(rig.truth.lumped, model="compensated", coulomb_eps=rig.truth.coulomb_eps,
                   locked=bool(s.get("locked")))
-    res = simulate(rigid, t_end=float(log.t[-1]), Ts=rig.truth.Ts, input=inp, rtol=RIG_RTOL, atol=RIG_ATOL)
+    res = simulate(rigid, t_end=float(log.t[-1]), Ts=rig.truth.Ts, input=inp,
+                   options=SimOptions(tolerances=Tolerances(rtol=RIG_RTOL, atol=RIG_ATOL)))
     m = log.t >= skip
     q4 = log.extra["true_q4"][m]
     return float(np.std(res.q4[m] - q4) / np.std(q4))

@@ -53,6 +53,7 @@ from ..data.plausibility import MAX_INPUT
 from ..errors import InputError
 from ..models.encoder import quantize
 from ..sim.inputs import CallableController, Constant, Input
+from ..sim.options import Feedforward, SimOptions, Tolerances
 from ..sim.simulate import simulate
 from .controller import EncoderHopfController
 from .experiments import (
@@ -76,6 +77,12 @@ STATIC_WINDOW = 1.0
 
 #: Largest measurement noise of the virtual rig's angles [rad] (an encoder's is a few thousandths).
 MAX_NOISE = 1.0
+
+
+def _rig_options(pair: tuple[float, float] | None, saturation: float | None) -> SimOptions:
+    """The truth plant's simulation options: the feedforward thresholds ``pair`` and the saturation [input units]."""
+    return SimOptions(feedforward=None if pair is None else Feedforward(*pair), saturation=saturation,
+                      tolerances=Tolerances(rtol=RIG_RTOL, atol=RIG_ATOL))
 
 
 def check_noise(noise_std: float) -> float:
@@ -304,7 +311,7 @@ class VirtualRig:
             sim_input = CallableController(sampled, Ts=Ts)
         # the belt starts relaxed: its states (delta, w) are 0
         res = simulate(truth.plant(locked=locked), x0=x, t_end=(n - 1) * truth.Ts, Ts=truth.Ts, input=sim_input,
-                       feedforward=pair, saturation=truth.saturation, rtol=RIG_RTOL, atol=RIG_ATOL)
+                       options=_rig_options(pair, truth.saturation))
         X = res.x
         meas = quantize(X[:, :2] + noise_arr[: X.shape[0]], step)
         for k, y in seen.items():  # what the controller saw is what the rig logged
@@ -373,8 +380,8 @@ class VirtualRig:
         plant = truth.plant(locked=True)
         q4 = np.empty(grid.size)
         for i, val in enumerate(grid):
-            res = simulate(plant, t_end=(n - 1) * Ts, Ts=Ts, input=Constant(val), feedforward=pair,
-                           saturation=truth.saturation, rtol=RIG_RTOL, atol=RIG_ATOL)
+            res = simulate(plant, t_end=(n - 1) * Ts, Ts=Ts, input=Constant(val),
+                           options=_rig_options(pair, truth.saturation))
             q2 = res.x[:, 1]
             if noise > 0:
                 q2 = q2 + rng.normal(0.0, noise, size=q2.size)

@@ -5,7 +5,7 @@ module                      what
 ==========================  =====================================================
 :mod:`.simulate`            :func:`simulate`, :func:`simulate_batch`, :func:`simulate_scipy`
 :mod:`.inputs`              signals and feedback laws that drive a simulation
-:mod:`.options`             :class:`Tolerances`, :class:`CommandChain` (options of every entry point)
+:mod:`.options`             :class:`SimOptions`, :class:`BatchOptions`, :class:`Tolerances`, :class:`CommandChain`
 :mod:`.sensitivity`         simulations with forward sensitivities (fits, shooting)
 :mod:`.result`              :class:`SimulationResult`, :class:`BatchResult`
 :mod:`.engine`              the compiled adaptive DOP853 (one engine for everything)
@@ -28,12 +28,13 @@ from .inputs import (
     Step,
     make_input,
 )
-from .options import CommandChain, Feedforward, Tolerances
+from .options import BatchOptions, CommandChain, Feedforward, SimOptions, Tolerances
 from .result import BatchResult, SimulationResult
 from .simulate import simulate, simulate_batch, simulate_scipy
 
 __all__ = [
     "BalanceController",
+    "BatchOptions",
     "BatchResult",
     "CallableController",
     "Chirp",
@@ -43,6 +44,7 @@ __all__ = [
     "HopfController",
     "Input",
     "Sampled",
+    "SimOptions",
     "SimulationResult",
     "Sine",
     "Step",

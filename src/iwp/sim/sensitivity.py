@@ -24,13 +24,17 @@ from ..models.plant import Plant
 from . import engine
 from .engine import ST_OK, STATUS_TEXT, Span, samples_output, sensitivity
 from .inputs import Input
-from .simulate import command_of, initial_state, output_times, segments_of, system_of, tolerances
+from .options import SimOptions, Tolerances, as_options
+from .simulate import command_of, engine_tolerances, initial_state, output_times, segments_of, system_of
 
 __all__ = ["SensitivityResult", "simulate_sensitivities", "FD_RELATIVE"]
 
 #: Relative forward-difference step of the parameter derivatives (the models
 #: are linear in most parameters, so truncation errors are small).
 FD_RELATIVE = 1e-7
+
+#: :func:`simulate_sensitivities`'s default tolerances (of the states).
+SENSITIVITY_TOLERANCES = Tolerances(rtol=1e-9, atol=1e-9)
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,55 +88,62 @@ def _parameter_index(name: str, plant: Plant, input) -> tuple[int, float]:
 def simulate_sensitivities(
     plant: Plant,
     *,
-    t_end: float | None = None,
-    t0: float = 0.0,
-    Ts: float = 0.005,
-    t_eval=None,
-    x0=None,
     input: Input | None = None,
+    x0=None,
+    t_eval,
+    t0: float = 0.0,
     wrt: Sequence[str] = (),
     wrt_x0: Sequence[int] = (),
-    feedforward=None,
-    saturation: float | None = None,
-    rtol: float = 1e-9,
-    atol: float | Sequence[float] = 1e-9,
-    max_step: float | None = None,
-    max_steps: int = 50_000_000,
-    check: bool = True,
+    options: SimOptions | None = None,
 ) -> SensitivityResult:
     """Simulate ``plant`` with the sensitivities of its states to parameters and initial states.
 
     Parameters
     ----------
     plant : Plant
-    t_end, t0, Ts, t_eval
-        Output times, as in :func:`~iwp.sim.simulate.simulate` (``t_end``
-        defaults to the last of ``t_eval``).
-    x0 : array_like, optional
-        Initial state (default rest at the bottom).
+        The plant (a lumped model for sensitivities to its parameters).
     input : Input, optional
-        The input; a log's input is replayed as :class:`~iwp.sim.inputs.Sampled`.
+        The input [input units]; a log's input is replayed as
+        :class:`~iwp.sim.inputs.Sampled`. None: zero.
+    x0 : array_like, optional
+        Initial state ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s] at ``t0``
+        (default rest at the bottom).
+    t_eval : array_like
+        Output times [s], increasing, within ``[t0, t_eval[-1]]``; the run
+        ends at the last (the grid of :func:`~iwp.sim.simulate.simulate`'s
+        ``t_end`` and ``Ts`` is :func:`~iwp.sim.simulate.output_times`).
+    t0 : float
+        Initial time [s].
     wrt : sequence of str
         Parameters: lumped parameter names (``"p1"``, ``"sigma_a1"``, ...)
         or names of the input's parameters (``"k1"``, ``"k2"`` of a Hopf law).
     wrt_x0 : sequence of int
         Initial states (indices into the state).
-    rtol, atol
-        Error control of the states (the sensitivities ride along).
+    options : SimOptions, optional
+        Feedforward (7)-(8) and saturation [input units], the tolerances of
+        the states' error control (the sensitivities ride along; default
+        ``Tolerances(rtol=1e-9, atol=1e-9)``), and whether a failed run raises.
 
     Returns
     -------
     SensitivityResult
+
+    Raises
+    ------
+    InputError
+        An argument of the wrong type or value, in one line naming it.
+    SimulationError
+        The run failed and ``options.check`` is True.
     """
     if not isinstance(plant, Plant):
-        raise InputError(f"plant must be a Plant, got {type(plant).__name__}")
-    if t_end is None:
-        if t_eval is None:
-            raise InputError("give t_end or t_eval")
-        t_end = float(np.asarray(t_eval, dtype=float).ravel()[-1])
+        raise InputError(f"plant must be a Plant, got {type(plant).__name__}", argument="plant")
+    opts = as_options(options, SimOptions)
+    if t_eval is None:
+        raise InputError("give t_eval, the output times of the sensitivities", argument="t_eval")
+    t_end = float(np.asarray(t_eval, dtype=float).ravel()[-1])
     n = plant.n_states
     x0a = initial_state(x0, plant)
-    t_out = output_times(float(t0), float(t_end), float(Ts), t_eval)
+    t_out = output_times(float(t0), t_end, 0.005, t_eval)  # (the grid step unused with t_eval)
     pidx, psteps = [], []
     for name in wrt:
         i, d = _parameter_index(name, plant, input)
@@ -147,8 +158,8 @@ def simulate_sensitivities(
     y0[:n] = x0a
     for k, c in enumerate(cols):
         y0[n + (len(pidx) + k) * n + c] = 1.0
-    tol = tolerances(n, rtol, atol, max_step=max_step, max_steps=max_steps)
-    command_params = command_of(plant, feedforward, saturation)
+    tol = engine_tolerances(n, opts.tolerances or SENSITIVITY_TOLERANCES)
+    command_params = command_of(plant, opts.feedforward_pair(), opts.saturation)
     system = system_of(plant, input, command_params)
     seg = segments_of(input, float(t0))
     X = np.empty((t_out.size, y0.size))
@@ -166,7 +177,7 @@ def simulate_sensitivities(
     message = STATUS_TEXT.get(status, "failed")
     if status != ST_OK:
         message += f" at t = {stats.t_reached:.6g} s"
-        if check:
+        if opts.check:
             raise SimulationError(message)
     S = X[:, n:].reshape(t_out.size, ns, n).transpose(0, 2, 1) if ns else np.zeros((t_out.size, n, 0))
     names = tuple(wrt) + tuple(f"x0[{c}]" for c in cols)

@@ -16,7 +16,7 @@ absolute time.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -45,7 +45,7 @@ from .engine import (
     samples_output,
 )
 from .inputs import I_EXTERNAL, I_ZERO, N_INPUT_PARAMS, CallableController, Input, Sampled, input_value
-from .options import CommandChain, as_chain, as_tolerances
+from .options import BATCH_STORES, BatchOptions, SimOptions, as_options
 from .options import Tolerances as TolerancesOptions
 from .result import BatchResult, SimulationResult
 
@@ -53,6 +53,9 @@ __all__ = ["BATCH_STORES", "simulate", "simulate_batch", "simulate_scipy", "as_p
 
 #: States beyond this magnitude count as divergence [rad, rad/s].
 X_MAX = 1e7
+
+#: :func:`simulate`'s and :func:`simulate_batch`'s default tolerances.
+SIM_TOLERANCES = TolerancesOptions()
 
 #: :func:`simulate_scipy`'s default tolerances (its reference runs: a tighter ``atol``).
 SCIPY_TOLERANCES = TolerancesOptions(rtol=1e-10, atol=1e-12)
@@ -177,11 +180,6 @@ def engine_tolerances(n: int, opts: TolerancesOptions, *, n_err: int | None = No
     return tolerances(n, opts.rtol, opts.atol, n_err=n_err, max_step=opts.max_step, max_steps=opts.max_steps)
 
 
-def chain_command(plant: Plant, chain: CommandChain) -> np.ndarray:
-    """The command vector of ``chain``'s feedforward and saturation for ``plant`` (:func:`command_of`)."""
-    return command_of(plant, chain.feedforward_pair(), chain.saturation)
-
-
 def initial_state(x0, plant: Plant) -> np.ndarray:
     """``x0`` as the plant's state (zeros by default; a belt model's ``delta, w`` default to 0)."""
     n = plant.n_states
@@ -298,31 +296,25 @@ class _LazyInputs:
 def simulate(
     plant,
     *,
-    model: str | None = None,
+    input: Input | None = None,
     x0=None,
     t_end: float,
     t0: float = 0.0,
     Ts: float = 0.005,
-    input: Input | None = None,
-    feedforward=None,
-    saturation: float | None = None,
-    rtol: float = 1e-10,
-    atol: float | Sequence[float] = 1e-10,
-    max_step: float | None = None,
-    max_steps: int = 50_000_000,
     t_eval=None,
-    check: bool = True,
-):
+    options: SimOptions | None = None,
+) -> SimulationResult:
     """Simulate one model of the inertia wheel pendulum.
 
     Parameters
     ----------
     plant : Plant or LumpedParameters or PhysicalParameters
         The plant (model, parameters and options). A parameter set alone is
-        the plant ``Plant(params, model=model)``.
-    model : str, optional
-        With a parameter set: the model name (default ``"compensated"``,
-        (9)); see :data:`iwp.models.MODELS`.
+        the plant ``Plant(params)`` of model (9), ``"compensated"``; another
+        model: ``Plant(params, model="raw")`` (:data:`iwp.models.MODELS`).
+    input : signal or controller, optional
+        :mod:`iwp.sim.inputs` object giving the ideal input ``u`` [input
+        units]. None: zero.
     x0 : array_like, optional
         Initial state ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s] at ``t0``
         (belt models: optionally ``+ [delta, w]``). Default: rest at the bottom.
@@ -333,53 +325,51 @@ def simulate(
         restart (figure 9b) is ``t0=200, x0=measured state``.
     Ts : float
         Output sample time [s] (the paper's 5 ms by default).
-    input : signal or controller, optional
-        :mod:`iwp.sim.inputs` object giving the ideal input ``u``. ``None``: zero.
-    feedforward : bool or (float, float), optional
-        Apply the dead-zone feedforward (7)-(8) to ``u`` before the plant:
-        ``True`` uses the plant's ``v_dz_pos, v_dz_neg``, a pair gives the
-        compensator's own thresholds (a compensator tuned on identified
-        values, driving a plant with other ones).
-    saturation : float, optional
-        Clip the command to ``[-saturation, saturation]`` [input units].
-    rtol : float
-        Relative local error tolerance of the DOP853 integrator.
-    atol : float or array_like
-        Absolute local error tolerance, one value for all states or one per
-        state (in the states' units), as in :func:`scipy.integrate.solve_ivp`.
-    max_step : float, optional
-        Largest step [s].
-    max_steps : int
-        Step limit (accepted and rejected steps).
     t_eval : array_like, optional
-        Output times instead of the ``Ts`` grid.
-    check : bool
-        Raise :class:`~iwp.errors.SimulationError` when the simulation fails
-        (default). With ``False`` the result reports ``success=False`` and
-        carries the samples computed before the failure.
+        Output times [s] instead of the ``Ts`` grid, increasing, within
+        ``[t0, t_end]``.
+    options : SimOptions, optional
+        The dead-zone feedforward (7)-(8) and the saturation of the command
+        [input units], the integrator's tolerances (default ``Tolerances()``:
+        ``rtol = atol = 1e-10``) and whether a failed run raises
+        :class:`~iwp.errors.SimulationError` (default) or returns the samples
+        computed before the failure with ``success=False``.
 
     Returns
     -------
     SimulationResult
+
+    Raises
+    ------
+    InputError
+        An argument of the wrong type or value, in one line naming it.
+    SimulationError
+        The run failed (diverged, step too small) and ``options.check`` is True.
+
+    Examples
+    --------
+    >>> from iwp.models import Plant, table1
+    >>> from iwp.sim import HopfController, simulate
+    >>> r = simulate(Plant(table1()), input=HopfController(k1=-10, k2=0.1), x0=[0.1, 0, 0, 0], t_end=1)
+    >>> print(r.t[-1], r.success)
+    1.0 True
     """
-    plant = as_plant(plant, model)
+    opts = as_options(options, SimOptions)
+    plant = as_plant(plant)
     t0, t_end, Ts = _check_span(t0, t_end, Ts)
     _check_input(input, t0, t_end)
     x0a = initial_state(x0, plant)
     n = plant.n_states
-    tol = tolerances(n, rtol, atol, max_step=max_step, max_steps=max_steps)
-    command_params = command_of(plant, feedforward, saturation)
-    t_out = output_times(t0, t_end, Ts, t_eval)
-    n_out = t_out.size
+    run = _Run(plant, x0a, t0, t_end, output_times(t0, t_end, Ts, t_eval),
+               command_of(plant, opts.feedforward_pair(), opts.saturation),
+               engine_tolerances(n, opts.tolerances or SIM_TOLERANCES))
     if isinstance(input, CallableController):
         if input.Ts is None:
-            return _simulate_callable_continuous(plant, x0a, t0, t_end, t_out, input, command_params, tol, check)
-        X = np.full((n_out, n), np.nan)
-        U = np.full(n_out, np.nan)
-        W = np.full(n_out, np.nan)
-        stats = _run_external(plant, x0a, t0, t_end, t_out, input, command_params, tol, X, U, W)
-        return _finish(plant, t_out, X, (U, W), stats, check, input)
-    system = system_of(plant, input, command_params)
+            return _simulate_callable_continuous(run, input, opts.check)
+        X, U, W, stats = _run_external(run, input)
+        return _finish(plant, run.t_out, X, (U, W), stats, opts.check, input)
+    n_out = run.t_out.size
+    system = system_of(plant, input, run.command_params)
     seg = segments_of(input, t0)
     # the kernel writes every sample (NaN after a failure); a continuous
     # input is evaluated afterwards, on demand, from t and x
@@ -387,9 +377,10 @@ def simulate(
     X = np.empty((n_out, n))
     U = np.empty(n_out if held else 0)
     W = np.empty(n_out if held else 0)
-    stats = engine.kernel(n)(system, seg, tol, Span(x0a.copy(), t0, t_end, -1.0), samples_output(t_out, X, U, W, False))
-    inputs = (U, W) if held else _LazyInputs(system.kind, system.input_params, command_params)
-    return _finish(plant, t_out, X, inputs, stats, check, input)
+    stats = engine.kernel(n)(system, seg, run.tol, Span(x0a.copy(), t0, t_end, -1.0),
+                             samples_output(run.t_out, X, U, W, False))
+    inputs = (U, W) if held else _LazyInputs(system.kind, system.input_params, run.command_params)
+    return _finish(plant, run.t_out, X, inputs, stats, opts.check, input)
 
 
 def integrate_held(
@@ -413,11 +404,30 @@ def integrate_held(
     return engine.kernel(plant.n_states)(system, seg, tol, Span(x, t, t_next, h0), out)
 
 
-def _run_external(plant, x0a, t0, t_end, t_out, ctrl, command_params, tol, X, U, W) -> engine.RunStats:
-    """A Python controller sampled every Ts: call it, integrate one held segment, repeat."""
+class _Run(NamedTuple):
+    """One run's checked arguments, as the engine takes them."""
+
+    plant: Plant
+    x0: np.ndarray  # initial state [rad, rad/s]
+    t0: float  # [s]
+    t_end: float  # [s]
+    t_out: np.ndarray  # output times [s]
+    command_params: np.ndarray  # the feedforward and saturation (command_vector)
+    tol: Tolerances  # the engine's
+
+
+def _run_external(run: _Run, ctrl: CallableController) -> tuple[np.ndarray, np.ndarray, np.ndarray, engine.RunStats]:
+    """A Python controller sampled every Ts: call it, integrate one held segment, repeat.
+
+    Returns the states, the controller's ``u``, the command (NaN where not reached) and the run's statistics.
+    """
+    plant, t0, t_end, t_out, command_params, tol = run.plant, run.t0, run.t_end, run.t_out, run.command_params, run.tol
     Tc = ctrl.Ts
     n = plant.n_states
-    x = x0a.copy()
+    X = np.full((t_out.size, n), np.nan)
+    U = np.full(t_out.size, np.nan)
+    W = np.full(t_out.size, np.nan)
+    x = run.x0.copy()
     t = t0
     k = 0
     nfev = nacc = nrej = 0
@@ -461,11 +471,14 @@ def _run_external(plant, x0a, t0, t_end, t_out, ctrl, command_params, tol, X, U,
             status = st.status
             break
         k += 1
-    return engine.RunStats(status, nfev, nacc, nrej, t, h_nat)
+    return X, U, W, engine.RunStats(status, nfev, nacc, nrej, t, h_nat)
 
 
-def _simulate_callable_continuous(plant, x0a, t0, t_end, t_out, ctrl, command_params, tol, check):
+def _simulate_callable_continuous(run: _Run, ctrl: CallableController, check: bool) -> SimulationResult:
+    """A Python controller evaluated continuously: the run through :func:`scipy.integrate.solve_ivp` (DOP853)."""
     from scipy.integrate import solve_ivp
+
+    plant, t0, t_end, t_out, command_params, tol = run.plant, run.t0, run.t_end, run.t_out, run.command_params, run.tol
 
     def f(t, y):
         return plant.rhs(y, command_value(ctrl.evaluate(t, y), command_params))
@@ -473,7 +486,7 @@ def _simulate_callable_continuous(plant, x0a, t0, t_end, t_out, ctrl, command_pa
     sol = solve_ivp(
         f,
         (t0, t_end),
-        x0a,
+        run.x0,
         method="DOP853",
         t_eval=t_out,
         rtol=tol.rtol,
@@ -493,28 +506,16 @@ def _simulate_callable_continuous(plant, x0a, t0, t_end, t_out, ctrl, command_pa
 # --------------------------------------------------------------------------
 # many runs
 # --------------------------------------------------------------------------
-#: What :func:`simulate_batch` keeps of each run.
-BATCH_STORES = ("samples", "final", "summary")
-
-
 def simulate_batch(
     plant,
     *,
-    model: str | None = None,
+    input: Input | list | None = None,
     x0=None,
     t_end: float,
     t0: float = 0.0,
     Ts: float = 0.005,
-    input: Input | list | None = None,
-    feedforward=None,
-    saturation: float | None = None,
-    rtol: float = 1e-10,
-    atol: float | Sequence[float] = 1e-10,
-    max_step: float | None = None,
-    max_steps: int = 50_000_000,
     t_eval=None,
-    store: str = "samples",
-    inputs: bool = True,
+    options: BatchOptions | None = None,
 ) -> BatchResult:
     """Run many simulations at once, in parallel on all cores.
 
@@ -540,27 +541,20 @@ def simulate_batch(
     Parameters
     ----------
     plant : Plant or LumpedParameters, or a list of them
-        The plants (one model).
-    model : str, optional
-        As :func:`simulate`.
+        The plants (one model; a parameter set alone: model (9)).
+    input : Input, or a list of one type, optional
+        Inputs or laws (:mod:`iwp.sim.inputs`) [input units].
     x0 : array_like, or a list of them, optional
         Initial states ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s].
     t_end, t0, Ts : float
         Final and initial time, output sample period [s].
-    input : Input, or a list of one type, optional
-        Inputs or laws (:mod:`iwp.sim.inputs`).
-    feedforward, saturation, rtol, atol, max_step, max_steps, t_eval
-        As :func:`simulate` (``saturation`` [input units], ``max_step`` [s]).
-    store : {"samples", "final", "summary"}
-        What to keep of each run: the samples at the output times (``x``,
-        ``u``, ``command``); only the final state (``x_final``, always
-        kept); or per state the minimum, maximum, mean and RMS over the
-        output times (``summary``), so that a sweep of many long runs does
-        not hold every sample.
-    inputs : bool
-        With ``store="samples"``, also compute the input and command columns
-        (``u``, ``command``); False leaves them None and saves evaluating the
-        input at every sample (a chirp: 0.7 ms per run of 60,001 samples).
+    t_eval : array_like, optional
+        Output times [s] instead of the ``Ts`` grid.
+    options : BatchOptions, optional
+        The feedforward (7)-(8) and saturation [input units] of every run,
+        the tolerances (default ``Tolerances()``), what to keep of each run
+        (``store``: the samples, the final state or a summary) and whether to
+        compute the input columns (``inputs``).
 
     Returns
     -------
@@ -568,9 +562,42 @@ def simulate_batch(
         Times [s], states ``(n_runs, n_out, n_states)`` and inputs per run
         (with ``store="samples"``), the final states, and a status per run
         (0: success).
+
+    Raises
+    ------
+    InputError
+        An argument of the wrong type or value, lists of different lengths,
+        plants of different models or inputs of different types.
     """
-    if store not in BATCH_STORES:
-        raise InputError(f"store must be one of {', '.join(BATCH_STORES)}, got {store!r}", argument="store")
+    opts = as_options(options, BatchOptions)
+    p_list, x_list, i_list = _batch_lists(plant, x0, input)
+    t0, t_end, Ts = _check_span(t0, t_end, Ts)
+    _check_batch_inputs(i_list, t0, t_end)
+    first, Pm, X0m = _batch_plants_states(p_list, x_list)
+    n, nrun = first.n_states, len(p_list)
+    input_params_runs = np.ascontiguousarray(
+        [np.zeros(N_INPUT_PARAMS) if i_ is None else i_.parameters() for i_ in i_list], dtype=float
+    )
+    command_params = command_of(first, opts.feedforward_pair(), opts.saturation)
+    tol = engine_tolerances(n, opts.tolerances or SIM_TOLERANCES)
+    seg = _batch_segments(i_list, t0, nrun)
+    kind = I_ZERO if i_list[0] is None else i_list[0].kind
+    t_out = output_times(t0, t_end, Ts, t_eval)
+    out = _batch_output(np.empty(0) if opts.store == "final" else t_out, opts, nrun, n)
+    batch = lanes.Batch(first.code, Pm, X0m, kind, input_params_runs, command_params, seg, t0, t_end)
+    if lanes.vectorised(first.code, kind, seg.mode, Pm, 0, nrun):
+        lanes.kernel(n)(batch, tol, out, min(numba.get_num_threads(), nrun))
+    else:
+        _single_runs(batch, tol, out, n)
+    keep = opts.store == "samples"
+    return BatchResult(t=t_out if opts.store != "final" else np.array([t_end]), x=out.X if keep else None,
+                       u=out.U if keep and opts.inputs else None, command=out.W if keep and opts.inputs else None,
+                       status=out.status, nfev=out.nfev, x_final=out.x_final,
+                       summary=_batch_summary(out) if opts.store == "summary" else None, store=opts.store)
+
+
+def _batch_lists(plant, x0, input) -> tuple[list, list, list]:
+    """The plant, initial state and input of each run of a batch: lists of one length, shared values repeated."""
     lists = [len(v) for v in (plant, x0, input) if isinstance(v, (list, tuple)) and not _is_state(v)]
     if lists and len(set(lists)) != 1:
         raise InputError(f"list arguments of simulate_batch must have one length, got lengths {sorted(set(lists))}")
@@ -580,24 +607,31 @@ def simulate_batch(
     p_list = plant if isinstance(plant, (list, tuple)) else [plant] * nrun
     x_list = x0 if isinstance(x0, (list, tuple)) and not _is_state(x0) else [x0] * nrun
     i_list = input if isinstance(input, (list, tuple)) else [input] * nrun
+    return list(p_list), list(x_list), list(i_list)
+
+
+def _check_batch_inputs(i_list: list, t0: float, t_end: float) -> None:
+    """The inputs of a batch: of one type, built-in (no callables), one sample period."""
     if len({type(i) for i in i_list}) != 1:
         raise InputError("inputs of one batch must all be of one type")
-    t0, t_end, Ts = _check_span(t0, t_end, Ts)
     for i_ in i_list:
         _check_input(i_, t0, t_end)
     if any(isinstance(i, CallableController) for i in i_list):
         raise InputError("simulate_batch supports built-in signals, controllers and sampled arrays, not callables")
     if len({None if i is None else i.sampled_period for i in i_list}) != 1:
         raise InputError("inputs of one batch must share the sample period Ts")
+
+
+def _batch_plants_states(p_list: list, x_list: list) -> tuple[Plant, np.ndarray, np.ndarray]:
+    """The first run's plant and the packed parameters and initial states of every run (rows), each checked once."""
     plants = {}
     for p_ in p_list:
         if id(p_) not in plants:
-            plants[id(p_)] = as_plant(p_, model)
+            plants[id(p_)] = as_plant(p_)
     models = {pl.model for pl in plants.values()}
     if len(models) != 1:
         raise InputError(f"plants of one batch must share their model, got {sorted(models)}")
     first = plants[id(p_list[0])]
-    n = first.n_states
     states = {}
     for x_ in x_list:
         if id(x_) not in states:
@@ -605,47 +639,37 @@ def simulate_batch(
     packed = {k: pl.packed() for k, pl in plants.items()}
     Pm = np.ascontiguousarray([packed[id(p_)] for p_ in p_list], dtype=float)
     X0m = np.ascontiguousarray([states[id(x_)] for x_ in x_list], dtype=float)
-    input_params_runs = np.ascontiguousarray(
-        [np.zeros(N_INPUT_PARAMS) if i_ is None else i_.parameters() for i_ in i_list], dtype=float
-    )
-    command_params = command_of(first, feedforward, saturation)
-    tol = tolerances(n, rtol, atol, max_step=max_step, max_steps=max_steps)
-    seg = _batch_segments(i_list, t0, nrun)
-    kind = I_ZERO if i_list[0] is None else i_list[0].kind
-    t_out = output_times(t0, t_end, Ts, t_eval)
-    t_run = np.empty(0) if store == "final" else t_out
-    n_keep = t_run.size if store == "samples" else 0
+    return first, Pm, X0m
+
+
+def _batch_output(t_run: np.ndarray, opts: BatchOptions, nrun: int, n: int) -> lanes.BatchOutput:
+    """The arrays the runs of a batch write into, as ``opts.store`` and ``opts.inputs`` ask."""
+    n_keep = t_run.size if opts.store == "samples" else 0
     X = np.empty((nrun, n_keep, n))
-    U = np.empty((nrun, n_keep if inputs else 0))
-    W = np.empty((nrun, n_keep if inputs else 0))
-    if store == "summary":
+    U = np.empty((nrun, n_keep if opts.inputs else 0))
+    W = np.empty((nrun, n_keep if opts.inputs else 0))
+    if opts.store == "summary":
         S = np.zeros((nrun, engine.N_SUMMARY, n))
         S[:, 0] = np.inf
         S[:, 1] = -np.inf
     else:
         S = np.zeros((nrun, engine.N_SUMMARY, 1))
-    out = lanes.BatchOutput(
-        t_run, engine.STORE_SUMMARY if store == "summary" else engine.STORE_SAMPLES, X, U, W, S,
+    return lanes.BatchOutput(
+        t_run, engine.STORE_SUMMARY if opts.store == "summary" else engine.STORE_SAMPLES, X, U, W, S,
         np.empty((nrun, n)), np.zeros(nrun, dtype=np.int64), np.zeros(nrun, dtype=np.int64),
         np.zeros(nrun, dtype=np.int64), np.zeros(nrun, dtype=np.int64),
     )
-    batch = lanes.Batch(first.code, Pm, X0m, kind, input_params_runs, command_params, seg, t0, t_end)
-    if lanes.vectorised(first.code, kind, seg.mode, Pm, 0, nrun):
-        lanes.kernel(n)(batch, tol, out, min(numba.get_num_threads(), nrun))
-    else:
-        _single_runs(batch, tol, out, n)
-    summary = None
-    if store == "summary":
-        failed = out.status != ST_OK
-        m = max(t_run.size, 1)
-        summary = {"min": S[:, 0], "max": S[:, 1], "mean": S[:, 2] / m, "rms": np.sqrt(S[:, 3] / m)}
-        for v in summary.values():
-            v[failed] = np.nan
-    keep = store == "samples"
-    return BatchResult(t=t_out if store != "final" else np.array([t_end]), x=X if keep else None,
-                       u=U if keep and inputs else None, command=W if keep and inputs else None,
-                       status=out.status, nfev=out.nfev,
-                       x_final=out.x_final, summary=summary, store=store)
+
+
+def _batch_summary(out: lanes.BatchOutput) -> dict[str, np.ndarray]:
+    """Per run and state the minimum, maximum, mean and RMS over the output times (NaN for a failed run)."""
+    S = out.S
+    failed = out.status != ST_OK
+    m = max(out.t.size, 1)
+    summary = {"min": S[:, 0], "max": S[:, 1], "mean": S[:, 2] / m, "rms": np.sqrt(S[:, 3] / m)}
+    for v in summary.values():
+        v[failed] = np.nan
+    return summary
 
 
 def _single_runs(bt: lanes.Batch, tol: Tolerances, out: lanes.BatchOutput, n: int) -> None:
@@ -708,13 +732,13 @@ def _is_state(v) -> bool:
 def simulate_scipy(
     plant,
     *,
+    input: Input | None = None,
     x0=None,
     t_end: float,
     t0: float = 0.0,
     Ts: float = 0.005,
     t_eval=None,
-    command: CommandChain | Input | None = None,
-    tolerances: TolerancesOptions | None = None,
+    options: SimOptions | None = None,
 ) -> SimulationResult:
     """The same simulation through :func:`scipy.integrate.solve_ivp` (a reference).
 
@@ -727,6 +751,9 @@ def simulate_scipy(
     plant : Plant or LumpedParameters or PhysicalParameters
         As :func:`simulate` (a parameter set alone: model ``"compensated"``;
         another model: ``Plant(params, model=...)``).
+    input : Input, optional
+        A continuous input or law of :mod:`iwp.sim.inputs` [input units]
+        (sampled inputs and Python callables are refused). None: zero.
     x0 : array_like, optional
         Initial state ``[q1, q2, q3, q4]`` [rad, rad, rad/s, rad/s] at ``t0``.
     t_end, t0 : float
@@ -735,14 +762,12 @@ def simulate_scipy(
         Output sample period [s].
     t_eval : array_like, optional
         Output times [s] instead of the grid of ``Ts``.
-    command : CommandChain or Input, optional
-        The input (a continuous input or law of :mod:`iwp.sim.inputs`;
-        sampled inputs are refused), feedforward (7)-(8) and saturation
-        [input units]; a bare input is the chain of that input alone.
-    tolerances : Tolerances, optional
-        ``rtol`` [-] and ``atol`` [state units] of ``solve_ivp``'s DOP853
-        (default ``Tolerances(rtol=1e-10, atol=1e-12)``; ``max_step`` [s] is
-        passed on, ``max_steps`` unused).
+    options : SimOptions, optional
+        As :func:`simulate`'s: the feedforward (7)-(8) and saturation
+        [input units]; the tolerances ``rtol`` [-] and ``atol`` [state units]
+        of ``solve_ivp``'s DOP853 (default ``Tolerances(rtol=1e-10,
+        atol=1e-12)``; ``max_step`` [s] is passed on, ``max_steps`` unused);
+        whether a failed solve raises :class:`~iwp.errors.SimulationError`.
 
     Returns
     -------
@@ -750,18 +775,17 @@ def simulate_scipy(
     """
     from scipy.integrate import solve_ivp
 
+    opts = as_options(options, SimOptions)
     plant = as_plant(plant)
-    chain = as_chain(command)
-    input = chain.input
-    opts = as_tolerances(tolerances, SCIPY_TOLERANCES)
+    tols = opts.tolerances or SCIPY_TOLERANCES
     t0, t_end, Ts = _check_span(t0, t_end, Ts)
     _check_input(input, t0, t_end)
     x0a = initial_state(x0, plant)
-    tol = engine_tolerances(plant.n_states, opts)
-    command_params = chain_command(plant, chain)
+    tol = engine_tolerances(plant.n_states, tols)
+    command_params = command_of(plant, opts.feedforward_pair(), opts.saturation)
     seg = segments_of(input, t0)
     if seg.mode != SEG_CONT or isinstance(input, CallableController):
-        raise InputError("simulate_scipy supports continuous built-in inputs only")
+        raise InputError("simulate_scipy supports continuous built-in inputs only", argument="input")
     system = system_of(plant, input, command_params)
     t_out = output_times(t0, t_end, Ts, t_eval)
 
@@ -769,7 +793,9 @@ def simulate_scipy(
         return plant.rhs(y, command_value(input_value(system.kind, system.input_params, t, y), command_params))
 
     sol = solve_ivp(f, (t0, t_end), x0a, method="DOP853", t_eval=t_out, rtol=tol.rtol, atol=tol.atol,
-                    **({} if opts.max_step is None else {"max_step": opts.max_step}))
+                    **({} if tols.max_step is None else {"max_step": tols.max_step}))
+    if sol.status != 0 and opts.check:
+        raise SimulationError(f"solve_ivp failed: {sol.message}")
     X = sol.y.T
     U = np.array([input_value(system.kind, system.input_params, t, x) for t, x in zip(sol.t, X)])
     W = np.array([command_value(u, command_params) for u in U])

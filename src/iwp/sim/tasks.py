@@ -16,10 +16,10 @@ from ..data import write_experiment
 from ..errors import InputError, SimulationError
 from ..files import FIGURE_SUFFIXES, LOG_SUFFIXES, check_output_file, write_all
 from ..models.plant import Plant
-from .options import CommandChain, Tolerances
+from .options import CommandChain, SimOptions, Tolerances
 from .result import SimulationResult
 from .simulate import simulate
-from .uncertainty import ParameterUncertainty, prediction_band
+from .uncertainty import BandOptions, ParameterUncertainty, prediction_band
 
 __all__ = ["SimulationTask", "write_simulation", "physical_range_message"]
 
@@ -80,10 +80,9 @@ class SimulationTask:
     uncertainty : ParameterUncertainty, optional
         The fit's parameters and covariance (:func:`~iwp.sim.uncertainty.load_uncertainty`): with ``band``,
         the 95 % parameter and prediction bands are computed and written beside the log.
-    band : {"linear", "monte-carlo"}, optional
-        How the band is computed (:func:`~iwp.sim.uncertainty.prediction_band`).
-    draws, seed : int
-        Of a Monte Carlo band.
+    band : BandOptions, optional
+        How the band is computed (:func:`~iwp.sim.uncertainty.prediction_band`: linearised, or by Monte Carlo
+        with its draws and seed); None: no band.
     """
 
     plant: Plant
@@ -94,9 +93,7 @@ class SimulationTask:
     Ts: float = 0.005
     tolerances: Tolerances = field(default_factory=Tolerances)
     uncertainty: ParameterUncertainty | None = None
-    band: str | None = None
-    draws: int = 1000
-    seed: int = 0
+    band: BandOptions | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.command, CommandChain):
@@ -105,6 +102,9 @@ class SimulationTask:
         if not isinstance(self.tolerances, Tolerances):
             raise InputError(f"tolerances must be an iwp.sim.Tolerances, got {type(self.tolerances).__name__}",
                              argument="tolerances")
+        if self.band is not None and not isinstance(self.band, BandOptions):
+            raise InputError(f"band must be an iwp.sim.uncertainty.BandOptions or None, got {type(self.band).__name__}",
+                             argument="band")
         if self.band is not None and self.uncertainty is None:
             raise InputError("band needs the fit's uncertainty: the parameters.json that iwp fit writes",
                              argument="band")
@@ -112,9 +112,8 @@ class SimulationTask:
     def run(self) -> SimulationResult:
         """Simulate; a run that stops short or gives NaN is an error (nothing to write), an unphysical one a warning."""
         c, tol = self.command, self.tolerances
-        res = simulate(self.plant, x0=self.x0, t0=self.t0, t_end=self.t_end, Ts=self.Ts, input=c.input,
-                       feedforward=c.feedforward_pair(), saturation=c.saturation, rtol=tol.rtol, atol=tol.atol,
-                       max_step=tol.max_step, max_steps=tol.max_steps)
+        res = simulate(self.plant, input=c.input, x0=self.x0, t0=self.t0, t_end=self.t_end, Ts=self.Ts,
+                       options=SimOptions(feedforward=c.feedforward, saturation=c.saturation, tolerances=tol))
         if not res.success:
             raise SimulationError(f"the simulation stopped at t = {res.t[-1]:g} s: {res.message}; nothing written")
         if not all(np.all(np.isfinite(c)) for c in res.to_experiment().as_columns().values()):
@@ -163,8 +162,8 @@ def write_simulation(task: SimulationTask, out, *, plot=None, force: bool = Fals
     band = None
     if task.band is not None:
         band = prediction_band(task.plant, task.uncertainty, input=task.command.input, x0=task.x0, t_eval=res.t,
-                               method=task.band, draws=task.draws, seed=task.seed,
-                               signals=tuple(s for s in ("q1", "q2", "q3", "q4") if s in task.plant.outputs))
+                               signals=tuple(s for s in ("q1", "q2", "q3", "q4") if s in task.plant.outputs),
+                               options=task.band)
         log = replace(log, extra={**log.extra, **band.columns()},
                       metadata={**log.metadata, "band": f"{band.method}, 95 %" + (
                           f", {band.draws} draws" if band.draws else "")})

@@ -26,7 +26,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping, NamedTuple, Sequence
 
 import numpy as np
 from scipy import stats
@@ -38,13 +38,13 @@ from ..models.parameters import PARAMETER_INFO, LumpedParameters, load_params
 from ..models.plant import Plant
 from ..threads import fit_threads, thread_map
 from .inputs import Input
+from .options import BatchOptions, SimOptions, Tolerances
 from .sensitivity import simulate_sensitivities
 from .simulate import output_times, simulate_batch
 
-__all__ = ["ParameterUncertainty", "PredictionBand", "identified_names", "undetermined", "prediction_band",
-           "uncertainty_record",
-           "load_uncertainty",
-           "DrawTails", "BAND_METHODS", "BAND_CHUNK", "BAND_QUANTILES", "SIGNAL_INDEX"]
+__all__ = ["BandOptions", "ParameterUncertainty", "PredictionBand", "identified_names", "undetermined",
+           "prediction_band", "uncertainty_record", "load_uncertainty", "DrawTails", "BAND_METHODS", "BAND_CHUNK",
+           "BAND_QUANTILES", "SIGNAL_INDEX"]
 
 #: How a band is computed: linearised with the sensitivities, or by Monte Carlo draws.
 BAND_METHODS = ("linear", "monte-carlo")
@@ -369,6 +369,8 @@ class PredictionBand:
 BAND_CHUNK = 64
 #: the quantiles of the 95 % band
 BAND_QUANTILES = (0.025, 0.975)
+#: the tolerances of a Monte Carlo band's draws and nominal run
+DRAW_TOLERANCES = Tolerances(rtol=1e-8, atol=1e-8)
 
 
 @jit
@@ -550,6 +552,38 @@ def _linear_quantile(tail: np.ndarray, first: int, h: float) -> np.ndarray:
     return b - d * (1.0 - g) if g >= 0.5 else a + d * g
 
 
+@dataclass(frozen=True)
+class BandOptions:
+    """How :func:`prediction_band` computes the parameter band.
+
+    Parameters
+    ----------
+    method : {"linear", "monte-carlo"}
+        ``"linear"``: ``var y(t) = S(t) C S(t)^T`` from the forward
+        sensitivities, normal quantiles; ``"monte-carlo"``: the 2.5 and 97.5 %
+        quantiles over ``draws`` simulations of parameter draws, on all cores.
+    draws : int
+        Simulations of a Monte Carlo band [-], 1 to :data:`MAX_DRAWS`.
+    seed : int
+        Of the Monte Carlo band's random draws (the parameters; the initial
+        states with ``seed + 1``).
+    """
+
+    method: str = "linear"
+    draws: int = 1000
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.method not in BAND_METHODS:
+            raise InputError(f"band method must be one of {', '.join(BAND_METHODS)}, got {self.method!r}",
+                             argument="band")
+        d = self.draws
+        if isinstance(d, bool) or not isinstance(d, (int, np.integer)) or not 1 <= d <= MAX_DRAWS:
+            raise InputError(f"draws must be an integer from 1 to {MAX_DRAWS}, got {d!r}", argument="draws")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise InputError(f"seed must be a non-negative integer, got {self.seed!r}", argument="seed")
+
+
 def prediction_band(
     plant: Plant,
     uncertainty: ParameterUncertainty,
@@ -557,11 +591,9 @@ def prediction_band(
     input: Input | None = None,
     x0=None,
     t_eval=None,
-    method: str = "linear",
-    draws: int = 1000,
-    seed: int = 0,
     signals: Sequence[str] = ("q1", "q4"),
     x0_covariance=None,
+    options: BandOptions | None = None,
 ) -> PredictionBand:
     """The 95 % parameter and prediction bands of a simulation of ``plant`` with the fit's ``uncertainty``.
 
@@ -570,27 +602,36 @@ def prediction_band(
     plant : Plant
         The model; its parameters are replaced by ``uncertainty.params``.
     uncertainty : ParameterUncertainty
+        The fit's estimates, their covariance and the measurement noise per output.
     input : Input, optional
         As for :func:`~iwp.sim.simulate.simulate` (a log's input replayed: :class:`~iwp.sim.inputs.Sampled`).
     x0 : array_like, optional
-        Initial state (default rest).
+        Initial state [rad, rad, rad/s, rad/s] (default rest).
     t_eval : array_like
         Output times [s] (starting at the initial time).
-    method : {"linear", "monte-carlo"}
-        ``"linear"``: ``var y(t) = S(t) C S(t)^T`` from the forward
-        sensitivities, normal quantiles; ``"monte-carlo"``: the 2.5 and 97.5 %
-        quantiles over ``draws`` simulations of parameter draws, on all cores.
-    draws, seed : int
-        Of the Monte Carlo band.
     signals : sequence of str
         Among ``q1, q2, q3, q4``.
     x0_covariance : array_like, shape (4, 4), optional
         The uncertainty of the initial state (a measured one,
         :func:`iwp.ident.output_error.measured_state_covariance`), carried
         into the parameter band as well [rad, rad/s squared].
+    options : BandOptions, optional
+        How the band is computed: linearised (default) or by Monte Carlo, with its draws and seed.
+
+    Returns
+    -------
+    PredictionBand
+
+    Raises
+    ------
+    InputError
+        An argument of the wrong type or value; a Monte Carlo band of which fewer than half the draws simulate.
     """
-    if method not in BAND_METHODS:
-        raise InputError(f"band method must be one of {', '.join(BAND_METHODS)}, got {method!r}", argument="band")
+    if options is None:
+        options = BandOptions()
+    if not isinstance(options, BandOptions):
+        raise InputError(f"options must be an iwp.sim.uncertainty.BandOptions, got {type(options).__name__}",
+                         argument="options")
     if not isinstance(plant, Plant):
         raise InputError(f"plant must be a Plant, got {type(plant).__name__}")
     signals = tuple(signals)
@@ -606,55 +647,12 @@ def prediction_band(
     C0 = None if x0_covariance is None else np.asarray(x0_covariance, dtype=float)[:4, :4]
     if C0 is not None and (C0.shape != (4, 4) or not np.all(np.isfinite(C0))):
         raise InputError("x0_covariance must be a finite 4 x 4 matrix")
-    if method == "linear":
-        states = () if C0 is None else tuple(i for i in range(4) if C0[i, i] > 0)
-        r = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=input, wrt=uncertainty.free,
-                                   wrt_x0=states)
-        C = uncertainty.covariance
-        if states:
-            k = len(uncertainty.free)
-            C = np.zeros((k + len(states), k + len(states)))
-            C[:k, :k] = uncertainty.covariance
-            C[k:, k:] = C0[np.ix_(states, states)]
-        nominal = {s: r.x[:, SIGNAL_INDEX[s]] for s in signals}
-        half = {}
-        for s in signals:
-            S = r.S[:, SIGNAL_INDEX[s], :]
-            half[s] = z * np.sqrt(np.clip(np.einsum("ij,jk,ik->i", S, C, S), 0.0, None))
-        lower = {s: nominal[s] - half[s] for s in signals}
-        upper = {s: nominal[s] + half[s] for s in signals}
+    run = _BandRun(base, uncertainty, input, x0, t, signals, C0)
+    if options.method == "linear":
+        nominal, lower, upper, half = _linear_band(run, z)
         n_draws = 0
     else:
-        plants = [base.with_params(p) for p in uncertainty.draws(draws, seed)]
-        x0s = x0
-        if C0 is not None:
-            mean = np.zeros(base.n_states) if x0 is None else np.asarray(x0, dtype=float)
-            dx = np.random.default_rng(seed + 1).multivariate_normal(np.zeros(4), C0, size=draws, method="eigh")
-            x0s = [np.concatenate([mean[:4] + d, mean[4:]]) for d in dx]
-        tails = {s: DrawTails(draws, BAND_QUANTILES) for s in signals}
-        n_ok = 0
-        # the draws side by side (simulate_batch: vectorised lanes where the model and input allow, single runs on
-        # all cores otherwise), in chunks: memory for one chunk's samples, not all
-        for a in range(0, draws, BAND_CHUNK):
-            m = min(BAND_CHUNK, draws - a)
-            b = simulate_batch(plants[a:a + m], x0=x0s[a:a + m] if C0 is not None else x0, t0=float(t[0]),
-                               t_end=float(t[-1]), t_eval=t, input=input, rtol=1e-8, atol=1e-8, inputs=False)
-            good = np.flatnonzero(b.success)
-            n_ok += good.size
-            if good.size == 0:
-                continue
-            for s in signals:
-                Yt = b.x[:, :, SIGNAL_INDEX[s]].T  # (times, draws): a view, merged without a copy
-                tails[s].add_time_major(Yt if good.size == m else Yt[:, good])
-        if n_ok < max(10, draws // 2):
-            raise InputError(f"{draws - n_ok} of {draws} draws failed to simulate; the band is not defined")
-        X = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=input, rtol=1e-8, atol=1e-8).x
-        nominal = {s: X[:, SIGNAL_INDEX[s]] for s in signals}
-        lower, upper = {}, {}
-        for s in signals:
-            lower[s], upper[s] = tails[s].quantiles()
-        half = {s: 0.5 * (upper[s] - lower[s]) for s in signals}
-        n_draws = n_ok
+        nominal, lower, upper, half, n_draws = _monte_carlo_band(run, options)
     pred_lower, pred_upper = {}, {}
     for s in signals:
         noise = float(uncertainty.noise.get(s, 0.0))
@@ -662,4 +660,77 @@ def prediction_band(
         ph = np.sqrt(half[s] ** 2 + (z * noise) ** 2)
         mid = 0.5 * (lower[s] + upper[s])
         pred_lower[s], pred_upper[s] = mid - ph, mid + ph
-    return PredictionBand(t, nominal, lower, upper, pred_lower, pred_upper, method, 0.95, n_draws)
+    return PredictionBand(t, nominal, lower, upper, pred_lower, pred_upper, options.method, 0.95, n_draws)
+
+
+class _BandRun(NamedTuple):
+    """A band's checked arguments."""
+
+    plant: Plant  # with the estimates
+    uncertainty: ParameterUncertainty
+    input: Input | None
+    x0: Any  # initial state [rad, rad/s] or None
+    t: np.ndarray  # output times [s]
+    signals: tuple[str, ...]
+    C0: np.ndarray | None  # covariance of the initial state, 4 x 4
+
+
+def _linear_band(run: _BandRun, z: float) -> tuple[dict, dict, dict, dict]:
+    """The nominal outputs, the linearised band's lower and upper edges and half-widths, per signal."""
+    C0, t, signals = run.C0, run.t, run.signals
+    states = () if C0 is None else tuple(i for i in range(4) if C0[i, i] > 0)
+    r = simulate_sensitivities(run.plant, t_eval=t, t0=float(t[0]), x0=run.x0, input=run.input,
+                               wrt=run.uncertainty.free, wrt_x0=states)
+    C = run.uncertainty.covariance
+    if states:
+        k = len(run.uncertainty.free)
+        C = np.zeros((k + len(states), k + len(states)))
+        C[:k, :k] = run.uncertainty.covariance
+        C[k:, k:] = C0[np.ix_(states, states)]
+    nominal = {s: r.x[:, SIGNAL_INDEX[s]] for s in signals}
+    half = {}
+    for s in signals:
+        S = r.S[:, SIGNAL_INDEX[s], :]
+        half[s] = z * np.sqrt(np.clip(np.einsum("ij,jk,ik->i", S, C, S), 0.0, None))
+    lower = {s: nominal[s] - half[s] for s in signals}
+    upper = {s: nominal[s] + half[s] for s in signals}
+    return nominal, lower, upper, half
+
+
+def _monte_carlo_band(run: _BandRun, options: BandOptions) -> tuple[dict, dict, dict, dict, int]:
+    """The nominal outputs, the Monte Carlo band's lower and upper edges and half-widths per signal, and the draws
+    that simulated."""
+    base, x0, t, signals, C0 = run.plant, run.x0, run.t, run.signals, run.C0
+    draws, seed = options.draws, options.seed
+    plants = [base.with_params(p) for p in run.uncertainty.draws(draws, seed)]
+    x0s = x0
+    if C0 is not None:
+        mean = np.zeros(base.n_states) if x0 is None else np.asarray(x0, dtype=float)
+        dx = np.random.default_rng(seed + 1).multivariate_normal(np.zeros(4), C0, size=draws, method="eigh")
+        x0s = [np.concatenate([mean[:4] + d, mean[4:]]) for d in dx]
+    tails = {s: DrawTails(draws, BAND_QUANTILES) for s in signals}
+    n_ok = 0
+    # the draws side by side (simulate_batch: vectorised lanes where the model and input allow, single runs on
+    # all cores otherwise), in chunks: memory for one chunk's samples, not all
+    for a in range(0, draws, BAND_CHUNK):
+        m = min(BAND_CHUNK, draws - a)
+        b = simulate_batch(plants[a:a + m], x0=x0s[a:a + m] if C0 is not None else x0, t0=float(t[0]),
+                           t_end=float(t[-1]), t_eval=t, input=run.input,
+                           options=BatchOptions(tolerances=DRAW_TOLERANCES, inputs=False))
+        good = np.flatnonzero(b.success)
+        n_ok += good.size
+        if good.size == 0:
+            continue
+        for s in signals:
+            Yt = b.x[:, :, SIGNAL_INDEX[s]].T  # (times, draws): a view, merged without a copy
+            tails[s].add_time_major(Yt if good.size == m else Yt[:, good])
+    if n_ok < max(10, draws // 2):
+        raise InputError(f"{draws - n_ok} of {draws} draws failed to simulate; the band is not defined")
+    X = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=run.input,
+                               options=SimOptions(tolerances=DRAW_TOLERANCES)).x
+    nominal = {s: X[:, SIGNAL_INDEX[s]] for s in signals}
+    lower, upper = {}, {}
+    for s in signals:
+        lower[s], upper[s] = tails[s].quantiles()
+    half = {s: 0.5 * (upper[s] - lower[s]) for s in signals}
+    return nominal, lower, upper, half, n_ok

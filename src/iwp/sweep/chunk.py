@@ -16,6 +16,7 @@ import numpy as np
 from ..control import lqr_balance
 from ..models.plant import Plant
 from ..sim import BatchResult, CallableController, HopfController, simulate, simulate_batch
+from ..sim.options import BatchOptions, SimOptions, Tolerances
 from ..sim.simulate import output_times
 from .metrics import closed_loop_metrics
 from .spec import LaneSet, SweepSpec, lanes_of_chunk
@@ -58,8 +59,8 @@ def _hopf(spec: SweepSpec, ls: LaneSet, sel: np.ndarray) -> BatchResult:
     plant = Plant(spec.params) if shared else [Plant(ls.params[i]) for i in sel]
     inputs = [HopfController(float(ls.k1[i]), float(ls.k2[i]), spec.controller_Ts) for i in sel]
     x0 = [ls.x0[i].tolist() for i in sel]
-    return simulate_batch(plant, x0=x0, input=inputs, t_end=spec.t_end, Ts=spec.sample_time, rtol=spec.rtol,
-                          atol=spec.atol)
+    return simulate_batch(plant, x0=x0, input=inputs, t_end=spec.t_end, Ts=spec.sample_time,
+                          options=BatchOptions(tolerances=Tolerances(rtol=spec.rtol, atol=spec.atol)))
 
 
 def _lqr(spec: SweepSpec, ls: LaneSet, sel: np.ndarray) -> BatchResult:
@@ -75,7 +76,7 @@ def _lqr(spec: SweepSpec, ls: LaneSet, sel: np.ndarray) -> BatchResult:
     nfev = np.zeros(sel.size, dtype=np.int64)
     for k, i in enumerate(sel):
         r = simulate(Plant(ls.params[i]), x0=ls.x0[i], t_end=spec.t_end, Ts=spec.sample_time, input=ctrl,
-                     rtol=spec.rtol, atol=spec.atol, check=False)
+                     options=SimOptions(tolerances=Tolerances(rtol=spec.rtol, atol=spec.atol), check=False))
         n = r.t.size
         x[k, :n], u[k, :n], w[k, :n] = r.x[:, :4], r.u, r.command
         status[k], nfev[k] = r.status, r.nfev
