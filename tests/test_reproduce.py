@@ -12,7 +12,7 @@ import pytest
 from iwp import reproduce as R
 from iwp.cli import main
 from iwp.models import load_params
-from iwp.report import PLOT_POINTS, decimate, fmt_interval, prepare_output_dir
+from iwp.report import fmt_interval, prepare_output_dir
 from iwp.rig import default_truth
 from tests.helpers import EXPECTED_FIGURES
 
@@ -157,23 +157,47 @@ def test_figure_dead_zone_artists(quick_run):
 def test_comparison_figures_artists(quick_run, name, panels, signal):
     fig = quick_run["figures"][name]
     axes = fig.axes
-    assert len(axes) == 2 * panels
+    per = len(axes) // panels  # signal and error, and with a long record their zooms
+    long = name in ("fig09_full_chirp", "fig_full_setup")  # the 90 s chirp
+    assert len(axes) == per * panels and per == (4 if long else 2)
     for i in range(panels):
-        ax, eax = axes[2 * i], axes[2 * i + 1]
+        ax, eax = axes[per * i], axes[per * i + 1]
+        if per == 4:
+            zax, zeax = axes[per * i + 2], axes[per * i + 3]
+            assert zax.get_title() == "zoom: 86 to 90 s"
+            for a in (zax, zeax):  # a few seconds at full resolution: every 5 ms sample
+                for ln in a.get_lines():
+                    x = ln.get_xdata()
+                    assert 86 - 1e-9 <= x.min() and x.max() <= 90 + 1e-9 and x.size >= 790
+                    np.testing.assert_allclose(np.diff(x), 0.005, atol=1e-9)
         assert ax.get_ylabel() == signal
-        assert len(ax.get_lines()) == 2  # measured and simulated
-        assert len(eax.get_lines()) == 1  # the error
+        drawn = _data_artists(ax)
+        assert len(drawn) == 2  # measured and simulated (lines, or envelopes of long records)
+        assert len(_data_artists(eax)) == 1  # the error
         assert eax.get_xlabel() == "t [s]"
         assert eax.get_ylabel().startswith("error e")
-        labels = [ln.get_label() for ln in ax.get_lines()]
-        assert labels[0].startswith("experimental data")
-        assert len(ax.get_lines()[0].get_xdata()) <= PLOT_POINTS + 2  # decimated in the pipeline
+        assert drawn[0].get_label().startswith("experimental data")
+        for a in drawn:  # decimated for display: about two vertices per pixel column at most
+            assert _vertices(a) <= 4 * fig.get_figwidth() * fig.dpi + 10, (name, _vertices(a))
+
+
+def _data_artists(ax):
+    """The lines and filled envelopes of ``ax`` drawn in data coordinates, in the order drawn."""
+    out = [a for a in ax.get_children() if a in ax.lines or a in ax.collections]
+    return [a for a in out if a.get_transform() is ax.transData or a in ax.collections]
+
+
+def _vertices(artist) -> int:
+    if hasattr(artist, "get_xdata"):
+        return len(artist.get_xdata())
+    return sum(len(p.vertices) for p in artist.get_paths())
 
 
 def test_refine_figure_artists(quick_run):
     fig = quick_run["figures"]["fig_refine"]
-    (ax,) = fig.axes
-    labels = [ln.get_label() for ln in ax.get_lines()]
+    ax, zax = fig.axes  # the errors over the chirp, and the last seconds in full
+    assert zax.get_title().startswith("zoom:") and len(zax.get_lines()) == 2
+    labels = [a.get_label() for a in _data_artists(ax)]
     assert len(labels) == 2 and labels[0].startswith("least squares") and labels[1].startswith("refined")
     assert ax.get_xlabel() == "t [s]"
 
@@ -197,15 +221,23 @@ def test_plot_functions_compute_nothing():
     plt.close("all")
 
 
-def test_decimate_keeps_the_envelope():
+def test_envelope_and_trace_keep_every_columns_extremes():
+    from iwp.plotting.records import envelope, is_dense, trace
+
     t = np.linspace(0, 300, 60001)
     y = np.sin(7 * t) * (1 + t / 100)
-    td, yd = decimate(t, y, 3000)
-    assert td.size <= 3002 and np.all(np.diff(td) > 0)
-    assert yd.max() == y.max() and yd.min() == y.min()
+    tc, lo, hi = envelope(t, y, 600)
+    assert tc.size == 600 and tc[0] == t[0] and tc[-1] == t[-1]
+    assert hi.max() == y.max() and lo.min() == y.min()
+    col = np.minimum((t / 0.5).astype(int), 599)  # 0.5 s a column
+    np.testing.assert_array_equal(hi, [y[col == k].max() for k in range(600)])
+    assert is_dense(lo, hi)  # 7 rad/s swings within 0.5 s columns: drawn as an envelope
+    td, yd = trace(t, y, 600)
+    assert td.size <= 1202 and np.all(np.diff(td) > 0) and yd.max() == y.max() and yd.min() == y.min()
     assert td[0] == t[0] and td[-1] == t[-1]
-    t2, y2 = decimate(t[:100], y[:100], 3000)
-    np.testing.assert_array_equal(t2, t[:100])
+    slow = np.sin(0.05 * t)  # one swing in 125 s: resolved by the columns, drawn as a line
+    assert not is_dense(*envelope(t, slow, 600)[1:])
+    t2, y2 = trace(t[:100], y[:100], 600)
     np.testing.assert_array_equal(y2, y[:100])
 
 

@@ -13,8 +13,9 @@ so that a failure leaves no partial output):
   every log, measured against simulated signals with the error below;
 * ``figures/*.png``, ``figures/*.svg``.
 
-The figures are drawn by :mod:`iwp.plotting` from series prepared here
-(decimated to :data:`~iwp.report.folder.PLOT_POINTS`); plotting computes nothing.
+The figures are drawn by :mod:`iwp.plotting` from series prepared here, at
+full resolution (long records are drawn as envelopes with a zoom); plotting
+computes nothing.
 """
 
 from __future__ import annotations
@@ -33,8 +34,9 @@ from ..models.parameters import save_params
 from ..plotting.report import plot_comparisons
 from ..plotting.validation import plot_correlation
 from ..sim.uncertainty import uncertainty_record
-from .folder import decimate, save_figure
+from .folder import save_figure
 from .page import FigureEntry, Report, Section, Table, fmt, fmt_interval, write_html
+from .words import intervals_in_words
 
 __all__ = ["write_fit_report"]
 
@@ -54,12 +56,18 @@ def _log_figure(f, out_dir: Path, name: str) -> tuple[bytes, list[Path]]:
         m = f.used[o]
         t = f.t[m]
         ym, ys = f.measured[o][m], f.simulated[o][m]
-        panels.append({"measured": decimate(t, ym), "simulated": (*decimate(t, ys), "model"),
-                       "error": (*decimate(t, ym - ys), "error"), "signal": o,
+        panels.append({"measured": (t, ym), "simulated": (t, ys, "model"), "error": (t, ym - ys, "error"), "signal": o,
                        "title": f"{Path(f.source).name} ({f.role}): {o}, fit {fmt(f.fit[o], 3)} %",
                        "measured_label": "measured"})
     res = plot_comparisons(panels)
     return save_figure(res["figure"], out_dir, name)
+
+
+def _sample_time(fits: list) -> float | None:
+    """The median sample time of the first log [s] (None without one)."""
+    if not fits or len(fits[0].t) < 2:
+        return None
+    return float(np.median(np.diff(np.asarray(fits[0].t, dtype=float))))
 
 
 #: held-out logs drawn at most (the worst and the best half each); fit.json and the table hold every log
@@ -138,7 +146,9 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         ptab = Table("Parameters (simulation-error fit on all training logs)",
                      ["parameter", "value", "stderr", "95 % interval", "start", "least squares"], rows,
                      note=("no uncertainty estimated" if r.reliability is None else r.reliability.describe())
-                     + "; start: " + result.start_method)
+                     + "; start: " + result.start_method
+                     + ("" if r.reliability is None else ". " + intervals_in_words(r.reliability.method,
+                                                                                  _sample_time(result.train))))
         frows = []
         for f in result.train + result.validation:
             role = f.role if f.kind == "free" else f"{f.role} ({f.kind})"

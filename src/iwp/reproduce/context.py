@@ -14,7 +14,7 @@ from ..errors import SimulationError
 from ..files import jsonable
 from ..ident.metrics import fit_percent
 from ..ident.validation import UninformativeValidation, ValidationOptions, validate
-from ..report import decimate, save_figure
+from ..report import save_figure
 from ..rig import write_result
 from .paper import PAPER
 
@@ -49,13 +49,15 @@ class StepRecord:
     title: str
     reference: str
     status: str = "pending"  # pending | ok | failed | skipped
-    seconds: float = 0.0
+    seconds: float = 0.0  # the step's own work [s], compilation excluded
     message: str = ""
     detail: str = ""  # traceback of a failure
+    compile_seconds: float = 0.0  # numba compiling kernels on their first use during the step [s]
 
     def to_dict(self) -> dict:
         return {"name": self.name, "title": self.title, "reference": self.reference, "status": self.status,
-                "seconds": round(self.seconds, 3), "message": self.message}
+                "seconds": round(self.seconds, 3), "compile_seconds": round(self.compile_seconds, 3),
+                "message": self.message}
 
 
 @dataclass
@@ -256,8 +258,8 @@ def val(res, name: str) -> float:
 
 
 def series(t, y, label: str | None = None):
-    """A decimated series ``(t, y[, label])`` for a figure."""
-    tt, yy = decimate(t, y)
+    """A series ``(t, y[, label])`` for a figure, at full resolution (plotting draws long ones as envelopes)."""
+    tt, yy = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
     return (tt, yy) if label is None else (tt, yy, label)
 
 
