@@ -25,7 +25,7 @@ import pytest
 from matplotlib.path import Path as MplPath
 from matplotlib.transforms import Bbox
 
-from tests.helpers import EXPECTED_FIGURES
+from tests.helpers import EXPECTED_FIGURES, keeping_figures
 
 _CANDIDATES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable")
 
@@ -111,19 +111,8 @@ def fit_run(tmp_path_factory):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = fit_logs(files, rig=rig, validate=[held, long], warn=False)
-    figures = {}
-    orig = fit_page.save_figure
-
-    def keep(fig, out_dir, name, **kw):
-        figures[name] = fig
-        return orig(fig, out_dir, name, **kw)
-
-    mp = pytest.MonkeyPatch()
-    mp.setattr(fit_page, "save_figure", keep)
-    try:
+    with keeping_figures(fit_page) as figures:
         written = fit_page.write_fit_report(res, tmp / "out")
-    finally:
-        mp.undo()
     return {"out": written["folder"], "figures": figures}
 
 

@@ -11,7 +11,7 @@ so that a failure leaves no partial output):
 * ``report.html``: one self-contained page like ``iwp report``'s, with the
   parameter and fit tables, the warnings, the correlation matrix and, for
   every log, measured against simulated signals with the error below;
-* ``figures/*.png``, ``figures/*.svg``.
+* ``figures/*.svg`` (the page embeds the PNGs).
 
 The figures are drawn by :mod:`iwp.plotting` from series prepared here, at
 full resolution (long records are drawn as envelopes with a zoom); plotting

@@ -5,14 +5,15 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-
 from ..files import prepare_output_dir  # the one folder policy, re-exported here
 
 __all__ = ["prepare_output_dir", "save_figure"]
 
 
 def save_figure(fig, out_dir: str | os.PathLike, name: str, *, dpi: int = 110) -> tuple[bytes, list[Path]]:
-    """Save ``fig`` as ``out_dir/figures/NAME.png`` and ``.svg``; close it; return the PNG bytes and the paths.
+    """Save ``fig`` as ``out_dir/figures/NAME.svg``, close it, and return its PNG (for the page) and the path.
+
+    The vector file is what a paper prints; the page embeds the PNG, so no PNG file duplicates it.
 
     Parameters
     ----------
@@ -28,21 +29,23 @@ def save_figure(fig, out_dir: str | os.PathLike, name: str, *, dpi: int = 110) -
     Returns
     -------
     png : bytes
-        Contents of the PNG file.
+        The figure as a PNG image.
     paths : list of Path
-        The PNG and the SVG file.
+        The SVG file.
     """
+    import io
+
     import matplotlib.pyplot as plt
 
     d = Path(out_dir) / "figures"
     d.mkdir(parents=True, exist_ok=True)
-    png = d / f"{name}.png"
     svg = d / f"{name}.svg"
+    buf = io.BytesIO()
     try:
-        fig.savefig(png, dpi=dpi)
+        fig.savefig(buf, format="png", dpi=dpi)
         if fig.get_layout_engine() is not None:
             fig.set_layout_engine("none")  # keep the layout just computed: the SVG is drawn identically, faster
         fig.savefig(svg)
     finally:
         plt.close(fig)
-    return png.read_bytes(), [png, svg]
+    return buf.getvalue(), [svg]

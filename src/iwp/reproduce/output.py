@@ -14,7 +14,7 @@ from ..files import jsonable
 from ..report import FigureEntry, Report, Section, Table, fmt, fmt_interval, write_html
 from ..report.words import ERRATA, intervals_in_words
 from ..rig import default_truth, truth_record
-from .context import ReproduceResult
+from .context import ReproduceResult, log_command
 from .paper import PAPER
 from .statements import check_statements
 
@@ -214,7 +214,7 @@ def _write_report(ctx: ReproduceResult) -> Path:
     sections.append(Section("Notes", paragraphs=notes, tables=[_steps_table(ctx)], anchor="notes"))
     files = sorted({str(p.relative_to(ctx.out)) for p in ctx.files if p.exists()}
                    | {"report.html", "parameters.json", "results.json"})
-    sections.append(Section("Files", paragraphs=[", ".join(files)], anchor="files"))
+    sections.append(Section("Files", paragraphs=[", ".join(files), _logs_text(ctx)], anchor="files"))
     rep = Report(
         title="Modelling an inertia wheel pendulum benchmark -- reproduced on the virtual rig",
         subtitle=("Every experiment of the paper's section 5 run on iwp's virtual rig, identified and compared the "
@@ -222,6 +222,19 @@ def _write_report(ctx: ReproduceResult) -> Path:
                   + (" Quick mode: shortened experiments." if ctx.quick else "")),
         summary=summary, statements=ctx.statements, sections=sections, errata=dict(ERRATA))
     return write_html(rep, ctx.out / "report.html", force=True)
+
+
+def _logs_text(ctx: ReproduceResult) -> str:
+    """Where the experiments' logs are: in data/, or the commands that write each again."""
+    names = list(ctx.data)
+    if ctx.keep_logs:
+        return "The experiment logs are in data/ (iwp's CSV format, docs/data-format.md)."
+    truth = ("" if _is_default_truth(ctx) else " This run used a rig truth other than the default (parameters.json, "
+             "'truth'): the commands give the default rig's logs unless given that truth too (--truth).")
+    return ("The experiment logs are not kept here (a full run's logs are about 20 MB as CSV). Each one is "
+            "written again, bit for bit, by the command beside its name: "
+            + "; ".join(f"{n}: {log_command(n, quick=ctx.quick, seed=ctx.seed)}" for n in names)
+            + "." + truth + " From Python, reproduce(..., keep_logs=True) keeps them in data/.")
 
 
 def _sample_time(ctx: ReproduceResult) -> float | None:

@@ -81,6 +81,7 @@ def reproduce(
     truth=None,
     progress: Callable[[ProgressEvent], None] | None = None,
     keep_going: bool = True,
+    keep_logs: bool = False,
 ) -> ReproduceResult:
     """Run the paper end to end on the virtual rig and write the report to ``out``.
 
@@ -101,6 +102,9 @@ def reproduce(
     keep_going : bool
         After a failed step, run the others that do not need it (default);
         ``False`` stops at the first failure (the report step still runs).
+    keep_logs : bool
+        Also write every experiment's log to ``out/data/NAME.csv`` (about 20 MB for a full run; the page names the
+        command that writes each log again, bit for bit).
 
     Returns
     -------
@@ -124,7 +128,7 @@ def reproduce(
     # every file is written into a hidden sibling folder and moved into place whole at the end: an interrupt, a
     # kill or a full disk leaves the previous content (or nothing), never a half-written folder
     with staged_dir(final, force=force) as tmp:
-        ctx = ReproduceResult(out=tmp, quick=bool(quick), seed=int(seed), truth=truth)
+        ctx = ReproduceResult(out=tmp, quick=bool(quick), seed=int(seed), truth=truth, keep_logs=bool(keep_logs))
         _run_steps(ctx, progress, keep_going)
         report = ctx.step("report")
         if report.status != "ok":  # no page: nothing of the run is kept
