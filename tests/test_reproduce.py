@@ -332,6 +332,49 @@ def test_failed_step_named_and_completed_parts_kept(tmp_path, monkeypatch, capsy
     assert verdicts["dead-zone"] == {s["key"]: s["verdict"] for s in complete["statements"]}["dead-zone"] == "pass"
 
 
+def test_logs_kept_when_asked(tmp_path, monkeypatch):
+    """reproduce(keep_logs=True) writes each log it ran to data/, readable, and the page says where they are."""
+    from iwp.data import read_static_curve
+
+    for step in R.STEPS:  # the static curves alone: a short run
+        if step.name not in ("dead-zone", "report"):
+            _patch_step(monkeypatch, step.name, lambda ctx: "skipped in this test")
+    res = R.reproduce(tmp_path / "out", quick=True, keep_logs=True)
+    data = tmp_path / "out" / "data"
+    assert sorted(p.name for p in data.iterdir()) == ["static-curve-compensated.csv", "static-curve.csv"]
+    curve = read_static_curve(data / "static-curve.csv")
+    assert curve.input_name == "v" and curve.n_points == res.data["static-curve"].n_points > 10
+    assert "The experiment logs are in data/" in (tmp_path / "out" / "report.html").read_text()
+
+
+def test_step_times_leave_compiling_apart(tmp_path, monkeypatch):
+    """A step that compiles a kernel: its compile time in its own column, not in the step's time."""
+    import numba
+
+    def compiles(ctx):
+        @numba.njit(cache=False)
+        def fresh(n):  # a new function: numba compiles it on this first call
+            s = 0.0
+            for i in range(n):
+                s += i ** 0.5
+            return s
+
+        return f"sum {fresh(1000):.1f}"
+
+    for step in R.STEPS:
+        if step.name != "report":
+            _patch_step(monkeypatch, step.name, compiles if step.name == "motor-disk" else lambda ctx: "nothing")
+    res = R.reproduce(tmp_path / "out", quick=True)
+    rec = {s.name: s for s in res.steps}
+    assert rec["motor-disk"].compile_seconds > 0.0
+    assert all(s.compile_seconds == 0.0 for n, s in rec.items() if n != "motor-disk")
+    assert rec["motor-disk"].seconds < rec["motor-disk"].compile_seconds  # the step's own work: one call
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert {s["name"]: s["compile_seconds"] for s in doc["steps"]}["motor-disk"] > 0.0
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "<th>compiling [s]</th>" in html and "s of it compiling numba kernels" in html
+
+
 def test_stop_on_error(tmp_path, monkeypatch, capsys):
     _patch_step(monkeypatch, "motor-disk", _boom)
     out = tmp_path / "out"
@@ -516,3 +559,50 @@ def test_an_interval_is_printed_with_the_digits_that_tell_its_ends_apart():
     assert a < b and abs((b - a) - (hi - lo)) < 0.05 * (hi - lo)  # the width to two digits
     assert fmt_interval(250.0, 253.4) == "[250, 253.4]"  # a wide one keeps four digits
     assert fmt_interval(None, 1.0) == "[-, 1]"
+
+
+# --------------------------------------------------------------------------
+# the page in plain words
+# --------------------------------------------------------------------------
+def _page_text(out) -> tuple[str, str]:
+    """The page's HTML without the embedded images, and its visible text."""
+    import html as _html
+
+    page = re.sub(r'src="data:image/png;base64,[^"]*"', 'src=""', (out / "report.html").read_text())
+    return page, _html.unescape(re.sub(r"<[^>]+>", " ", page))
+
+
+def test_errata_are_explained_and_every_citation_links_to_its_item(quick_run):
+    from iwp.report.words import ERRATA
+
+    page, text = _page_text(quick_run["out"])
+    assert "ERRATA" not in text  # every citation became a link "errata item N"
+    cited = set(re.findall(r'<a href="#errata-(\d)">errata item \1</a>', page))
+    assert {"2", "4"} <= cited
+    for n in cited:  # each link lands on its item, which says what the paper prints
+        item = re.search(rf'<li id="errata-{n}" value="{n}">([^<]+)</li>', page)
+        assert item and item.group(1).startswith(ERRATA[int(n)][:40].replace("'", "&#x27;"))
+    assert len(re.findall(r'<li id="errata-\d"', page)) == 6 and "docs/errata.md" in text
+
+
+def test_statistics_are_said_in_words_where_first_named(quick_run):
+    _page, text = _page_text(quick_run["out"])
+    first = text.index("(13) as printed")
+    assert "least-squares criterion (13) as printed (the squared errors of both rows" in text[first - 60:first + 80]
+    assert "file paper_targets.json installed with iwp (its path in Python: iwp.rig.TARGETS_FILE)" in text
+    if "HAC sandwich" in text:  # the refinement's intervals: explained in the paragraph after their first naming
+        hac = text.index("HAC sandwich")
+        words = text.index("How the 95 % intervals are computed")
+        assert 0 < words - hac < 600 and text.count("How the 95 % intervals are computed") == 1
+        assert text.count("samples apart") == text.count("HAC sandwich (Bartlett")  # each one's lags in seconds
+
+
+def test_intervals_in_words():
+    from iwp.report.words import intervals_in_words
+
+    s = intervals_in_words("HAC sandwich (Bartlett, 919 lags)", 0.005)
+    assert "up to 919 samples apart (4.59 s)" in s and "Bartlett" in s and "HAC" in s
+    assert "between the experiments" in intervals_in_words("the spread across 3 experiments (bias-reduced)")
+    assert intervals_in_words("HAC sandwich (Bartlett, 604 lags)", 0.005, brief=True) == (
+        "Here the residuals' correlation is taken up to 604 samples apart (3.02 s).")
+    assert intervals_in_words("something else") == ""

@@ -232,10 +232,10 @@ def _errata_html(errata, source: str) -> str:
             f"iwp's source).</p><ol>{items}</ol>")
 
 
-def _cell(value: Any) -> str:
+def _cell(value: Any, errata=None) -> str:
     text = value if isinstance(value, str) else fmt(value)
     num = not isinstance(value, str) or _looks_numeric(text)
-    return f'<td class="num">{_e(text)}</td>' if num else f"<td>{_e(text)}</td>"
+    return f'<td class="num">{_e(text)}</td>' if num else f"<td>{_linked(text, errata)}</td>"
 
 
 def _looks_numeric(text: str) -> bool:
@@ -251,7 +251,7 @@ def _looks_numeric(text: str) -> bool:
 
 def _table_html(t: Table, errata=None) -> str:
     head = "".join(f"<th>{_e(c)}</th>" for c in t.columns)
-    body = "".join("<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in t.rows)
+    body = "".join("<tr>" + "".join(_cell(c, errata) for c in row) + "</tr>" for row in t.rows)
     note = f'<p class="note">{_linked(t.note, errata)}</p>' if t.note else ""
     return f"<h3>{_e(t.title)}</h3><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>{note}"
 

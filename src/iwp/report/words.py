@@ -32,7 +32,7 @@ ERRATA: dict[int, str] = {
 ERRATA_SOURCE = "docs/errata.md"
 
 
-def intervals_in_words(method: str, Ts: float | None = None) -> str:
+def intervals_in_words(method: str, Ts: float | None = None, *, brief: bool = False) -> str:
     """Short plain sentences on how a fit's 95 % intervals were computed, from its summary (``Reliability.method``).
 
     Parameters
@@ -41,11 +41,13 @@ def intervals_in_words(method: str, Ts: float | None = None) -> str:
         The method as the fit describes it (e.g. ``"HAC sandwich (Bartlett, 919 lags)"``).
     Ts : float, optional
         Sample time of the logs [s], to give the lags in seconds.
+    brief : bool, default False
+        The method was explained before on the page: say only what differs (the lags).
 
     Returns
     -------
     str
-        The sentences; empty if the method is not one of those known.
+        The sentences; empty if the method is not one of those known (or, ``brief``, has nothing to add).
     """
     text = method or ""
     if "HAC" in text:
@@ -54,10 +56,14 @@ def intervals_in_words(method: str, Ts: float | None = None) -> str:
         if m:
             n = int(m.group(1))
             lags = f" up to {n} samples apart" + (f" ({n * Ts:.3g} s)" if Ts else "")
+        if brief:
+            return f"Here the residuals' correlation is taken{lags}." if lags else ""
         return ("How the 95 % intervals are computed: the misfit of the model is not independent from sample to "
                 f"sample, so the spread of the estimates is computed from the residuals and their correlation{lags}, "
                 "each lag weighted less the further apart (Bartlett's weights). Statisticians call this a HAC "
                 "(heteroscedasticity and autocorrelation consistent) sandwich covariance.")
+    if brief:
+        return ""
     if "spread across" in text:
         return ("How the 95 % intervals are computed: from how much the estimates differ between the experiments, "
                 "each experiment counting as one independent draw, with a Student t factor for their small number "

@@ -324,16 +324,16 @@ def _step_text(ctx: ReproduceResult, name: str) -> list[str]:
                    + ", ".join(st["free"]["free"]) + " on the free pendulum (output q1, wheel held), then "
                    + ", ".join(st["two-step"]["free"]) + " on the full chirp (outputs q1, q4), the initial states "
                    "estimated with them.")
-        explained = set()
+        explained = False
         for key, label in (("free", "free pendulum"), ("two-step", "full chirp")):
             if st.get(key, {}).get("intervals"):
                 out.append(f"Uncertainty of the refinement on the {label}: "
                            + ", ".join(f"{k} +- {fmt(v, 2)}" for k, v in st[key].get("stderr", {}).items())
                            + f"; {st[key]['intervals']}.")
-                words = intervals_in_words(st[key]["intervals"], _sample_time(ctx))
-                if words and words not in explained:  # said once, where it first appears
-                    explained.add(words)
+                words = intervals_in_words(st[key]["intervals"], _sample_time(ctx), brief=explained)
+                if words:  # in full where first named, then only what differs
                     out.append(words)
+                    explained = True
         if "changes" in r:
             out.append("What it changes (refined / least squares - 1): " + ", ".join(
                 f"{k} {100 * v['relative']:+.1f} %" for k, v in r["changes"].items() if v["relative"] is not None)
