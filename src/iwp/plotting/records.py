@@ -92,7 +92,17 @@ def _corners(v) -> np.ndarray:
 
 
 def axes_columns(ax) -> int:
-    """The pixel columns of ``ax`` at the figure's resolution (from its position before any layout)."""
+    """The pixel columns of ``ax`` at the figure's resolution (from its position before any layout).
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+
+    Returns
+    -------
+    int
+        The axes' width [pixel], at least 1.
+    """
     fig = ax.figure
     return max(1, int(round(fig.get_figwidth() * fig.dpi * ax.get_position().width)))
 
