@@ -194,3 +194,25 @@ def test_the_fit_page_loads_its_figures(chromium, fit_run, tmp_path):
     assert r.returncode == 0, r.stderr[-2000:]
     m = re.search(r'data-images-loaded="(\d+)/(\d+)"', r.stdout)
     assert m and m.group(1) == m.group(2) == str(len(fit_run["figures"]))
+
+
+def _signal_bands(shot: Path) -> int:
+    """Bands of rows (apart by more than 60 px) in which the measured signal's blue (matplotlib's C0) is drawn."""
+    from PIL import Image
+
+    img = np.asarray(Image.open(shot).convert("RGB")).astype(int)
+    blue = (np.abs(img - np.array([31, 119, 180])).sum(axis=2) < 40).sum(axis=1) >= 3
+    rows = np.flatnonzero(blue)
+    return 0 if rows.size == 0 else 1 + int(np.sum(np.diff(rows) > 60))
+
+
+@pytest.mark.parametrize("page", ["reproduction", "fit"])
+def test_the_figures_are_drawn_on_the_screen(chromium, quick_run, fit_run, tmp_path, page):
+    """A screenshot of the whole page: each figure's measured signal shows as its own band of blue pixels."""
+    out, expected = ((quick_run["out"], len(EXPECTED_FIGURES) - 1) if page == "reproduction"  # fig_refine: errors
+                     else (fit_run["out"], len(fit_run["figures"]) - 1))  # the correlation matrix: no signal
+    shot = tmp_path / "page.png"
+    r = _run(chromium, tmp_path / "profile", "--window-size=1280,24000", "--virtual-time-budget=10000",
+             f"--screenshot={shot}", (out / "report.html").resolve().as_uri())
+    assert r.returncode == 0, r.stderr[-2000:]
+    assert _signal_bands(shot) >= expected
