@@ -88,6 +88,23 @@ def _shown(fits: list) -> list:
     return [f for i, f in enumerate(fits) if i in keep]
 
 
+def _parameter_table(result) -> Table:
+    """The refined parameters with their uncertainty, and how the intervals were computed, in words."""
+    r = result.refinement
+    rows = []
+    for n in r.free:
+        pe = r.parameters[n]
+        ls = result.least_squares.get(n)
+        rows.append([n, fmt(pe.value, 6), fmt(pe.stderr, 2), fmt_interval(pe.ci95_low, pe.ci95_high, 5),
+                     fmt(result.start_value(n), 5), fmt(ls, 5) if ls is not None else "-"])
+    note = ("no uncertainty estimated" if r.reliability is None else r.reliability.describe()) + "; start: " \
+        + result.start_method
+    if r.reliability is not None:
+        note += ". " + intervals_in_words(r.reliability.method, _sample_time(result.train))
+    return Table("Parameters (simulation-error fit on all training logs)",
+                 ["parameter", "value", "stderr", "95 % interval", "start", "least squares"], rows, note=note)
+
+
 def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> dict:
     """Write the files of a :class:`~iwp.ident.logfit.LogFitResult` into the folder ``out`` (see the module).
 
@@ -137,18 +154,7 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
             corr_fig.append(FigureEntry("correlation", "Correlation of the estimates",
                                         "Pairs above 0.95 in magnitude (bold) are not separated by these data.",
                                         png, [str(w.relative_to(tmp)) for w in written]))
-        rows = []
-        for n in r.free:
-            pe = r.parameters[n]
-            ls = result.least_squares.get(n)
-            rows.append([n, fmt(pe.value, 6), fmt(pe.stderr, 2), fmt_interval(pe.ci95_low, pe.ci95_high, 5),
-                         fmt(result.start_value(n), 5), fmt(ls, 5) if ls is not None else "-"])
-        ptab = Table("Parameters (simulation-error fit on all training logs)",
-                     ["parameter", "value", "stderr", "95 % interval", "start", "least squares"], rows,
-                     note=("no uncertainty estimated" if r.reliability is None else r.reliability.describe())
-                     + "; start: " + result.start_method
-                     + ("" if r.reliability is None else ". " + intervals_in_words(r.reliability.method,
-                                                                                  _sample_time(result.train))))
+        ptab = _parameter_table(result)
         frows = []
         for f in result.train + result.validation:
             role = f.role if f.kind == "free" else f"{f.role} ({f.kind})"
@@ -178,7 +184,9 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                 note="score: the mean over the signals of 1 - fit/100 on each scoring log, geometric mean over the "
                      "logs; best: the lowest score; chosen: the "
                      "simplest structure whose log ratio to the best is not significantly above zero (one-sided "
-                     f"t-test at 5 %, {sel.method}); BIC assumes white residuals and is shown for comparison only"))
+                     f"t-test at 5 %, {sel.method}); BIC (Bayesian information criterion: the training misfit plus a "
+                     "penalty that grows with the number of parameters) assumes white residuals and is shown for "
+                     "comparison only"))
         if len(shown) < len(result.validation):
             tables[-1].note += (f"; figures are drawn for the training logs and {len(shown)} of the "
                                 f"{len(result.validation)} held-out logs (the worst and the best fits of q1)")

@@ -272,7 +272,9 @@ def _step_text(ctx: ReproduceResult, name: str) -> list[str]:
         out.append(
             "The paper finds the eight parameters of (10)-(12) identified at once far from the free pendulum's and "
             "the prediction poor; its explanation is that the pendulum's small friction terms are not separated "
-            "from the disk's in this set-up. Here: condition number of the scaled regressor "
+            "from the disk's in this set-up. Here: condition number of the scaled regressor (how far from "
+            "independent the columns of the regression are once scaled alike: the larger, the more an error in the "
+            "data moves the estimates, and the more the parameters trade off against each other) "
             f"{fs['condition_number']:.3g}; relative standard errors of the pendulum terms "
             + ", ".join(f"{k} {100 * v:.0f} %" for k, v in rs.items())
             + (f"; {', '.join(neg)} negative (unphysical)" if neg else "")
