@@ -16,6 +16,7 @@ __all__ = ["place_legend", "settle_legends", "covers_data", "CORNERS"]
 #: Corners tried, in order.
 CORNERS = ("upper right", "upper left", "lower left", "lower right")
 
+
 def covers_data(box, axes) -> int:
     """How many data artists of ``axes`` are drawn inside the display box ``box``.
 
