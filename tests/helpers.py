@@ -2,7 +2,29 @@
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
+import pytest
+
 from iwp.models import PhysicalParameters
+
+
+@contextmanager
+def keeping_figures(module):
+    """Within the block, ``module.save_figure`` also keeps each figure: yields the dict name -> Figure it fills."""
+    figures = {}
+    orig = module.save_figure
+
+    def keep(fig, out_dir, name, **kw):
+        figures[name] = fig
+        return orig(fig, out_dir, name, **kw)
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(module, "save_figure", keep)
+    try:
+        yield figures
+    finally:
+        mp.undo()
 
 #: the figures a reduced run of ``iwp reproduce`` writes (names without extension)
 EXPECTED_FIGURES = {

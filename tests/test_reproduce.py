@@ -12,7 +12,7 @@ import pytest
 from iwp import reproduce as R
 from iwp.cli import main
 from iwp.models import load_params
-from iwp.report import PLOT_POINTS, decimate, fmt_interval, prepare_output_dir
+from iwp.report import fmt_interval, prepare_output_dir
 from iwp.rig import default_truth
 from tests.helpers import EXPECTED_FIGURES
 
@@ -41,13 +41,19 @@ def test_outputs_written(quick_run):
     assert (out / "report.html").is_file()
     assert (out / "parameters.json").is_file()
     assert (out / "results.json").is_file()
-    for name in EXPECTED_FIGURES:
-        for ext in ("png", "svg"):
-            p = out / "figures" / f"{name}.{ext}"
-            assert p.is_file() and p.stat().st_size > 1000, p
-    for name in R.experiment_settings():
-        assert (out / "data" / f"{name}.csv").is_file(), name
+    for name in EXPECTED_FIGURES:  # the vector files; the page embeds the PNGs, no file duplicates them
+        p = out / "figures" / f"{name}.svg"
+        assert p.is_file() and p.stat().st_size > 1000, p
+        assert not (out / "figures" / f"{name}.png").exists()
+    assert not (out / "data").exists()  # the logs are not kept by default: the page names their commands
 
+
+def test_report_folder_is_small(quick_run):
+    """The whole folder stays well under 5 MB (a full run's is about 3 MB; the logs, 20 MB, are not kept)."""
+    out = quick_run["out"]
+    total = sum(p.stat().st_size for p in out.rglob("*") if p.is_file())
+    assert total < 4_000_000, total
+    assert (out / "report.html").stat().st_size < 2_500_000
 
 def test_svg_files_stay_small(quick_run):
     svgs = sorted((quick_run["out"] / "figures").glob("*.svg"))
@@ -56,15 +62,21 @@ def test_svg_files_stay_small(quick_run):
         assert p.stat().st_size < 1_000_000, (p.name, p.stat().st_size)
 
 
-def test_logs_read_back(quick_run):
-    from iwp.data import read_experiment, read_static_curve
+@pytest.mark.parametrize("name", ["static-curve", "full-chirp"])
+def test_the_pages_commands_write_the_runs_logs_bit_for_bit(quick_run, tmp_path, name):
+    """The page says how to get each log back; the command gives the very log the run used."""
+    import shlex
 
-    out = quick_run["out"] / "data"
-    curve = read_static_curve(out / "static-curve.csv")
-    assert curve.input_name == "v" and curve.n_points > 10
-    log = read_experiment(out / "full-chirp.csv")
-    assert log.input_name == "u"
-    assert log.duration == pytest.approx(R.experiment_settings(quick=True)["full-chirp"]["duration"])
+    from iwp.rig import write_result
+
+    html = (quick_run["out"] / "report.html").read_text()
+    cmd = R.log_command(name, quick=True, seed=0)
+    assert f"{name}: {cmd}" in html
+    argv = shlex.split(cmd)[1:]
+    argv[argv.index("--out") + 1] = str(tmp_path / f"{name}.csv")
+    assert main(argv) == 0
+    write_result(quick_run["result"].data[name], tmp_path / "run.csv")
+    assert (tmp_path / f"{name}.csv").read_bytes() == (tmp_path / "run.csv").read_bytes()
 
 
 def test_parameters_json_loads_and_refinement_moves_towards_the_truth(quick_run):
@@ -157,23 +169,47 @@ def test_figure_dead_zone_artists(quick_run):
 def test_comparison_figures_artists(quick_run, name, panels, signal):
     fig = quick_run["figures"][name]
     axes = fig.axes
-    assert len(axes) == 2 * panels
+    per = len(axes) // panels  # signal and error, and with a long record their zooms
+    long = name in ("fig09_full_chirp", "fig_full_setup")  # the 90 s chirp
+    assert len(axes) == per * panels and per == (4 if long else 2)
     for i in range(panels):
-        ax, eax = axes[2 * i], axes[2 * i + 1]
+        ax, eax = axes[per * i], axes[per * i + 1]
+        if per == 4:
+            zax, zeax = axes[per * i + 2], axes[per * i + 3]
+            assert zax.get_title() == "zoom: 86 to 90 s"
+            for a in (zax, zeax):  # a few seconds at full resolution: every 5 ms sample
+                for ln in a.get_lines():
+                    x = ln.get_xdata()
+                    assert 86 - 1e-9 <= x.min() and x.max() <= 90 + 1e-9 and x.size >= 790
+                    np.testing.assert_allclose(np.diff(x), 0.005, atol=1e-9)
         assert ax.get_ylabel() == signal
-        assert len(ax.get_lines()) == 2  # measured and simulated
-        assert len(eax.get_lines()) == 1  # the error
+        drawn = _data_artists(ax)
+        assert len(drawn) == 2  # measured and simulated (lines, or envelopes of long records)
+        assert len(_data_artists(eax)) == 1  # the error
         assert eax.get_xlabel() == "t [s]"
         assert eax.get_ylabel().startswith("error e")
-        labels = [ln.get_label() for ln in ax.get_lines()]
-        assert labels[0].startswith("experimental data")
-        assert len(ax.get_lines()[0].get_xdata()) <= PLOT_POINTS + 2  # decimated in the pipeline
+        assert drawn[0].get_label().startswith("experimental data")
+        for a in drawn:  # decimated for display: about two vertices per pixel column at most
+            assert _vertices(a) <= 4 * fig.get_figwidth() * fig.dpi + 10, (name, _vertices(a))
+
+
+def _data_artists(ax):
+    """The lines and filled envelopes of ``ax`` drawn in data coordinates, in the order drawn."""
+    out = [a for a in ax.get_children() if a in ax.lines or a in ax.collections]
+    return [a for a in out if a.get_transform() is ax.transData or a in ax.collections]
+
+
+def _vertices(artist) -> int:
+    if hasattr(artist, "get_xdata"):
+        return len(artist.get_xdata())
+    return sum(len(p.vertices) for p in artist.get_paths())
 
 
 def test_refine_figure_artists(quick_run):
     fig = quick_run["figures"]["fig_refine"]
-    (ax,) = fig.axes
-    labels = [ln.get_label() for ln in ax.get_lines()]
+    ax, zax = fig.axes  # the errors over the chirp, and the last seconds in full
+    assert zax.get_title().startswith("zoom:") and len(zax.get_lines()) == 2
+    labels = [a.get_label() for a in _data_artists(ax)]
     assert len(labels) == 2 and labels[0].startswith("least squares") and labels[1].startswith("refined")
     assert ax.get_xlabel() == "t [s]"
 
@@ -197,15 +233,23 @@ def test_plot_functions_compute_nothing():
     plt.close("all")
 
 
-def test_decimate_keeps_the_envelope():
+def test_envelope_and_trace_keep_every_columns_extremes():
+    from iwp.plotting.records import envelope, is_dense, trace
+
     t = np.linspace(0, 300, 60001)
     y = np.sin(7 * t) * (1 + t / 100)
-    td, yd = decimate(t, y, 3000)
-    assert td.size <= 3002 and np.all(np.diff(td) > 0)
-    assert yd.max() == y.max() and yd.min() == y.min()
+    tc, lo, hi = envelope(t, y, 600)
+    assert tc.size == 600 and tc[0] == t[0] and tc[-1] == t[-1]
+    assert hi.max() == y.max() and lo.min() == y.min()
+    col = np.minimum((t / 0.5).astype(int), 599)  # 0.5 s a column
+    np.testing.assert_array_equal(hi, [y[col == k].max() for k in range(600)])
+    assert is_dense(lo, hi)  # 7 rad/s swings within 0.5 s columns: drawn as an envelope
+    td, yd = trace(t, y, 600)
+    assert td.size <= 1202 and np.all(np.diff(td) > 0) and yd.max() == y.max() and yd.min() == y.min()
     assert td[0] == t[0] and td[-1] == t[-1]
-    t2, y2 = decimate(t[:100], y[:100], 3000)
-    np.testing.assert_array_equal(t2, t[:100])
+    slow = np.sin(0.05 * t)  # one swing in 125 s: resolved by the columns, drawn as a line
+    assert not is_dense(*envelope(t, slow, 600)[1:])
+    t2, y2 = trace(t[:100], y[:100], 600)
     np.testing.assert_array_equal(y2, y[:100])
 
 
@@ -272,9 +316,7 @@ def test_failed_step_named_and_completed_parts_kept(tmp_path, monkeypatch, capsy
     assert err_lines == ["iwp: error: step 'free-pendulum' failed: RuntimeError: simulated failure"]
     assert "FAILED" in captured.out and "free-pendulum" in captured.out
     # completed parts in place
-    assert (out / "figures" / "fig02_dead_zone.png").is_file()
-    assert (out / "data" / "static-curve.csv").is_file()
-    assert (out / "data" / "motor-disk-chirp.csv").is_file()
+    assert (out / "figures" / "fig02_dead_zone.svg").is_file()
     # the steps that need it are skipped, the report is still written and says so
     results = json.loads((out / "results.json").read_text())
     status_of = {s["name"]: s["status"] for s in results["steps"]}
@@ -288,6 +330,49 @@ def test_failed_step_named_and_completed_parts_kept(tmp_path, monkeypatch, capsy
     # a statement whose steps completed is judged as in the complete run: another step's failure does not touch it
     complete = json.loads((quick_run["out"] / "results.json").read_text())
     assert verdicts["dead-zone"] == {s["key"]: s["verdict"] for s in complete["statements"]}["dead-zone"] == "pass"
+
+
+def test_logs_kept_when_asked(tmp_path, monkeypatch):
+    """reproduce(keep_logs=True) writes each log it ran to data/, readable, and the page says where they are."""
+    from iwp.data import read_static_curve
+
+    for step in R.STEPS:  # the static curves alone: a short run
+        if step.name not in ("dead-zone", "report"):
+            _patch_step(monkeypatch, step.name, lambda ctx: "skipped in this test")
+    res = R.reproduce(tmp_path / "out", quick=True, keep_logs=True)
+    data = tmp_path / "out" / "data"
+    assert sorted(p.name for p in data.iterdir()) == ["static-curve-compensated.csv", "static-curve.csv"]
+    curve = read_static_curve(data / "static-curve.csv")
+    assert curve.input_name == "v" and curve.n_points == res.data["static-curve"].n_points > 10
+    assert "The experiment logs are in data/" in (tmp_path / "out" / "report.html").read_text()
+
+
+def test_step_times_leave_compiling_apart(tmp_path, monkeypatch):
+    """A step that compiles a kernel: its compile time in its own column, not in the step's time."""
+    import numba
+
+    def compiles(ctx):
+        @numba.njit(cache=False)
+        def fresh(n):  # a new function: numba compiles it on this first call
+            s = 0.0
+            for i in range(n):
+                s += i ** 0.5
+            return s
+
+        return f"sum {fresh(1000):.1f}"
+
+    for step in R.STEPS:
+        if step.name != "report":
+            _patch_step(monkeypatch, step.name, compiles if step.name == "motor-disk" else lambda ctx: "nothing")
+    res = R.reproduce(tmp_path / "out", quick=True)
+    rec = {s.name: s for s in res.steps}
+    assert rec["motor-disk"].compile_seconds > 0.0
+    assert all(s.compile_seconds == 0.0 for n, s in rec.items() if n != "motor-disk")
+    assert rec["motor-disk"].seconds < rec["motor-disk"].compile_seconds  # the step's own work: one call
+    doc = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert {s["name"]: s["compile_seconds"] for s in doc["steps"]}["motor-disk"] > 0.0
+    html = (tmp_path / "out" / "report.html").read_text()
+    assert "<th>compiling [s]</th>" in html and "s of it compiling numba kernels" in html
 
 
 def test_stop_on_error(tmp_path, monkeypatch, capsys):
@@ -307,7 +392,12 @@ def test_stop_on_error(tmp_path, monkeypatch, capsys):
 # iwp report on a user's own logs
 # --------------------------------------------------------------------------
 def test_report_command_on_logs(quick_run, tmp_path, capsys):
-    data = quick_run["out"] / "data"
+    from iwp.rig import write_result
+
+    data = tmp_path / "data"
+    data.mkdir()
+    for name, log in quick_run["result"].data.items():
+        write_result(log, data / f"{name}.csv")
     params = quick_run["out"] / "parameters.json"
     files = [data / "free-pendulum.csv", data / "full-chirp.csv", data / "closed-loop.csv", data / "sine-40.csv",
              data / "static-curve-compensated.csv"]
@@ -324,7 +414,7 @@ def test_report_command_on_logs(quick_run, tmp_path, capsys):
     assert fits["full-chirp.csv"]["q1"] > 80
     assert fits["free-pendulum.csv"]["q1"] > 80
     for name in ("free-pendulum", "full-chirp", "closed-loop", "sine-40", "static-curve-compensated"):
-        assert (out / "figures" / f"{name}.png").is_file() and (out / "figures" / f"{name}.svg").is_file()
+        assert (out / "figures" / f"{name}.svg").is_file()
     # the same folder again is refused without --force
     assert main(["report", str(files[0]), "--params", str(params), "--out", str(out)]) == 2
     assert "not empty" in capsys.readouterr().err
@@ -469,3 +559,50 @@ def test_an_interval_is_printed_with_the_digits_that_tell_its_ends_apart():
     assert a < b and abs((b - a) - (hi - lo)) < 0.05 * (hi - lo)  # the width to two digits
     assert fmt_interval(250.0, 253.4) == "[250, 253.4]"  # a wide one keeps four digits
     assert fmt_interval(None, 1.0) == "[-, 1]"
+
+
+# --------------------------------------------------------------------------
+# the page in plain words
+# --------------------------------------------------------------------------
+def _page_text(out) -> tuple[str, str]:
+    """The page's HTML without the embedded images, and its visible text."""
+    import html as _html
+
+    page = re.sub(r'src="data:image/png;base64,[^"]*"', 'src=""', (out / "report.html").read_text())
+    return page, _html.unescape(re.sub(r"<[^>]+>", " ", page))
+
+
+def test_errata_are_explained_and_every_citation_links_to_its_item(quick_run):
+    from iwp.report.words import ERRATA
+
+    page, text = _page_text(quick_run["out"])
+    assert "ERRATA" not in text  # every citation became a link "errata item N"
+    cited = set(re.findall(r'<a href="#errata-(\d)">errata item \1</a>', page))
+    assert {"2", "4"} <= cited
+    for n in cited:  # each link lands on its item, which says what the paper prints
+        item = re.search(rf'<li id="errata-{n}" value="{n}">([^<]+)</li>', page)
+        assert item and item.group(1).startswith(ERRATA[int(n)][:40].replace("'", "&#x27;"))
+    assert len(re.findall(r'<li id="errata-\d"', page)) == 6 and "docs/errata.md" in text
+
+
+def test_statistics_are_said_in_words_where_first_named(quick_run):
+    _page, text = _page_text(quick_run["out"])
+    first = text.index("(13) as printed")
+    assert "least-squares criterion (13) as printed (the squared errors of both rows" in text[first - 60:first + 80]
+    assert "file paper_targets.json installed with iwp (its path in Python: iwp.rig.TARGETS_FILE)" in text
+    if "HAC sandwich" in text:  # the refinement's intervals: explained in the paragraph after their first naming
+        hac = text.index("HAC sandwich")
+        words = text.index("How the 95 % intervals are computed")
+        assert 0 < words - hac < 600 and text.count("How the 95 % intervals are computed") == 1
+        assert text.count("samples apart") == text.count("HAC sandwich (Bartlett")  # each one's lags in seconds
+
+
+def test_intervals_in_words():
+    from iwp.report.words import intervals_in_words
+
+    s = intervals_in_words("HAC sandwich (Bartlett, 919 lags)", 0.005)
+    assert "up to 919 samples apart (4.59 s)" in s and "Bartlett" in s and "HAC" in s
+    assert "between the experiments" in intervals_in_words("the spread across 3 experiments (bias-reduced)")
+    assert intervals_in_words("HAC sandwich (Bartlett, 604 lags)", 0.005, brief=True) == (
+        "Here the residuals' correlation is taken up to 604 samples apart (3.02 s).")
+    assert intervals_in_words("something else") == ""

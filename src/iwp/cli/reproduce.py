@@ -2,9 +2,9 @@
 
 Runs every experiment of the paper's section 5 on the virtual rig, identifies
 and compares the models as the paper does, refines the parameters, and
-writes ``DIR/report.html`` (self-contained), ``DIR/figures/*.png|svg``,
-``DIR/parameters.json`` and ``DIR/data/*.csv``. Progress is printed while it
-runs.
+writes ``DIR/report.html`` (self-contained), ``DIR/figures/*.svg``,
+``DIR/parameters.json`` and ``DIR/results.json``; the page names the command
+that writes each experiment's log. Progress is printed while it runs.
 
 Exit status: 0 when every step completed; 1 when a step failed (each failed
 step is named on stderr; the completed parts and the report are kept);

@@ -13,6 +13,8 @@ module                 figures
 :mod:`.control`        bifurcation diagram, swing-up, animation
 :mod:`.robust`         an outcome over parameter draws; capture probabilities
 :mod:`.base`           labels, stacked panels, saving
+:mod:`.records`        long records as envelopes per pixel column; zoom windows
+:mod:`.legends`        legends in a corner free of data, else above the axes
 =====================  =====================================================
 """
 

@@ -16,17 +16,15 @@ the page through the DOM.
 
 from __future__ import annotations
 
-from .folder import PLOT_POINTS, decimate, prepare_output_dir, save_figure
+from .folder import prepare_output_dir, save_figure
 from .page import FigureEntry, Report, Section, Statement, Table, fmt, fmt_interval, render_html, write_html
 
 __all__ = [
-    "PLOT_POINTS",
     "FigureEntry",
     "Report",
     "Section",
     "Statement",
     "Table",
-    "decimate",
     "fmt",
     "fmt_interval",
     "prepare_output_dir",

@@ -11,10 +11,11 @@ so that a failure leaves no partial output):
 * ``report.html``: one self-contained page like ``iwp report``'s, with the
   parameter and fit tables, the warnings, the correlation matrix and, for
   every log, measured against simulated signals with the error below;
-* ``figures/*.png``, ``figures/*.svg``.
+* ``figures/*.svg`` (the page embeds the PNGs).
 
-The figures are drawn by :mod:`iwp.plotting` from series prepared here
-(decimated to :data:`~iwp.report.folder.PLOT_POINTS`); plotting computes nothing.
+The figures are drawn by :mod:`iwp.plotting` from series prepared here, at
+full resolution (long records are drawn as envelopes with a zoom); plotting
+computes nothing.
 """
 
 from __future__ import annotations
@@ -33,8 +34,9 @@ from ..models.parameters import save_params
 from ..plotting.report import plot_comparisons
 from ..plotting.validation import plot_correlation
 from ..sim.uncertainty import uncertainty_record
-from .folder import decimate, save_figure
+from .folder import save_figure
 from .page import FigureEntry, Report, Section, Table, fmt, fmt_interval, write_html
+from .words import intervals_in_words
 
 __all__ = ["write_fit_report"]
 
@@ -54,12 +56,18 @@ def _log_figure(f, out_dir: Path, name: str) -> tuple[bytes, list[Path]]:
         m = f.used[o]
         t = f.t[m]
         ym, ys = f.measured[o][m], f.simulated[o][m]
-        panels.append({"measured": decimate(t, ym), "simulated": (*decimate(t, ys), "model"),
-                       "error": (*decimate(t, ym - ys), "error"), "signal": o,
+        panels.append({"measured": (t, ym), "simulated": (t, ys, "model"), "error": (t, ym - ys, "error"), "signal": o,
                        "title": f"{Path(f.source).name} ({f.role}): {o}, fit {fmt(f.fit[o], 3)} %",
                        "measured_label": "measured"})
     res = plot_comparisons(panels)
     return save_figure(res["figure"], out_dir, name)
+
+
+def _sample_time(fits: list) -> float | None:
+    """The median sample time of the first log [s] (None without one)."""
+    if not fits or len(fits[0].t) < 2:
+        return None
+    return float(np.median(np.diff(np.asarray(fits[0].t, dtype=float))))
 
 
 #: held-out logs drawn at most (the worst and the best half each); fit.json and the table hold every log
@@ -78,6 +86,23 @@ def _shown(fits: list) -> list:
     half = MAX_HELD_OUT_FIGURES // 2
     keep = set(order[:half]) | set(order[-half:])
     return [f for i, f in enumerate(fits) if i in keep]
+
+
+def _parameter_table(result) -> Table:
+    """The refined parameters with their uncertainty, and how the intervals were computed, in words."""
+    r = result.refinement
+    rows = []
+    for n in r.free:
+        pe = r.parameters[n]
+        ls = result.least_squares.get(n)
+        rows.append([n, fmt(pe.value, 6), fmt(pe.stderr, 2), fmt_interval(pe.ci95_low, pe.ci95_high, 5),
+                     fmt(result.start_value(n), 5), fmt(ls, 5) if ls is not None else "-"])
+    note = ("no uncertainty estimated" if r.reliability is None else r.reliability.describe()) + "; start: " \
+        + result.start_method
+    if r.reliability is not None:
+        note += ". " + intervals_in_words(r.reliability.method, _sample_time(result.train))
+    return Table("Parameters (simulation-error fit on all training logs)",
+                 ["parameter", "value", "stderr", "95 % interval", "start", "least squares"], rows, note=note)
 
 
 def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> dict:
@@ -129,16 +154,7 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
             corr_fig.append(FigureEntry("correlation", "Correlation of the estimates",
                                         "Pairs above 0.95 in magnitude (bold) are not separated by these data.",
                                         png, [str(w.relative_to(tmp)) for w in written]))
-        rows = []
-        for n in r.free:
-            pe = r.parameters[n]
-            ls = result.least_squares.get(n)
-            rows.append([n, fmt(pe.value, 6), fmt(pe.stderr, 2), fmt_interval(pe.ci95_low, pe.ci95_high, 5),
-                         fmt(result.start_value(n), 5), fmt(ls, 5) if ls is not None else "-"])
-        ptab = Table("Parameters (simulation-error fit on all training logs)",
-                     ["parameter", "value", "stderr", "95 % interval", "start", "least squares"], rows,
-                     note=("no uncertainty estimated" if r.reliability is None else r.reliability.describe())
-                     + "; start: " + result.start_method)
+        ptab = _parameter_table(result)
         frows = []
         sigs = result.predicted  # the outputs fitted, and the held-out logs' judged signals
         for f in result.train + result.validation:
@@ -171,7 +187,9 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                 note="score: the mean over the signals of 1 - fit/100 on each scoring log, geometric mean over the "
                      "logs; best: the lowest score; chosen: the "
                      "simplest structure whose log ratio to the best is not significantly above zero (one-sided "
-                     f"t-test at 5 %, {sel.method}); BIC assumes white residuals and is shown for comparison only"))
+                     f"t-test at 5 %, {sel.method}); BIC (Bayesian information criterion: the training misfit plus a "
+                     "penalty that grows with the number of parameters) assumes white residuals and is shown for "
+                     "comparison only"))
         if len(shown) < len(result.validation):
             tables[-1].note += (f"; figures are drawn for the training logs and {len(shown)} of the "
                                 f"{len(result.validation)} held-out logs (the worst and the best fits of q1)")

@@ -24,7 +24,7 @@ from ..models.parameters import LumpedParameters
 from ..models.plant import Plant
 from ..plotting.report import plot_comparisons, plot_static_curve
 from ..sim.inputs import HopfController
-from .folder import decimate, save_figure
+from .folder import save_figure
 from .page import FigureEntry, Report, Section, Table, fmt, write_html
 
 __all__ = ["report_logs", "LogComparison"]
@@ -41,10 +41,6 @@ class LogComparison:
     rms: dict
     figure: str | None
     note: str = ""
-
-
-def _decimate(t: np.ndarray, y: np.ndarray, n_max: int = 4000) -> tuple[np.ndarray, np.ndarray]:
-    return decimate(t, y, n_max)
 
 
 def report_logs(
@@ -247,8 +243,8 @@ def _compare_series(p: Path, log, params, plot_comparisons, q1_offset: float):
     panels = []
     for s in signals:
         t, ym, ys = comp["t"], comp["measured"][s], comp["simulated"][s]
-        panels.append({"measured": _decimate(t, ym), "simulated": (*_decimate(t, ys), f"model ({model})"),
-                       "error": (*_decimate(t, ym - ys), "error"), "signal": s,
+        panels.append({"measured": (t, ym), "simulated": (t, ys, f"model ({model})"), "error": (t, ym - ys, "error"),
+                       "signal": s,
                        "title": f"{p.name}: {s}", "measured_label": "measured"})
     res = plot_comparisons(panels)
     fit = {s: comp["fit"][s] for s in signals}

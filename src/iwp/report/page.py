@@ -16,11 +16,13 @@ import html
 import math
 import os
 import platform
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Sequence
 
 from ..files import jsonable, prepare_output_file
+from .words import ERRATA_SOURCE
 
 __all__ = ["Statement", "Table", "FigureEntry", "Section", "Report", "render_html", "write_html", "fmt",
            "fmt_interval"]
@@ -110,6 +112,8 @@ class Report:
     statements: Sequence[Statement] = ()
     sections: Sequence[Section] = ()
     footer: str = ""
+    #: the paper's errata by item number, listed at the end and linked from every "ERRATA item N" on the page
+    errata: dict = field(default_factory=dict)
 
 
 # --------------------------------------------------------------------------
@@ -209,10 +213,29 @@ def _e(text: Any) -> str:
     return html.escape(str(text), quote=True)
 
 
-def _cell(value: Any) -> str:
+_ERRATA_REF = re.compile(r"ERRATA( item|) (\d+)")
+
+
+def _linked(text: Any, errata) -> str:
+    """``text`` escaped, each "ERRATA item N" of a listed item a link to its explanation."""
+    out = _e(text)
+    if not errata:
+        return out
+    return _ERRATA_REF.sub(lambda m: (f'<a href="#errata-{m.group(2)}">errata item {m.group(2)}</a>'
+                                      if int(m.group(2)) in errata else m.group(0)), out)
+
+
+def _errata_html(errata, source: str) -> str:
+    items = "".join(f'<li id="errata-{n}" value="{n}">{_e(errata[n])}</li>' for n in sorted(errata))
+    return ('<h2 id="errata">The paper\'s errata</h2><p>Where the paper disagrees with itself, iwp follows the '
+            f"derivation; the page cites these items as \u201cerrata item N\u201d (the table is {_e(source)} in "
+            f"iwp's source).</p><ol>{items}</ol>")
+
+
+def _cell(value: Any, errata=None) -> str:
     text = value if isinstance(value, str) else fmt(value)
     num = not isinstance(value, str) or _looks_numeric(text)
-    return f'<td class="num">{_e(text)}</td>' if num else f"<td>{_e(text)}</td>"
+    return f'<td class="num">{_e(text)}</td>' if num else f"<td>{_linked(text, errata)}</td>"
 
 
 def _looks_numeric(text: str) -> bool:
@@ -226,30 +249,31 @@ def _looks_numeric(text: str) -> bool:
         return False
 
 
-def _table_html(t: Table) -> str:
+def _table_html(t: Table, errata=None) -> str:
     head = "".join(f"<th>{_e(c)}</th>" for c in t.columns)
-    body = "".join("<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in t.rows)
-    note = f'<p class="note">{_e(t.note)}</p>' if t.note else ""
+    body = "".join("<tr>" + "".join(_cell(c, errata) for c in row) + "</tr>" for row in t.rows)
+    note = f'<p class="note">{_linked(t.note, errata)}</p>' if t.note else ""
     return f"<h3>{_e(t.title)}</h3><table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>{note}"
 
 
-def _figure_html(f: FigureEntry) -> str:
+def _figure_html(f: FigureEntry, errata=None) -> str:
     data = base64.b64encode(f.png).decode("ascii")
     files = ""
     if f.files:
         files = " Files: " + ", ".join(f"<code>{_e(x)}</code>" for x in f.files) + "."
     return (f'<figure id="fig-{_e(f.name)}"><h3>{_e(f.title)}</h3>'
             f'<img alt="{_e(f.title)}" src="data:image/png;base64,{data}">'
-            f"<figcaption>{_e(f.caption)}{files}</figcaption></figure>")
+            f"<figcaption>{_linked(f.caption, errata)}{files}</figcaption></figure>")
 
 
-def _statements_html(statements: Sequence[Statement]) -> str:
+def _statements_html(statements: Sequence[Statement], errata=None) -> str:
     rows = []
     for i, s in enumerate(statements, 1):
         cls = {"pass": "pass", "fail": "fail"}.get(s.verdict, "nc")
         rows.append(
-            f"<tr><td class=\"num\">{i}</td><td>{_e(s.claim)}<br><span class=\"note\">{_e(s.reference)}</span></td>"
-            f"<td>{_e(s.found)}</td><td class=\"note\">{_e(s.criterion)}</td>"
+            f"<tr><td class=\"num\">{i}</td><td>{_e(s.claim)}<br><span class=\"note\">"
+            f"{_linked(s.reference, errata)}</span></td>"
+            f"<td>{_linked(s.found, errata)}</td><td class=\"note\">{_e(s.criterion)}</td>"
             f'<td class="{cls}">{_e(s.verdict.upper())}</td></tr>')
     return ("<table><thead><tr><th>#</th><th>the paper says</th><th>found here</th><th>criterion</th>"
             "<th>verdict</th></tr></thead><tbody>" + "".join(rows) + "</tbody></table>")
@@ -283,6 +307,8 @@ def render_html(report: Report) -> str:
         nav.append('<a href="#statements">statements</a>')
     for i, s in enumerate(report.sections):
         nav.append(f'<a href="#{_e(s.anchor or f"s{i}")}">{_e(s.title)}</a>')
+    if report.errata:
+        nav.append('<a href="#errata">errata</a>')
     if nav:
         parts.append("<nav>" + "".join(nav) + "</nav>")
     if report.summary:
@@ -290,12 +316,14 @@ def render_html(report: Report) -> str:
         parts.append(f'<table class="summary"><tbody>{rows}</tbody></table>')
     if report.statements:
         parts.append('<h2 id="statements">The paper\'s statements, checked</h2>')
-        parts.append(_statements_html(report.statements))
+        parts.append(_statements_html(report.statements, report.errata))
     for i, s in enumerate(report.sections):
         parts.append(f'<h2 id="{_e(s.anchor or f"s{i}")}">{_e(s.title)}</h2>')
-        parts.extend(f"<p>{_e(p)}</p>" for p in s.paragraphs)
-        parts.extend(_table_html(t) for t in s.tables)
-        parts.extend(_figure_html(f) for f in s.figures)
+        parts.extend(f"<p>{_linked(p, report.errata)}</p>" for p in s.paragraphs)
+        parts.extend(_table_html(t, report.errata) for t in s.tables)
+        parts.extend(_figure_html(f, report.errata) for f in s.figures)
+    if report.errata:
+        parts.append(_errata_html(report.errata, ERRATA_SOURCE))
     footer = report.footer or (f"Generated by iwp on {_dt.datetime.now().isoformat(timespec='seconds')} "
                                f"(Python {platform.python_version()}, {platform.system()}).")
     parts.append(f'<hr><p class="note">{_e(footer)}</p></body></html>')

@@ -10,13 +10,15 @@ rig (:mod:`iwp.rig`), identifies the model the way the paper does
   the parameters (virtual-rig truth, least squares, refined, the paper's
   Table 1), the fits, and the paper's statements checked one by one with
   the numbers found here;
-* ``DIR/figures/NAME.png`` and ``NAME.svg`` for every figure;
+* ``DIR/figures/NAME.svg`` for every figure (the page embeds its PNG);
 * ``DIR/parameters.json`` -- the final parameter set in the format of
   :func:`iwp.models.parameters.load_params` (so ``--params DIR/parameters.json`` works
   in every command), with the other sets, the identification results and
   the refinement beside it;
 * ``DIR/results.json`` -- steps, fits and checked statements, for machines;
-* ``DIR/data/NAME.csv`` -- every experiment log.
+* with ``keep_logs=True``, ``DIR/data/NAME.csv`` -- every experiment log
+  (about 20 MB for a full run); without, the page gives for each log the
+  command that writes it again, bit for bit (:func:`log_command`).
 
 The steps, in the paper's order (one function each, ``step_*``):
 
@@ -56,6 +58,7 @@ from .context import (
     ReproduceResult,
     StepRecord,
     experiment_settings,
+    log_command,
 )
 from .paper import PAPER
 from .pipeline import STEPS, Step, reproduce
@@ -74,4 +77,5 @@ __all__ = [
     "check_statements",
     "reproduce",
     "experiment_settings",
+    "log_command",
 ]

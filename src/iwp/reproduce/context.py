@@ -14,7 +14,7 @@ from ..errors import SimulationError
 from ..files import jsonable
 from ..ident.metrics import fit_percent
 from ..ident.validation import UninformativeValidation, ValidationOptions, validate
-from ..report import decimate, save_figure
+from ..report import save_figure
 from ..rig import write_result
 from .paper import PAPER
 
@@ -38,6 +38,27 @@ def experiment_settings(quick: bool = False) -> dict[str, dict[str, float]]:
     return {name: dict(_QUICK_SETTINGS[name]) if quick else {} for name in _ALL_EXPERIMENTS}
 
 
+def log_command(name: str, *, quick: bool = False, seed: int = 0) -> str:
+    """The command that writes the log of experiment ``name`` as a reproduction runs it (same rig, seed, options).
+
+    Parameters
+    ----------
+    name : str
+        An experiment of the reproduction.
+    quick : bool, default False
+        The reduced run's shorter experiment.
+    seed : int, default 0
+        The rig's noise seed.
+
+    Returns
+    -------
+    str
+        ``iwp rig run NAME --seed S [--duration D] [--step X] --out NAME.csv``.
+    """
+    flags = "".join(f" --{k} {v:g}" for k, v in experiment_settings(quick)[name].items())
+    return f"iwp rig run {name} --seed {seed}{flags} --out {name}.csv"
+
+
 # --------------------------------------------------------------------------
 # records
 # --------------------------------------------------------------------------
@@ -49,13 +70,15 @@ class StepRecord:
     title: str
     reference: str
     status: str = "pending"  # pending | ok | failed | skipped
-    seconds: float = 0.0
+    seconds: float = 0.0  # the step's own work [s], compilation excluded
     message: str = ""
     detail: str = ""  # traceback of a failure
+    compile_seconds: float = 0.0  # numba compiling kernels on their first use during the step [s]
 
     def to_dict(self) -> dict:
         return {"name": self.name, "title": self.title, "reference": self.reference, "status": self.status,
-                "seconds": round(self.seconds, 3), "message": self.message}
+                "seconds": round(self.seconds, 3), "compile_seconds": round(self.compile_seconds, 3),
+                "message": self.message}
 
 
 @dataclass
@@ -130,6 +153,9 @@ class ReproduceResult:
         Every file written.
     elapsed : float
         Wall time of the run [s].
+    keep_logs : bool
+        Write every experiment's log to ``DIR/data/NAME.csv`` (the logs of a full run are about 20 MB; each is
+        written again, bit for bit, by the command :func:`log_command` gives).
     """
 
     out: Path
@@ -147,6 +173,7 @@ class ReproduceResult:
     notes: list[str] = field(default_factory=list)
     files: list[Path] = field(default_factory=list)
     elapsed: float = 0.0
+    keep_logs: bool = False
     extra: dict = field(default_factory=dict)
     _rig: Any = None
     _progress: Callable[[ProgressEvent], None] | None = None
@@ -186,19 +213,20 @@ class ReproduceResult:
 
     # ------------------------------------------------------------------
     def experiment(self, name: str):
-        """Run one experiment on the rig (once) and write its log to ``DIR/data/NAME.csv``."""
+        """Run one experiment on the rig (once); with ``keep_logs`` write its log to ``DIR/data/NAME.csv``."""
         if name not in self.data:
             overrides = experiment_settings(self.quick)[name]
             log = self._rig.run(name, **overrides)
-            path = self.out / "data" / f"{name}.csv"
-            path.parent.mkdir(parents=True, exist_ok=True)
-            write_result(log, path, force=True)
-            self.files.append(path)
+            if self.keep_logs:
+                path = self.out / "data" / f"{name}.csv"
+                path.parent.mkdir(parents=True, exist_ok=True)
+                write_result(log, path, force=True)
+                self.files.append(path)
             self.data[name] = log
         return self.data[name]
 
     def figure(self, name: str, fig, *, title: str, caption: str, section: str = "") -> FigureRecord:
-        """Write ``fig`` as ``DIR/figures/NAME.png`` and ``.svg`` and keep it for the page."""
+        """Write ``fig`` as ``DIR/figures/NAME.svg`` and keep its PNG for the page."""
         png, files = save_figure(fig, self.out, name)
         self.files.extend(files)
         rec = FigureRecord(name, title, caption, self._current, png, files, section or self._current)
@@ -256,8 +284,8 @@ def val(res, name: str) -> float:
 
 
 def series(t, y, label: str | None = None):
-    """A decimated series ``(t, y[, label])`` for a figure."""
-    tt, yy = decimate(t, y)
+    """A series ``(t, y[, label])`` for a figure, at full resolution (plotting draws long ones as envelopes)."""
+    tt, yy = np.asarray(t, dtype=float), np.asarray(y, dtype=float)
     return (tt, yy) if label is None else (tt, yy, label)
 
 

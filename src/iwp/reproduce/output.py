@@ -12,8 +12,9 @@ from typing import Any
 from .. import __version__
 from ..files import jsonable
 from ..report import FigureEntry, Report, Section, Table, fmt, fmt_interval, write_html
+from ..report.words import ERRATA, intervals_in_words
 from ..rig import default_truth, truth_record
-from .context import ReproduceResult
+from .context import ReproduceResult, log_command
 from .paper import PAPER
 from .statements import check_statements
 
@@ -158,8 +159,12 @@ def _fits_table(ctx: ReproduceResult):
 
 def _steps_table(ctx: ReproduceResult):
 
-    return Table("Steps", ["step", "paper", "status", "time [s]", "result"],
-                 [[s.name, s.reference, s.status, f"{s.seconds:.2f}", s.message] for s in ctx.steps])
+    return Table("Steps", ["step", "paper", "status", "time [s]", "compiling [s]", "result"],
+                 [[s.name, s.reference, s.status, f"{s.seconds:.2f}", f"{s.compile_seconds:.2f}" if
+                   s.compile_seconds else "-", s.message] for s in ctx.steps],
+                 "time: the step's own work, without compiling; compiling: the time numba spent compiling the "
+                 "numerical kernels the step was the first to use. Compiling happens once per machine and version "
+                 "(later runs load the kernels from numba's cache; 'iwp warmup' compiles them ahead).")
 
 
 def _write_report(ctx: ReproduceResult) -> Path:
@@ -169,10 +174,12 @@ def _write_report(ctx: ReproduceResult) -> Path:
     n_nc = sum(s.passed is None for s in ctx.statements)
     failed = [s.name for s in ctx.steps if s.status == "failed"]
     elapsed = time.perf_counter() - ctx.extra.get("t_start", time.perf_counter())
+    compiling = sum(s.compile_seconds for s in ctx.steps)
     summary = [
         ("paper", "Modelling an inertia wheel pendulum benchmark (the seed paper)"),
         ("run", f"iwp {__version__} reproduce{' --quick' if ctx.quick else ''} --seed {ctx.seed}, "
-                f"{elapsed:.1f} s, Python {platform.python_version()}"),
+                f"{elapsed:.1f} s" + (f" ({compiling:.1f} s of it compiling numba kernels, once per machine)"
+                                      if compiling >= 0.05 else "") + f", Python {platform.python_version()}"),
         ("statements", f"{n_pass} pass, {n_fail} fail, {n_nc} not checked (of {len(ctx.statements)})"),
         ("steps", "all completed" if not failed else "failed: " + ", ".join(failed)),
         ("final parameters", "refined" if "refined" in ctx.params else
@@ -199,21 +206,41 @@ def _write_report(ctx: ReproduceResult) -> Path:
         "own feedforward with the paper's v_dz = 31 (see iwp.rig). Its values are calibrated so that the "
         "paper's procedures return the paper's numbers (iwp rig calibrate; the table 'The paper's numbers'). "
         "The identified model (9) is simpler than the rig, as the paper's model is simpler than its prototype.",
-        "ERRATA: the rolling-friction term of xi has its factor q3 (item 1); rho_1 and rho_2 are computed as derived, "
-        "with the '- 1' (item 2); the free pendulum starts from -1.422 rad as in the text (item 4); Table 1 rounds "
-        "sigma~_b1 (item 5).",
+        "Where the paper disagrees with itself, this reproduction follows the derivation: ERRATA item 1 (the "
+        "factor q3 of the rolling friction), ERRATA item 2 (rho_1 and rho_2 with the '- 1'), ERRATA item 4 (the "
+        "free pendulum released from -1.422 rad) and ERRATA item 5 (Table 1's rounded sigma~_b1); the items are "
+        "explained at the end of the page.",
     ]
     sections.append(Section("Notes", paragraphs=notes, tables=[_steps_table(ctx)], anchor="notes"))
     files = sorted({str(p.relative_to(ctx.out)) for p in ctx.files if p.exists()}
                    | {"report.html", "parameters.json", "results.json"})
-    sections.append(Section("Files", paragraphs=[", ".join(files)], anchor="files"))
+    sections.append(Section("Files", paragraphs=[", ".join(files), _logs_text(ctx)], anchor="files"))
     rep = Report(
         title="Modelling an inertia wheel pendulum benchmark -- reproduced on the virtual rig",
         subtitle=("Every experiment of the paper's section 5 run on iwp's virtual rig, identified and compared the "
                   "way the paper does, with each of the paper's statements checked against the numbers found here."
                   + (" Quick mode: shortened experiments." if ctx.quick else "")),
-        summary=summary, statements=ctx.statements, sections=sections)
+        summary=summary, statements=ctx.statements, sections=sections, errata=dict(ERRATA))
     return write_html(rep, ctx.out / "report.html", force=True)
+
+
+def _logs_text(ctx: ReproduceResult) -> str:
+    """Where the experiments' logs are: in data/, or the commands that write each again."""
+    names = list(ctx.data)
+    if ctx.keep_logs:
+        return "The experiment logs are in data/ (iwp's CSV format, docs/data-format.md)."
+    truth = ("" if _is_default_truth(ctx) else " This run used a rig truth other than the default (parameters.json, "
+             "'truth'): the commands give the default rig's logs unless given that truth too (--truth).")
+    return ("The experiment logs are not kept here (a full run's logs are about 20 MB as CSV). Each one is "
+            "written again, bit for bit, by the command beside its name: "
+            + "; ".join(f"{n}: {log_command(n, quick=ctx.quick, seed=ctx.seed)}" for n in names)
+            + "." + truth + " From Python, reproduce(..., keep_logs=True) keeps them in data/.")
+
+
+def _sample_time(ctx: ReproduceResult) -> float | None:
+    """The sample time of the full chirp [s], if it ran."""
+    d = ctx.data.get("full-chirp")
+    return float(d.Ts) if d is not None and getattr(d, "Ts", None) else None
 
 
 def _step_text(ctx: ReproduceResult, name: str) -> list[str]:
@@ -245,7 +272,9 @@ def _step_text(ctx: ReproduceResult, name: str) -> list[str]:
         out.append(
             "The paper finds the eight parameters of (10)-(12) identified at once far from the free pendulum's and "
             "the prediction poor; its explanation is that the pendulum's small friction terms are not separated "
-            "from the disk's in this set-up. Here: condition number of the scaled regressor "
+            "from the disk's in this set-up. Here: condition number of the scaled regressor (how far from "
+            "independent the columns of the regression are once scaled alike: the larger, the more an error in the "
+            "data moves the estimates, and the more the parameters trade off against each other) "
             f"{fs['condition_number']:.3g}; relative standard errors of the pendulum terms "
             + ", ".join(f"{k} {100 * v:.0f} %" for k, v in rs.items())
             + (f"; {', '.join(neg)} negative (unphysical)" if neg else "")
@@ -297,11 +326,16 @@ def _step_text(ctx: ReproduceResult, name: str) -> list[str]:
                    + ", ".join(st["free"]["free"]) + " on the free pendulum (output q1, wheel held), then "
                    + ", ".join(st["two-step"]["free"]) + " on the full chirp (outputs q1, q4), the initial states "
                    "estimated with them.")
+        explained = False
         for key, label in (("free", "free pendulum"), ("two-step", "full chirp")):
             if st.get(key, {}).get("intervals"):
                 out.append(f"Uncertainty of the refinement on the {label}: "
                            + ", ".join(f"{k} +- {fmt(v, 2)}" for k, v in st[key].get("stderr", {}).items())
                            + f"; {st[key]['intervals']}.")
+                words = intervals_in_words(st[key]["intervals"], _sample_time(ctx), brief=explained)
+                if words:  # in full where first named, then only what differs
+                    out.append(words)
+                    explained = True
         if "changes" in r:
             out.append("What it changes (refined / least squares - 1): " + ", ".join(
                 f"{k} {100 * v['relative']:+.1f} %" for k, v in r["changes"].items() if v["relative"] is not None)
@@ -343,7 +377,9 @@ def _paper_numbers_section(ctx: ReproduceResult) -> Section:
           "('iwp rig run NAME') and the paper's procedure applied with the command line's defaults ('iwp identify "
           "FILE --setup SETUP'); the statistics are those of iwp.calibration.statistics, which the calibration of "
           "the twin (iwp rig calibrate) uses too. Rows marked * are not graded: the same logs through the paper's "
-          "(13) as printed, numbers the paper prints twice, and the paper's words read as numbers."]
+          "least-squares criterion (13) as it is printed (below: '(13) as printed'), which adds up the squared "
+          "errors of both rows of the regression without the weight iwp gives each row; numbers the paper prints "
+          "twice; and the paper's words read as numbers."]
     extra = ctx.numbers.get("paper-numbers", {})
     record = None
     if _is_default_truth(ctx):
@@ -372,8 +408,9 @@ def _paper_numbers_section(ctx: ReproduceResult) -> Section:
         paras.append(txt)
     tables = [Table("The paper's numbers: published against reproduced",
                     ["key", "quantity", "paper", "printed", "reproduced", "deviation", "tolerance", "within", ""],
-                    table_rows, "deviation = reproduced / published - 1 (0 inside a published range); the targets, "
-                                "their precision and tolerances are iwp.rig.TARGETS_FILE.")]
+                    table_rows, "deviation = reproduced / published - 1 (0 inside a published range). The targets, "
+                                "their precision and tolerances are listed in the file paper_targets.json installed "
+                                "with iwp (its path in Python: iwp.rig.TARGETS_FILE).")]
     tables.append(_truth_table(ctx))
     if record is not None:
         prov = truth_record().get("provenance", {})

@@ -212,7 +212,8 @@ def st_full_setup_far(ctx, st):
     fit_two = ctx.numbers.get("full-chirp", {}).get("fit_q1", float("nan"))
     sim_err = fs["unweighted"].get("simulation_error")
     dw = fs["theta"]
-    st.found = (f"(13) as printed: p1 = {th['p1']:.4g}, sigma_a1 = {th['sigma_a1']:.3g}, sigma_v1 = "
+    st.found = (f"With the paper's least-squares criterion (13) as printed (the squared errors of both rows of the "
+                f"regression summed without weights): p1 = {th['p1']:.4g}, sigma_a1 = {th['sigma_a1']:.3g}, sigma_v1 = "
                 f"{th['sigma_v1']:.3g}, sigma_b1 = {th['sigma_b1']:.3g}; free pendulum p1 = {fr['p1']:.4g}, sigma_a1 = "
                 f"{fr['sigma_a1']:.3g}, sigma_v1 = {fr['sigma_v1']:.3g}, sigma_b1 = {fr['sigma_b1']:.3g}; q1 fit "
                 + (f"not available, the simulation failed ({sim_err})" if sim_err else f"{fit_full:.1f} %")
