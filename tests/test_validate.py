@@ -183,7 +183,7 @@ def test_cli_validate_json_shape(free_files, capsys):
     status = main(["validate", str(log), "--params", str(par), "--json", "--t-start", "1", "--estimate-x0"])
     assert status == 0
     out = json.loads(capsys.readouterr().out)
-    assert set(out["fit"]) == {"q1", "q2"}
+    assert set(out["fit"]) == {"q1", "q2", "q4"}  # the wheel held to the arm: its speed is shown, not judged
     assert 99.0 < out["fit"]["q1"] <= 100.0  # percent, not a fraction
     assert out["model"] == "free"  # from the parameter file
     assert out["t_start"] == pytest.approx(1.0)

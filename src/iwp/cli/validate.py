@@ -75,7 +75,7 @@ def run(args) -> int:
     from ..data import read_experiment
     from ..errors import DataFormatError, InputError
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
-    from ..ident.metrics import JUDGED, poor_fits
+    from ..ident.metrics import judged_fits, poor_fits
     from ..ident.validation import (
         ValidationOptions,
         choose_model,
@@ -135,7 +135,8 @@ def run(args) -> int:
     bad = [k for k, f in v.fit.items() if not math.isfinite(f)]
     if bad and not args.json:
         print(f"note: the fit of {', '.join(bad)} is not defined (the measured signal is constant)")
-    judged = signals if signals is not None else JUDGED  # the wheel's angle is shown, its speed judged
+    # the given signals, or q1 and the wheel's speed where they move (the wheel's angle is shown, not judged)
+    judged = signals if signals is not None else tuple(judged_fits(v.fit, v.measured))
     poor = poor_fits([v.fit], [k for k in judged if math.isfinite(v.fit.get(k, math.nan))])
     return poor_status(f"the model predicts {args.file} poorly (fit {', '.join(poor)})" if poor else None,
                        args.accept_poor)

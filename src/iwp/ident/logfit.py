@@ -72,7 +72,7 @@ from ..sim.inputs import HopfController, Input
 from ..sim.uncertainty import ParameterUncertainty, identified_names, prediction_band, undetermined
 from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
-from .metrics import JUDGED, fit_percent, poor_fits
+from .metrics import JUDGED, fit_percent, judged_fits, poor_fits
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_initial_state, measured_state_covariance
 from .problem import Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, refine
@@ -211,7 +211,7 @@ class LogFitResult:
         Poorly: a signal's mean fit below :data:`~iwp.ident.metrics.POOR_FIT` %, or below zero on a log
         (:func:`~iwp.ident.metrics.poor_fits`). ``iwp fit`` then exits with status 1 (``--accept-poor``: 0).
         """
-        bad = poor_fits([f.fit for f in self.validation], JUDGED)
+        bad = poor_fits([judged_fits(f.fit, f.measured) for f in self.validation], JUDGED)
         return f"the model predicts the held-out logs poorly (mean fit {', '.join(bad)})" if bad else None
 
     @property
@@ -1230,7 +1230,7 @@ def predicted_signals(d: ExperimentData) -> tuple[str, ...]:
 def poor_prediction_advice(fits: Sequence[LogFit], outputs: Sequence[str], *, chose: bool) -> list[str]:
     """A warning, with what to try, when the held-out logs are predicted poorly (mean fit below
     :data:`~iwp.ident.metrics.POOR_FIT` % or below zero on a log, :func:`~iwp.ident.metrics.poor_fits`), or none."""
-    bad = poor_fits([f.fit for f in fits], outputs)
+    bad = poor_fits([judged_fits(f.fit, f.measured) for f in fits], outputs)
     if not bad:
         return []
     tries = ["the rig description's units, signs and zero (docs/rig-description.md): a wrong encoder gain or sign "

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["JUDGED", "POOR_FIT", "fit_percent", "poor_fits"]
+__all__ = ["JUDGED", "POOR_FIT", "STILL_SPAN", "fit_percent", "judged_fits", "poor_fits"]
 
 #: the signals a prediction of held-out data is judged on (``iwp fit``'s ladder scores, held-out means, a poor
 #: prediction; ``iwp validate``'s exit status): the pendulum's angle and the wheel's speed, the states the dynamics
@@ -16,6 +16,10 @@ __all__ = ["JUDGED", "POOR_FIT", "fit_percent", "poor_fits"]
 #: speed's, so a speed predicted at 92 % over 15 s leaves an angle predicted at 26 % (the README's logs), and its fit
 #: measures the log's length more than the model. It is still computed and shown.
 JUDGED = ("q1", "q4")
+
+#: a judged signal whose measured range is below this is still (a pendulum clamped [rad], a wheel held to the arm
+#: [rad/s]): its fit compares noise with noise and says nothing of the model, so it is not judged
+STILL_SPAN = {"q1": 0.01, "q4": 1.0}
 
 #: a mean fit below this [%] on data the model was not fitted to is a poor prediction, and said so
 POOR_FIT = 50.0
@@ -62,7 +66,7 @@ def poor_fits(fits, outputs) -> list[str]:
     Parameters
     ----------
     fits : sequence of mapping of str to float
-        Per log, the fit [%] of each signal.
+        Per log, the fit [%] of each signal it holds (NaN: failed); a signal no log holds is not judged.
     outputs : sequence of str
         The signals to judge (``"q1"``, ``"q2"``, ...).
 
@@ -73,10 +77,31 @@ def poor_fits(fits, outputs) -> list[str]:
     """
     bad = []
     for o in outputs:
-        vals = [f.get(o, float("nan")) for f in fits]
+        vals = [f[o] for f in fits if o in f]  # a log that does not hold the signal (or holds it still) says nothing
+        if not vals:
+            continue
         finite = [v for v in vals if math.isfinite(v)]
         neg = sum(1 for v in vals if not math.isfinite(v) or v < 0)
         mean = float(np.mean(finite)) if finite else float("nan")
         if not (mean >= POOR_FIT) or neg:
             bad.append(f"{o} {mean:.1f} %" + (f" (below zero or failed on {neg} of {len(vals)} logs)" if neg else ""))
     return bad
+
+
+def judged_fits(fit, measured) -> dict[str, float]:
+    """The fits [%] of a log that judge a model: those of :data:`JUDGED` whose measured signal moves.
+
+    Parameters
+    ----------
+    fit : mapping of str to float
+        The log's fit [%] per signal.
+    measured : mapping of str to ndarray
+        The log's measured signals (rad, rad/s).
+
+    Returns
+    -------
+    dict of str to float
+        The fits of the judged signals the log holds whose range is at least :data:`STILL_SPAN`.
+    """
+    return {o: fit[o] for o in JUDGED if o in fit and o in measured and np.size(measured[o])
+            and float(np.ptp(np.asarray(measured[o], dtype=float))) >= STILL_SPAN[o]}
