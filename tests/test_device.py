@@ -540,3 +540,35 @@ def test_samples_the_link_lost_are_a_warning_on_screen(tmp_path, capsys):
     err = capsys.readouterr().err
     assert status == 0 and written == [tmp_path / "x.csv"]
     assert "the link lost 223 telemetry samples (237 corrupt frames)" in err
+
+
+# --------------------------------------------------------------------------
+# issue 40: the emulator at every documented period, faults at connect, the watchdog in wall time
+# --------------------------------------------------------------------------
+def _send(device, name, **kw):
+    device.rx(encode_frame(encode(name, **kw)))
+
+
+@pytest.mark.parametrize("period_us", [1000, 2000, 5000, 10000, 20000])
+@pytest.mark.parametrize("locked", [True, False])
+def test_the_emulated_board_runs_and_coasts_to_rest_at_every_documented_period(period_us, locked):
+    """A 1 ms period with the pendulum clamped crashed (ZeroDivisionError) 0.3 s after the motor stopped: the
+    wheel coasting to rest underflowed to subnormal numbers, where the integrator's error norm was 0/0."""
+    device = TwinDevice()
+    _send(device, "SET_PARAM", req=1, param=PARAMS["period_us"].id, value=float(period_us))
+    _send(device, "FIXTURE", req=2, action=1 if locked else 2, q1=0.0 if locked else 0.5)
+    _send(device, "ARM", req=3)
+    Ts = period_us * 1e-6
+    n = int(round(1.0 / Ts))
+    for k in range(1, n + 1):
+        _send(device, "COMMAND", seq=k, tick=k + 1, u=float(20.0 * math.sin(5.0 * k * Ts)))
+        device.tick()
+        device.tx()
+    assert device.core.status()[1] == STATES["ARMED"]
+    _send(device, "ESTOP", req=4)  # as every run ends: the motor off, the wheel coasts to rest
+    for _ in range(int(round(3.0 / Ts))):
+        device.tick()
+        device.tx()
+    x = device.stepper.x
+    assert np.all(np.isfinite(x)) and abs(device.stepper.t - 4.0) < 2 * Ts
+    assert abs(x[3]) < 1e-3  # the wheel came to rest

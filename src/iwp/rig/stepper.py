@@ -34,6 +34,8 @@ __all__ = ["TwinStepper", "SESSION_OF_SETUP"]
 
 #: The session of the paper's experiments with the pendulum clamped / free (``session="auto"``).
 SESSION_OF_SETUP = {True: "5.1", False: "5.2"}
+#: State components smaller than this are exactly 0 [rad, rad/s] (many orders below the integrator's tolerances).
+_TINY = 1e-150
 
 
 class TwinStepper:
@@ -129,6 +131,9 @@ class TwinStepper:
         if self.held:
             self.t += dt
             return
+        # a state decaying to rest (the wheel coasting down, clamped) underflows towards subnormal numbers, where
+        # the integrator's error estimate lost its scale (0/0 at a 1 ms period): far below any tolerance, it is 0
+        self.x[np.abs(self.x) < _TINY] = 0.0
         st = integrate_held(self.plant, self.x, self.t, self.t + dt, self.v, command_params=self._cp, tol=self._tol,
                             h0=self._h)
         if st.status != ST_OK:
