@@ -572,3 +572,129 @@ def test_the_emulated_board_runs_and_coasts_to_rest_at_every_documented_period(p
     x = device.stepper.x
     assert np.all(np.isfinite(x)) and abs(device.stepper.t - 4.0) < 2 * Ts
     assert abs(x[3]) < 1e-3  # the wheel came to rest
+
+
+class _Stamped(_Wire):
+    """A pyserial-like wrapper that notes the wall time after each write (the host's last bytes)."""
+
+    def __init__(self, inner):
+        self.inner, self.times = inner, []
+
+    def write(self, data):
+        n = self.inner.write(data)
+        self.times.append(time.monotonic())
+        return n
+
+
+def test_the_emulators_watchdog_counts_wall_time_when_the_emulator_falls_behind():
+    """The host stops; the emulator's next period stalls 90 ms: the motor stops within the watchdog (100 ms) plus
+    one period of the host's last bytes in wall time (it was 187 ms), and the emulator's report says so."""
+    rig = TwinRig()  # real time
+    events = []
+    stall = []
+    advance = rig.device.stepper.advance
+
+    def slow(v, dt):
+        if stall:
+            time.sleep(stall.pop())
+        advance(v, dt)
+
+    try:
+        rig.emulator.on_event = events.append
+        rig.device.stepper.advance = slow
+        wire = rig.link.serial = _Stamped(rig.link.serial)
+        rig.arm()
+        driven = 0
+        while driven < 60:  # 0.3 s of commands, two ticks ahead
+            for s in rig.samples(0.5):
+                rig.command(10.0, s.seq + 2)
+                driven += 1
+        last = wire.times[-1]  # the host is gone from here
+        stall.append(0.09)
+        time.sleep(0.6)
+        trip = [e for e in events if e["state"] != "ARMED" and e["wall"] > last]
+    finally:
+        rig.close()
+    assert trip and trip[0]["state"] == "FAULT" and trip[0]["fault"] == "WATCHDOG", events
+    measured = trip[0]["wall"] - last
+    assert measured <= 0.100 + 0.005 + 0.015, measured
+    assert abs(trip[0]["after_host"] - measured) < 0.003, (trip[0]["after_host"], measured)
+    assert trip[0]["v"] == 0.0
+
+
+def test_fast_runs_are_lock_stepped_identical_under_load(monkeypatch):
+    """By the host's clock the armed device waits for each tick's command: a host slowed at random (here 30 ms
+    every 40 commands, six periods) gives the same log to the bit, with no late tick."""
+    def run(delay: bool):
+        rig = TwinRig(fast=True)
+        try:
+            if delay:
+                orig, calls = rig.command, []
+
+                def command(u, tick=0):
+                    calls.append(tick)
+                    if len(calls) % 40 == 0:
+                        time.sleep(0.03)
+                    orig(u, tick)
+
+                monkeypatch.setattr(rig, "command", command)
+            got = run_on_rig(rig, "full-chirp", fast=True, duration=3.0)
+        finally:
+            rig.close()
+        assert not got.interrupted, got.reason
+        return got.log
+
+    a, b = run(False), run(True)
+    for name in ("t", "q1", "q2", "u"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    assert json.loads(b.metadata["timing"])["late_ticks"] == 0
+    assert np.ptp(a.q1) > 0.01  # the pendulum moved: the comparison has something to compare
+
+
+def test_a_fault_or_changed_limits_left_on_the_device_refuse_a_run_until_cleared():
+    rig = TwinRig(fast=True)
+    try:
+        rig.set_params(q4_max=20.0)  # this connection's own limit: taken as set
+        run = run_on_rig(rig, "sine-60", fast=True, duration=2.0)
+        assert run.interrupted and "Q4_LIMIT" in run.reason  # the limit stopped it (as the user saw at 0.3 s)
+        with pytest.raises(DeviceError, match=r"in FAULT \(Q4_LIMIT\), latched .* clear_fault$"):
+            run_on_rig(rig, "sine-20", fast=True, duration=0.2)
+        assert rig.device.core.status()[1:3] == (STATES["FAULT"], 3)  # not cleared silently
+        rig.identify()  # a new connection finds the limit left by another client
+        with pytest.raises(DeviceError, match=r"limits were changed .*: q4_max = 20 \(default 400\); .*reset_params"):
+            run_on_rig(rig, "sine-20", fast=True, duration=0.2, clear_fault=True)
+        assert rig.device.core.param("q4_max") == 20.0
+        run = run_on_rig(rig, "sine-20", fast=True, duration=0.2, clear_fault=True, reset_params=True)
+        assert not run.interrupted and rig.device.core.param("q4_max") == 400.0
+        assert rig.device.core.status()[1] == STATES["DISARMED"]  # a normal end leaves it disarmed
+        run = run_on_rig(rig, "sine-20", fast=True, duration=0.2)  # so the next run needs no flag
+        assert not run.interrupted
+        rig.estop()
+        with pytest.raises(DeviceError, match=r"in ESTOP, latched"):
+            run_on_rig(rig, "sine-20", fast=True, duration=0.2)
+    finally:
+        rig.close()
+
+
+def test_the_command_line_refuses_a_latched_fault_with_exit_2_until_clear_fault(emulator, tmp_path):
+    port, _ = emulator
+    out = tmp_path / "f.csv"
+    with Rig(port) as other:  # another client leaves an emergency stop and a changed limit
+        other.estop()
+        other.set_params(q1_max=3.0)
+    try:
+        args = ("rig", "run", "sine-20", "--port", port, "--fast", "--duration", "0.2", "--out", str(out))
+        r = _iwp(*args, timeout=60)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and not out.exists(), r.stderr
+        assert "the device is in ESTOP" in r.stderr and "--clear-fault" in r.stderr
+        r = _iwp(*args, "--clear-fault", timeout=60)
+        assert r.returncode == 2 and "q1_max = 3 (default 12.5664)" in r.stderr and "--reset-params" in r.stderr
+        assert not out.exists()
+        r = _iwp("control", "run", "hopf", "--port", port, "--fast", "--duration", "0.5", "--out", str(out),
+                 "--clear-fault", "--reset-params", timeout=60)
+        assert r.returncode == 0, r.stderr
+        assert read_experiment(out).metadata["interrupted"] == "false"
+    finally:
+        with Rig(port) as other:
+            other.clear()
+            other.set_params(q1_max=PARAMS["q1_max"].default)

@@ -212,7 +212,8 @@ def run_port(args) -> int:
                "locked": True if args.locked else None}
     with open_port_rig(args, _truth(args.truth) if args.truth else None) as rig:
         run = run_on_rig(rig, args.name, controller=args.controller, fast=args.fast, operator=port_operator(args),
-                         progress=port_progress(args), **options)
+                         progress=port_progress(args), clear_fault=args.clear_fault,
+                         reset_params=args.reset_params, **options)
     return finish_port_run(run, out, args, write_result)
 
 
