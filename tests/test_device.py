@@ -384,7 +384,7 @@ def _armed_run(err, argv, **popen) -> subprocess.Popen:
 def test_ctrl_c_leaves_a_complete_readable_log_marked_interrupted(emulator, tmp_path):
     port, err = emulator
     out = tmp_path / "c.csv"
-    p = _armed_run(err, ["rig", "run", "full-chirp", "--port", port, "--out", str(out)])
+    p = _armed_run(err, ["rig", "run", "full-chirp", "--port", port, "--out", str(out), "--clear-fault"])
     time.sleep(2.0)
     p.send_signal(signal.SIGINT)
     _, stderr = p.communicate(timeout=30)
@@ -406,7 +406,8 @@ def test_a_second_interrupt_during_the_stop_still_writes_the_log(emulator, tmp_p
     # the second while the host waits for the emergency stop's acknowledgement
     port, err = emulator
     out = tmp_path / "twice.csv"
-    p = _armed_run(err, ["rig", "run", "sine-60", "--port", port, "--out", str(out)], start_new_session=True)
+    p = _armed_run(err, ["rig", "run", "sine-60", "--port", port, "--out", str(out), "--clear-fault"],
+                  start_new_session=True)
     time.sleep(1.0)
     p.send_signal(signal.SIGINT)
     os.killpg(p.pid, signal.SIGINT)
@@ -467,7 +468,8 @@ def test_the_host_side_hopf_law_runs_in_real_time_without_tripping_the_watchdog(
     # stopped the motor after 0.09 s
     port, _ = emulator
     out = tmp_path / "host.csv"
-    r = _iwp("control", "run", "hopf", "--where", "host", "--port", port, "--duration", "2", "--out", str(out))
+    r = _iwp("control", "run", "hopf", "--where", "host", "--port", port, "--duration", "2", "--out", str(out),
+             "--clear-fault")  # an earlier test's interrupted run left the shared emulator in ESTOP
     assert r.returncode == 0, r.stderr
     log = read_experiment(out)
     assert log.metadata["interrupted"] == "false" and log.metadata["controller"] == "host"
@@ -698,3 +700,134 @@ def test_the_command_line_refuses_a_latched_fault_with_exit_2_until_clear_fault(
         with Rig(port) as other:
             other.clear()
             other.set_params(q1_max=PARAMS["q1_max"].default)
+
+
+# --------------------------------------------------------------------------
+# docs/protocol.md's rules, through the emulated board
+# --------------------------------------------------------------------------
+class _Board:
+    """An emulated board driven frame by frame: requests answered by their ACK, ticks by their telemetry."""
+
+    def __init__(self):
+        self.device = TwinDevice()
+        self.dec = FrameDecoder()
+        self.req = 0
+
+    def request(self, name, **kw):
+        self.req += 1
+        _send(self.device, name, req=self.req, **kw)
+        acks = [decode(p) for p in self.dec.feed(self.device.tx()) if p[0] == MESSAGES["ACK"].id]
+        assert acks and acks[-1]["req"] == self.req
+        return acks[-1]
+
+    def tick(self, n=1):
+        out = []
+        for _ in range(n):
+            self.device.tick()
+            out += [decode(p) for p in self.dec.feed(self.device.tx()) if p[0] == MESSAGES["TELEMETRY"].id]
+        return out
+
+
+def test_protocol_fixture_clamp_ignores_q1_is_refused_armed_and_an_unknown_action_is_bad_mode():
+    from iwp.device.protocol import ACK_CODES, FIXTURE_ACTIONS
+
+    b = _Board()
+    assert b.request("FIXTURE", action=FIXTURE_ACTIONS["HOLD"], q1=0.7)["code"] == ACK_CODES["OK"]
+    b.tick()
+    assert b.device.stepper.x[0] == pytest.approx(0.7)
+    assert b.request("FIXTURE", action=FIXTURE_ACTIONS["CLAMP"], q1=0.7)["code"] == ACK_CODES["OK"]
+    b.tick()
+    assert b.device.stepper.x[0] == 0.0 and b.device.stepper.locked  # CLAMP clamps at rest: its q1 is ignored
+    assert b.request("FIXTURE", action=3, q1=0.0)["code"] == ACK_CODES["BAD_MODE"]  # unknown action
+    assert b.request("ARM")["code"] == ACK_CODES["OK"]
+    for action in ("CLAMP", "HOLD"):
+        assert b.request("FIXTURE", action=FIXTURE_ACTIONS[action], q1=0.0)["code"] == ACK_CODES["ARMED"]
+    assert b.request("FIXTURE", action=FIXTURE_ACTIONS["RELEASE"], q1=0.0)["code"] == ACK_CODES["OK"]
+
+
+def test_protocol_arm_in_estop_is_refused_with_code_fault_and_stream_0_stops_telemetry():
+    from iwp.device.protocol import ACK_CODES
+
+    b = _Board()
+    b.request("ESTOP")
+    assert b.request("ARM")["code"] == ACK_CODES["FAULT"] == 4
+    assert len(b.tick(10)) == 10
+    assert b.request("STREAM", every=0)["code"] == ACK_CODES["OK"]
+    assert b.tick(10) == []  # every = 0: no telemetry at all
+    b.request("STREAM", every=3)
+    assert [m["seq"] % 3 for m in b.tick(9)] == [0, 0, 0]
+
+
+def test_protocol_zero_mask_bit_0_is_the_pendulum_bit_1_the_wheel():
+    from iwp.device.protocol import FIXTURE_ACTIONS
+
+    b = _Board()
+    b.request("FIXTURE", action=FIXTURE_ACTIONS["HOLD"], q1=0.5)
+    b.device.stepper.x[1] = 1.0  # the wheel turned 1 rad
+    b.tick()
+    b.request("ZERO", mask=1)
+    m = b.tick()[-1]
+    assert m["count1"] == 0 and m["count2"] == round(1.0 / b.device.stepper.step)
+    b.request("ZERO", mask=2)
+    assert b.tick()[-1]["count2"] == 0
+    b.device.stepper.x[0] = 0.6
+    b.request("ZERO", mask=0)  # neither
+    assert b.tick()[-1]["count1"] == round(0.1 / b.device.stepper.step)
+
+
+def test_protocol_command_queue_past_ticks_replacement_and_a_full_queue():
+    b = _Board()
+    b.request("ARM")
+    k = b.tick(8)[-1]["seq"]
+    seq = iter(range(1, 1000))
+
+    def command(tick, u):
+        _send(b.device, "COMMAND", seq=next(seq), tick=tick, u=u)
+
+    command(k - 5, 1.0)  # a past tick: applies from the next tick
+    assert b.tick()[-1]["u"] == 1.0
+    k += 1
+    command(k + 3, 3.0)
+    command(k + 4, 4.0)
+    command(k + 2, 2.0)  # an earlier tick than those queued replaces them
+    got = b.tick(5)
+    assert [m["u"] for m in got] == [1.0, 2.0, 2.0, 2.0, 2.0]
+    k = got[-1]["seq"]
+    for j in range(1, 10):  # 9 commands ahead: the queue holds 8, the 9th is dropped with the flag QUEUE_FULL
+        command(k + j, float(10 + j))
+    got = b.tick(10)
+    assert [m["u"] for m in got] == [11.0, 12.0, 13.0, 14.0, 15.0, 16.0, 17.0, 18.0, 18.0, 18.0]
+    assert got[0]["flags"] & 4 == 0  # the flag was cleared by the first command applied
+    assert got[-1]["late"] - got[0]["late"] == 2  # the dropped tick's hold counts as late, not as dropped
+
+
+def test_the_timing_reports_the_devices_tick_jitter_and_load_and_warns_past_a_tenth_of_the_period(tmp_path, capsys):
+    import argparse
+    import dataclasses
+
+    from iwp.cli.rig import finish_port_run
+    from iwp.device.connection import Sample
+    from iwp.device.loop import LoopResult, jitter_warning
+    from iwp.device.runs import RigRun
+
+    base = Sample(seq=0, t_device=0.0, count1=0, count2=0, q1=0.0, q2=0.0, q4=0.0, u=0.0, v=0.0, current=math.nan,
+                  state="ARMED", fault="NONE", flags=(), overruns=0, late=0, rx_errors=0, t_host=0.0)
+    t_us = 5000 * np.arange(1, 201)
+    t_us[::20] += 1000  # every 20th tick 1 ms late (the next on time again)
+    t_us[150:] += 12000  # tick 151 more than a period late, the rest kept its pace
+    samples = [dataclasses.replace(base, seq=k + 1, t_device=int(t) * 1e-6, t_host=k * 0.005)
+               for k, t in enumerate(t_us)]
+    timing = LoopResult(samples=samples, Ts=0.005).timing()
+    assert timing["device_period_p50_ms"] == pytest.approx(5.0)
+    assert timing["device_jitter_max_ms"] == pytest.approx(12.0)
+    assert timing["device_late_ticks"] == 1 and len(timing["load_avg"]) == 3
+    assert timing["device_jitter_p99_ms"] == pytest.approx(1.0, abs=1e-6)  # 20 of 199 periods 1 ms off
+    assert "exceeds a tenth of the period (5 ms" in jitter_warning(timing)
+    even = LoopResult(samples=[dataclasses.replace(x, t_device=x.seq * 0.005) for x in samples], Ts=0.005).timing()
+    assert even["device_jitter_p99_ms"] == pytest.approx(0.0, abs=1e-6) and jitter_warning(even) is None
+    log = ExperimentData(t=0.005 * np.arange(10), q1=np.zeros(10), q2=np.zeros(10),
+                         metadata={"timing": json.dumps(timing)})
+    args = argparse.Namespace(quiet=True, name="sine-20", port="prx")
+    assert finish_port_run(RigRun(log, False, "complete", None, []), tmp_path / "x.csv", args,
+                           lambda lg, out, force: None) == 0
+    assert "iwp: warning: the device's tick jitter p99" in capsys.readouterr().err

@@ -236,6 +236,13 @@ def finish_port_run(run, out, args, write) -> int:
         print(f"iwp: warning: the link lost {link.get('lost', 0)} telemetry samples ({link.get('corrupt', 0)} corrupt "
               "frames): the log has gaps there (see its 'link' metadata); check the cable and the baud rate",
               file=sys.stderr)
+    if run.log is not None and "timing" in getattr(run.log, "metadata", {}):
+        from ..device.loop import jitter_warning
+
+        with contextlib.suppress(ValueError):
+            warning = jitter_warning(json.loads(run.log.metadata["timing"]))
+            if warning:
+                print(f"iwp: warning: {warning}", file=sys.stderr)
     if not run.interrupted:
         print(f"wrote {out} ({args.name} on {args.port}, {what})")
         return 0
