@@ -47,7 +47,7 @@ from iwp.device.protocol import (
     markdown_table,
     params_table,
 )
-from iwp.device.runs import run_on_rig
+from iwp.device.runs import Clearing, run_on_rig
 from iwp.device.twin import TwinRig
 from iwp.errors import InputError
 from iwp.ident.logfit import load_logs
@@ -664,9 +664,10 @@ def test_a_fault_or_changed_limits_left_on_the_device_refuse_a_run_until_cleared
         assert rig.device.core.status()[1:3] == (STATES["FAULT"], 3)  # not cleared silently
         rig.identify()  # a new connection finds the limit left by another client
         with pytest.raises(DeviceError, match=r"limits were changed .*: q4_max = 20 \(default 400\); .*reset_params"):
-            run_on_rig(rig, "sine-20", fast=True, duration=0.2, clear_fault=True)
+            run_on_rig(rig, "sine-20", fast=True, duration=0.2, clearing=Clearing(clear_fault=True))
         assert rig.device.core.param("q4_max") == 20.0
-        run = run_on_rig(rig, "sine-20", fast=True, duration=0.2, clear_fault=True, reset_params=True)
+        run = run_on_rig(rig, "sine-20", fast=True, duration=0.2,
+                         clearing=Clearing(clear_fault=True, reset_params=True))
         assert not run.interrupted and rig.device.core.param("q4_max") == 400.0
         assert rig.device.core.status()[1] == STATES["DISARMED"]  # a normal end leaves it disarmed
         run = run_on_rig(rig, "sine-20", fast=True, duration=0.2)  # so the next run needs no flag

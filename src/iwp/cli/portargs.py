@@ -38,6 +38,13 @@ def open_port_rig(args, truth=None):
     return open_rig(args.port, baudrate=args.baud, truth=truth, fast=args.fast)
 
 
+def port_clearing(args):
+    """``--clear-fault`` and ``--reset-params`` as :class:`~iwp.device.runs.Clearing`."""
+    from ..device.runs import Clearing
+
+    return Clearing(clear_fault=args.clear_fault, reset_params=args.reset_params)
+
+
 def port_operator(args):
     """Ask the operator (stdin) to arrange the pendulum on a rig without emulated hands; ``--yes``: do not ask."""
     def ask(message: str) -> None:

@@ -25,7 +25,7 @@ import sys
 from ..errors import InputError
 from ._common import add_force_arg, float_list, plain
 from .interrupts import interrupts_ignored
-from .portargs import add_port_args, open_port_rig, port_operator, port_progress
+from .portargs import add_port_args, open_port_rig, port_clearing, port_operator, port_progress
 
 
 def _x0(text: str) -> list[float]:
@@ -212,8 +212,7 @@ def run_port(args) -> int:
                "locked": True if args.locked else None}
     with open_port_rig(args, _truth(args.truth) if args.truth else None) as rig:
         run = run_on_rig(rig, args.name, controller=args.controller, fast=args.fast, operator=port_operator(args),
-                         progress=port_progress(args), clear_fault=args.clear_fault,
-                         reset_params=args.reset_params, **options)
+                         progress=port_progress(args), clearing=port_clearing(args), **options)
     return finish_port_run(run, out, args, write_result)
 
 

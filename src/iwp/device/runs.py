@@ -46,7 +46,8 @@ from .protocol import PARAMS
 from .record import loop_log
 
 __all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "USER_INPUT_KINDS", "RUN_NAMES", "PAPER_SERIES", "run_kind",
-           "arrange", "hold_at", "releaser", "settle", "default_operator", "prepare", "latched", "GUARD_PARAMS"]
+           "arrange", "hold_at", "releaser", "settle", "default_operator", "prepare", "latched", "GUARD_PARAMS",
+           "Clearing"]
 
 #: User inputs and the options each takes (with their defaults).
 USER_INPUTS: dict[str, dict[str, Any]] = {
@@ -135,8 +136,7 @@ def run_kind(name: str) -> ExperimentKind:
 
 def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = False,
                operator: Callable[[str], None] | None = None, progress: Callable[[dict], None] | None = None,
-               limits: HostLimits | None = None, clear_fault: bool = False, reset_params: bool = False,
-               **options) -> RigRun:
+               limits: HostLimits | None = None, clearing: Clearing | None = None, **options) -> RigRun:
     """Run experiment or input ``name`` on ``rig``.
 
     Parameters
@@ -154,8 +154,8 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
         See :func:`~iwp.device.loop.run_loop`.
     limits : HostLimits, optional
         The host's check (default: the device's own limits).
-    clear_fault, reset_params : bool
-        Clear a fault left on the device; restore its changed limits (see :func:`prepare`; without them a run
+    clearing : Clearing, optional
+        Clear a fault left on the device, restore its changed limits (see :func:`prepare`; without them a run
         refuses to start on such a device).
     **options
         The experiment's options (``iwp rig list``; for user inputs :data:`USER_INPUTS`).
@@ -173,7 +173,7 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
     if fast:
         if not rig.has("HOST_CLOCK"):
             raise DeviceError(f"{rig.port}: this device runs in real time only (no HOST_CLOCK); drop --fast")
-    prepare(rig, fast, clear_fault=clear_fault, reset_params=reset_params)
+    prepare(rig, fast, clearing)
     compensated = s.get("v_dz") is not None
     pair = compensation_thresholds(s.get("v_dz")) if compensated else (0.0, 0.0)
     rig.set_params(v_dz_pos=pair[0], v_dz_neg=pair[1])
@@ -295,7 +295,23 @@ def latched(rig: Rig) -> tuple[str | None, dict[str, float]]:
     return fault, changed
 
 
-def prepare(rig: Rig, fast: bool, *, clear_fault: bool = False, reset_params: bool = False) -> None:
+@dataclass(frozen=True)
+class Clearing:
+    """What a run may clear that an earlier run or another client left on the device (:func:`prepare`).
+
+    Attributes
+    ----------
+    clear_fault : bool
+        Clear a latched fault or emergency stop (``--clear-fault``).
+    reset_params : bool
+        Put changed limits (:data:`GUARD_PARAMS`) back to their defaults (``--reset-params``).
+    """
+
+    clear_fault: bool = False
+    reset_params: bool = False
+
+
+def prepare(rig: Rig, fast: bool, clearing: Clearing | None = None) -> None:
     """Before a run: refuse a latched fault or changed limits unless told to clear them; disarm, stream every
     tick, set the clock.
 
@@ -305,10 +321,9 @@ def prepare(rig: Rig, fast: bool, *, clear_fault: bool = False, reset_params: bo
         The connected rig.
     fast : bool
         By the host's clock (the device's ``host_clock``).
-    clear_fault : bool
-        Clear a fault or emergency stop left on the device (:func:`latched`).
-    reset_params : bool
-        Put the device's changed limits (:data:`GUARD_PARAMS`) back to their defaults.
+    clearing : Clearing, optional
+        Clear a fault or emergency stop left on the device (:func:`latched`); put its changed limits back to
+        their defaults (default: neither; such a device refuses the run).
 
     Raises
     ------
@@ -316,11 +331,12 @@ def prepare(rig: Rig, fast: bool, *, clear_fault: bool = False, reset_params: bo
         A fault or emergency stop is latched and ``clear_fault`` is False, or limits were changed and
         ``reset_params`` is False (one line naming them and the argument that clears them).
     """
+    clearing = Clearing() if clearing is None else clearing
     fault, changed = latched(rig)
-    if fault is not None and not clear_fault:
+    if fault is not None and not clearing.clear_fault:
         raise DeviceError(f"{rig.port}: the device is in {fault}, latched by an earlier run or another client; "
                           "check the rig, then run again with clear_fault", argument="clear_fault")
-    if changed and not reset_params:
+    if changed and not clearing.reset_params:
         what = ", ".join(f"{k} = {v:g} (default {PARAMS[k].default:g})" for k, v in changed.items())
         raise DeviceError(f"{rig.port}: the device's limits were changed by an earlier run or another client: "
                           f"{what}; run again with reset_params to restore the defaults", argument="reset_params")
