@@ -47,7 +47,7 @@ from iwp.device.protocol import (
     markdown_table,
     params_table,
 )
-from iwp.device.runs import run_on_rig
+from iwp.device.runs import Clearing, run_on_rig
 from iwp.device.twin import TwinRig
 from iwp.errors import InputError
 from iwp.ident.logfit import load_logs
@@ -384,7 +384,7 @@ def _armed_run(err, argv, **popen) -> subprocess.Popen:
 def test_ctrl_c_leaves_a_complete_readable_log_marked_interrupted(emulator, tmp_path):
     port, err = emulator
     out = tmp_path / "c.csv"
-    p = _armed_run(err, ["rig", "run", "full-chirp", "--port", port, "--out", str(out)])
+    p = _armed_run(err, ["rig", "run", "full-chirp", "--port", port, "--out", str(out), "--clear-fault"])
     time.sleep(2.0)
     p.send_signal(signal.SIGINT)
     _, stderr = p.communicate(timeout=30)
@@ -406,7 +406,8 @@ def test_a_second_interrupt_during_the_stop_still_writes_the_log(emulator, tmp_p
     # the second while the host waits for the emergency stop's acknowledgement
     port, err = emulator
     out = tmp_path / "twice.csv"
-    p = _armed_run(err, ["rig", "run", "sine-60", "--port", port, "--out", str(out)], start_new_session=True)
+    p = _armed_run(err, ["rig", "run", "sine-60", "--port", port, "--out", str(out), "--clear-fault"],
+                  start_new_session=True)
     time.sleep(1.0)
     p.send_signal(signal.SIGINT)
     os.killpg(p.pid, signal.SIGINT)
@@ -467,7 +468,8 @@ def test_the_host_side_hopf_law_runs_in_real_time_without_tripping_the_watchdog(
     # stopped the motor after 0.09 s
     port, _ = emulator
     out = tmp_path / "host.csv"
-    r = _iwp("control", "run", "hopf", "--where", "host", "--port", port, "--duration", "2", "--out", str(out))
+    r = _iwp("control", "run", "hopf", "--where", "host", "--port", port, "--duration", "2", "--out", str(out),
+             "--clear-fault")  # an earlier test's interrupted run left the shared emulator in ESTOP
     assert r.returncode == 0, r.stderr
     log = read_experiment(out)
     assert log.metadata["interrupted"] == "false" and log.metadata["controller"] == "host"
@@ -540,3 +542,293 @@ def test_samples_the_link_lost_are_a_warning_on_screen(tmp_path, capsys):
     err = capsys.readouterr().err
     assert status == 0 and written == [tmp_path / "x.csv"]
     assert "the link lost 223 telemetry samples (237 corrupt frames)" in err
+
+
+# --------------------------------------------------------------------------
+# issue 40: the emulator at every documented period, faults at connect, the watchdog in wall time
+# --------------------------------------------------------------------------
+def _send(device, name, **kw):
+    device.rx(encode_frame(encode(name, **kw)))
+
+
+@pytest.mark.parametrize("period_us", [1000, 2000, 5000, 10000, 20000])
+@pytest.mark.parametrize("locked", [True, False])
+def test_the_emulated_board_runs_and_coasts_to_rest_at_every_documented_period(period_us, locked):
+    """A 1 ms period with the pendulum clamped crashed (ZeroDivisionError) 0.3 s after the motor stopped: the
+    wheel coasting to rest underflowed to subnormal numbers, where the integrator's error norm was 0/0."""
+    device = TwinDevice()
+    _send(device, "SET_PARAM", req=1, param=PARAMS["period_us"].id, value=float(period_us))
+    _send(device, "FIXTURE", req=2, action=1 if locked else 2, q1=0.0 if locked else 0.5)
+    _send(device, "ARM", req=3)
+    Ts = period_us * 1e-6
+    n = int(round(1.0 / Ts))
+    for k in range(1, n + 1):
+        _send(device, "COMMAND", seq=k, tick=k + 1, u=float(20.0 * math.sin(5.0 * k * Ts)))
+        device.tick()
+        device.tx()
+    assert device.core.status()[1] == STATES["ARMED"]
+    _send(device, "ESTOP", req=4)  # as every run ends: the motor off, the wheel coasts to rest
+    for _ in range(int(round(3.0 / Ts))):
+        device.tick()
+        device.tx()
+    x = device.stepper.x
+    assert np.all(np.isfinite(x)) and abs(device.stepper.t - 4.0) < 2 * Ts
+    assert abs(x[3]) < 1e-3  # the wheel came to rest
+
+
+class _Stamped(_Wire):
+    """A pyserial-like wrapper that notes the wall time after each write (the host's last bytes)."""
+
+    def __init__(self, inner):
+        self.inner, self.times = inner, []
+
+    def write(self, data):
+        n = self.inner.write(data)
+        self.times.append(time.monotonic())
+        return n
+
+
+def test_the_emulators_watchdog_counts_wall_time_when_the_emulator_falls_behind():
+    """The host stops; the emulator's next period stalls 90 ms: the motor stops within the watchdog (100 ms) plus
+    one period of the host's last bytes in wall time (it was 187 ms), and the emulator's report says so."""
+    rig = TwinRig()  # real time
+    events = []
+    stall = []
+    advance = rig.device.stepper.advance
+
+    def slow(v, dt):
+        if stall:
+            time.sleep(stall.pop())
+        advance(v, dt)
+
+    try:
+        rig.emulator.on_event = events.append
+        rig.device.stepper.advance = slow
+        wire = rig.link.serial = _Stamped(rig.link.serial)
+        rig.arm()
+        driven = 0
+        while driven < 60:  # 0.3 s of commands, two ticks ahead
+            for s in rig.samples(0.5):
+                rig.command(10.0, s.seq + 2)
+                driven += 1
+        last = wire.times[-1]  # the host is gone from here
+        stall.append(0.09)
+        time.sleep(0.6)
+        trip = [e for e in events if e["state"] != "ARMED" and e["wall"] > last]
+    finally:
+        rig.close()
+    assert trip and trip[0]["state"] == "FAULT" and trip[0]["fault"] == "WATCHDOG", events
+    measured = trip[0]["wall"] - last
+    assert measured <= 0.100 + 0.005 + 0.015, measured
+    assert abs(trip[0]["after_host"] - measured) < 0.003, (trip[0]["after_host"], measured)
+    assert trip[0]["v"] == 0.0
+
+
+def test_fast_runs_are_lock_stepped_identical_under_load(monkeypatch):
+    """By the host's clock the armed device waits for each tick's command: a host slowed at random (here 30 ms
+    every 40 commands, six periods) gives the same log to the bit, with no late tick."""
+    def run(delay: bool):
+        rig = TwinRig(fast=True)
+        try:
+            if delay:
+                orig, calls = rig.command, []
+
+                def command(u, tick=0):
+                    calls.append(tick)
+                    if len(calls) % 40 == 0:
+                        time.sleep(0.03)
+                    orig(u, tick)
+
+                monkeypatch.setattr(rig, "command", command)
+            got = run_on_rig(rig, "full-chirp", fast=True, duration=3.0)
+        finally:
+            rig.close()
+        assert not got.interrupted, got.reason
+        return got.log
+
+    a, b = run(False), run(True)
+    for name in ("t", "q1", "q2", "u"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    assert json.loads(b.metadata["timing"])["late_ticks"] == 0
+    assert np.ptp(a.q1) > 0.01  # the pendulum moved: the comparison has something to compare
+
+
+def test_a_fault_or_changed_limits_left_on_the_device_refuse_a_run_until_cleared():
+    rig = TwinRig(fast=True)
+    try:
+        rig.set_params(q4_max=20.0)  # this connection's own limit: taken as set
+        run = run_on_rig(rig, "sine-60", fast=True, duration=2.0)
+        assert run.interrupted and "Q4_LIMIT" in run.reason  # the limit stopped it (as the user saw at 0.3 s)
+        with pytest.raises(DeviceError, match=r"in FAULT \(Q4_LIMIT\), latched .* clear_fault$"):
+            run_on_rig(rig, "sine-20", fast=True, duration=0.2)
+        assert rig.device.core.status()[1:3] == (STATES["FAULT"], 3)  # not cleared silently
+        rig.identify()  # a new connection finds the limit left by another client
+        with pytest.raises(DeviceError, match=r"limits were changed .*: q4_max = 20 \(default 400\); .*reset_params"):
+            run_on_rig(rig, "sine-20", fast=True, duration=0.2, clearing=Clearing(clear_fault=True))
+        assert rig.device.core.param("q4_max") == 20.0
+        run = run_on_rig(rig, "sine-20", fast=True, duration=0.2,
+                         clearing=Clearing(clear_fault=True, reset_params=True))
+        assert not run.interrupted and rig.device.core.param("q4_max") == 400.0
+        assert rig.device.core.status()[1] == STATES["DISARMED"]  # a normal end leaves it disarmed
+        run = run_on_rig(rig, "sine-20", fast=True, duration=0.2)  # so the next run needs no flag
+        assert not run.interrupted
+        rig.estop()
+        with pytest.raises(DeviceError, match=r"in ESTOP, latched"):
+            run_on_rig(rig, "sine-20", fast=True, duration=0.2)
+    finally:
+        rig.close()
+
+
+def test_the_command_line_refuses_a_latched_fault_with_exit_2_until_clear_fault(emulator, tmp_path):
+    port, _ = emulator
+    out = tmp_path / "f.csv"
+    with Rig(port) as other:  # another client leaves an emergency stop and a changed limit
+        other.estop()
+        other.set_params(q1_max=3.0)
+    try:
+        args = ("rig", "run", "sine-20", "--port", port, "--fast", "--duration", "0.2", "--out", str(out))
+        r = _iwp(*args, timeout=60)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and not out.exists(), r.stderr
+        assert "the device is in ESTOP" in r.stderr and "--clear-fault" in r.stderr
+        r = _iwp(*args, "--clear-fault", timeout=60)
+        assert r.returncode == 2 and "q1_max = 3 (default 12.5664)" in r.stderr and "--reset-params" in r.stderr
+        assert not out.exists()
+        r = _iwp("control", "run", "hopf", "--port", port, "--fast", "--duration", "0.5", "--out", str(out),
+                 "--clear-fault", "--reset-params", timeout=60)
+        assert r.returncode == 0, r.stderr
+        assert read_experiment(out).metadata["interrupted"] == "false"
+    finally:
+        with Rig(port) as other:
+            other.clear()
+            other.set_params(q1_max=PARAMS["q1_max"].default)
+
+
+# --------------------------------------------------------------------------
+# docs/protocol.md's rules, through the emulated board
+# --------------------------------------------------------------------------
+class _Board:
+    """An emulated board driven frame by frame: requests answered by their ACK, ticks by their telemetry."""
+
+    def __init__(self):
+        self.device = TwinDevice()
+        self.dec = FrameDecoder()
+        self.req = 0
+
+    def request(self, name, **kw):
+        self.req += 1
+        _send(self.device, name, req=self.req, **kw)
+        acks = [decode(p) for p in self.dec.feed(self.device.tx()) if p[0] == MESSAGES["ACK"].id]
+        assert acks and acks[-1]["req"] == self.req
+        return acks[-1]
+
+    def tick(self, n=1):
+        out = []
+        for _ in range(n):
+            self.device.tick()
+            out += [decode(p) for p in self.dec.feed(self.device.tx()) if p[0] == MESSAGES["TELEMETRY"].id]
+        return out
+
+
+def test_protocol_fixture_clamp_ignores_q1_is_refused_armed_and_an_unknown_action_is_bad_mode():
+    from iwp.device.protocol import ACK_CODES, FIXTURE_ACTIONS
+
+    b = _Board()
+    assert b.request("FIXTURE", action=FIXTURE_ACTIONS["HOLD"], q1=0.7)["code"] == ACK_CODES["OK"]
+    b.tick()
+    assert b.device.stepper.x[0] == pytest.approx(0.7)
+    assert b.request("FIXTURE", action=FIXTURE_ACTIONS["CLAMP"], q1=0.7)["code"] == ACK_CODES["OK"]
+    b.tick()
+    assert b.device.stepper.x[0] == 0.0 and b.device.stepper.locked  # CLAMP clamps at rest: its q1 is ignored
+    assert b.request("FIXTURE", action=3, q1=0.0)["code"] == ACK_CODES["BAD_MODE"]  # unknown action
+    assert b.request("ARM")["code"] == ACK_CODES["OK"]
+    for action in ("CLAMP", "HOLD"):
+        assert b.request("FIXTURE", action=FIXTURE_ACTIONS[action], q1=0.0)["code"] == ACK_CODES["ARMED"]
+    assert b.request("FIXTURE", action=FIXTURE_ACTIONS["RELEASE"], q1=0.0)["code"] == ACK_CODES["OK"]
+
+
+def test_protocol_arm_in_estop_is_refused_with_code_fault_and_stream_0_stops_telemetry():
+    from iwp.device.protocol import ACK_CODES
+
+    b = _Board()
+    b.request("ESTOP")
+    assert b.request("ARM")["code"] == ACK_CODES["FAULT"] == 4
+    assert len(b.tick(10)) == 10
+    assert b.request("STREAM", every=0)["code"] == ACK_CODES["OK"]
+    assert b.tick(10) == []  # every = 0: no telemetry at all
+    b.request("STREAM", every=3)
+    assert [m["seq"] % 3 for m in b.tick(9)] == [0, 0, 0]
+
+
+def test_protocol_zero_mask_bit_0_is_the_pendulum_bit_1_the_wheel():
+    from iwp.device.protocol import FIXTURE_ACTIONS
+
+    b = _Board()
+    b.request("FIXTURE", action=FIXTURE_ACTIONS["HOLD"], q1=0.5)
+    b.device.stepper.x[1] = 1.0  # the wheel turned 1 rad
+    b.tick()
+    b.request("ZERO", mask=1)
+    m = b.tick()[-1]
+    assert m["count1"] == 0 and m["count2"] == round(1.0 / b.device.stepper.step)
+    b.request("ZERO", mask=2)
+    assert b.tick()[-1]["count2"] == 0
+    b.device.stepper.x[0] = 0.6
+    b.request("ZERO", mask=0)  # neither
+    assert b.tick()[-1]["count1"] == round(0.1 / b.device.stepper.step)
+
+
+def test_protocol_command_queue_past_ticks_replacement_and_a_full_queue():
+    b = _Board()
+    b.request("ARM")
+    k = b.tick(8)[-1]["seq"]
+    seq = iter(range(1, 1000))
+
+    def command(tick, u):
+        _send(b.device, "COMMAND", seq=next(seq), tick=tick, u=u)
+
+    command(k - 5, 1.0)  # a past tick: applies from the next tick
+    assert b.tick()[-1]["u"] == 1.0
+    k += 1
+    command(k + 3, 3.0)
+    command(k + 4, 4.0)
+    command(k + 2, 2.0)  # an earlier tick than those queued replaces them
+    got = b.tick(5)
+    assert [m["u"] for m in got] == [1.0, 2.0, 2.0, 2.0, 2.0]
+    k = got[-1]["seq"]
+    for j in range(1, 10):  # 9 commands ahead: the queue holds 8, the 9th is dropped with the flag QUEUE_FULL
+        command(k + j, float(10 + j))
+    got = b.tick(10)
+    assert [m["u"] for m in got] == [11.0, 12.0, 13.0, 14.0, 15.0, 16.0, 17.0, 18.0, 18.0, 18.0]
+    assert got[0]["flags"] & 4 == 0  # the flag was cleared by the first command applied
+    assert got[-1]["late"] - got[0]["late"] == 2  # the dropped tick's hold counts as late, not as dropped
+
+
+def test_the_timing_reports_the_devices_tick_jitter_and_load_and_warns_past_a_tenth_of_the_period(tmp_path, capsys):
+    import argparse
+    import dataclasses
+
+    from iwp.cli.rig import finish_port_run
+    from iwp.device.connection import Sample
+    from iwp.device.loop import LoopResult, jitter_warning
+    from iwp.device.runs import RigRun
+
+    base = Sample(seq=0, t_device=0.0, count1=0, count2=0, q1=0.0, q2=0.0, q4=0.0, u=0.0, v=0.0, current=math.nan,
+                  state="ARMED", fault="NONE", flags=(), overruns=0, late=0, rx_errors=0, t_host=0.0)
+    t_us = 5000 * np.arange(1, 201)
+    t_us[::20] += 1000  # every 20th tick 1 ms late (the next on time again)
+    t_us[150:] += 12000  # tick 151 more than a period late, the rest kept its pace
+    samples = [dataclasses.replace(base, seq=k + 1, t_device=int(t) * 1e-6, t_host=k * 0.005)
+               for k, t in enumerate(t_us)]
+    timing = LoopResult(samples=samples, Ts=0.005).timing()
+    assert timing["device_period_p50_ms"] == pytest.approx(5.0)
+    assert timing["device_jitter_max_ms"] == pytest.approx(12.0)
+    assert timing["device_late_ticks"] == 1 and len(timing["load_avg"]) == 3
+    assert timing["device_jitter_p99_ms"] == pytest.approx(1.0, abs=1e-6)  # 20 of 199 periods 1 ms off
+    assert "exceeds a tenth of the period (5 ms" in jitter_warning(timing)
+    even = LoopResult(samples=[dataclasses.replace(x, t_device=x.seq * 0.005) for x in samples], Ts=0.005).timing()
+    assert even["device_jitter_p99_ms"] == pytest.approx(0.0, abs=1e-6) and jitter_warning(even) is None
+    log = ExperimentData(t=0.005 * np.arange(10), q1=np.zeros(10), q2=np.zeros(10),
+                         metadata={"timing": json.dumps(timing)})
+    args = argparse.Namespace(quiet=True, name="sine-20", port="prx")
+    assert finish_port_run(RigRun(log, False, "complete", None, []), tmp_path / "x.csv", args,
+                           lambda lg, out, force: None) == 0
+    assert "iwp: warning: the device's tick jitter p99" in capsys.readouterr().err

@@ -221,7 +221,9 @@ static void test_watchdog_limits_estop(void)
     send0(IWP_MSG_ESTOP); /* idempotent */
     CHECK(last(IWP_MSG_ACK, m) && m[IWP_OFF_ACK_CODE] == IWP_ACK_OK);
     tick(0, 0);
-    CHECK(last(IWP_MSG_TELEMETRY, m) && m[IWP_OFF_TELEMETRY_STATE] == IWP_STATE_ESTOP && getf(m + IWP_OFF_TELEMETRY_V) == 0.0f);
+    /* an ESTOP in FAULT keeps the fault that stopped the motor (the one to report), the motor off */
+    CHECK(last(IWP_MSG_TELEMETRY, m) && m[IWP_OFF_TELEMETRY_STATE] == IWP_STATE_FAULT &&
+          m[IWP_OFF_TELEMETRY_FAULT] == IWP_FAULT_Q1_LIMIT && getf(m + IWP_OFF_TELEMETRY_V) == 0.0f);
 }
 
 static void test_acks_echo_req_and_a_repeated_arm_feeds_the_watchdog(void)

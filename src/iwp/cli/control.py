@@ -17,7 +17,7 @@ from ._common import (
     load_uncertainty_arg,
     write_robust,
 )
-from .portargs import add_port_args, open_port_rig, port_operator, port_progress
+from .portargs import add_port_args, open_port_rig, port_clearing, port_operator, port_progress
 
 _SWINGUP_DESCRIPTION = """\
 Swing the pendulum up from rest at the bottom by pumping energy with the
@@ -225,7 +225,7 @@ def run_on_port(args) -> int:
     with open_port_rig(args) as rig:
         spec = ControlRun(args.what, duration=duration, where=where, k1=args.k1, k2=args.k2, x0=args.x0)
         run = run_control(rig, spec, params=params, fast=args.fast, operator=port_operator(args),
-                          progress=port_progress(args))
+                          progress=port_progress(args), clearing=port_clearing(args))
     args.name = f"control {args.what}"
     status = finish_port_run(run, out, args, write_result)
     if status == 0 and args.what in ("balance", "swingup") and run.log is not None \

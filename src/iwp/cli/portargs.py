@@ -10,7 +10,7 @@ import sys
 
 
 def add_port_args(p: argparse.ArgumentParser) -> None:
-    """``--port``, ``--baud``, ``--fast``, ``--yes``, ``--quiet``."""
+    """``--port``, ``--baud``, ``--fast``, ``--yes``, ``--quiet``, ``--clear-fault``, ``--reset-params``."""
     p.add_argument("--port", metavar="PORT",
                    help="a rig in the loop: a serial device (/dev/ttyACM0), the port iwp rig emulate printed, or "
                         "'twin' for the twin in this process")
@@ -20,6 +20,12 @@ def add_port_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--yes", action="store_true",
                    help="a rig without emulated hands: do not ask before each set-up (it is arranged)")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress line")
+    p.add_argument("--clear-fault", action="store_true",
+                   help="clear a fault or emergency stop left on the device by an earlier run or another client "
+                        "(without it such a run is refused, exit status 2)")
+    p.add_argument("--reset-params", action="store_true",
+                   help="put the device's limits (watchdog_ms, v_max, q1_max, q4_max, sat_ms_max) back to their "
+                        "defaults when another client changed them (without it such a run is refused, exit 2)")
 
 
 def open_port_rig(args, truth=None):
@@ -30,6 +36,13 @@ def open_port_rig(args, truth=None):
     if args.baud is not None and args.baud <= 0:
         raise InputError(f"--baud must be a positive integer, got {args.baud}")
     return open_rig(args.port, baudrate=args.baud, truth=truth, fast=args.fast)
+
+
+def port_clearing(args):
+    """``--clear-fault`` and ``--reset-params`` as :class:`~iwp.device.runs.Clearing`."""
+    from ..device.runs import Clearing
+
+    return Clearing(clear_fault=args.clear_fault, reset_params=args.reset_params)
 
 
 def port_operator(args):

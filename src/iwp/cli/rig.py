@@ -25,7 +25,7 @@ import sys
 from ..errors import InputError
 from ._common import add_force_arg, float_list, plain
 from .interrupts import interrupts_ignored
-from .portargs import add_port_args, open_port_rig, port_operator, port_progress
+from .portargs import add_port_args, open_port_rig, port_clearing, port_operator, port_progress
 
 
 def _x0(text: str) -> list[float]:
@@ -212,7 +212,7 @@ def run_port(args) -> int:
                "locked": True if args.locked else None}
     with open_port_rig(args, _truth(args.truth) if args.truth else None) as rig:
         run = run_on_rig(rig, args.name, controller=args.controller, fast=args.fast, operator=port_operator(args),
-                         progress=port_progress(args), **options)
+                         progress=port_progress(args), clearing=port_clearing(args), **options)
     return finish_port_run(run, out, args, write_result)
 
 
@@ -235,6 +235,13 @@ def finish_port_run(run, out, args, write) -> int:
         print(f"iwp: warning: the link lost {link.get('lost', 0)} telemetry samples ({link.get('corrupt', 0)} corrupt "
               "frames): the log has gaps there (see its 'link' metadata); check the cable and the baud rate",
               file=sys.stderr)
+    if run.log is not None and "timing" in getattr(run.log, "metadata", {}):
+        from ..device.loop import jitter_warning
+
+        with contextlib.suppress(ValueError):
+            warning = jitter_warning(json.loads(run.log.metadata["timing"]))
+            if warning:
+                print(f"iwp: warning: {warning}", file=sys.stderr)
     if not run.interrupted:
         print(f"wrote {out} ({args.name} on {args.port}, {what})")
         return 0

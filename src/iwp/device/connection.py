@@ -9,7 +9,7 @@ emulator's pseudo-terminal, simavr's, or the in-process twin
 
 Stopping the motor: :meth:`Rig.estop` is idempotent and never raises;
 :meth:`Rig.close` (and leaving a ``with`` block, and garbage collection)
-calls it. The device's own watchdog stops the motor when the host is gone
+disarms after a normal end and calls it otherwise. The device's own watchdog stops the motor when the host is gone
 (docs/protocol.md).
 """
 
@@ -177,6 +177,7 @@ class Rig:
         self._hb_seq = 0
         self._req = 0
         self.info: DeviceInfo | None = None
+        self.params_found: dict[str, float] = {}
         try:
             self.link.discard_input()
             self.info = self.identify()
@@ -277,6 +278,8 @@ class Rig:
         if params_hash(values) != info.params_hash:
             raise DeviceError(f"{self.port}: the parameters read back do not match the device's hash")
         self.info = info
+        #: the parameters as this connection found them (what an earlier run or another client left)
+        self.params_found = dict(values)
         return info
 
     def get_param(self, name: str) -> float:
@@ -402,10 +405,23 @@ class Rig:
 
     # ------------------------------------------------------------------ closing
     def close(self) -> None:
-        """Emergency stop, then close the port. Idempotent."""
+        """Stop the motor, then close the port. Idempotent.
+
+        After a normal end (the host disarmed, or never armed) a disarm, so that the next run finds the device
+        as this one left it, not in a latched emergency stop; otherwise (armed, or the disarm fails) an
+        emergency stop, latched until :meth:`clear`.
+        """
         if self.link.closed:
             return
-        self.estop()
+        stopped = False
+        if self._stopped:
+            try:
+                self.disarm()
+                stopped = True
+            except Exception:  # noqa: BLE001 (fall back to the emergency stop; the watchdog is the last line)
+                pass
+        if not stopped:
+            self.estop()
         self.link.close()
 
     def __enter__(self) -> "Rig":

@@ -34,7 +34,7 @@ from ..models.parameters import LumpedParameters
 from .connection import Rig
 from .loop import DeviceLaw, HostLaw, HostLimits, LoopCommand, run_loop
 from .record import loop_log
-from .runs import RigRun, arrange, default_operator, hold_at, releaser, run_on_rig
+from .runs import Clearing, RigRun, arrange, default_operator, hold_at, prepare, releaser, run_on_rig
 
 __all__ = ["run_control", "ControlRun", "CONTROLLERS", "balanced", "BALANCE_START", "V_DZ"]
 
@@ -100,7 +100,7 @@ class ControlRun:
 
 
 def run_control(rig: Rig, run: ControlRun, *, params: LumpedParameters, fast: bool = False, operator=None,
-                progress=None, limits: HostLimits | None = None) -> RigRun:
+                progress=None, limits: HostLimits | None = None, clearing: Clearing | None = None) -> RigRun:
     """Run the controller of ``run`` (:class:`ControlRun`) on ``rig``; see the module's docstring.
 
     Parameters
@@ -117,6 +117,8 @@ def run_control(rig: Rig, run: ControlRun, *, params: LumpedParameters, fast: bo
         Who clamps and releases the pendulum; called with the run's progress.
     limits : HostLimits, optional
         The host's limits (default: the device's).
+    clearing : Clearing, optional
+        Clear a fault left on the device, restore its changed limits (see :func:`~iwp.device.runs.prepare`).
     """
     if not isinstance(run, ControlRun):
         raise InputError(f"run must be a ControlRun, got {type(run).__name__}", argument="run")
@@ -133,7 +135,8 @@ def run_control(rig: Rig, run: ControlRun, *, params: LumpedParameters, fast: bo
                              f"{rig.info.params['q1_max']:g} rad: the device would not arm", argument="x0")
     if what == "hopf":
         return run_on_rig(rig, "closed-loop", controller=where, fast=fast, operator=operator, progress=progress,
-                          limits=limits, k1=k1, k2=k2, duration=duration, x0=0.3 if x0 is None else x0)
+                          limits=limits, k1=k1, k2=k2, duration=duration, x0=0.3 if x0 is None else x0,
+                          clearing=clearing)
     if fast and not rig.has("HOST_CLOCK"):
         raise InputError(f"{rig.port}: this device runs in real time only (no HOST_CLOCK); drop --fast")
     Ts = rig.info.params["period_us"] * 1e-6
@@ -141,12 +144,8 @@ def run_control(rig: Rig, run: ControlRun, *, params: LumpedParameters, fast: bo
     u_max = min(rig.info.params["u_max"], rig.info.params["v_max"] - V_DZ)
     q1_start = (math.pi - BALANCE_START if what == "balance" else 0.0) if x0 is None else float(np.ravel([x0])[0])
     operator = operator or default_operator
-    got = rig.samples(0.5)
-    if got and got[-1].state != "DISARMED":
-        rig.clear()
-    rig.disarm()
-    rig.stream(1)
-    rig.set_params(host_clock=1.0 if fast else 0.0, v_dz_pos=V_DZ, v_dz_neg=V_DZ)
+    prepare(rig, fast, clearing)
+    rig.set_params(v_dz_pos=V_DZ, v_dz_neg=V_DZ)
     meta = {"experiment": f"control {what}", "controller": where, "pendulum": "free", "x0": repr(q1_start),
             "params": params.to_dict() if hasattr(params, "to_dict") else str(params)}
     arrange(rig, False, operator)

@@ -22,7 +22,7 @@ import tempfile
 from pathlib import Path
 
 from .errors import DeviceError
-from .protocol import CAPS
+from .protocol import CAPS, PARAMS
 
 __all__ = ["DeviceCore", "core_library", "CORE_SOURCES", "CSRC", "EMULATOR_CAPS", "EMULATOR_BASE_US"]
 
@@ -88,6 +88,8 @@ def core_library() -> ctypes.CDLL:
     so.iwp_core_overrun.argtypes = [P]
     so.iwp_core_ready.argtypes = [P]
     so.iwp_core_ready.restype = ctypes.c_int
+    so.iwp_core_param.argtypes = [P, ctypes.c_uint8]
+    so.iwp_core_param.restype = ctypes.c_float
     so.iwp_core_period_us.argtypes = [P]
     so.iwp_core_period_us.restype = ctypes.c_uint32
     so.iwp_core_tx_take.argtypes = [P, ctypes.c_char_p, ctypes.c_uint16]
@@ -142,6 +144,10 @@ class DeviceCore:
     def ready(self) -> bool:
         """Host clock: the host allows the next tick now."""
         return bool(self._so.iwp_core_ready(self._ptr))
+
+    def param(self, name: str) -> float:
+        """The value of device parameter ``name`` (:data:`~iwp.device.protocol.PARAMS`) [its unit]."""
+        return float(self._so.iwp_core_param(self._ptr, PARAMS[name].id))
 
     @property
     def period_us(self) -> int:

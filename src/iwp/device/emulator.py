@@ -10,13 +10,26 @@ advanced by exactly one period.
 :class:`Emulator` serves a :class:`TwinDevice` on a file descriptor (the
 master side of a pseudo-terminal, :func:`open_pty`): bytes from the host go
 to the core, the core's bytes go back, and a tick runs every period of the
-wall clock. With the device's ``host_clock`` parameter set (caps
-``HOST_CLOCK``), a tick also runs as soon as the host allows the next one
-(it has sent the next tick's command or heartbeat), so that a run goes as
-fast as the host keeps up, and never slower than real time: without the
-host, the device ticks in real time and its watchdog stops the motor. A
-tick that starts more than one period late is an overrun (counted by the
-core, reported in telemetry); the lateness of every real-time tick is kept
+wall clock. A reader thread takes the host's bytes as they arrive (a
+board's UART receives them whatever its loop does) and stamps their wall
+time; the core gets them between ticks.
+
+The device's clock (telemetry ``t_us``, the watchdog's measure) is the wall
+clock in real time, as a board's crystal: when the emulator falls behind
+(a stall of the machine), its watchdog still stops the motor within
+``watchdog_ms`` plus one period of the host's last bytes. By the host's
+clock it is the ideal tick time (deterministic). The plant's time
+(``TwinStepper.t``) is always the ideal tick time: one period per tick.
+
+With the device's ``host_clock`` parameter set (caps ``HOST_CLOCK``,
+``--fast``), a tick runs as soon as the host allows it (it has sent the
+next tick's command or heartbeat). Armed, once the host clocks the ticks,
+the device is lock-stepped: it waits for the host's command for each tick
+(so a run gives the same log under any load), for up to :data:`HOST_WAIT`
+of wall time; then it ticks in real time, and its watchdog stops the motor
+of a host that is gone. Otherwise it ticks in real time. A tick that starts
+more than one period late is an overrun (counted by the core, reported in
+telemetry); the lateness of every real-time tick is kept
 (:attr:`Emulator.lateness`).
 """
 
@@ -46,6 +59,9 @@ _NAN = float("nan")
 #: Bytes kept for a host that does not read (beyond them the oldest are dropped, as a UART without flow control
 #: drops them; the host sees the gap).
 _TX_BACKLOG = 2048
+#: By the host's clock, armed, the device waits this long [s] of wall time for the host's next command before it
+#: ticks in real time again (a host gone: its watchdog stops the motor).
+HOST_WAIT = 2.0
 
 
 class TwinDevice:
@@ -74,8 +90,14 @@ class TwinDevice:
     def tx(self) -> bytes:
         return self.core.tx()
 
-    def tick(self) -> float:
-        """One loop period: the operator's pending action, the encoders, the core, the plant over one period."""
+    def tick(self, t_us: int | None = None) -> float:
+        """One loop period: the operator's pending action, the encoders, the core, the plant over one period.
+
+        Parameters
+        ----------
+        t_us : int, optional
+            The device's time [us] (default: the plant's simulated time).
+        """
         fx = self.core.fixture()
         if fx is not None:
             action, q1 = fx
@@ -87,7 +109,7 @@ class TwinDevice:
                 self.stepper.release()
         c1, c2 = self.stepper.counts()
         period_us = self.core.period_us
-        v = self.core.tick(c1, c2, _NAN, int(round(self.stepper.t * 1e6)))
+        v = self.core.tick(c1, c2, _NAN, int(round(self.stepper.t * 1e6)) if t_us is None else t_us)
         self.stepper.advance(v, period_us * 1e-6)
         return v
 
@@ -125,23 +147,46 @@ class Emulator:
         #: called with a dict when the device's state changes (see :meth:`serve`)
         self.on_event = None
         self._state = None
+        self._rx: list[bytes] = []
+        self._rx_lock = threading.Lock()
+        self._rx_event = threading.Event()
+        self._clocked = False
+        #: the device's clock [us] (its telemetry's ``t_us``)
+        self.clock_us = 0
         self.scheduling = "normal"
 
     def stop(self) -> None:
         """Ask :meth:`serve` to return (from another thread or a signal handler)."""
         self._stop.set()
 
-    def _read(self) -> None:
-        try:
-            data = os.read(self.fd, 65536)
-        except BlockingIOError:
-            return
-        except OSError as exc:  # EIO: nobody holds the other side
-            if exc.errno != errno.EIO:
-                raise
-            return
-        if data:
-            self.last_rx = time.monotonic()
+    def _reader(self) -> None:
+        """Read the host's bytes as they arrive (a board's UART receives them whatever its loop does), stamping
+        the wall time of the last ones; :meth:`_take` hands them to the core between ticks."""
+        while not self._stop.is_set():
+            try:
+                r, _, _ = select.select([self.fd], [], [], 0.05)
+                if not r:
+                    continue
+                data = os.read(self.fd, 65536)
+            except BlockingIOError:
+                continue
+            except (OSError, ValueError) as exc:  # EIO: nobody holds the other side; EBADF: closed
+                if isinstance(exc, OSError) and exc.errno == errno.EIO:
+                    time.sleep(0.01)
+                    continue
+                return
+            if data:
+                with self._rx_lock:
+                    self._rx.append(data)
+                    self.last_rx = time.monotonic()
+                self._rx_event.set()
+
+    def _take(self) -> None:
+        """The bytes received since the last call, to the core."""
+        with self._rx_lock:
+            chunks, self._rx = self._rx, []
+            self._rx_event.clear()
+        for data in chunks:
             self.device.rx(data)
 
     def _flush(self) -> None:
@@ -168,28 +213,35 @@ class Emulator:
 
     def _serve(self, max_ticks: int | None) -> None:
         dev = self.device
-        deadline = time.monotonic() + dev.period
+        reader = threading.Thread(target=self._reader, name="iwp-emulator-rx", daemon=True)
+        reader.start()
+        last_tick = time.monotonic()
+        deadline = last_tick + dev.period
         try:
             while not self._stop.is_set() and (max_ticks is None or self.ticks < max_ticks):
+                self._take()
                 now = time.monotonic()
+                fast = dev.core.param("host_clock") != 0.0
+                lockstep = fast and self._lockstep() and now - last_tick < HOST_WAIT
                 if dev.core.ready():
                     deadline = now  # the host allows the next tick: run it now, and a period from now at the latest
                     late = 0.0
-                elif now < deadline:
-                    r, w, _ = select.select([self.fd], [self.fd] if self._out else [], [], deadline - now)
-                    if r:
-                        self._read()
-                    if w:
-                        self._flush()
+                elif lockstep or now < deadline:
+                    wait = HOST_WAIT - (now - last_tick) if lockstep else deadline - now
+                    self._rx_event.wait(min(wait, 0.002) if self._out else wait)
+                    self._flush()
                     continue
                 else:
                     late = now - deadline
                     self.lateness.append(late)
-                self._read()
                 if late > dev.period:
                     dev.core.overrun()
                     deadline = now  # the lost periods are not caught up
-                dev.tick()
+                # the device's clock: the wall clock as a board's crystal (its watchdog counts real time, also when
+                # the emulator fell behind), the ideal period by the host's clock (deterministic)
+                self.clock_us += dev.core.period_us if fast else int(round((now - last_tick) * 1e6))
+                last_tick = now
+                dev.tick(self.clock_us)
                 self.ticks += 1
                 if self.on_event is not None:
                     self._report()
@@ -198,6 +250,18 @@ class Emulator:
         except BaseException as exc:  # noqa: BLE001 (kept for the thread's owner)
             self.error = exc
             raise
+        finally:
+            self._stop.set()
+            reader.join()
+
+    def _lockstep(self) -> bool:
+        """By the host's clock, armed, with the host clocking the ticks since the arming: wait for it."""
+        _, state, _, _ = self.device.core.status()
+        if state != STATES["ARMED"]:
+            self._clocked = False
+        elif self.device.core.ready():
+            self._clocked = True
+        return self._clocked
 
     def _report(self) -> None:
         """Tell :attr:`on_event` when the state changed: device time, wall time, and how long after the host's

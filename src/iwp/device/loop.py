@@ -9,8 +9,11 @@ check of the limits, a lost link, an exception; and it always returns what
 it recorded (:class:`LoopResult`, ``interrupted`` and ``reason`` say how it
 ended), so that the caller writes the log up to the stop.
 
-Timing (:meth:`LoopResult.timing`): the period between the host's receipts
-of consecutive samples and its jitter ``|period - Ts|`` (p50, p99, max),
+Timing (:meth:`LoopResult.timing`): the device's own period between
+consecutive ticks (its time stamps) and its jitter ``|period - Ts|`` (p50,
+p99, max; :func:`jitter_warning` when p99 exceeds a tenth of the period),
+the machine's load average beside it, the period between the host's
+receipts of consecutive samples and its jitter,
 the device's overruns and late ticks during the run, samples lost on the
 link. With the device's host clock (faster than real time) the periods are
 not the device's and only the counters are reported.
@@ -21,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import gc
 import math
+import os
 import signal
 import time
 from dataclasses import dataclass, field
@@ -34,7 +38,7 @@ from .errors import DeviceError, LinkLost
 from .realtime import realtime_priority
 
 __all__ = ["run_loop", "LoopResult", "HostLimits", "OpenLoop", "HostLaw", "DeviceLaw", "LoopCommand", "Terminated",
-           "stop_signals", "DEFAULT_LEAD"]
+           "stop_signals", "DEFAULT_LEAD", "jitter_warning"]
 
 #: How many ticks ahead an open-loop input is sent in real time (20 ms at 5 ms: a USB-serial adapter's latency).
 DEFAULT_LEAD = 4
@@ -137,7 +141,9 @@ class LoopResult:
             out["device_rx_errors"] = (last.rx_errors - r0) & 0xFFFF
             seqs = np.array([s.seq for s in self.samples])
             out["lost_samples"] = int(seqs[-1] - seqs[0] + 1 - seqs.size)
+        out["load_avg"] = list(_load_avg())
         if not self.host_clock and len(self.samples) > 2:
+            out.update(_device_jitter(self.samples, self.Ts))
             th = np.array([s.t_host for s in self.samples])
             d = np.diff(th)
             jit = np.abs(d - self.Ts)
@@ -310,6 +316,52 @@ def run_loop(
         gc.enable()
         gc.unfreeze()
     return res
+
+
+def _load_avg() -> tuple[float, float, float]:
+    """The machine's load over 1, 5 and 15 minutes (NaN where the system has none)."""
+    try:
+        return os.getloadavg()
+    except OSError:
+        return (math.nan, math.nan, math.nan)
+
+
+def _device_jitter(samples: list[Sample], Ts: float) -> dict:
+    """The device's own tick timing from its time stamps: the period between consecutive ticks and its jitter
+    ``|period - Ts|`` (p50, p99, max) [ms], and the ticks that came more than a period late."""
+    seq = np.array([s.seq for s in samples], dtype=np.int64)
+    t_us = np.array([round(s.t_device * 1e6) for s in samples], dtype=np.int64)
+    one = np.diff(seq) == 1  # consecutive ticks only (a lost sample is no late tick)
+    d = (np.diff(t_us) % (1 << 32))[one] * 1e-6  # t_us wraps after 71 min
+    if d.size == 0:
+        return {}
+    jit = np.abs(d - Ts)
+    return {"device_period_p50_ms": float(np.percentile(d, 50) * 1e3),
+            "device_jitter_p50_ms": float(np.percentile(jit, 50) * 1e3),
+            "device_jitter_p99_ms": float(np.percentile(jit, 99) * 1e3),
+            "device_jitter_max_ms": float(jit.max() * 1e3),
+            "device_late_ticks": int(np.sum(d > 2.0 * Ts))}
+
+
+def jitter_warning(timing: dict) -> str | None:
+    """A warning when a real-time run's device jitter p99 exceeds a tenth of the period, else None.
+
+    Parameters
+    ----------
+    timing : dict
+        :meth:`LoopResult.timing` (a log's ``timing`` metadata).
+
+    Returns
+    -------
+    str or None
+        One line naming the jitter, the period and the machine's load.
+    """
+    p99, Ts = timing.get("device_jitter_p99_ms"), timing.get("Ts_ms")
+    if p99 is None or Ts is None or not p99 > 0.1 * Ts:
+        return None
+    load = timing.get("load_avg") or [math.nan]
+    return (f"the device's tick jitter p99 {p99:.3g} ms exceeds a tenth of the period ({Ts:g} ms; load average "
+            f"{load[0]:.2f}): the samples are not evenly spaced; see the log's 'timing' metadata")
 
 
 class _Done(Exception):

@@ -42,10 +42,12 @@ from ..rig.virtual import STATIC_WINDOW
 from .connection import Rig
 from .errors import DeviceError, LinkLost
 from .loop import DeviceLaw, HostLaw, HostLimits, LoopCommand, LoopResult, OpenLoop, run_loop
+from .protocol import PARAMS
 from .record import loop_log
 
 __all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "USER_INPUT_KINDS", "RUN_NAMES", "PAPER_SERIES", "run_kind",
-           "arrange", "hold_at", "releaser", "settle", "default_operator"]
+           "arrange", "hold_at", "releaser", "settle", "default_operator", "prepare", "latched", "GUARD_PARAMS",
+           "Clearing"]
 
 #: User inputs and the options each takes (with their defaults).
 USER_INPUTS: dict[str, dict[str, Any]] = {
@@ -134,7 +136,7 @@ def run_kind(name: str) -> ExperimentKind:
 
 def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = False,
                operator: Callable[[str], None] | None = None, progress: Callable[[dict], None] | None = None,
-               limits: HostLimits | None = None, **options) -> RigRun:
+               limits: HostLimits | None = None, clearing: Clearing | None = None, **options) -> RigRun:
     """Run experiment or input ``name`` on ``rig``.
 
     Parameters
@@ -152,6 +154,9 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
         See :func:`~iwp.device.loop.run_loop`.
     limits : HostLimits, optional
         The host's check (default: the device's own limits).
+    clearing : Clearing, optional
+        Clear a fault left on the device, restore its changed limits (see :func:`prepare`; without them a run
+        refuses to start on such a device).
     **options
         The experiment's options (``iwp rig list``; for user inputs :data:`USER_INPUTS`).
 
@@ -168,7 +173,7 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
     if fast:
         if not rig.has("HOST_CLOCK"):
             raise DeviceError(f"{rig.port}: this device runs in real time only (no HOST_CLOCK); drop --fast")
-    _prepare(rig, fast)
+    prepare(rig, fast, clearing)
     compensated = s.get("v_dz") is not None
     pair = compensation_thresholds(s.get("v_dz")) if compensated else (0.0, 0.0)
     rig.set_params(v_dz_pos=pair[0], v_dz_neg=pair[1])
@@ -255,11 +260,92 @@ def _settings(name: str, kind: ExperimentKind, options: dict) -> dict:
 # --------------------------------------------------------------------------
 # the set-up: the operator's hands
 # --------------------------------------------------------------------------
-def _prepare(rig: Rig, fast: bool) -> None:
-    got = rig.samples(0.5)
-    if got and got[-1].state != "DISARMED":
-        rig.clear()  # the user starts a new run: a fault of the last one (e.g. its watchdog) is cleared
+#: The device's parameters that bound every run and that no run sets: left changed by another client (e.g.
+#: ``q4_max`` 20), a run refuses to start until ``reset_params`` (``--reset-params``) puts them back.
+GUARD_PARAMS = ("watchdog_ms", "v_max", "q1_max", "q4_max", "sat_ms_max")
+
+
+def latched(rig: Rig) -> tuple[str | None, dict[str, float]]:
+    """What an earlier run or another client left on the device: a latched fault, and changed limits.
+
+    Parameters
+    ----------
+    rig : Rig
+        The connected rig.
+
+    Returns
+    -------
+    fault : str or None
+        ``"FAULT (Q4_LIMIT)"``, ``"ESTOP"``, ... (the state of its latest telemetry), or None.
+    params : dict of str to float
+        The parameters of :data:`GUARD_PARAMS` that differed from their defaults (as float32) when the rig was
+        connected (:attr:`Rig.params_found`: this connection's own changes are its own), with their values.
+    """
+    seen, s = rig.last_seq, None  # the state of a tick after this call (not of telemetry queued before it)
+    for _ in range(4):
+        got = [x for x in rig.samples(0.25) if x.seq > seen]
+        if got:
+            s = got[-1]
+            break
+    fault = None
+    if s is not None and s.state in ("FAULT", "ESTOP"):
+        fault = s.state + (f" ({s.fault})" if s.fault not in ("NONE", "ESTOP") else "")
+    found = rig.params_found
+    changed = {k: found[k] for k in GUARD_PARAMS if k in found and found[k] != float(np.float32(PARAMS[k].default))}
+    return fault, changed
+
+
+@dataclass(frozen=True)
+class Clearing:
+    """What a run may clear that an earlier run or another client left on the device (:func:`prepare`).
+
+    Attributes
+    ----------
+    clear_fault : bool
+        Clear a latched fault or emergency stop (``--clear-fault``).
+    reset_params : bool
+        Put changed limits (:data:`GUARD_PARAMS`) back to their defaults (``--reset-params``).
+    """
+
+    clear_fault: bool = False
+    reset_params: bool = False
+
+
+def prepare(rig: Rig, fast: bool, clearing: Clearing | None = None) -> None:
+    """Before a run: refuse a latched fault or changed limits unless told to clear them; disarm, stream every
+    tick, set the clock.
+
+    Parameters
+    ----------
+    rig : Rig
+        The connected rig.
+    fast : bool
+        By the host's clock (the device's ``host_clock``).
+    clearing : Clearing, optional
+        Clear a fault or emergency stop left on the device (:func:`latched`); put its changed limits back to
+        their defaults (default: neither; such a device refuses the run).
+
+    Raises
+    ------
+    DeviceError
+        A fault or emergency stop is latched and ``clear_fault`` is False, or limits were changed and
+        ``reset_params`` is False (one line naming them and the argument that clears them).
+    """
+    clearing = Clearing() if clearing is None else clearing
+    fault, changed = latched(rig)
+    if fault is not None and not clearing.clear_fault:
+        raise DeviceError(f"{rig.port}: the device is in {fault}, latched by an earlier run or another client; "
+                          "check the rig, then run again with clear_fault", argument="clear_fault")
+    if changed and not clearing.reset_params:
+        what = ", ".join(f"{k} = {v:g} (default {PARAMS[k].default:g})" for k, v in changed.items())
+        raise DeviceError(f"{rig.port}: the device's limits were changed by an earlier run or another client: "
+                          f"{what}; run again with reset_params to restore the defaults", argument="reset_params")
+    if fault is not None:
+        rig.clear()
     rig.disarm()
+    if changed:
+        rig.set_params(**{k: PARAMS[k].default for k in changed})
+        rig.params_found.update({k: rig.info.params[k] for k in changed})
     rig.stream(1)
     rig.set_params(host_clock=1.0 if fast else 0.0)
 

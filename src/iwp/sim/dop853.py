@@ -113,7 +113,7 @@ def error_norm(K, h, y, y_new, rtol, atol, n):
               + 0.20136540080403034 * K[10, i] + 0.02265179219836082 * K[11, i]) / sc
         e5 += s5 * s5
         e3 += s3 * s3
-    if e5 == 0.0 and e3 == 0.0:
+    if e5 == 0.0:  # also when e3 is so small (subnormal) that (e5 + 0.01 e3) n underflows to 0: not 0/0
         return 0.0
     return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
 
@@ -234,9 +234,10 @@ def error_norm_lanes(K, H, Y, Y_new, rtol, atol, n, L, ERR):
                   + 0.20136540080403034 * K[10, i, l] + 0.02265179219836082 * K[11, i, l]) / sc
             e5 += s5 * s5
             e3 += s3 * s3
-        # branch-free, so that the loop over the lanes vectorises (0/0 where both are 0, then 0 chosen)
+        # branch-free, so that the loop over the lanes vectorises (0/0 where e5 is 0 and e3 is 0 or so small
+        # that (e5 + 0.01 e3) n underflows to 0, then 0 chosen)
         err = abs(H[l]) * e5 / math.sqrt((e5 + 0.01 * e3) * n)
-        ERR[l] = 0.0 if (e5 == 0.0) & (e3 == 0.0) else err
+        ERR[l] = 0.0 if e5 == 0.0 else err
 
 
 @jit

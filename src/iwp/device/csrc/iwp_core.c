@@ -190,6 +190,8 @@ void iwp_core_init(iwp_core_t *c, uint8_t board, uint16_t caps, uint32_t base_us
 
 uint32_t iwp_core_period_us(const iwp_core_t *c) { return c->period_us; }
 
+float iwp_core_param(const iwp_core_t *c, uint8_t id) { return id < IWP_N_PARAMS ? c->p[id] : 0.0f; }
+
 int iwp_core_fixture(iwp_core_t *c, uint8_t *action, float *q1)
 {
     if (!c->fixture_pending) return 0;
@@ -294,7 +296,8 @@ static void dispatch(iwp_core_t *c, uint8_t *m, uint8_t n)
         return;
     case IWP_MSG_ESTOP:
         if (n != IWP_MSG_ESTOP_SIZE) break;
-        trip(c, IWP_FAULT_ESTOP);
+        if (c->state == IWP_STATE_FAULT) motor_off(c); /* the fault that stopped it stays the one reported */
+        else trip(c, IWP_FAULT_ESTOP);
         ack(c, m, IWP_ACK_OK, 0, 0.0f);
         return;
     case IWP_MSG_CLEAR:

@@ -84,6 +84,9 @@ void iwp_core_overrun(iwp_core_t *c);
 /* Host clock (param host_clock = 1, caps HOST_CLOCK): 1 when the host allows the next tick now. */
 int iwp_core_ready(const iwp_core_t *c);
 
+/* The value of parameter id (IWP_P_*; 0 for an unknown id), for a hardware layer that follows one. */
+float iwp_core_param(const iwp_core_t *c, uint8_t id);
+
 /* The loop period [us]. */
 uint32_t iwp_core_period_us(const iwp_core_t *c);
 
