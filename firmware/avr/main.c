@@ -4,13 +4,19 @@
  * board (see firmware/README.md for the wiring):
  *   pendulum encoder A/B  D2/D3 (INT0/INT1, both edges: 4 counts per line)
  *   wheel encoder A/B     D4/D5 (PCINT20/21, both edges)
- *   H-bridge              PWM D9 (OC1A, 20 kHz), IN1 D7, IN2 D8 (L298N, TB6612, ...)
+ *   H-bridge              PWM D9 (OC1A, 20 kHz), IN1 D10, IN2 D12 (L298N, TB6612, ...): all on PORTB, so that
+ *                         the encoders' port D is only read (simavr 1.6 lets a PORTD write override the pins
+ *                         its pull-ups feed, which lost and invented encoder edges when IN1 was on D7), and
+ *                         not on D8 = ICP1 (simavr 1.6 captures Timer1 into ICR1, the PWM's TOP, on its edges)
  *   current sense         A0 (optional: -DIWP_CURRENT_SENSE, an ACS712-5A by default)
  *   step marker           D13 (high while the control step runs: a scope, or simavr, times it)
  *   serial                500000 baud, 8N1 (the USB adapter of the board); sent from an interrupt
  * Timer2 ticks every millisecond; the loop runs every period_us / 1000 ticks. The AVR's own watchdog
  * (120 ms) resets the board, motor off, if this loop ever hangs; the core's watchdog stops the motor
  * when the host stops sending.
+ * Emulated hands: a simulator that presets GPIOR2 to IWP_SIM_HANDS before the first instruction (firmware/sim)
+ * gets the FIXTURE capability: each request is handed to it through GPIOR1 (the angle's four bytes, least
+ * significant first) and GPIOR0 (the action plus one). A board's GPIOR2 is 0 after a reset: no hands.
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
@@ -29,6 +35,7 @@
 #define IWP_BAUD 500000UL
 #endif
 #define BASE_US 1000UL
+#define IWP_SIM_HANDS 0xA5
 
 #ifdef IWP_CURRENT_SENSE
 #define CAPS (IWP_CAP_HOPF | IWP_CAP_STATE_FEEDBACK | IWP_CAP_CURRENT)
@@ -135,8 +142,7 @@ static void uart_init(void)
 
 static void motor_init(void)
 {
-    DDRB |= _BV(PB1) | _BV(PB0) | _BV(PB5); /* D9 PWM, D8 IN2, D13 step marker */
-    DDRD |= _BV(PD7);                       /* D7 IN1 */
+    DDRB |= _BV(PB1) | _BV(PB2) | _BV(PB4) | _BV(PB5); /* D9 PWM, D10 IN1, D12 IN2, D13 step marker */
     TCCR1A = _BV(COM1A1) | _BV(WGM11);
     TCCR1B = _BV(WGM13) | _BV(CS10);
     ICR1 = PWM_TOP;
@@ -148,9 +154,8 @@ static void motor_set(float v) /* v in input units, |v| <= 100 = full duty */
     float a = v < 0.0f ? -v : v;
     uint16_t duty = (uint16_t)(a * (PWM_TOP / 100.0f) + 0.5f);
     if (duty > PWM_TOP) duty = PWM_TOP;
-    if (v > 0.0f) { PORTD |= _BV(PD7); PORTB &= (uint8_t)~_BV(PB0); }
-    else if (v < 0.0f) { PORTD &= (uint8_t)~_BV(PD7); PORTB |= _BV(PB0); }
-    else { PORTD &= (uint8_t)~_BV(PD7); PORTB &= (uint8_t)~_BV(PB0); }
+    uint8_t dir = v > 0.0f ? _BV(PB2) : v < 0.0f ? _BV(PB4) : 0; /* IN1 D10 for v > 0, IN2 D12 for v < 0 */
+    PORTB = (uint8_t)((PORTB & (uint8_t)~(_BV(PB2) | _BV(PB4))) | dir);
     OCR1A = duty;
 }
 
@@ -187,13 +192,22 @@ static void io_init(void)
 #endif
 }
 
+/* the emulated hands of a simulator (see the top of this file) */
+static void hands_request(uint8_t action, float q1)
+{
+    const uint8_t *b = (const uint8_t *)&q1;
+    for (uint8_t i = 0; i < 4; i++) GPIOR1 = b[i];
+    GPIOR0 = (uint8_t)(action + 1);
+}
+
 int main(void)
 {
+    uint8_t hands = GPIOR2 == IWP_SIM_HANDS;
     MCUSR = 0;
     wdt_enable(WDTO_120MS);
     motor_init();
     motor_set(0.0f);
-    iwp_core_init(&core, 1, CAPS, BASE_US);
+    iwp_core_init(&core, 1, hands ? CAPS | IWP_CAP_FIXTURE : CAPS, BASE_US);
     uart_init();
     io_init();
     sei();
@@ -202,8 +216,10 @@ int main(void)
         if (due) {
             int32_t c1, c2;
             uint8_t lost;
-            ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { c1 = count1; c2 = count2; due = 0; lost = missed; missed = 0; }
-            PORTB |= _BV(PB5); /* the control step starts */
+            ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+                PORTB |= _BV(PB5); /* the control step starts: the counts are those of this instant */
+                c1 = count1; c2 = count2; due = 0; lost = missed; missed = 0;
+            }
             while (lost--) iwp_core_overrun(&core);
             float v = iwp_core_tick(&core, c1, c2, current_amps(), micros());
             motor_set(v);
@@ -216,6 +232,9 @@ int main(void)
             rx_tail = (uint8_t)((rx_tail + 1) & (RX_LEN - 1));
             iwp_core_rx(&core, &b, 1);
         }
+        uint8_t action;
+        float q1;
+        if (hands && iwp_core_fixture(&core, &action, &q1)) hands_request(action, q1);
         uart_feed();
         ATOMIC_BLOCK(ATOMIC_FORCEON) {
             uint8_t tx_full = ((uint8_t)(tx_head + 1) & (TX_LEN - 1)) == tx_tail;
