@@ -28,9 +28,10 @@
  * OC1A) signed by the direction pins IN1 D10 / IN2 D12. A change of it, or a hand, ends the chunk at once, so
  * that the plant holds each input exactly from the cycle the firmware set it. The chunk is --chunk-us long
  * (1000). The emulated hands (GPIOR2 preset, see avr/main.c) are plugged in. The simulation runs as fast as
- * it can while the host keeps talking: at most two loop periods less 1.5 ms (at least 0.5 ms) of simulated
- * time beyond the last byte from the host; so a host that answers each tick's telemetry with the next tick's
- * command is on time, however slow the computer. A host silent for SILENT (1 s) of wall-clock time no longer
+ * it can while the host keeps talking: at most half a loop period (at least 1 ms) of simulated time beyond the
+ * end of the first frame the host has not answered yet (no byte from the host since); so a host that answers
+ * each tick's telemetry with the next tick's command is on time at 200 Hz, however slow the computer (at
+ * 1 kHz, such a command may be late). A host silent for SILENT (1 s) of wall-clock time no longer
  * holds it: it goes on in real time (the firmware's watchdog stops the motor as on a board).
  */
 #include <errno.h>
@@ -198,7 +199,7 @@ static avr_irq_t *uart_in;
 static uint8_t to_host[16384], from_host[4096];
 static size_t to_host_len, from_host_len, from_host_done;
 static int uart_xon = 1;
-static avr_cycle_count_t host_cycle, period_cycles = 5 * 16000, last_tick;
+static avr_cycle_count_t said_cycle, period_cycles = 5 * 16000, last_tick;
 static double host_wall;
 static long long ticks;
 
@@ -213,7 +214,7 @@ static void feed_uart(void)
 {
     while (uart_xon && from_host_done < from_host_len) {
         avr_raise_irq(uart_in, from_host[from_host_done++]);
-        host_cycle = avr->cycle; /* the host's last byte */
+        said_cycle = 0; /* the host has answered */
         host_wall = wall();
     }
 }
@@ -222,6 +223,7 @@ static void on_uart_out(struct avr_irq_t *irq, uint32_t value, void *param)
 {
     (void)irq; (void)param;
     if (to_host_len < sizeof to_host) to_host[to_host_len++] = (uint8_t)value; /* else lost, as on a full line */
+    if (value == 0 && !said_cycle) said_cycle = avr->cycle; /* the end of a frame the host has not answered */
 }
 
 static void on_xon(struct avr_irq_t *irq, uint32_t value, void *param)
@@ -279,16 +281,15 @@ static int pty_open(void)
     return 0;
 }
 
-/* may the simulation run up to cycle c now? */
+/* may the simulation go on from cycle c now? */
 static int allowed(avr_cycle_count_t c)
 {
-    /* a host that answers a tick's telemetry (0.9 ms on the wire) with the next tick's command (0.3 ms) is on
-     * time: two periods less 1.5 ms of lead (at least 0.5 ms) */
-    double lead = 2.0 * (double)period_cycles - 1.5e-3 * avr->frequency;
-    if (lead < 0.5e-3 * avr->frequency) lead = 0.5e-3 * avr->frequency;
+    if (!said_cycle) return 1; /* no frame out since the host's last byte */
+    double lead = 0.5 * (double)period_cycles; /* at 200 Hz, a command for the next tick is on time */
+    if (lead < 1e-3 * avr->frequency) lead = 1e-3 * avr->frequency;
     double silent = wall() - host_wall - SILENT; /* a silent host: real time after SILENT seconds */
     if (silent > 0) lead += silent * avr->frequency;
-    return (double)c <= (double)host_cycle + lead;
+    return (double)c <= (double)said_cycle + lead;
 }
 
 /* ------------------------------------------------------------------ the step marker */
@@ -362,7 +363,7 @@ static int run_twin(avr_cycle_count_t chunk)
         if (scanf("%lf %lf %lf %lf", &q[0], &q[1], &q[2], &q[3]) != 4) return state; /* the plant has gone */
         encoder_chunk(&enc[0], now, q[0], horizon, q[2]);
         encoder_chunk(&enc[1], now, q[1], horizon, q[3]);
-        while (!pty_poll() && !allowed(horizon) && !stop) usleep(100);
+        while (!pty_poll() && !allowed(now) && !stop) usleep(100); /* the chunk may overshoot the lead */
         avr_cycle_timer_register(avr, chunk, chunk_end_timer, NULL);
         while (avr->cycle < horizon && !stop) {
             state = avr_run(avr);
