@@ -17,12 +17,15 @@
  *   this program writes   "T CYCLE V HAND Q1 HORIZON"   the simulation is at CYCLE; the motor's input V
  *                         [input units] holds from CYCLE on; HAND: 0, or an emulated hand's action plus one
  *                         at CYCLE (with its angle Q1 [rad]); the next chunk ends at cycle HORIZON
- *   the plant answers     "Q1 Q2 P1 P2"   its angles at CYCLE and, V held, predicted at HORIZON [rad]
+ *   the plant answers     "Q1 Q3 Q2 Q4 P1 P3 P2 P4"   its angles [rad] and speeds [rad/s] at CYCLE and, V held,
+ *                         predicted at HORIZON
  * and, on every rising edge of the step marker (the instant the firmware reads its counts), writes
  *                         "M TICK CYCLE N1 N2 NEAR"   the counts put on the pins so far (relative to the
  *                         first tick) and NEAR = 1 if an edge was put on a pin within GUARD cycles before it
  * The encoders' quadrature edges (x4: COUNTS_PER_REV counts per turn, count n = round(q / step)) are placed
- * where the linear interpolation of the angles between the chunk's ends crosses (n +- 1/2) step; a jump of
+ * where the cubic (Hermite) interpolation of the angles and speeds between the chunk's ends crosses
+ * (n +- 1/2) step (the wheel's belt rings at ~100 Hz: a straight line over a chunk of 1 ms was wrong by up to
+ * several counts, which then came as bursts of edges that the firmware could not all count); a jump of
  * the plant (the hands holding the pendulum at an angle) is caught up one edge every --gap cycles. The motor's
  * input is read back from the pins and registers: OCR1A / ICR1 of the PWM on D9 (if D9 is an output driven by
  * OC1A) signed by the direction pins IN1 D10 / IN2 D12. A change of it, or a hand, ends the chunk at once, so
@@ -31,7 +34,7 @@
  * it can while the host keeps talking: at most half a loop period (at least 1 ms) of simulated time beyond the
  * end of the first frame the host has not answered yet (no byte from the host since); so a host that answers
  * each tick's telemetry with the next tick's command is on time at 200 Hz, however slow the computer (at
- * 1 kHz, such a command may be late). A host silent for SILENT (1 s) of wall-clock time no longer
+ * 1 kHz, such a command may be late). A host silent for SILENT (0.25 s) of wall-clock time no longer
  * holds it: it goes on in real time (the firmware's watchdog stops the motor as on a board).
  */
 #include <errno.h>
@@ -62,7 +65,7 @@
 #define A_ICR1L 0x86
 #define A_OCR1AL 0x88
 #define SIM_HANDS 0xA5 /* IWP_SIM_HANDS of avr/main.c */
-#define SILENT 1.0 /* s of wall-clock time the simulation waits for a silent host, then goes on in real time */
+#define SILENT 0.25 /* s of wall-clock time the simulation waits for a silent host, then goes on in real time */
 #define GUARD 48       /* cycles before the marker in which an edge makes the tick's count ambiguous */
 
 static avr_t *avr;
@@ -73,6 +76,7 @@ static const char *stats_path;
 static avr_cycle_count_t spin_period;
 static int spin_phase;
 static avr_irq_t *pins_d;
+static long long caught_up[2]; /* edges put on the pins behind the angle (a jump, or a late edge) */
 
 static void on_signal(int s) { (void)s; stop = 1; }
 
@@ -84,35 +88,39 @@ static void write_stats(void)
     FILE *f = fopen(tmp, "w");
     if (!f) return;
     fprintf(f, "{\"frequency\": %u, \"steps\": %llu, \"cycles_mean\": %.1f, \"cycles_max\": %llu, "
-               "\"cycles\": %llu}\n",
+               "\"cycles\": %llu, \"caught_up\": [%lld, %lld]}\n",
             avr->frequency, (unsigned long long)steps, steps ? (double)total / (double)steps : 0.0,
-            (unsigned long long)worst, (unsigned long long)avr->cycle);
+            (unsigned long long)worst, (unsigned long long)avr->cycle, caught_up[0], caught_up[1]);
     fclose(f);
     rename(tmp, stats_path);
 }
 
 /* ------------------------------------------------------------------ the twin's encoders */
 static const uint8_t FWD[4] = {0, 2, 3, 1}; /* A = bit 0, B = bit 1; counting up as avr/main.c's QUAD does */
+#define PIECES 32                           /* the chunk's cubic is followed in this many straight pieces */
 
 typedef struct {
     avr_irq_t *a, *b;
     double step;                  /* rad per count */
     int connected;                /* from the first tick on */
     long long n0, n;              /* count of the first tick; counts put on the pins since */
-    avr_cycle_count_t ca, cb;     /* the chunk: angle qa at cycle ca to qb at cb, linearly */
-    double qa, qb;
+    avr_cycle_count_t ca, cb;     /* the chunk: from cycle ca to cb, the angle is the cubic (Hermite) through */
+    double qa, va, qb, vb;        /* qa, qb with the speeds va, vb [rad/s] at its ends */
     avr_cycle_count_t last_edge;
 } encoder_t;
 
 static encoder_t enc[2];
-static avr_cycle_count_t gap = 320;
+static avr_cycle_count_t gap = 800; /* 20,000 edges/s: well inside what the firmware counts */
 static int twin;
 
 static double angle_at(const encoder_t *e, avr_cycle_count_t c)
 {
     if (c >= e->cb || e->cb == e->ca) return e->qb;
     if (c <= e->ca) return e->qa;
-    return e->qa + (e->qb - e->qa) * (double)(c - e->ca) / (double)(e->cb - e->ca);
+    double h = (double)(e->cb - e->ca) / avr->frequency, s = (double)(c - e->ca) / (double)(e->cb - e->ca);
+    double s2 = s * s, s3 = s2 * s;
+    return (2 * s3 - 3 * s2 + 1) * e->qa + (s3 - 2 * s2 + s) * h * e->va + (3 * s2 - 2 * s3) * e->qb +
+           (s3 - s2) * h * e->vb;
 }
 
 static long long count_at(const encoder_t *e, avr_cycle_count_t c)
@@ -128,16 +136,29 @@ static void put_pins(encoder_t *e)
     e->last_edge = avr->cycle;
 }
 
-/* the cycle at which the interpolated angle next crosses a half count, or 0 (not within this chunk) */
+/* the cycle at which the angle next leaves the count's half-step band, or 0 (not within this chunk): along the
+ * cubic in straight pieces of 1/PIECES of the chunk */
 static avr_cycle_count_t next_crossing(const encoder_t *e, avr_cycle_count_t now)
 {
-    double dq = e->qb - e->qa;
-    if (dq == 0.0 || now >= e->cb) return 0;
-    double thr = ((double)(e->n + e->n0) + (dq > 0 ? 0.5 : -0.5)) * e->step;
-    double c = (double)e->ca + (thr - e->qa) / dq * (double)(e->cb - e->ca);
-    if (c > (double)e->cb) return 0;
-    avr_cycle_count_t when = (avr_cycle_count_t)ceil(c);
-    return when > now ? when : now + 1;
+    if (now >= e->cb) return 0;
+    double lo = ((double)(e->n + e->n0) - 0.5) * e->step, hi = lo + e->step;
+    double span = (double)(e->cb - e->ca) / PIECES;
+    avr_cycle_count_t c0 = now;
+    double q0 = angle_at(e, c0);
+    for (int k = (int)((double)(now - e->ca) / span) + 1; k <= PIECES; k++) {
+        avr_cycle_count_t c1 = k == PIECES ? e->cb : e->ca + (avr_cycle_count_t)llround(k * span);
+        if (c1 <= c0) continue;
+        double q1 = angle_at(e, c1);
+        double thr = q1 >= hi ? hi : q1 < lo ? lo : NAN;
+        if (thr == thr) {
+            double c = (double)c0 + (q1 != q0 ? (thr - q0) / (q1 - q0) : 1.0) * (double)(c1 - c0);
+            avr_cycle_count_t when = (avr_cycle_count_t)ceil(c);
+            return when > now ? when : now + 1;
+        }
+        c0 = c1;
+        q0 = q1;
+    }
+    return 0;
 }
 
 static avr_cycle_count_t encoder_timer(struct avr_t *a, avr_cycle_count_t when, void *param)
@@ -146,6 +167,13 @@ static avr_cycle_count_t encoder_timer(struct avr_t *a, avr_cycle_count_t when, 
     encoder_t *e = (encoder_t *)param;
     long long want = count_at(e, a->cycle);
     if (want != e->n) {
+        /* never two edges closer than half the spacing at the chunk's speed (nor than gap): a chunk's start may
+         * find the angle a count past the edge just put on the pins, which no encoder does */
+        double v = fabs(e->va) > fabs(e->vb) ? fabs(e->va) : fabs(e->vb);
+        double spacing = v > 0 ? 0.5 * e->step / v * a->frequency : (double)gap;
+        avr_cycle_count_t early = e->last_edge + (avr_cycle_count_t)(spacing < (double)gap ? spacing : (double)gap);
+        if (e->last_edge && a->cycle < early) return early;
+        if (want - e->n > 1 || e->n - want > 1) caught_up[e == &enc[1]]++;
         e->n += want > e->n ? 1 : -1;
         put_pins(e);
         if (want != e->n) return a->cycle + gap; /* a jump: one edge every gap cycles */
@@ -153,9 +181,10 @@ static avr_cycle_count_t encoder_timer(struct avr_t *a, avr_cycle_count_t when, 
     return next_crossing(e, a->cycle);
 }
 
-static void encoder_chunk(encoder_t *e, avr_cycle_count_t ca, double qa, avr_cycle_count_t cb, double qb)
+static void encoder_chunk(encoder_t *e, avr_cycle_count_t ca, const double qv[2], avr_cycle_count_t cb,
+                          const double qvb[2])
 {
-    e->ca = ca, e->qa = qa, e->cb = cb, e->qb = qb;
+    e->ca = ca, e->qa = qv[0], e->va = qv[1], e->cb = cb, e->qb = qvb[0], e->vb = qvb[1];
     if (!e->connected) return;
     avr_cycle_timer_cancel(avr, encoder_timer, e);
     avr_cycle_timer_register(avr, 1, encoder_timer, e);
@@ -359,10 +388,11 @@ static int run_twin(avr_cycle_count_t chunk)
                (unsigned long long)horizon);
         fflush(stdout);
         hand_action = 0;
-        double q[4];
-        if (scanf("%lf %lf %lf %lf", &q[0], &q[1], &q[2], &q[3]) != 4) return state; /* the plant has gone */
-        encoder_chunk(&enc[0], now, q[0], horizon, q[2]);
-        encoder_chunk(&enc[1], now, q[1], horizon, q[3]);
+        double q[8]; /* q1 q3 q2 q4 now, then at the horizon */
+        for (int i = 0; i < 8; i++)
+            if (scanf("%lf", &q[i]) != 1) return state; /* the plant has gone */
+        encoder_chunk(&enc[0], now, q, horizon, q + 4);
+        encoder_chunk(&enc[1], now, q + 2, horizon, q + 6);
         while (!pty_poll() && !allowed(now) && !stop) usleep(100); /* the chunk may overshoot the lead */
         avr_cycle_timer_register(avr, chunk, chunk_end_timer, NULL);
         while (avr->cycle < horizon && !stop) {
@@ -452,8 +482,8 @@ int main(int argc, char **argv)
     }
     write_stats();
     /* no uart_pty_stop(): it signals its thread with SIGINT, which this program catches; exit ends the thread */
-    fprintf(stderr, "iwp_simavr: %llu control steps, %.0f cycles mean, %llu max (%s)\n", (unsigned long long)steps,
-            steps ? (double)total / (double)steps : 0.0, (unsigned long long)worst,
-            state == cpu_Crashed ? "crashed" : "stopped");
+    fprintf(stderr, "iwp_simavr: %llu control steps, %.0f cycles mean, %llu max; edges caught up %lld, %lld (%s)\n",
+            (unsigned long long)steps, steps ? (double)total / (double)steps : 0.0, (unsigned long long)worst,
+            caught_up[0], caught_up[1], state == cpu_Crashed ? "crashed" : "stopped");
     return state == cpu_Crashed;
 }

@@ -22,7 +22,7 @@ Its pace: as fast as simavr goes while the host keeps talking, at most half
 a loop period (at least 1 ms) of device time beyond the end of the first
 frame the host has not answered: a host that answers each tick's telemetry
 with the next tick's command is on time at 200 Hz however slow the computer
-(at 1 kHz such a command may be late); a host silent for a second of wall-clock time no
+(at 1 kHz such a command may be late); a host silent for a quarter of a second of wall-clock time no
 longer holds it, it goes on in real time, and the device's watchdog stops
 the motor as on a board. No ``host_clock`` (the image has no HOST_CLOCK cap): run
 without ``fast``.
@@ -151,7 +151,7 @@ class PinTwin:
         self._cycle = cycle
 
     def answer(self, line: str) -> str:
-        """The answer to one ``T`` line: the angles now and predicted at the chunk's end [rad]."""
+        """The answer to one ``T`` line: the angles and speeds now and predicted at the chunk's end [rad, rad/s]."""
         _, cycle, v, hand, q1, horizon = line.split()
         self._advance_to(int(cycle))
         p = self.plant
@@ -163,15 +163,15 @@ class PinTwin:
         elif hand == FIXTURE_ACTIONS["RELEASE"] + 1:
             p.release()
         self._v = float(v)
-        now = [float(q) for q in p.x[:2]]
-        self.history.append((p.t, now[0], now[1]))
+        now = [float(q) for q in p.x[[0, 2, 1, 3]]]  # q1, q3, q2, q4
+        self.history.append((p.t, now[0], now[2]))
         x, t = p.x.copy(), p.t
         p.advance(self._v, (int(horizon) - self._cycle) / self.frequency)
         self._pred = (int(horizon), p.x.copy())
-        ahead = [float(q) for q in p.x[:2]]
+        ahead = [float(q) for q in p.x[[0, 2, 1, 3]]]
         p.x[:], p.t = x, t
         self.chunks += 1
-        return f"{now[0]!r} {now[1]!r} {ahead[0]!r} {ahead[1]!r}\n"
+        return " ".join(repr(q) for q in now + ahead) + "\n"
 
     def serve(self, lines, out) -> None:
         """Answer the harness until its output ends (``lines``: its stdout; ``out``: its stdin)."""
