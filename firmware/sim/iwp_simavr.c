@@ -20,13 +20,16 @@
  *   the plant answers     "Q1 Q3 Q2 Q4 P1 P3 P2 P4"   its angles [rad] and speeds [rad/s] at CYCLE and, V held,
  *                         predicted at HORIZON
  * and, on every rising edge of the step marker (the instant the firmware reads its counts), writes
- *                         "M TICK CYCLE N1 N2 NEAR"   the counts put on the pins so far (relative to the
- *                         first tick) and NEAR = 1 if an edge was put on a pin within GUARD cycles before it
+ *                         "M TICK CYCLE N1 N2 S1 S2"   the counts put on the pins so far (relative to the
+ *                         first tick), and S: those the pins showed when the encoder's interrupt last read
+ *                         them (PIND): what the firmware must have counted; an edge still pending behind the
+ *                         read makes S differ from N
  * The encoders' quadrature edges (x4: COUNTS_PER_REV counts per turn, count n = round(q / step)) are placed
  * where the cubic (Hermite) interpolation of the angles and speeds between the chunk's ends crosses
  * (n +- 1/2) step (the wheel's belt rings at ~100 Hz: a straight line over a chunk of 1 ms was wrong by up to
  * several counts, which then came as bursts of edges that the firmware could not all count); a jump of
- * the plant (the hands holding the pendulum at an angle) is caught up one edge every --gap cycles. The motor's
+ * the plant (the hands holding the pendulum at an angle) is caught up one edge every --gap cycles (800), or at
+ * twice the angle's rate if that is faster; no two edges come closer than that. The motor's
  * input is read back from the pins and registers: OCR1A / ICR1 of the PWM on D9 (if D9 is an output driven by
  * OC1A) signed by the direction pins IN1 D10 / IN2 D12. A change of it, or a hand, ends the chunk at once, so
  * that the plant holds each input exactly from the cycle the firmware set it. The chunk is --chunk-us long
@@ -38,6 +41,7 @@
  * holds it: it goes on in real time (the firmware's watchdog stops the motor as on a board).
  */
 #include <errno.h>
+#include <stdint.h>
 #include <fcntl.h>
 #include <math.h>
 #include <pty.h>
@@ -52,6 +56,7 @@
 #include "avr_uart.h"
 #include "sim_avr.h"
 #include "sim_elf.h"
+#include "sim_interrupts.h"
 #include "sim_time.h"
 #include "uart_pty.h"
 
@@ -66,7 +71,6 @@
 #define A_OCR1AL 0x88
 #define SIM_HANDS 0xA5 /* IWP_SIM_HANDS of avr/main.c */
 #define SILENT 0.25 /* s of wall-clock time the simulation waits for a silent host, then goes on in real time */
-#define GUARD 48       /* cycles before the marker in which an edge makes the tick's count ambiguous */
 
 static avr_t *avr;
 static uart_pty_t pty;
@@ -107,6 +111,7 @@ typedef struct {
     avr_cycle_count_t ca, cb;     /* the chunk: from cycle ca to cb, the angle is the cubic (Hermite) through */
     double qa, va, qb, vb;        /* qa, qb with the speeds va, vb [rad/s] at its ends */
     avr_cycle_count_t last_edge;
+    long long seen;               /* the count of the pins when the firmware's interrupt last read them */
 } encoder_t;
 
 static encoder_t enc[2];
@@ -168,15 +173,17 @@ static avr_cycle_count_t encoder_timer(struct avr_t *a, avr_cycle_count_t when, 
     long long want = count_at(e, a->cycle);
     if (want != e->n) {
         /* never two edges closer than half the spacing at the chunk's speed (nor than gap): a chunk's start may
-         * find the angle a count past the edge just put on the pins, which no encoder does */
+         * find the angle a count past the edge just put on the pins, which no encoder does; behind the angle,
+         * edges follow at that spacing, twice the angle's rate, so that they catch up */
         double v = fabs(e->va) > fabs(e->vb) ? fabs(e->va) : fabs(e->vb);
         double spacing = v > 0 ? 0.5 * e->step / v * a->frequency : (double)gap;
-        avr_cycle_count_t early = e->last_edge + (avr_cycle_count_t)(spacing < (double)gap ? spacing : (double)gap);
-        if (e->last_edge && a->cycle < early) return early;
+        avr_cycle_count_t least = (avr_cycle_count_t)(spacing < (double)gap ? spacing : (double)gap);
+        if (least < 1) least = 1;
+        if (e->last_edge && a->cycle < e->last_edge + least) return e->last_edge + least;
         if (want - e->n > 1 || e->n - want > 1) caught_up[e == &enc[1]]++;
         e->n += want > e->n ? 1 : -1;
         put_pins(e);
-        if (want != e->n) return a->cycle + gap; /* a jump: one edge every gap cycles */
+        if (want != e->n) return a->cycle + least; /* behind: catch up */
     }
     return next_crossing(e, a->cycle);
 }
@@ -188,6 +195,24 @@ static void encoder_chunk(encoder_t *e, avr_cycle_count_t ca, const double qv[2]
     if (!e->connected) return;
     avr_cycle_timer_cancel(avr, encoder_timer, e);
     avr_cycle_timer_register(avr, 1, encoder_timer, e);
+}
+
+/* which encoder's interrupt runs (its next read of PIND samples that encoder's pins) */
+static int reading = -1;
+
+static void on_vector(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    if (value) reading = (int)(intptr_t)param;
+}
+
+static void on_pind_read(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq; (void)value; (void)param;
+    if (reading >= 0) {
+        enc[reading].seen = enc[reading].n;
+        reading = -1;
+    }
 }
 
 /* ------------------------------------------------------------------ the motor's input and the hands */
@@ -335,12 +360,12 @@ static void marker(struct avr_irq_t *irq, uint32_t value, void *param)
             if (!enc[i].connected) { /* the firmware has set its pins up: count 0 from here */
                 enc[i].connected = 1;
                 enc[i].n0 = llround(angle_at(&enc[i], avr->cycle) / enc[i].step);
-                enc[i].n = 0;
+                enc[i].n = enc[i].seen = 0;
                 avr_cycle_timer_register(avr, 1, encoder_timer, &enc[i]);
             }
         }
-        int near = avr->cycle - enc[0].last_edge < GUARD || avr->cycle - enc[1].last_edge < GUARD;
-        printf("M %lld %llu %lld %lld %d\n", ticks, (unsigned long long)avr->cycle, enc[0].n, enc[1].n, near);
+        printf("M %lld %llu %lld %lld %lld %lld\n", ticks, (unsigned long long)avr->cycle, enc[0].n, enc[1].n,
+               enc[0].seen, enc[1].seen);
     } else if (started) {
         avr_cycle_count_t c = avr->cycle - started;
         steps++;
@@ -466,6 +491,13 @@ int main(int argc, char **argv)
         avr->data[A_GPIOR2] = SIM_HANDS;
         avr_register_io_write(avr, A_GPIOR0, hands_write, NULL);
         avr_register_io_write(avr, A_GPIOR1, hands_write, NULL);
+        /* INT0/INT1 (vectors 1, 2) read the pendulum's pins, PCINT2 (5) the wheel's */
+        avr_irq_register_notify(avr_get_interrupt_irq(avr, 1) + AVR_INT_IRQ_RUNNING, on_vector, (void *)0);
+        avr_irq_register_notify(avr_get_interrupt_irq(avr, 2) + AVR_INT_IRQ_RUNNING, on_vector, (void *)0);
+        avr_irq_register_notify(avr_get_interrupt_irq(avr, 5) + AVR_INT_IRQ_RUNNING, on_vector, (void *)1);
+        avr_irq_t *pind = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), IOPORT_IRQ_REG_PIN);
+        pind->flags &= ~IRQ_FLAG_FILTERED; /* every read, also of the value read last time */
+        avr_irq_register_notify(pind, on_pind_read, NULL);
         state = run_twin((avr_cycle_count_t)llround(chunk_us * 1e-6 * avr->frequency));
     } else {
         if (spin_hz > 0) {

@@ -99,15 +99,22 @@ class PinTick:
         Device time of the step's start [s].
     n1, n2 : int
         Pendulum and wheel counts put on the pins since the first tick.
-    near : bool
-        An edge came within a few cycles before the read: the firmware may have counted it or not.
+    seen1, seen2 : int
+        The counts the pins showed when the encoder's interrupt last read them: what the firmware must have
+        counted (an edge still pending behind the read makes them differ from ``n1``, ``n2``).
     """
 
     tick: int
     t: float
     n1: int
     n2: int
-    near: bool
+    seen1: int
+    seen2: int
+
+    @property
+    def near(self) -> bool:
+        """An edge was pending (not yet read by the firmware's interrupt) when the firmware read its counts."""
+        return (self.seen1, self.seen2) != (self.n1, self.n2)
 
 
 class PinTwin:
@@ -182,9 +189,9 @@ class PinTwin:
                     out.write(self.answer(line).encode())
                     out.flush()
                 elif line.startswith("M "):
-                    _, tick, cycle, n1, n2, near = line.split()
-                    self.ticks.append(PinTick(int(tick), int(cycle) / self.frequency, int(n1), int(n2),
-                                              near == "1"))
+                    _, tick, cycle, n1, n2, s1, s2 = line.split()
+                    self.ticks.append(PinTick(int(tick), int(cycle) / self.frequency, int(n1), int(n2), int(s1),
+                                              int(s2)))
         except BaseException as exc:  # noqa: BLE001 (kept for the owner; closing stdin ends the harness)
             self.error = exc
         finally:
@@ -299,16 +306,17 @@ class CountCheck:
     compared : int
         Telemetry samples compared.
     wrong : int
-        Samples whose pendulum or wheel count differs from the pins' (an edge lost or invented).
-    ambiguous : int
-        Samples read within a few cycles of an edge (either count is right; off by one counts as wrong).
+        Samples whose pendulum or wheel count differs from what the pins showed the firmware's interrupts
+        (an edge lost or invented).
+    pending : int
+        Samples taken while an edge waited for its interrupt (counted at the next tick).
     max_error : int
         Largest difference [counts].
     """
 
     compared: int
     wrong: int
-    ambiguous: int
+    pending: int
     max_error: int
 
 
@@ -321,7 +329,7 @@ def compare_counts(samples, ticks) -> CountCheck:
         Telemetry (its ``count1``, ``count2``, relative to the device's zero).
     ticks : sequence of PinTick
         :attr:`PinTwin.ticks` (relative to the first tick); the offset between the two is taken from the
-        first unambiguous sample.
+        first sample.
 
     Returns
     -------
@@ -329,17 +337,16 @@ def compare_counts(samples, ticks) -> CountCheck:
     """
     by_tick = {k.tick: k for k in ticks}
     pairs = [(s, by_tick[s.seq]) for s in samples if s.seq in by_tick]
-    ref = next(((s, k) for s, k in pairs if not k.near), None)
-    if ref is None:
+    if not pairs:
         return CountCheck(0, 0, 0, 0)
-    off1, off2 = ref[0].count1 - ref[1].n1, ref[0].count2 - ref[1].n2
-    wrong = ambiguous = worst = 0
+    off1, off2 = pairs[0][0].count1 - pairs[0][1].seen1, pairs[0][0].count2 - pairs[0][1].seen2
+    wrong = pending = worst = 0
     for s, k in pairs:
-        e = max(abs(s.count1 - off1 - k.n1), abs(s.count2 - off2 - k.n2))
+        e = max(abs(s.count1 - off1 - k.seen1), abs(s.count2 - off2 - k.seen2))
         worst = max(worst, e)
-        ambiguous += k.near
-        wrong += e > (1 if k.near else 0)
-    return CountCheck(len(pairs), wrong, ambiguous, worst)
+        pending += k.near
+        wrong += e > 0
+    return CountCheck(len(pairs), wrong, pending, worst)
 
 
 def count_check(rig: SimavrRig, seconds: float, *, period_us: float = 5000.0, every: int = 1) -> CountCheck:
