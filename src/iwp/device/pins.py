@@ -22,10 +22,11 @@ Its pace: as fast as simavr goes while the host keeps talking, at most half
 a loop period (at least 1 ms) of device time beyond the end of the first
 frame the host has not answered: a host that answers each tick's telemetry
 with the next tick's command is on time at 200 Hz however slow the computer
-(at 1 kHz such a command may be late); a host silent for a quarter of a second of wall-clock time no
-longer holds it, it goes on in real time, and the device's watchdog stops
-the motor as on a board. No ``host_clock`` (the image has no HOST_CLOCK cap): run
-without ``fast``.
+(at 1 kHz such a command may be late). A host silent for a quarter of a
+second of wall-clock time no longer holds it: it goes on in real time, and
+the device's watchdog stops the motor as on a board. No ``host_clock`` (the
+image has no HOST_CLOCK cap): run without ``fast``. The twin's encoders are
+ideal (its ``noise_std`` is not applied).
 """
 
 from __future__ import annotations
@@ -47,7 +48,8 @@ from .connection import Rig
 from .errors import DeviceError
 from .protocol import FIXTURE_ACTIONS
 
-__all__ = ["SimavrRig", "PinTwin", "PinTick", "ConstantSpeed", "CountCheck", "compare_counts", "count_check", "CPU_HZ"]
+__all__ = ["SimavrRig", "PinTwin", "PinTick", "ConstantSpeed", "CountCheck", "compare_counts", "count_check",
+           "CPU_HZ"]
 
 #: The ATmega328P's clock [Hz] (the harness's cycles).
 CPU_HZ = 16_000_000
