@@ -13,40 +13,22 @@ reason, unless ``CI`` is set (``.ci/run`` installs them), where they fail.
 from __future__ import annotations
 
 import json
-import os
 import re
-import shutil
 import signal
 import subprocess
 import time
-from pathlib import Path
 
 import pytest
 
 from iwp.device.connection import Rig
+from tests.helpers import AVR_HEADERS, AVR_TOOLS, SIMAVR_HEADERS, make_firmware, need_tools
 
-FIRMWARE = Path(__file__).resolve().parents[1] / "firmware"
 BUDGET_1KHZ = 16_000  # cycles of a 16 MHz ATmega328P in one millisecond
 
 
-def _need(*tools: str, headers: tuple[str, ...] = ()) -> None:
-    missing = [t for t in tools if shutil.which(t) is None]
-    missing += [h for h in headers if not Path(h).exists()]
-    if missing:
-        msg = f"needs {', '.join(missing)} (apt-get install -y gcc-avr avr-libc simavr libsimavr-dev libelf-dev)"
-        if os.environ.get("CI"):
-            pytest.fail(msg + "; CI must install them")
-        pytest.skip(msg + "; set CI=1 to make this a failure")
-
-
-def _make(build: Path, *targets: str) -> subprocess.CompletedProcess:
-    return subprocess.run(["make", "-s", "-C", str(FIRMWARE), f"BUILD={build}", *targets], capture_output=True,
-                          text=True, timeout=300)
-
-
 def test_core_unit_tests_pass_with_the_host_compiler(tmp_path):
-    _need("make", "cc")
-    r = _make(tmp_path, "test")
+    need_tools("make", "cc")
+    r = make_firmware(tmp_path, "test")
     assert r.returncode == 0, r.stdout + r.stderr
     m = re.search(r"(\d+) passed, (\d+) failed", r.stdout)
     assert m and int(m.group(1)) >= 30 and m.group(2) == "0", r.stdout
@@ -54,9 +36,9 @@ def test_core_unit_tests_pass_with_the_host_compiler(tmp_path):
 
 @pytest.fixture(scope="module")
 def avr_build(tmp_path_factory):
-    _need("make", "avr-gcc", "avr-size", "avr-objcopy", headers=("/usr/lib/avr/include/avr/io.h",))
+    need_tools(*AVR_TOOLS, headers=AVR_HEADERS)
     build = tmp_path_factory.mktemp("fw")
-    r = _make(build, "avr")
+    r = make_firmware(build, "avr")
     assert r.returncode == 0, r.stdout + r.stderr
     return build, r.stdout
 
@@ -73,9 +55,9 @@ def test_avr_build_fits_the_atmega328p(avr_build):
 @pytest.fixture(scope="module")
 def simavr(avr_build, tmp_path_factory):
     """The firmware under simavr; yields (port, stats path)."""
-    _need("pkg-config", headers=("/usr/include/simavr/sim_avr.h", "/usr/include/simavr/parts/uart_pty.h"))
+    need_tools("pkg-config", headers=SIMAVR_HEADERS)
     build, _ = avr_build
-    r = _make(build, "simavr")
+    r = make_firmware(build, "simavr")
     assert r.returncode == 0, r.stdout + r.stderr
     stats = tmp_path_factory.mktemp("sim") / "stats.json"
     p = subprocess.Popen([str(build / "iwp_simavr"), str(build / "iwp.elf"), "--stats", str(stats), "--spin", "400"],

@@ -4,13 +4,19 @@
  * board (see firmware/README.md for the wiring):
  *   pendulum encoder A/B  D2/D3 (INT0/INT1, both edges: 4 counts per line)
  *   wheel encoder A/B     D4/D5 (PCINT20/21, both edges)
- *   H-bridge              PWM D9 (OC1A, 20 kHz), IN1 D7, IN2 D8 (L298N, TB6612, ...)
+ *   H-bridge              PWM D9 (OC1A, 20 kHz), IN1 D10, IN2 D12 (L298N, TB6612, ...): all on PORTB, so that
+ *                         the encoders' port D is only read (simavr 1.6 lets a PORTD write override the pins
+ *                         its pull-ups feed, which lost and invented encoder edges when IN1 was on D7), and
+ *                         not on D8 = ICP1 (simavr 1.6 captures Timer1 into ICR1, the PWM's TOP, on its edges)
  *   current sense         A0 (optional: -DIWP_CURRENT_SENSE, an ACS712-5A by default)
  *   step marker           D13 (high while the control step runs: a scope, or simavr, times it)
  *   serial                500000 baud, 8N1 (the USB adapter of the board); sent from an interrupt
  * Timer2 ticks every millisecond; the loop runs every period_us / 1000 ticks. The AVR's own watchdog
  * (120 ms) resets the board, motor off, if this loop ever hangs; the core's watchdog stops the motor
  * when the host stops sending.
+ * Emulated hands: a simulator that presets GPIOR2 to IWP_SIM_HANDS before the first instruction (firmware/sim)
+ * gets the FIXTURE capability: each request is handed to it through GPIOR1 (the angle's four bytes, least
+ * significant first) and GPIOR0 (the action plus one). A board's GPIOR2 is 0 after a reset: no hands.
  */
 #include <avr/interrupt.h>
 #include <avr/io.h>
@@ -29,6 +35,7 @@
 #define IWP_BAUD 500000UL
 #endif
 #define BASE_US 1000UL
+#define IWP_SIM_HANDS 0xA5
 
 #ifdef IWP_CURRENT_SENSE
 #define CAPS (IWP_CAP_HOPF | IWP_CAP_STATE_FEEDBACK | IWP_CAP_CURRENT)
@@ -42,24 +49,38 @@
 
 static iwp_core_t core;
 
-/* ------------------------------------------------------------------ encoders (x4 quadrature) */
+/* ------------------------------------------------------------------ encoders (x4 quadrature)
+ * The interrupts keep 16-bit counts (few registers to save: an edge costs about half the cycles of a 32-bit
+ * count) and the loop extends them to 32 bits at every tick: exact while fewer than 32768 edges come between
+ * two ticks (1.6 million edges/s at the longest period, 20 ms). */
 static const int8_t QUAD[16] = {0, -1, 1, 0, 1, 0, 0, -1, -1, 0, 0, 1, 0, 1, -1, 0};
-static volatile int32_t count1, count2;
-static volatile uint8_t ab1, ab2;
+static volatile uint16_t count1, count2; /* wrap around; see encoder_counts() */
+static volatile uint8_t ab1, ab2;        /* the last A/B state, times 4 (QUAD's row) */
 
-static inline void pendulum_edge(void)
+ISR(INT0_vect)
 {
     uint8_t ab = (uint8_t)((PIND >> 2) & 3); /* D2 = A, D3 = B */
-    count1 += QUAD[(ab1 << 2) | ab];
-    ab1 = ab;
+    count1 += QUAD[ab1 | ab];
+    ab1 = (uint8_t)(ab << 2);
 }
-ISR(INT0_vect) { pendulum_edge(); }
 ISR(INT1_vect, ISR_ALIASOF(INT0_vect));
 ISR(PCINT2_vect)
 {
     uint8_t ab = (uint8_t)((PIND >> 4) & 3); /* D4 = A, D5 = B */
-    count2 += QUAD[(ab2 << 2) | ab];
-    ab2 = ab;
+    count2 += QUAD[ab2 | ab];
+    ab2 = (uint8_t)(ab << 2);
+}
+
+static int32_t total1, total2;
+static uint16_t last1, last2;
+
+/* the 32-bit counts from the 16-bit ones read at this tick */
+static void encoder_counts(uint16_t r1, uint16_t r2)
+{
+    total1 += (int16_t)(uint16_t)(r1 - last1);
+    total2 += (int16_t)(uint16_t)(r2 - last2);
+    last1 = r1;
+    last2 = r2;
 }
 
 /* ------------------------------------------------------------------ the clock: Timer2, 1 kHz */
@@ -135,8 +156,7 @@ static void uart_init(void)
 
 static void motor_init(void)
 {
-    DDRB |= _BV(PB1) | _BV(PB0) | _BV(PB5); /* D9 PWM, D8 IN2, D13 step marker */
-    DDRD |= _BV(PD7);                       /* D7 IN1 */
+    DDRB |= _BV(PB1) | _BV(PB2) | _BV(PB4) | _BV(PB5); /* D9 PWM, D10 IN1, D12 IN2, D13 step marker */
     TCCR1A = _BV(COM1A1) | _BV(WGM11);
     TCCR1B = _BV(WGM13) | _BV(CS10);
     ICR1 = PWM_TOP;
@@ -148,9 +168,8 @@ static void motor_set(float v) /* v in input units, |v| <= 100 = full duty */
     float a = v < 0.0f ? -v : v;
     uint16_t duty = (uint16_t)(a * (PWM_TOP / 100.0f) + 0.5f);
     if (duty > PWM_TOP) duty = PWM_TOP;
-    if (v > 0.0f) { PORTD |= _BV(PD7); PORTB &= (uint8_t)~_BV(PB0); }
-    else if (v < 0.0f) { PORTD &= (uint8_t)~_BV(PD7); PORTB |= _BV(PB0); }
-    else { PORTD &= (uint8_t)~_BV(PD7); PORTB &= (uint8_t)~_BV(PB0); }
+    uint8_t dir = v > 0.0f ? _BV(PB2) : v < 0.0f ? _BV(PB4) : 0; /* IN1 D10 for v > 0, IN2 D12 for v < 0 */
+    PORTB = (uint8_t)((PORTB & (uint8_t)~(_BV(PB2) | _BV(PB4))) | dir);
     OCR1A = duty;
 }
 
@@ -174,8 +193,8 @@ static void io_init(void)
     EIMSK = _BV(INT0) | _BV(INT1);
     PCMSK2 = _BV(PCINT20) | _BV(PCINT21);
     PCICR = _BV(PCIE2);
-    ab1 = (uint8_t)((PIND >> 2) & 3);
-    ab2 = (uint8_t)((PIND >> 4) & 3);
+    ab1 = (uint8_t)(((PIND >> 2) & 3) << 2);
+    ab2 = (uint8_t)(((PIND >> 4) & 3) << 2);
     /* Timer2: CTC, 16 MHz / 64 / 250 = 1 kHz */
     TCCR2A = _BV(WGM21);
     TCCR2B = _BV(CS22);
@@ -187,25 +206,37 @@ static void io_init(void)
 #endif
 }
 
+/* the emulated hands of a simulator (see the top of this file) */
+static void hands_request(uint8_t action, float q1)
+{
+    const uint8_t *b = (const uint8_t *)&q1;
+    for (uint8_t i = 0; i < 4; i++) GPIOR1 = b[i];
+    GPIOR0 = (uint8_t)(action + 1);
+}
+
 int main(void)
 {
+    uint8_t hands = GPIOR2 == IWP_SIM_HANDS;
     MCUSR = 0;
     wdt_enable(WDTO_120MS);
     motor_init();
     motor_set(0.0f);
-    iwp_core_init(&core, 1, CAPS, BASE_US);
+    iwp_core_init(&core, 1, hands ? CAPS | IWP_CAP_FIXTURE : CAPS, BASE_US);
     uart_init();
     io_init();
     sei();
     for (;;) {
         wdt_reset();
         if (due) {
-            int32_t c1, c2;
+            uint16_t c1, c2;
             uint8_t lost;
-            ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { c1 = count1; c2 = count2; due = 0; lost = missed; missed = 0; }
-            PORTB |= _BV(PB5); /* the control step starts */
+            ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+                PORTB |= _BV(PB5); /* the control step starts: the counts are those of this instant */
+                c1 = count1; c2 = count2; due = 0; lost = missed; missed = 0;
+            }
             while (lost--) iwp_core_overrun(&core);
-            float v = iwp_core_tick(&core, c1, c2, current_amps(), micros());
+            encoder_counts(c1, c2);
+            float v = iwp_core_tick(&core, total1, total2, current_amps(), micros());
             motor_set(v);
             PORTB &= (uint8_t)~_BV(PB5); /* ... and ends */
             uint16_t per = (uint16_t)(iwp_core_period_us(&core) / BASE_US);
@@ -216,6 +247,9 @@ int main(void)
             rx_tail = (uint8_t)((rx_tail + 1) & (RX_LEN - 1));
             iwp_core_rx(&core, &b, 1);
         }
+        uint8_t action;
+        float q1;
+        if (hands && iwp_core_fixture(&core, &action, &q1)) hands_request(action, q1);
         uart_feed();
         ATOMIC_BLOCK(ATOMIC_FORCEON) {
             uint8_t tx_full = ((uint8_t)(tx_head + 1) & (TX_LEN - 1)) == tx_tail;

@@ -17,6 +17,7 @@ module                 what
 :mod:`.core`           the firmware's portable core (C, ``csrc/``) compiled here, through ctypes
 :mod:`.emulator`       :class:`TwinDevice` (the core driving the twin), :class:`Emulator` (behind a pty)
 :mod:`.twin`           :class:`TwinRig`: the emulator in this process; :func:`open_rig`
+:mod:`.pins`           :class:`SimavrRig`: the board's image under simavr, the twin at its pins
 :mod:`.loop`           :func:`run_loop`: the fixed-rate loop that stops the motor on every way out
 :mod:`.realtime`       real-time scheduling of a loop's thread where allowed
 :mod:`.record`         a run as an iwp log, with the device, the link and the timing in its metadata

@@ -4,7 +4,7 @@
 #define IWP_PROTOCOL_H
 
 #define IWP_PROTOCOL_VERSION 2
-#define IWP_DICT_HASH 0xd88257f9UL
+#define IWP_DICT_HASH 0x01319c63UL
 #define IWP_MAX_PAYLOAD 64
 
 /* messages: type byte, payload size, byte offset of each field (little-endian, packed) */
@@ -143,7 +143,7 @@
 #define IWP_P_V_DZ_POS 3 /* input units: feedforward (7)-(8) threshold for u > 0 (0: none) */
 #define IWP_P_V_DZ_NEG 4 /* input units: feedforward (7)-(8) threshold for u < 0 (0: none) */
 #define IWP_P_Q1_MAX 5 /* rad: fault when |q1| exceeds it */
-#define IWP_P_Q4_MAX 6 /* rad/s: fault when |q4| exceeds it */
+#define IWP_P_Q4_MAX 6 /* rad/s: fault when |q4| exceeds it (300: within what the AVR firmware counts exactly at 200 Hz) */
 #define IWP_P_SAT_MS_MAX 7 /* ms: stall: fault when the command stays saturated with |q4| < q4_max/10 this long (0: off) */
 #define IWP_P_COUNTS1 8 /* counts/rev: pendulum encoder resolution */
 #define IWP_P_COUNTS2 9 /* counts/rev: wheel encoder resolution */
@@ -164,7 +164,7 @@
     {31.0f, 0.0f, 100.0f}, \
     {31.0f, 0.0f, 100.0f}, \
     {12.566370614359172f, 0.1f, 1000.0f}, \
-    {400.0f, 1.0f, 10000.0f}, \
+    {300.0f, 1.0f, 10000.0f}, \
     {3000.0f, 0.0f, 60000.0f}, \
     {2000.0f, 1.0f, 1000000.0f}, \
     {2000.0f, 1.0f, 1000000.0f}, \
