@@ -60,11 +60,12 @@ class RunPrediction:
     text: str = ""
 
     def to_dict(self, max_points: int = 600) -> dict:
-        """As JSON-ready lists, every ``k``-th sample so that at most ``max_points`` are kept."""
+        """As JSON-ready lists, every ``k``-th sample and the last so that at most about ``max_points`` are kept."""
         k = max(1, int(math.ceil(self.t.size / max_points)))
+        keep = np.unique(np.r_[np.arange(0, self.t.size, k), self.t.size - 1])
 
         def cut(a):
-            return [round(float(v), 6) for v in np.asarray(a)[::k]]
+            return [round(float(v), 6) for v in np.asarray(a)[keep]]
 
         out = {"t": cut(self.t), "nominal": {s: cut(v) for s, v in self.nominal.items()}, "text": self.text,
                "band": self.lower is not None}
