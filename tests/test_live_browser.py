@@ -146,7 +146,8 @@ def test_live_view_streams_predicts_survives_closing_and_stops_the_motor(emulato
         (u0, ms0), w0 = a.eval("[window.iwpLive.updates, window.iwpLive.drawMs]"), time.monotonic()
         time.sleep(3.0)
         (u1, ms1), w1 = a.eval("[window.iwpLive.updates, window.iwpLive.drawMs]"), time.monotonic()
-        assert (u1 - u0) / (w1 - w0) >= 10.0, (u0, u1, w1 - w0, f"{(ms1 - ms0) / max(u1 - u0, 1):.0f} ms a redraw")
+        assert (u1 - u0) / (w1 - w0) >= 10.0, (u0, u1, w1 - w0, f"{(ms1 - ms0) / max(u1 - u0, 1):.0f} ms an update",
+                                               proc.poll(), err.read_text()[-400:])
         assert a.eval("window.iwpLive.band") is True
         # the prediction drawn is the model's simulation of the same chirp, held each period, with its band
         t_p, q1_p = _series(a, "q1 predicted")

@@ -17,8 +17,15 @@ from ._common import (
     load_uncertainty_arg,
     write_robust,
 )
-from .portargs import add_live_args, add_port_args, live_params, live_session, open_port_rig, port_operator, \
-    port_progress
+from .portargs import (
+    add_live_args,
+    add_port_args,
+    live_params,
+    live_session,
+    open_port_rig,
+    port_operator,
+    port_progress,
+)
 
 _SWINGUP_DESCRIPTION = """\
 Swing the pendulum up from rest at the bottom by pumping energy with the

@@ -25,8 +25,15 @@ import sys
 from ..errors import InputError
 from ._common import add_force_arg, float_list, plain
 from .interrupts import interrupts_ignored
-from .portargs import add_live_args, add_port_args, live_params, live_session, open_port_rig, port_operator, \
-    port_progress
+from .portargs import (
+    add_live_args,
+    add_port_args,
+    live_params,
+    live_session,
+    open_port_rig,
+    port_operator,
+    port_progress,
+)
 
 
 def _x0(text: str) -> list[float]:

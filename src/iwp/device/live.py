@@ -3,13 +3,14 @@
 :class:`LiveFeed` is the loop's observer (:class:`~iwp.device.loop.LoopObserver`):
 the loop hands it each sample it records, and it only writes the sample into
 a ring of shared memory whose oldest entry is overwritten when the reader
-falls behind (:class:`~iwp.device.live_server.SampleRing`), and reads the
-stop button's flag there: nothing the page does can slow or block the loop.
-:class:`LiveView` serves the page from a process of its own
-(:mod:`.live_server`, forked), so that no thread of the host's process
-competes with its real-time loop for Python's interpreter lock (a thread
-of the server preempted while holding it would stall the loop past the
-device's watchdog on a busy machine). The page draws ``q1`` and ``q2`` with
+falls behind (:class:`~iwp.live_server.SampleRing`), and reads the stop
+button's flag there: nothing the page does can slow or block the loop.
+:class:`LiveView` serves the page from a process of its own, a fresh
+interpreter (:mod:`iwp.live_server`) that shares only that memory with the
+host: a thread of the host's process would compete with its real-time loop
+for Python's interpreter lock, and a forked copy of the host, serving the
+page, stalled the loop past the device's watchdog on the 2-core machine.
+The page draws ``q1`` and ``q2`` with
 the model's prediction (:mod:`.prediction`) and its 95 % band, the command
 applied with its saturated samples, the device's state and fault, its
 overruns and late ticks and the samples lost on the link. The plots are
@@ -28,13 +29,18 @@ block.
 from __future__ import annotations
 
 import importlib.util
+import json
 import mmap
-import multiprocessing
+import os
+import select
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 from ..errors import InputError
+from ..live_server import PLOT_RATE, RING_SAMPLES, SampleRing
 from .connection import Sample
-from .live_server import PLOT_RATE, RING_SAMPLES, SampleRing, serve
 from .loop import LoopObserver
 from .protocol import FAULTS, STATES
 
@@ -45,7 +51,20 @@ STOP_REASON = "stop button (live view)"
 #: BokehJS's files the page loads (from the bokeh package).
 BOKEH_FILES = ("bokeh.min.js", "bokeh-api.min.js")
 #: How long the server process may take to start serving [s].
-_START_TIMEOUT = 30.0
+_START_TIMEOUT = 60.0
+#: The page.
+_PAGE = Path(__file__).with_name("live.html")
+
+
+def _shared_file(size: int) -> int:
+    """A file of ``size`` bytes in memory, with no name (a descriptor the server process inherits)."""
+    if hasattr(os, "memfd_create"):
+        fd = os.memfd_create("iwp-live", 0)
+    else:  # pragma: no cover (not Linux)
+        with tempfile.TemporaryFile() as f:
+            fd = os.dup(f.fileno())
+    os.ftruncate(fd, size)
+    return fd
 
 
 def bokeh_js() -> dict[str, Path]:
@@ -83,8 +102,10 @@ class LiveFeed(LoopObserver):
     """
 
     def __init__(self, progress=None, n: int = RING_SAMPLES):
-        self.buffer = mmap.mmap(-1, SampleRing.size(n))  # anonymous, shared with the forked server
-        self.ring = SampleRing(self.buffer, n)
+        self.n = int(n)
+        self.fd = _shared_file(SampleRing.size(self.n))  # shared with the server's process
+        self.buffer = mmap.mmap(self.fd, SampleRing.size(self.n))
+        self.ring = SampleRing(self.buffer, self.n)
         self._progress = progress
         self._states, self._faults = dict(STATES), dict(FAULTS)
 
@@ -123,40 +144,41 @@ class LiveView:
     Raises
     ------
     InputError
-        The port is taken or not allowed (argument ``live_port``), bokeh is missing, or the system cannot fork.
+        The port is taken or not allowed (argument ``live_port``), or bokeh is missing.
     """
 
     def __init__(self, feed: LiveFeed, *, port: int = 0, title: str = "", duration: float | None = None):
         if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
             raise InputError(f"live_port must be a port number from 0 to 65535, got {port!r}", argument="live_port")
-        js = {n: str(p) for n, p in bokeh_js().items()}
-        if "fork" not in multiprocessing.get_all_start_methods():
-            raise InputError("the live view serves from a forked process: this system cannot fork", argument="live")
-        ctx = multiprocessing.get_context("fork")
+        config = {"meta": {"title": title, "duration": duration, "limits": {}, "plot_rate": PLOT_RATE},
+                  "page": str(_PAGE), "js": {n: str(p) for n, p in bokeh_js().items()}, "states": STATES,
+                  "faults": FAULTS, "n": feed.n}
         self.feed = feed
-        self._control, control = ctx.Pipe(duplex=False)[::-1]
-        got, report = ctx.Pipe(duplex=False)
-        meta = {"title": title, "duration": duration, "limits": {}, "plot_rate": PLOT_RATE}
-        self._process = ctx.Process(target=serve, name="iwp-live", daemon=True,
-                                    args=(feed.buffer, port, meta, js, (STATES, FAULTS), control, report))
-        self._process.start()
-        control.close()
-        report.close()
         self._closed = False
-        what, value = got.recv() if got.poll(_START_TIMEOUT) else ("error", "it did not start")
-        got.close()
+        self._process = subprocess.Popen(
+            [sys.executable, "-m", "iwp.live_server", "--fd", str(feed.fd), "--port", str(port)],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, pass_fds=(feed.fd,),
+            text=True, env=_child_env())
+        self._send("config", config)
+        ready, _, _ = select.select([self._process.stdout], [], [], _START_TIMEOUT)
+        line = self._process.stdout.readline().strip() if ready else "error it did not start"
+        what, _, value = line.partition(" ")
         if what != "port":
-            self._stop_process()
-            raise InputError(f"live_port {port}: cannot serve there ({value})", argument="live_port")
+            self.close()
+            raise InputError(f"live_port {port}: cannot serve there ({value or 'the server ended'})",
+                             argument="live_port")
         self.port = int(value)
         self.url = f"http://127.0.0.1:{self.port}/"
 
     def _send(self, what: str, value) -> None:
-        if not self._closed:
-            try:
-                self._control.send((what, value))
-            except (BrokenPipeError, OSError):  # the server is gone: the run goes on without its page
-                pass
+        if self._closed:
+            return
+        try:
+            line = json.dumps(_message(what, value), allow_nan=False)
+            self._process.stdin.write(line + "\n")
+            self._process.stdin.flush()
+        except (BrokenPipeError, OSError, ValueError):  # the server is gone: the run goes on without its page
+            pass
 
     def set_prediction(self, prediction) -> None:
         """The model's prediction to draw (a :class:`~iwp.device.prediction.RunPrediction`), None for none, or a
@@ -205,17 +227,32 @@ class LiveView:
             return
         self._send("close", None)
         self._closed = True
-        self._stop_process()
-
-    def _stop_process(self) -> None:
-        self._process.join(5.0)
-        if self._process.is_alive():
-            self._process.terminate()
-            self._process.join(5.0)
-        self._control.close()
+        for stream in (self._process.stdin, self._process.stdout):
+            try:
+                stream.close()
+            except OSError:
+                pass
+        try:
+            self._process.wait(5.0)
+        except subprocess.TimeoutExpired:
+            self._process.kill()
+            self._process.wait(5.0)
 
     def __enter__(self) -> "LiveView":
         return self
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _message(what: str, value):
+    """A message to the server: the configuration as it is (the first line), the others as ``[what, value]``."""
+    return value if what == "config" else [what, value]
+
+
+def _child_env() -> dict:
+    """The server's environment: this process's, with the folder iwp is imported from first on the path."""
+    env = dict(os.environ)
+    root = str(Path(__file__).resolve().parents[2])
+    env["PYTHONPATH"] = root + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    return env

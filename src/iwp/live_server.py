@@ -1,9 +1,14 @@
 """The live view's server, in a process of its own: the page, the run's samples as Server-Sent Events, the stop.
 
-The host's loop writes each sample it records into a ring of shared memory
-(:class:`SampleRing`) and reads one flag of it (the stop button's); this
-process does everything else, so that no thread of the host's process
-competes with its real-time loop for Python's interpreter lock: a pump
+``python -m iwp.live_server --fd FD`` (started by :class:`iwp.device.live.LiveView`):
+the host's loop writes each sample it records into a ring of shared memory
+(:class:`SampleRing`, the file ``FD`` the host passed) and reads one flag of
+it (the stop button's); this process, a fresh interpreter that shares
+nothing else with the host (it imports numpy and the standard library
+only), does everything else, so that nothing it does can hold up the
+host's real-time loop (a thread of the host would compete with it for
+Python's interpreter lock; a forked copy of the host stalled it past the
+device's watchdog while it served the page). A pump
 reads the ring every :data:`PUSH_PERIOD` seconds (what the loop wrote
 since, the oldest overwritten if this process fell a whole ring behind),
 decimates it for the plots (at most :data:`PLOT_RATE` points a second; the
@@ -15,11 +20,14 @@ here), the run's description and the model's prediction.
 
 from __future__ import annotations
 
+import argparse
 import collections
 import json
 import math
+import mmap
 import os
 import signal
+import sys
 import threading
 import time
 from http import HTTPStatus
@@ -28,12 +36,12 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["SampleRing", "serve", "PUSH_PERIOD", "PLOT_RATE", "RING_SAMPLES", "HISTORY_UPDATES", "FIELDS"]
+__all__ = ["SampleRing", "serve", "main", "PUSH_PERIOD", "PLOT_RATE", "RING_SAMPLES", "HISTORY_UPDATES", "FIELDS"]
 
 #: How often the pages receive what the loop recorded [s] (20 updates a second).
 PUSH_PERIOD = 0.05
 #: The plots' points per second (the samples decimated; the log keeps them all).
-PLOT_RATE = 50.0
+PLOT_RATE = 20.0
 #: The ring's length in samples (82 s at 5 ms): when the server falls this far behind, the oldest are dropped.
 RING_SAMPLES = 16384
 #: Most updates kept for a page opened late (the run so far; 30 min at 20 a second).
@@ -43,8 +51,6 @@ FIELDS = ("t", "q1", "q2", "q4", "u", "v", "saturated", "state", "fault", "overr
 #: The header's slots: samples written, the stop flag, samples lost on the link.
 _WRITTEN, _STOP, _LOST = 0, 1, 2
 _HEADER = 8
-#: The page.
-_PAGE = Path(__file__).with_name("live.html")
 
 
 class SampleRing:
@@ -149,17 +155,19 @@ class _Server(ThreadingHTTPServer):
 class _View:
     """The server's state: the ring's reader, the updates so far, what the pages ask for."""
 
-    def __init__(self, ring: SampleRing, meta: dict, js: dict, codes: tuple[dict, dict]):
-        self.ring, self.meta, self.js = ring, meta, {n: Path(p) for n, p in js.items()}
+    def __init__(self, ring: SampleRing, config: dict):
+        self.ring, self.meta = ring, config["meta"]
+        self.page, self.js = Path(config["page"]), {n: Path(p) for n, p in config["js"].items()}
         self.prediction: dict = {"pending": True, "text": "computing the model's prediction"}
         self.cond = threading.Condition()
         self.history: collections.deque = collections.deque(maxlen=HISTORY_UPDATES)
         self.first = 0
         self.ended: str | None = None
-        self.closing = threading.Event()
+        self.quit = threading.Event()  # the host is done: end the pages, then close
+        self.closing = threading.Event()  # the pages' streams end
         self.cursor = 0
         self.dropped = 0
-        self.decimate = _Decimator(*codes)
+        self.decimate = _Decimator(config["states"], config["faults"])
 
     def flush(self) -> None:
         rows, self.cursor, dropped = self.ring.read(self.cursor)
@@ -198,7 +206,7 @@ class _View:
 
     def page_data(self, path: str) -> tuple[bytes, str] | None:
         if path in ("/", "/index.html"):
-            return _PAGE.read_bytes(), "text/html; charset=utf-8"
+            return self.page.read_bytes(), "text/html; charset=utf-8"
         if path.startswith("/js/") and path[4:] in self.js:
             return self.js[path[4:]].read_bytes(), "application/javascript"
         if path == "/meta":
@@ -219,7 +227,8 @@ def _handler(view: _View):
             self.send_response(status)
             self.send_header("Content-Type", ctype)
             self.send_header("Content-Length", str(len(body)))
-            self.send_header("Cache-Control", "no-store")
+            # BokehJS is kept by the browser: a page opened again during the run does not load and parse it again
+            self.send_header("Cache-Control", "max-age=86400" if ctype == "application/javascript" else "no-store")
             self.end_headers()
             self.wfile.write(body)
 
@@ -269,53 +278,53 @@ def _handler(view: _View):
     return Handler
 
 
-def serve(buffer, port: int, meta: dict, js: dict, codes: tuple[dict, dict], control, report) -> None:
-    """The server process's body (a forked child of the host): serve until told to close or the host is gone.
+def _control(view: _View, lines) -> None:
+    """The host's messages, one JSON line each: ``prediction``, ``limits``, ``end``, ``close``; the end of the
+    stream (the host closed it, or is gone) closes the view."""
+    for line in lines:
+        try:
+            what, value = json.loads(line)
+        except ValueError:
+            continue
+        if what == "close":
+            break
+        if what == "prediction":
+            view.prediction = value
+        elif what == "limits":
+            view.meta["limits"].update(value)
+        elif what == "end":
+            view.end(value)
+    view.quit.set()
+
+
+def serve(buffer, port: int, config: dict, lines, out) -> None:
+    """Serve the view until the host closes it or is gone.
 
     Parameters
     ----------
     buffer : mmap
-        The shared ring (:class:`SampleRing`).
+        The shared ring (:class:`SampleRing`, ``config["n"]`` samples).
     port : int
         Port on 127.0.0.1 (0: a free one).
-    meta : dict
-        The run's description for the page (title, duration, limits).
-    js : dict of str to str
-        BokehJS's files by name.
-    codes : (dict, dict)
-        The device's states and faults by name (their codes in the ring).
-    control : Connection
-        From the host: ``("prediction", dict)``, ``("limits", dict)``, ``("end", reason)``, ``("close", None)``.
-    report : Connection
-        To the host: ``("port", number)`` once serving, or ``("error", message)``.
+    config : dict
+        ``meta`` (the page's title, duration, limits), ``page`` (the HTML file), ``js`` (BokehJS's files by
+        name), ``states`` and ``faults`` (the device's codes by name), ``n``.
+    lines : iterable of str
+        The host's messages (see :func:`_control`).
+    out : file
+        Where ``port N`` (serving) or ``error MESSAGE`` is written, one line.
     """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the host's: it closes the view on its way out
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    host = os.getppid()
-    view = _View(SampleRing(buffer), meta, js, codes)
+    view = _View(SampleRing(buffer, config["n"]), config)
     try:
         server = _Server(("127.0.0.1", port), _handler(view))
     except OSError as exc:
-        report.send(("error", exc.strerror or str(exc)))
+        print(f"error {exc.strerror or exc}", file=out, flush=True)
         return
-    report.send(("port", server.server_address[1]))
-    th = threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.1}, daemon=True)
-    th.start()
+    print(f"port {server.server_address[1]}", file=out, flush=True)
+    threading.Thread(target=server.serve_forever, kwargs={"poll_interval": 0.1}, daemon=True).start()
+    threading.Thread(target=_control, args=(view, lines), daemon=True).start()
     try:
-        while os.getppid() == host:
-            if control.poll(PUSH_PERIOD):
-                try:
-                    what, value = control.recv()
-                except EOFError:  # the host is gone
-                    break
-                if what == "close":
-                    break
-                if what == "prediction":
-                    view.prediction = value
-                elif what == "limits":
-                    view.meta["limits"].update(value)
-                elif what == "end":
-                    view.end(value)
+        while not view.quit.wait(PUSH_PERIOD):
             view.flush()
     finally:
         view.end("the live view closed")
@@ -325,3 +334,33 @@ def serve(buffer, port: int, meta: dict, js: dict, codes: tuple[dict, dict], con
             view.cond.notify_all()
         server.shutdown()
         server.server_close()
+
+
+def _lowest_priority() -> None:
+    """This process and the threads it starts run only when nothing else wants the processor (``SCHED_IDLE``
+    where the system has it, else the lowest ``nice``): a page served must never take time from the rig's loop."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_IDLE, os.sched_param(0))
+    except (AttributeError, OSError):  # not Linux
+        try:
+            os.nice(19)
+        except OSError:
+            pass
+
+
+def main(argv=None) -> int:
+    """``python -m iwp.live_server --fd FD --port N``; the configuration is the first line of stdin (JSON)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the host's: it closes the view on its way out
+    _lowest_priority()
+    p = argparse.ArgumentParser(prog="python -m iwp.live_server")
+    p.add_argument("--fd", type=int, required=True)
+    p.add_argument("--port", type=int, default=0)
+    args = p.parse_args(argv)
+    config = json.loads(sys.stdin.readline())
+    buffer = mmap.mmap(args.fd, SampleRing.size(config["n"]))
+    serve(buffer, args.port, config, sys.stdin, sys.stdout)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
