@@ -5,10 +5,9 @@ the host's loop writes each sample it records into a ring of shared memory
 (:class:`SampleRing`, the file ``FD`` the host passed) and reads one flag of
 it (the stop button's); this process, a fresh interpreter that shares
 nothing else with the host (it imports numpy and the standard library
-only), does everything else, so that nothing it does can hold up the
-host's real-time loop (a thread of the host would compete with it for
-Python's interpreter lock; a forked copy of the host stalled it past the
-device's watchdog while it served the page). A pump
+only) and runs at the lowest priority, does everything else, so that
+nothing it does holds up the host's real-time loop (a thread of the host
+would compete with it for Python's interpreter lock). A pump
 reads the ring every :data:`PUSH_PERIOD` seconds (what the loop wrote
 since, the oldest overwritten if this process fell a whole ring behind),
 decimates it for the plots (at most :data:`PLOT_RATE` points a second; the
@@ -59,7 +58,7 @@ class SampleRing:
     Parameters
     ----------
     buffer : buffer
-        Shared memory of :meth:`size` bytes (an anonymous ``mmap`` shared with a forked process).
+        Shared memory of :meth:`size` bytes (the host's and the server's mapping of one file in memory).
     n : int
         The ring's length in samples.
     """

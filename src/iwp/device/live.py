@@ -7,10 +7,9 @@ falls behind (:class:`~iwp.live_server.SampleRing`), and reads the stop
 button's flag there: nothing the page does can slow or block the loop.
 :class:`LiveView` serves the page from a process of its own, a fresh
 interpreter (:mod:`iwp.live_server`) that shares only that memory with the
-host: a thread of the host's process would compete with its real-time loop
-for Python's interpreter lock, and a forked copy of the host, serving the
-page, stalled the loop past the device's watchdog on the 2-core machine.
-The page draws ``q1`` and ``q2`` with
+host, at the lowest priority: a thread of the host's process would compete
+with its real-time loop for Python's interpreter lock (docs/live.md). The
+page draws ``q1`` and ``q2`` with
 the model's prediction (:mod:`.prediction`) and its 95 % band, the command
 applied with its saturated samples, the device's state and fault, its
 overruns and late ticks and the samples lost on the link. The plots are
