@@ -124,16 +124,15 @@ def _series(page: Page, name: str) -> tuple[np.ndarray, np.ndarray]:
     return np.array(got[0], dtype=float), np.array(got[1], dtype=float)
 
 
-@pytest.mark.slow
-def test_live_view_streams_predicts_survives_closing_and_stops_the_motor(emulator, chromium, tmp_path):  # noqa: F811
-    port, err = emulator
-    out = tmp_path / "chirp.csv"
-    params = _covariance_params(tmp_path / "parameters.json")
-    armed_before = err.read_text().count("device ARMED")
+def _drive(port: str, err: Path, browser_path: str, folder: Path) -> dict:
+    """The run with its live view, driven through the page (see the module's docstring)."""
+    folder.mkdir()
+    out = folder / "chirp.csv"
+    params = _covariance_params(folder / "parameters.json")
     proc = subprocess.Popen([sys.executable, "-m", "iwp", "rig", "run", "chirp", "--port", port, "--duration",
                              str(DURATION), "--live", "--params", str(params), "--out", str(out)],
                             env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    browser = Browser(chromium, tmp_path / "profile")
+    browser = Browser(browser_path, folder / "profile")
     try:
         line = proc.stdout.readline()
         m = re.fullmatch(r"live view: (http://127\.0\.0\.1:\d+/)\n", line)
@@ -180,6 +179,26 @@ def test_live_view_streams_predicts_survives_closing_and_stops_the_motor(emulato
             proc.kill()
             proc.wait(10)
         browser.close()
+    return {"out": out, "url": url, "t_a": t_a, "t_m": t_m, "q1_m": q1_m}
+
+
+@pytest.mark.slow
+def test_live_view_streams_predicts_survives_closing_and_stops_the_motor(emulator, chromium, tmp_path):  # noqa: F811
+    port, err = emulator
+    # a real-time run on the loaded 2-core machine is sometimes ended by the device's watchdog while a page is
+    # served (docs/live.md); that one run is tried again, once: any other failure, or a second one, fails
+    for attempt in (1, 2):
+        armed_before = err.read_text().count("device ARMED")
+        try:
+            got = _drive(port, err, chromium, tmp_path / f"attempt{attempt}")
+            break
+        except AssertionError:
+            events = err.read_text()
+            watchdog = events.count("device ARMED") == armed_before + 1 and \
+                "device FAULT (WATCHDOG)" in events[events.rindex("device ARMED"):]
+            if attempt == 2 or not watchdog:
+                raise
+    out, url, t_a, t_m, q1_m = got["out"], got["url"], got["t_a"], got["t_m"], got["q1_m"]
     # the log so far is written, marked interrupted; it went on while no page was open
     log = read_experiment(out)
     assert log.metadata["interrupted"] == "true" and log.metadata["stop_reason"] == STOP_REASON
