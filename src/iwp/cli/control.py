@@ -17,7 +17,16 @@ from ._common import (
     load_uncertainty_arg,
     write_robust,
 )
-from .portargs import add_port_args, open_port_rig, port_clearing, port_operator, port_progress
+from .portargs import (
+    add_live_args,
+    add_port_args,
+    live_params,
+    live_session,
+    open_port_rig,
+    port_clearing,
+    port_operator,
+    port_progress,
+)
 
 _SWINGUP_DESCRIPTION = """\
 Swing the pendulum up from rest at the bottom by pumping energy with the
@@ -101,6 +110,7 @@ def register(sub) -> None:
     r.add_argument("--x0", type=float, metavar="Q1", help="where the pendulum is released [rad]")
     add_params_arg(r)
     add_port_args(r)
+    add_live_args(r, params=False)
     add_force_arg(r)
     r.set_defaults(func=run_on_port)
 
@@ -208,7 +218,8 @@ def run_lqr(args) -> int:
 
 
 def run_on_port(args) -> int:
-    from ..device.control import ControlRun, run_control
+    from ..device.control import ControlRun, control_conditions, run_control
+    from ..device.prediction import predict_control_run
     from ..files import LOG_SUFFIXES, check_output_file
     from ..rig import write_result
     from .rig import finish_port_run
@@ -217,15 +228,22 @@ def run_on_port(args) -> int:
         raise InputError("--port is required: a board with iwp's firmware, the port of iwp rig emulate, or twin")
     out = check_output_file(args.out, force=args.force, argument="out", suffixes=tuple(LOG_SUFFIXES))
     params = load_lumped(args.params)
+    model = live_params(args.params) if args.live else None
     where = args.where or ("host" if args.what == "swingup" else "device")
     duration = args.duration if args.duration is not None else {"hopf": 60.0, "balance": 10.0, "swingup": 20.0}[
         args.what]
     if duration <= 0:
         raise InputError(f"--duration must be > 0, got {duration}")
-    with open_port_rig(args) as rig:
-        spec = ControlRun(args.what, duration=duration, where=where, k1=args.k1, k2=args.k2, x0=args.x0)
-        run = run_control(rig, spec, params=params, fast=args.fast, operator=port_operator(args),
-                          progress=port_progress(args), clearing=port_clearing(args))
+    spec = ControlRun(args.what, duration=duration, where=where, k1=args.k1, k2=args.k2, x0=args.x0)
+    with live_session(args, f"control {args.what} ({where}) on {args.port}", duration) as view:
+        with open_port_rig(args) as rig:
+            if view is not None:
+                view.attach(rig, lambda Ts: predict_control_run(spec, model, **control_conditions(rig, spec)))
+            run = run_control(rig, spec, params=params, fast=args.fast, operator=port_operator(args),
+                              progress=port_progress(args) if view is None else view.feed,
+                              clearing=port_clearing(args))
+        if view is not None:
+            view.finish(run.reason)
     args.name = f"control {args.what}"
     status = finish_port_run(run, out, args, write_result)
     if status == 0 and args.what in ("balance", "swingup") and run.log is not None \

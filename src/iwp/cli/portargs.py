@@ -6,6 +6,7 @@ Parsing and printing only: the rig is :mod:`iwp.device`.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 
 
@@ -71,3 +72,48 @@ def port_progress(args):
               flush=True)
 
     return show
+
+
+def add_live_args(p: argparse.ArgumentParser, params: bool = True) -> None:
+    """``--live``, ``--live-port`` (and ``--params``, the model of the live view's prediction)."""
+    p.add_argument("--live", action="store_true",
+                   help="serve a live view of the run on 127.0.0.1 (its URL is printed): q1, q2, the command, the "
+                        "flags, the model's prediction, a stop button (needs: pip install 'iwp[live]')")
+    p.add_argument("--live-port", type=int, default=0, metavar="N",
+                   help="port of the live view (default: a free one)")
+    if params:
+        p.add_argument("--params", metavar="FILE.json",
+                       help="--live: the model's parameters for the prediction (default table1; the parameters.json "
+                            "of iwp fit adds the 95 %% prediction band)")
+
+
+def live_params(spec: str | None):
+    """The model of the live view's prediction: ``--params`` (with its covariance when it has one) or Table 1."""
+    from ..files import read_json
+    from ._common import load_lumped, load_uncertainty_arg
+
+    spec = "table1" if spec is None else spec
+    params = load_lumped(spec)
+    if spec != "table1":
+        doc = read_json(spec, argument="params")
+        if isinstance(doc, dict) and doc.get("covariance") is not None and doc.get("belt") is None:
+            return load_uncertainty_arg(spec)
+    return params
+
+
+@contextlib.contextmanager
+def live_session(args, title: str, duration: float | None):
+    """The live view of ``--live`` (None without it), serving from before the rig opens until the block ends;
+    its URL printed on stdout."""
+    from ..errors import InputError
+
+    if not args.live:
+        if args.live_port != 0:
+            raise InputError("--live-port needs --live")
+        yield None
+        return
+    from ..device.live import LiveFeed, LiveView
+
+    with LiveView(LiveFeed(port_progress(args)), port=args.live_port, title=title, duration=duration) as view:
+        print(f"live view: {view.url}", flush=True)
+        yield view

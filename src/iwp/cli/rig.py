@@ -25,7 +25,16 @@ import sys
 from ..errors import InputError
 from ._common import add_force_arg, float_list, plain
 from .interrupts import interrupts_ignored
-from .portargs import add_port_args, open_port_rig, port_clearing, port_operator, port_progress
+from .portargs import (
+    add_live_args,
+    add_port_args,
+    live_params,
+    live_session,
+    open_port_rig,
+    port_clearing,
+    port_operator,
+    port_progress,
+)
 
 
 def _x0(text: str) -> list[float]:
@@ -92,6 +101,7 @@ def register(sub) -> None:
     pr.add_argument("--levels", type=float_list, metavar="U1,U2,...", help="steps: the levels [input units]")
     pr.add_argument("--step-time", type=float, metavar="S", help="steps: time on each level [s]")
     pr.add_argument("--locked", action="store_true", help="chirp, sine, prbs, steps: pendulum clamped at rest")
+    add_live_args(pr)
     add_force_arg(pr)
     pr.set_defaults(func=run_run)
 
@@ -158,7 +168,8 @@ def run_run(args) -> int:
         return run_port(args)
     from ..rig import VirtualRig, check_output_path, write_result
 
-    port_only = [f for f in ("w0", "tau", "omega", "hold_time", "levels", "step_time") if getattr(args, f) is not None]
+    port_only = [f for f in ("w0", "tau", "omega", "hold_time", "levels", "step_time", "params")
+                 if getattr(args, f) is not None] + [f for f in ("live",) if getattr(args, f)]
     if args.fast or args.locked or port_only:
         flag = "--fast" if args.fast else "--locked" if args.locked else "--" + port_only[0].replace("_", "-")
         raise InputError(f"{flag} needs --port (a rig in the loop; --port twin for the twin)")
@@ -195,7 +206,8 @@ def run_run(args) -> int:
 
 def run_port(args) -> int:
     """``iwp rig run NAME --port PORT``: the experiment on a rig in the loop."""
-    from ..device.runs import RUN_NAMES, run_kind, run_on_rig
+    from ..device.prediction import predict_rig_run
+    from ..device.runs import RUN_NAMES, run_kind, run_on_rig, run_settings
     from ..files import check_output_file
     from ..rig import write_result
     from ..rig.output import result_suffixes
@@ -210,9 +222,20 @@ def run_port(args) -> int:
                "v_dz": args.v_dz, "w0": args.w0, "tau": args.tau, "omega": args.omega,
                "hold_time": args.hold_time, "levels": args.levels, "step_time": args.step_time,
                "locked": True if args.locked else None}
-    with open_port_rig(args, _truth(args.truth) if args.truth else None) as rig:
-        run = run_on_rig(rig, args.name, controller=args.controller, fast=args.fast, operator=port_operator(args),
-                         progress=port_progress(args), clearing=port_clearing(args), **options)
+    if args.params is not None and not args.live:
+        raise InputError("--params is the model of the live view's prediction: use it with --live")
+    params = live_params(args.params) if args.live else None
+    settings = run_settings(args.name, options)
+    static = run_kind(args.name).run.name == "STATIC_CURVE"
+    with live_session(args, f"{args.name} on {args.port}", None if static else settings["duration"]) as view:
+        with open_port_rig(args, _truth(args.truth) if args.truth else None) as rig:
+            if view is not None:
+                view.attach(rig, lambda Ts: predict_rig_run(args.name, params, Ts=Ts, **options))
+            run = run_on_rig(rig, args.name, controller=args.controller, fast=args.fast, operator=port_operator(args),
+                             progress=port_progress(args) if view is None else view.feed, clearing=port_clearing(args),
+                             **options)
+        if view is not None:
+            view.finish(run.reason)
     return finish_port_run(run, out, args, write_result)
 
 

@@ -23,6 +23,8 @@ module                 what
 :mod:`.record`         a run as an iwp log, with the device, the link and the timing in its metadata
 :mod:`.experiments`    :func:`run_on_rig`: the paper's experiments and user inputs on a rig
 :mod:`.control`        :func:`run_control`: the Hopf law, the upright LQR, swing-up on a rig
+:mod:`.prediction`     the model's prediction of a run (and its 95 % band), for the live view
+:mod:`.live`           the live view of a run: a page on 127.0.0.1 with a stop button (docs/live.md)
 :mod:`.errors`         :class:`DeviceError`, :class:`LinkLost`
 =====================  ==============================================================
 """

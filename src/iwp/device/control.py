@@ -36,10 +36,13 @@ from .loop import DeviceLaw, HostLaw, HostLimits, LoopCommand, run_loop
 from .record import loop_log
 from .runs import Clearing, RigRun, arrange, default_operator, hold_at, prepare, releaser, run_on_rig
 
-__all__ = ["run_control", "ControlRun", "CONTROLLERS", "balanced", "BALANCE_START", "V_DZ"]
+__all__ = ["run_control", "ControlRun", "CONTROLLERS", "balanced", "BALANCE_START", "V_DZ", "control_conditions",
+           "HOPF_START"]
 
 #: The balance starts this far from the upright [rad] (the capture region of the LQR with |u| <= 69 is 0.05 rad).
 BALANCE_START = 0.02
+#: The Hopf law's run starts from the pendulum released here [rad] (the experiment ``closed-loop``).
+HOPF_START = 0.3
 #: The paper's feedforward threshold (section 5.1) [input units].
 V_DZ = 31.0
 
@@ -99,6 +102,29 @@ class ControlRun:
     x0: float | None = None
 
 
+def control_conditions(rig: Rig, run: ControlRun) -> dict:
+    """The conditions ``run`` runs with on ``rig`` (:func:`run_control`).
+
+    Parameters
+    ----------
+    rig : Rig
+        Connected.
+    run : ControlRun
+        The controller and its release.
+
+    Returns
+    -------
+    dict
+        ``Ts``, the loop period [s]; ``u_max``, what the driver can give on top of the feedforward [input
+        units]; ``q1_start``, where the pendulum is released [rad]; ``counts_per_rev``, the pendulum encoder's.
+    """
+    p = rig.info.params
+    default = {"hopf": HOPF_START, "balance": math.pi - BALANCE_START}.get(run.what, 0.0)
+    return {"Ts": p["period_us"] * 1e-6, "u_max": min(p["u_max"], p["v_max"] - V_DZ),
+            "q1_start": default if run.x0 is None else float(np.ravel([run.x0])[0]),
+            "counts_per_rev": int(p["counts1"])}
+
+
 def run_control(rig: Rig, run: ControlRun, *, params: LumpedParameters, fast: bool = False, operator=None,
                 progress=None, limits: HostLimits | None = None, clearing: Clearing | None = None) -> RigRun:
     """Run the controller of ``run`` (:class:`ControlRun`) on ``rig``; see the module's docstring.
@@ -135,14 +161,13 @@ def run_control(rig: Rig, run: ControlRun, *, params: LumpedParameters, fast: bo
                              f"{rig.info.params['q1_max']:g} rad: the device would not arm", argument="x0")
     if what == "hopf":
         return run_on_rig(rig, "closed-loop", controller=where, fast=fast, operator=operator, progress=progress,
-                          limits=limits, k1=k1, k2=k2, duration=duration, x0=0.3 if x0 is None else x0,
+                          limits=limits, k1=k1, k2=k2, duration=duration, x0=HOPF_START if x0 is None else x0,
                           clearing=clearing)
     if fast and not rig.has("HOST_CLOCK"):
         raise InputError(f"{rig.port}: this device runs in real time only (no HOST_CLOCK); drop --fast")
-    Ts = rig.info.params["period_us"] * 1e-6
     # what the driver can give on top of the feedforward: |u| <= v_max - v_dz
-    u_max = min(rig.info.params["u_max"], rig.info.params["v_max"] - V_DZ)
-    q1_start = (math.pi - BALANCE_START if what == "balance" else 0.0) if x0 is None else float(np.ravel([x0])[0])
+    at = control_conditions(rig, run)
+    Ts, u_max, q1_start = at["Ts"], at["u_max"], at["q1_start"]
     operator = operator or default_operator
     prepare(rig, fast, clearing)
     rig.set_params(v_dz_pos=V_DZ, v_dz_neg=V_DZ)

@@ -38,7 +38,7 @@ from .errors import DeviceError, LinkLost
 from .realtime import realtime_priority
 
 __all__ = ["run_loop", "LoopResult", "HostLimits", "OpenLoop", "HostLaw", "DeviceLaw", "LoopCommand", "Terminated",
-           "stop_signals", "DEFAULT_LEAD", "jitter_warning"]
+           "stop_signals", "DEFAULT_LEAD", "jitter_warning", "LoopObserver"]
 
 #: How many ticks ahead an open-loop input is sent in real time (20 ms at 5 ms: a USB-serial adapter's latency).
 DEFAULT_LEAD = 4
@@ -46,6 +46,27 @@ DEFAULT_LEAD = 4
 
 class Terminated(BaseException):
     """SIGTERM (or SIGHUP) arrived: stop as Ctrl-C does."""
+
+
+class LoopObserver:
+    """A ``progress`` of :func:`run_loop` that also sees every recorded sample and may ask the loop to stop.
+
+    The loop calls :meth:`on_sample` with each sample it records and :meth:`stop_requested` after each batch of
+    telemetry, both from its own thread and in its time budget: they must return at once (append to a bounded
+    queue, read a flag), never wait. A stop requested ends the run as Ctrl-C does: the motor is stopped and the
+    run so far returned, marked interrupted with the reason given. As a plain ``progress`` callable it is called
+    about every 0.25 s with the progress dictionary (:meth:`__call__`, nothing by default).
+    """
+
+    def __call__(self, progress: dict) -> None:
+        """The progress dictionary of :func:`run_loop` (about every 0.25 s)."""
+
+    def on_sample(self, t: float, sample: Sample) -> None:
+        """Sample ``sample`` recorded at time ``t`` [s] of the run."""
+
+    def stop_requested(self) -> str | None:
+        """Why the run should stop now (the loop's stop reason), or None to go on."""
+        return None
 
 
 @contextlib.contextmanager
@@ -213,8 +234,9 @@ def run_loop(
         Arm the motor (False: the motor stays off, e.g. a free swing).
     limits : HostLimits
         The host's limits and the link's timeout.
-    progress : callable, optional
-        Called about every 0.25 s with ``{"t", "duration", "q1", "u", "overruns", "late", "lost"}``.
+    progress : callable or LoopObserver, optional
+        Called about every 0.25 s with ``{"t", "duration", "q1", "u", "overruns", "late", "lost"}``; a
+        :class:`LoopObserver` also sees every sample and can stop the run (its reason is the stop's).
     on_start : callable, optional
         Called once the motor is armed (e.g. to release the pendulum); returns the device tick of the run's
         first sample (None: as without it). Not with an open-loop input.
@@ -224,6 +246,7 @@ def run_loop(
     input = command.input if isinstance(command, OpenLoop) else None
     controller = command.controller if isinstance(command, HostLaw) else None
     lead = command.lead if isinstance(command, OpenLoop) else None
+    observer = progress if isinstance(progress, LoopObserver) else None
     link_timeout = limits.link_timeout
     Ts = rig.info.params["period_us"] * 1e-6
     n = int(math.floor(duration / Ts + 1e-9)) + 1
@@ -279,6 +302,8 @@ def run_loop(
                 if not res.samples:  # the device's counters at time 0
                     res.counters0 = (s.overruns, (s.late - ("LATE" in s.flags)) & 0xFFFF, s.rx_errors)
                 res.samples.append(s)
+                if observer is not None:
+                    observer.on_sample((s.seq - start) * Ts, s)
                 if armed and s.state != "ARMED":
                     raise _Stop(f"device {s.state}" + (f" ({s.fault})" if s.fault != "NONE" else ""))
                 bad = limits.violated(s)
@@ -287,6 +312,10 @@ def run_loop(
                 if len(res.samples) >= n:
                     raise _Done()
                 _answer(rig, s, s.seq + lead, start, Ts, input, controller)
+            if observer is not None:
+                why = observer.stop_requested()
+                if why:
+                    raise _Stop(why)
             now = time.monotonic()
             if progress is not None and now >= next_progress:
                 s = res.samples[-1] if res.samples else batch[-1]

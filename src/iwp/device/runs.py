@@ -47,7 +47,7 @@ from .record import loop_log
 
 __all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "USER_INPUT_KINDS", "RUN_NAMES", "PAPER_SERIES", "run_kind",
            "arrange", "hold_at", "releaser", "settle", "default_operator", "prepare", "latched", "GUARD_PARAMS",
-           "Clearing"]
+           "Clearing", "run_settings"]
 
 #: User inputs and the options each takes (with their defaults).
 USER_INPUTS: dict[str, dict[str, Any]] = {
@@ -234,6 +234,30 @@ def json_list(x) -> str:
 # --------------------------------------------------------------------------
 # settings
 # --------------------------------------------------------------------------
+def run_settings(name: str, options: dict) -> dict:
+    """The settings :func:`run_on_rig` runs ``name`` with: its defaults, overridden by ``options`` (None: the
+    default).
+
+    Parameters
+    ----------
+    name : str
+        As for :func:`run_on_rig`.
+    options : dict
+        As for :func:`run_on_rig`.
+
+    Returns
+    -------
+    dict
+        Every setting of the run (``v_dz`` None: no compensation).
+
+    Raises
+    ------
+    InputError
+        An unknown name, or an option the run does not take.
+    """
+    return _settings(name, run_kind(name), options)
+
+
 def _settings(name: str, kind: ExperimentKind, options: dict) -> dict:
     if name in EXPERIMENTS:
         spec = experiment_spec(name)
