@@ -123,6 +123,15 @@ def simulate_sensitivities(
     Returns
     -------
     SensitivityResult
+
+    Examples
+    --------
+    How the free swing's states depend on ``p1``:
+
+    >>> from iwp import Plant, simulate_sensitivities, table1
+    >>> s = simulate_sensitivities(Plant(table1(), model="free"), t_end=1.0, x0=[1, 0, 0, 0], wrt=("p1",))
+    >>> s.x.shape, s.S.shape  # states, and d(state)/d(p1) per sample
+    ((201, 4), (201, 4, 1))
     """
     if not isinstance(plant, Plant):
         raise InputError(f"plant must be a Plant, got {type(plant).__name__}")
