@@ -7,19 +7,30 @@ so an installed iwp starts warm; the cold rows are what a user pays without
 it (a changed numba or CPU). Each command is a fresh process; the baseline
 is the start of a bare Python interpreter in the same run.
 
+With ``--install`` (slow: a fresh venv, pip's installs and the build's
+compilation, 5-15 min on 2 cores), the newcomer's first minutes: ``pip
+install`` of this checkout (the files git tracks) into a new virtual
+environment, the wheel's size and its compiled caches, then the first
+``iwp reproduce`` after the install and a second one, with no
+``NUMBA_CACHE_DIR`` (the install's caches; target: the first within 1.5
+times the second).
+
 Usage::
 
-    python benchmarks/bench_startup.py
+    python benchmarks/bench_startup.py [--install]
 """
 
 from __future__ import annotations
 
+import argparse
 import os
+import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
+import zipfile
 from pathlib import Path
 
 
@@ -36,7 +47,40 @@ def median_of(n: int, cmd: list[str], env: dict, cwd: str) -> float:
     return statistics.median(wall(cmd, env, cwd) for _ in range(n))
 
 
+def install_rows(tmp: str) -> list[tuple[str, float, float | str]]:
+    """``pip install`` of this checkout into a fresh venv, then its first and second ``iwp reproduce``."""
+    root = Path(__file__).resolve().parents[1]
+    src = Path(tmp) / "src"
+    files = subprocess.run(["git", "ls-files", "-z"], cwd=root, capture_output=True, check=True).stdout.decode()
+    for rel in filter(None, files.split("\0")):
+        if (root / rel).is_file():
+            (src / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(root / rel, src / rel)
+    venv = Path(tmp) / "venv"
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "PYTHONPATH", "IWP_NO_PRECOMPILE")}
+    env["MPLBACKEND"] = "Agg"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+    py = str(venv / "bin" / "python")
+    wheels = Path(tmp) / "wheels"
+    t_wheel = wall([py, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(src)], env, tmp)
+    (wheel,) = wheels.glob("iwp-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    n_index = sum(n.endswith(".nbi") for n in names)
+    t_inst = wall([py, "-m", "pip", "install", "-q", str(wheel)], env, tmp)
+    iwp = [str(venv / "bin" / "iwp"), "reproduce", "--quiet", "--out"]
+    first = wall(iwp + ["r1"], env, tmp)
+    second = wall(iwp + ["r2"], env, tmp)
+    return [("`pip wheel .` in a fresh venv (build requirements, the build's compilation)", t_wheel, ""),
+            (f"the wheel: {wheel.stat().st_size / 1e6:.1f} MB, {n_index} compiled kernel index files", 0.0, ""),
+            ("`pip install` of the wheel (its dependencies)", t_inst, ""),
+            ("first `iwp reproduce` after the install", first, first / second),
+            ("second `iwp reproduce`", second, 1.0)]
+
+
 def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--install", action="store_true", help="also measure a fresh venv's install (slow)")
+    args = ap.parse_args()
     py = sys.executable
     iwp = [py, "-m", "iwp"]
     rows = []
@@ -71,15 +115,23 @@ def main() -> int:
         rows.append(("`iwp reproduce`, warm cache", warm_r, warm_r / base))
         after_r = wall(rep + ["r3"], w_env, tmp)
         rows.append(("first `iwp reproduce` after `iwp warmup`", after_r, after_r / base))
+        installed = install_rows(tmp) if args.install else []
     print(f"Fresh processes on {os.cpu_count()} cores; medians of 5 (help, version) and 3 (warm simulate).\n")
     print("| command | wall [s] | / baseline |")
     print("|---|---:|---:|")
     for name, t, r in rows:
         print(f"| {name} | {t:.2f} | {r:.1f} |")
-    print("\nTargets (issue 15, 38): `iwp --help` and `iwp rig list` under 0.3 s warm; first `iwp simulate` of a "
+    if installed:
+        print("\nA fresh virtual environment (`--install`): `pip install .`, then the first `iwp reproduce` against "
+              "the second.\n")
+        print("| step | wall [s] | / second `iwp reproduce` |")
+        print("|---|---:|---:|")
+        for name, t, r in installed:
+            print(f"| {name} | {t:.1f} | {r if isinstance(r, str) else f'{r:.2f}'} |" if t else f"| {name} | | |")
+    print("\nTargets (issue 15, 38, 41): `iwp --help` and `iwp rig list` under 0.3 s warm; first `iwp simulate` of a "
           "fresh install under 10 s and "
           "first `iwp reproduce` under 30 s, compilation included (the install compiles: the rows 'after "
-          "`iwp warmup`').")
+          "`iwp warmup`'); after a fresh install, the first `iwp reproduce` within 1.5 times the second.")
     return 0
 
 

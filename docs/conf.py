@@ -8,7 +8,6 @@ Build (warnings are errors; the gallery's examples run during the build)::
 
 from __future__ import annotations
 
-import importlib
 import os
 import sys
 from pathlib import Path
@@ -17,64 +16,19 @@ import matplotlib
 
 matplotlib.use("Agg")
 os.environ.setdefault("MPLBACKEND", "Agg")
+# the gallery's kernels cache outside the source tree (as the tests', conftest.py): a wheel must not pack them
+os.environ.setdefault(
+    "NUMBA_CACHE_DIR", str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "iwp" / "numba"))
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE / "_ext"))
 
+from iwp_api import write_api_pages  # noqa: E402  (docs/_ext)
+
 import iwp  # noqa: E402
 
-#: the API reference: every public name of these modules (their ``__all__``), once, where it is exported first
-API_MODULES = {
-    "iwp.models": "The paper's equations, laws, parameters and the Plant",
-    "iwp.sim": "Simulation: the one integration engine, inputs, controllers",
-    "iwp.sim.sensitivity": "Forward sensitivities",
-    "iwp.sim.uncertainty": "Parameter and prediction bands",
-    "iwp.data": "Experiment logs",
-    "iwp.data.rig_description": "Rig descriptions",
-    "iwp.data.rig_log": "Other rigs' logs",
-    "iwp.ident": "Identification (section 5), refinement, validation",
-    "iwp.ident.logfit": "Logs to a validated model (iwp fit)",
-    "iwp.control": "Hopf design and continuation, balance, swing-up",
-    "iwp.sweep": "Sweeps: many closed loops over gains, parameters, initial states",
-    "iwp.rig": "The virtual rig",
-    "iwp.rig.described": "The virtual rig as any rig",
-    "iwp.calibration": "The calibrated twin",
-    "iwp.device": "The rig in the loop",
-    "iwp.reproduce": "The paper end to end",
-    "iwp.report": "HTML reports",
-    "iwp.plotting": "Figures",
-    "iwp.gym_env": "The Gymnasium environment",
-    "iwp.errors": "Errors",
-}
-
-
-def write_api_page(path: Path) -> None:
-    """docs/api.rst: one autosummary table per module of API_MODULES (generated, not committed)."""
-    seen: set[int] = set()
-    lines = ["API reference", "=============", "",
-             "Every public name, generated from its docstring (numpydoc). ``from iwp import ...`` gives the",
-             "most used ones (:mod:`iwp`); the tables below list each where its subpackage exports it.", ""]
-    for name, title in API_MODULES.items():
-        module = importlib.import_module(name)
-        names = []
-        for n in getattr(module, "__all__", []):
-            obj = getattr(module, n)
-            if id(obj) in seen and not isinstance(obj, (int, float, str, tuple, dict, frozenset)):
-                continue
-            seen.add(id(obj))
-            names.append(n)
-        if not names:
-            continue
-        heading = f"{title} (``{name}``)"
-        lines += [heading, "-" * len(heading), "", f".. automodule:: {name}", "   :no-members:", "",
-                  f".. currentmodule:: {name}", "", ".. autosummary::", "   :toctree: generated/", ""]
-        lines += [f"   {n}" for n in names] + [""]
-    text = "\n".join(lines)
-    if not path.exists() or path.read_text() != text:
-        path.write_text(text)
-
-
-write_api_page(HERE / "api.rst")
+# the API reference: one page per part of the paper, its narrative (docs/_api) and its names (generated)
+write_api_pages(HERE)
 
 project = "iwp"
 author = "the iwp developers"
@@ -85,16 +39,18 @@ extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
+    "sphinx.ext.intersphinx",
     "numpydoc",
     "myst_parser",
     "sphinx_gallery.gen_gallery",
     "iwp_cli",
+    "iwp_api",
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "examples/README.txt", "**.ipynb_checkpoints", "auto_examples/*.ipynb",
-                    "auto_examples/*.py", "auto_examples/*.zip", "auto_examples/*.json"]
+exclude_patterns = ["_build", "_api", "_intersphinx", "examples/README.txt", "**.ipynb_checkpoints",
+                    "auto_examples/*.ipynb", "auto_examples/*.py", "auto_examples/*.zip", "auto_examples/*.json"]
 templates_path = ["_templates"]
 
 # --- API reference: one page per public name, from the docstrings (numpydoc)
@@ -111,6 +67,55 @@ numpydoc_xref_param_type = False
 numpydoc_validation_checks = {"PR02", "PR03", "PR10", "GL07", "PR08", "PR09"}
 #: methods inherited from collections.abc (a frozen module in Python 3.11: no source to validate) are not iwp's
 numpydoc_validation_exclude = {r"\.[A-Z][A-Z0-9_]*$", r"\.(get|items|keys|values|count|index)$"}
+
+# --- links to the libraries iwp's signatures name (numpy arrays, scipy results, matplotlib figures, python-control)
+#: project -> (its documentation, the host its inventory is fetched from)
+INTERSPHINX = {
+    "python": "https://docs.python.org/3/",
+    "numpy": "https://numpy.org/doc/stable/",
+    "scipy": "https://docs.scipy.org/doc/scipy/",
+    "matplotlib": "https://matplotlib.org/stable/",
+    "control": "https://python-control.readthedocs.io/en/latest/",
+}
+
+
+def _reachable(url: str, timeout: float = 3.0) -> bool:
+    """Whether the host of ``url`` answers on its port (the build may run offline: then no inventory)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    parts = urlsplit(url)
+    try:
+        socket.create_connection((parts.hostname, parts.port or 443), timeout=timeout).close()
+    except OSError:
+        return False
+    return True
+
+
+def _inventories() -> dict:
+    """intersphinx_mapping: an inventory shipped in docs/_intersphinx/NAME.inv (or the system's Python docs) is
+    used offline; otherwise the online one where its host answers; otherwise none (the links are left out, and the
+    build still passes with warnings as errors)."""
+    local = {name: HERE / "_intersphinx" / f"{name}.inv" for name in INTERSPHINX}
+    local["python"] = next((p for p in (local["python"], Path("/usr/share/doc/python3/html/objects.inv"),
+                                        Path(f"/usr/share/doc/python3.{sys.version_info.minor}/html/objects.inv"))
+                            if p.is_file()), local["python"])
+    mapping, skipped = {}, []
+    for name, url in INTERSPHINX.items():
+        if local[name].is_file():
+            mapping[name] = (url, str(local[name]))
+        elif _reachable(url):
+            mapping[name] = (url, None)
+        else:
+            skipped.append(name)
+    if skipped:
+        print(f"intersphinx: no inventory for {', '.join(skipped)} (offline, none in docs/_intersphinx): "
+              "their names are not linked")
+    return mapping
+
+
+intersphinx_mapping = _inventories()
+intersphinx_timeout = 10
 
 # --- the Markdown pages of the user guide (MyST)
 myst_enable_extensions = ["dollarmath", "colon_fence"]

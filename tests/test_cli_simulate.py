@@ -51,7 +51,6 @@ def _one_line_error(capsys):
         (["--controller", "pid", "--t-end", "1"], "--controller 'pid': unknown"),
         (["--input", "sine", "--t-end", "-1"], "--t-end must be > --t0"),
         (["--input", "sine", "--t-end", "1", "--ts", "0"], "--ts must be > 0"),
-        (["--input", "sine", "--t-end", "1", "--x0", "1,2"], "x0 must have 4 values"),
         (["--input", "sine", "--t-end", "1", "--params", "nope.json"], "no such parameter file"),
         (["--input", "sine", "--t-end", "1", "--draws", "50"], "--draws is for the draws of --band monte-carlo"),
         (["--input", "sine", "--t-end", "1", "--k1", "-5"], "--k1 is a setting of --controller hopf; --input sine "
@@ -66,6 +65,15 @@ def _one_line_error(capsys):
 def test_simulate_bad_input_exit_2(tmp_path, capsys, args, match):
     assert main(["simulate", *args, "--out", str(tmp_path / "x.csv")]) == 2
     assert match in _one_line_error(capsys)
+
+
+def test_simulate_x0_of_two_values_exit_2(tmp_path, capsys):
+    # --x0 is Q1 or Q1,Q2,Q3,Q4 in every command (tests/test_cli_vocabulary.py): argparse refuses the rest
+    with pytest.raises(SystemExit) as e:
+        main(["simulate", "--input", "sine", "--t-end", "1", "--x0", "1,2", "--out", str(tmp_path / "x.csv")])
+    assert e.value.code == 2
+    assert "argument --x0: expected Q1 or Q1,Q2,Q3,Q4, got 2 numbers" in _one_line_error(capsys)
+    assert not (tmp_path / "x.csv").exists()
 
 
 def test_nan_parameter_file_exit_2(tmp_path, capsys):

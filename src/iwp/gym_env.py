@@ -50,6 +50,7 @@ from .sim.simulate import X_MAX, integrate_held, tolerances
 
 __all__ = ["ENV_ID", "InertiaWheelPendulumEnv", "register_envs"]
 
+#: The Gymnasium id of the environment (``gymnasium.make(ENV_ID)`` after :func:`register_envs`).
 ENV_ID = "iwp/InertiaWheelPendulum-v0"
 
 _RANDOMISED = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1")

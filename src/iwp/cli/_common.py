@@ -60,6 +60,24 @@ def float_list(text: str) -> list[float]:
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
 
 
+def initial_state(text: str) -> list[float]:
+    """Parse ``--x0``: ``Q1`` (released at rest: ``Q1,0,0,0``) or ``Q1,Q2,Q3,Q4`` [rad, rad/s] into 4 floats."""
+    vals = float_list(text)
+    if len(vals) not in (1, 4):
+        raise argparse.ArgumentTypeError(f"expected Q1 or Q1,Q2,Q3,Q4, got {len(vals)} numbers")
+    return vals + [0.0, 0.0, 0.0] if len(vals) == 1 else vals
+
+
+#: metavar and help of ``--x0`` (:func:`add_x0_arg`)
+X0_METAVAR = "Q1[,Q2,Q3,Q4]"
+
+
+def add_x0_arg(p: argparse.ArgumentParser, help: str = "initial state [rad, rad/s]", **kw) -> None:
+    """``--x0 Q1[,Q2,Q3,Q4]`` (:func:`initial_state`): the same syntax and meaning in every command."""
+    p.add_argument("--x0", type=initial_state, metavar=X0_METAVAR,
+                   help=f"{help}; Q1 alone: released at rest (Q1,0,0,0)", **kw)
+
+
 def add_params_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--params", default="table1", metavar="FILE.json",
                    help="parameter set: a JSON file or a built-in name (default: table1)")

@@ -10,6 +10,7 @@ from ._common import (
     add_draws_args,
     add_force_arg,
     add_params_arg,
+    add_x0_arg,
     draws_uncertainty,
     float_list,
     json_text,
@@ -67,8 +68,8 @@ def register(sub) -> None:
     s = csub.add_parser("swingup", help="swing up and balance; write CSV, figure and GIF",
                         description=_SWINGUP_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_params_arg(s)
-    s.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    s.add_argument("--x0", type=float_list, default=[0.0, 0.0, 0.0, 0.0], help="initial state q1,q2,q3,q4")
+    s.add_argument("--out", "-o", required=True, metavar="DIR", help="output folder")
+    add_x0_arg(s, default=[0.0, 0.0, 0.0, 0.0], help="initial state [rad, rad/s] (default 0,0,0,0)")
     s.add_argument("--t-end", type=float, default=20.0, help="simulated time [s] (default 20)")
     s.add_argument("--ideal", action="store_true",
                    help="compensated model (9), true state, no quantisation (default: rig conditions)")
@@ -91,7 +92,7 @@ def register(sub) -> None:
                    help="initial angles from the upright, at rest [rad] (--draws; default 0.25 to 1.25 times "
                         "the capture bound)")
     q.add_argument("--t-end", type=float, default=5.0, help="simulated time of each closed loop [s] (default 5)")
-    q.add_argument("--out", default=None, metavar="DIR", help="output folder of --draws")
+    q.add_argument("--out", "-o", default=None, metavar="DIR", help="output folder of --draws")
     add_force_arg(q)
     q.set_defaults(func=run_lqr)
 
@@ -107,7 +108,7 @@ def register(sub) -> None:
     r.add_argument("--duration", type=float, metavar="S", help="length [s] (default: hopf 60, balance 10, swingup 20)")
     r.add_argument("--k1", type=float, default=-10.0, help="hopf: k1 (default -10)")
     r.add_argument("--k2", type=float, default=0.1, help="hopf: k2 (default 0.1)")
-    r.add_argument("--x0", type=float, metavar="Q1", help="where the pendulum is released [rad]")
+    add_x0_arg(r, help="where the pendulum is released [rad] (by hand: at rest, so Q2,Q3,Q4 are 0; default 0.3)")
     add_params_arg(r)
     add_port_args(r)
     add_live_args(r, params=False)
@@ -129,8 +130,6 @@ def run_swingup(args) -> int:
         params = uncertainty.params
     else:
         params = load_lumped(args.params)
-    if len(args.x0) != 4:
-        raise InputError(f"--x0 must have 4 values q1,q2,q3,q4, got {len(args.x0)}")
     check_positive("t_end", args.t_end)
     check_positive("u_max", args.u_max)
     if not 2 <= args.frames <= 2000:
@@ -227,6 +226,9 @@ def run_on_port(args) -> int:
     if args.port is None:
         raise InputError("--port is required: a board with iwp's firmware, the port of iwp rig emulate, or twin")
     out = check_output_file(args.out, force=args.force, argument="out", suffixes=tuple(LOG_SUFFIXES))
+    if args.x0 is not None and any(v != 0.0 for v in args.x0[1:]):
+        raise InputError(f"--x0: a rig releases the pendulum at rest, so Q2,Q3,Q4 must be 0, got "
+                         f"{','.join(f'{v:g}' for v in args.x0)}")
     params = load_lumped(args.params)
     model = live_params(args.params) if args.live else None
     where = args.where or ("host" if args.what == "swingup" else "device")
@@ -234,7 +236,8 @@ def run_on_port(args) -> int:
         args.what]
     if duration <= 0:
         raise InputError(f"--duration must be > 0, got {duration}")
-    spec = ControlRun(args.what, duration=duration, where=where, k1=args.k1, k2=args.k2, x0=args.x0)
+    spec = ControlRun(args.what, duration=duration, where=where, k1=args.k1, k2=args.k2,
+                      x0=None if args.x0 is None else args.x0[0])
     with live_session(args, f"control {args.what} ({where}) on {args.port}", duration) as view:
         with open_port_rig(args) as rig:
             if view is not None:

@@ -24,16 +24,16 @@ continuation of the periodic orbit from the Hopf point, then Newton with the
 amplitude fixed. With --k2 (default 0.1) it solves for k1; with --k1 it
 solves for k2.
 Examples:
-  iwp design hopf --amplitude 2.58
-  iwp design hopf --amplitude 1.5 --k2 0.2 --check --json
-  iwp design hopf --amplitude 2.58 --k1 -10
-  iwp design hopf --amplitude 2 --plot bifurcation.png
+  iwp design hopf --orbit-amplitude 2.58
+  iwp design hopf --orbit-amplitude 1.5 --k2 0.2 --check --json
+  iwp design hopf --orbit-amplitude 2.58 --k1 -10
+  iwp design hopf --orbit-amplitude 2 --plot bifurcation.png
 With --draws N and --params FILE (the parameters.json of iwp fit, which
 carries the fit's covariance) the design, made on the fit's estimates, is
 simulated on N parameter draws from its uncertainty: the amplitude's median
 and 95 % interval and the share of draws with no stable orbit, written as
 OUT/robust.json and OUT/robust.png (histogram and ECDF, the nominal marked):
-  iwp design hopf --amplitude 1.5 --params fit/parameters.json --draws 200 --out robust-hopf
+  iwp design hopf --orbit-amplitude 1.5 --params fit/parameters.json --draws 200 --out robust-hopf
 """
 
 _BRANCH_DESCRIPTION = """\
@@ -54,7 +54,10 @@ def register(sub) -> None:
 
     h = dsub.add_parser("hopf", help="k1 (or k2) of u = k1 q3 + k2 q3^3 for an oscillation of amplitude A",
                         description=_HOPF_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    h.add_argument("--amplitude", type=float, required=True, metavar="A", help="wanted amplitude max q1 [rad]")
+    # --amplitude: the former name (elsewhere --amplitude is an input's amplitude [input units])
+    h.add_argument("--orbit-amplitude", "--amplitude", dest="orbit_amplitude", type=float, required=True,
+                   metavar="A", help="wanted amplitude of the oscillation, max q1 [rad] (--amplitude is its former "
+                                     "name)")
     g = h.add_mutually_exclusive_group()
     g.add_argument("--k2", type=float, default=None, help="cubic gain, fixed (default 0.1); solve for k1")
     g.add_argument("--k1", type=float, default=None, help="linear gain, fixed; solve for k2")
@@ -68,7 +71,7 @@ def register(sub) -> None:
     h.add_argument("--t-end", type=float, default=60.0,
                    help="simulated time of each draw's closed loop [s] (default 60, at least 20: the amplitude is "
                         "measured over its last 20 s; --draws)")
-    h.add_argument("--out", default=None, metavar="DIR", help="output folder of --draws")
+    h.add_argument("--out", "-o", default=None, metavar="DIR", help="output folder of --draws")
     add_force_arg(h)
     h.set_defaults(func=run_hopf)
 
@@ -76,7 +79,7 @@ def register(sub) -> None:
                         description=_BRANCH_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     b.add_argument("--k2", type=float, default=0.1, help="cubic gain (default 0.1)")
     add_params_arg(b)
-    b.add_argument("--out", default=None, metavar="FILE.csv", help="write the branch as CSV")
+    b.add_argument("--out", "-o", default=None, metavar="FILE.csv", help="write the branch as CSV")
     b.add_argument("--plot", default=None, metavar="FIG", help="write the bifurcation diagram")
     b.add_argument("--simulate", type=int, default=0, metavar="N",
                    help="add N long simulations (300 s) on the diagram and in the output")
@@ -103,7 +106,7 @@ def run_hopf(args) -> int:
             check_finite(name, getattr(args, name))
     if args.plot is not None:
         check_output_file(args.plot, force=args.force, argument="plot", suffixes=FIGURE_SUFFIXES)
-    d = design_hopf(params, args.amplitude, k2=args.k2, k1=args.k1, require_stable=not args.allow_unstable)
+    d = design_hopf(params, args.orbit_amplitude, k2=args.k2, k1=args.k1, require_stable=not args.allow_unstable)
     out = d.to_dict()
     if args.draws is not None:
         from ..control.robust import robust_hopf

@@ -45,9 +45,11 @@ def register(sub) -> None:
     p.add_argument("--out", "-o", required=True, metavar="DIR", help="output folder (new or empty)")
     add_force_arg(p)
     add_accept_poor_arg(p)
-    p.add_argument("--model", metavar="STRUCTURE", choices=rung_names(),
+    # --model: the former name; a structure of the ladder (a set of terms), not an equation of iwp simulate --model
+    p.add_argument("--structure", "--model", dest="structure", metavar="STRUCTURE", choices=rung_names(),
                    help="fit this structure of the ladder only: %(choices)s (default: fit them all and keep the "
-                   "simplest within noise of the best on held-out data; see docs/fit.md)")
+                   "simplest within noise of the best on held-out data; see docs/fit.md; --model is its former "
+                   "name)")
     for t in TERMS.values():  # a flag for each optional term of the models (iwp.models.terms)
         p.add_argument(t.flag, action="store_true", help=f"fit {t.description}")
     p.add_argument("--terms", metavar="TERM[,TERM...]",
@@ -79,20 +81,20 @@ def run(args) -> int:
     given = {t.name for t in TERMS.values() if getattr(args, t.name)}
     if args.terms is not None:
         given |= parse_terms(args.terms, argument="--terms")
-    if args.model is not None and given:
-        raise InputError(f"--model {args.model} and {TERMS[sorted(given)[0]].flag} both set the structure; give one "
-                         "of them", argument="--model")
-    if args.try_terms is not None and (args.model is not None or given):
-        raise InputError("--try adds rungs to the ladder, which --model and the term flags replace; give one of them",
-                         argument="--try")
-    terms = RUNGS[args.model].terms if args.model is not None else given
+    if args.structure is not None and given:
+        raise InputError(f"--structure {args.structure} and {TERMS[sorted(given)[0]].flag} both set the structure; "
+                         "give one of them", argument="--structure")
+    if args.try_terms is not None and (args.structure is not None or given):
+        raise InputError("--try adds rungs to the ladder, which --structure and the term flags replace; give one of "
+                         "them", argument="--try")
+    terms = RUNGS[args.structure].terms if args.structure is not None else given
     fixed = {}
     for item in args.fix:
         name, sep, value = item.partition("=")
         if not sep or not name.strip():
             raise InputError(f"--fix {item}: give NAME=VALUE, e.g. --fix rho=247.2", argument="--fix")
         fixed[name.strip()] = value.strip()
-    options = LogFitOptions(terms=terms, select=args.model is None and not given,
+    options = LogFitOptions(terms=terms, select=args.structure is None and not given,
                             try_terms=parse_terms(args.try_terms, argument="--try") if args.try_terms else (),
                             fixed=fixed, loss=args.loss, window=(args.t_start, args.t_end))
     kinds = {k: v for k, v in (("clamped", args.clamped), ("wheel-locked", args.wheel_locked),

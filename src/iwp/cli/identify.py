@@ -50,7 +50,8 @@ def register(sub) -> None:
     p.add_argument("--base", metavar="PARAMS", default=None,
                    help="parameter set for the values the set-up does not identify (default table1)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--out", metavar="PARAMS.json", help="write the identified parameter set (iwp simulate --params)")
+    p.add_argument("--out", "-o", metavar="PARAMS.json",
+                   help="write the identified parameter set (iwp simulate --params)")
     p.add_argument("--refine", action="store_true",
                    help="refine the least-squares result by simulation error (iwp.refine)")
     add_force_arg(p)

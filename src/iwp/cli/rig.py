@@ -23,7 +23,7 @@ import json
 import sys
 
 from ..errors import InputError
-from ._common import add_force_arg, float_list, plain
+from ._common import add_force_arg, add_x0_arg, float_list, plain
 from .interrupts import interrupts_ignored
 from .portargs import (
     add_live_args,
@@ -35,16 +35,6 @@ from .portargs import (
     port_operator,
     port_progress,
 )
-
-
-def _x0(text: str) -> list[float]:
-    try:
-        vals = [float(s) for s in text.split(",") if s.strip() != ""]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected q1 or q1,q2,q3,q4, got {text!r}") from None
-    if len(vals) not in (1, 4):
-        raise argparse.ArgumentTypeError(f"expected q1 or q1,q2,q3,q4, got {len(vals)} numbers")
-    return vals
 
 
 def _v_dz(text: str):
@@ -88,12 +78,14 @@ def register(sub) -> None:
     pr.add_argument("--truth", metavar="TRUTH.json", help="truth plant overrides (see: iwp rig truth)")
     pr.add_argument("--k1", type=float, help="closed-loop gain k1 (default -10)")
     pr.add_argument("--k2", type=float, help="closed-loop gain k2 (default 0.1)")
-    pr.add_argument("--x0", type=_x0, metavar="Q1[,Q2,Q3,Q4]", help="initial state [rad, rad/s]")
+    add_x0_arg(pr)
     pr.add_argument("--v-dz", type=_v_dz, metavar="V|VPOS,VNEG|none",
                     help="thresholds of the rig's dead-zone compensation (default 31; none: off)")
     add_port_args(pr)
-    pr.add_argument("--controller", choices=["device", "host"], default="device",
-                    help="closed-loop: the Hopf law on the device (default) or on the host")
+    # --controller: the former name (elsewhere --controller names a feedback law, such as hopf)
+    pr.add_argument("--where", "--controller", dest="where", choices=["device", "host"], default="device",
+                    help="closed-loop: the Hopf law runs on the device (default) or on the host (as in iwp control "
+                         "run; --controller is its former name)")
     pr.add_argument("--w0", type=float, help="chirp: start frequency [rad/s]")
     pr.add_argument("--tau", type=float, help="chirp: w(t) = w0 + t/tau [s]")
     pr.add_argument("--omega", type=float, help="sine: frequency [rad/s]")
@@ -231,7 +223,7 @@ def run_port(args) -> int:
         with open_port_rig(args, _truth(args.truth) if args.truth else None) as rig:
             if view is not None:
                 view.attach(rig, lambda Ts: predict_rig_run(args.name, params, Ts=Ts, **options))
-            run = run_on_rig(rig, args.name, controller=args.controller, fast=args.fast, operator=port_operator(args),
+            run = run_on_rig(rig, args.name, controller=args.where, fast=args.fast, operator=port_operator(args),
                              progress=port_progress(args) if view is None else view.feed, clearing=port_clearing(args),
                              **options)
         if view is not None:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ._common import add_force_arg, add_params_arg, float_list, load_lumped
+from ._common import add_force_arg, add_params_arg, add_x0_arg, load_lumped
 
 
 def register(sub) -> None:
@@ -27,7 +27,7 @@ def register(sub) -> None:
     p.add_argument("--tau", type=float, default=None,
                    help="chirp rate: w(t) = w0 + t/tau (default 100; --input chirp)")
     p.add_argument("--t-step", type=float, default=None, help="step time [s] (default 0; --input step)")
-    p.add_argument("--x0", type=float_list, default=None, help="initial state q1,q2,q3,q4 (default 0,0,0,0)")
+    add_x0_arg(p, help="initial state [rad, rad/s] (default 0,0,0,0)")
     p.add_argument("--t0", type=float, default=0.0, help="initial time [s] (restart, figure 9b)")
     p.add_argument("--t-end", type=float, required=True, help="final time [s]")
     p.add_argument("--ts", type=float, default=0.005, help="output sample time [s] (default 0.005)")
@@ -43,7 +43,7 @@ def register(sub) -> None:
     p.add_argument("--draws", type=int, default=None,
                    help="parameter draws of a monte-carlo band (default 1000; --band monte-carlo)")
     p.add_argument("--seed", type=int, default=None, help="seed of the parameter draws (default 0; --band monte-carlo)")
-    p.add_argument("--out", required=True, help="output CSV file")
+    p.add_argument("--out", "-o", required=True, help="output CSV file")
     p.add_argument("--plot", default=None, help="also save a figure (PNG/SVG/PDF)")
     add_force_arg(p)
     p.set_defaults(func=run)

@@ -33,7 +33,7 @@ def register(sub) -> None:
     p = sub.add_parser("sweep", help="sweeps and Monte Carlo studies of closed loops (local cores or Dask)",
                        description=_DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("spec", metavar="SPEC.json", help="the sweep: law, parameters, varied names, samples, seed")
-    p.add_argument("--out", required=True, metavar="DIR",
+    p.add_argument("--out", "-o", required=True, metavar="DIR",
                    help="output folder: new, empty, or this sweep's (then it resumes; --force starts afresh)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--workers", type=int, default=None, metavar="N",
@@ -46,7 +46,7 @@ def register(sub) -> None:
     p.add_argument("--chunk-size", type=int, default=None, metavar="N", help="lanes per chunk (overrides the spec)")
     p.add_argument("--samples", type=int, default=None, metavar="N", help="draws per grid point (overrides the spec)")
     p.add_argument("--seed", type=int, default=None, metavar="N", help="root seed (overrides the spec)")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress lines")
     add_force_arg(p)
     p.set_defaults(func=run)
 

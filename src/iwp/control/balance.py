@@ -148,6 +148,13 @@ def lqr_balance(
     Returns
     -------
     LQRBalance
+
+    Examples
+    --------
+    >>> from iwp import lqr_balance, table1
+    >>> L = lqr_balance(table1())
+    >>> L.K.shape, bool((L.poles.real < 0).all())  # u = -K [q1 - pi, q3, q4]: the closed loop is stable
+    ((3,), True)
     """
     params = lumped_parameters(params)
     u_max = check_positive("u_max", u_max)

@@ -131,6 +131,15 @@ def design_hopf(
         ``amplitude`` outside ``(0, pi)`` or beyond the reach of the branch
         (the message gives the reachable range), both gains given, or an
         unstable orbit with ``require_stable``.
+
+    Examples
+    --------
+    The paper's oscillation of 2.58 rad (section 5.3, figure 10):
+
+    >>> from iwp import design_hopf, table1
+    >>> d = design_hopf(table1(), 2.58, k2=0.1)
+    >>> round(d.k1, 1), d.stable  # the paper used k1 = -10
+    (-10.0, True)
     """
     params = lumped_parameters(params)
     amplitude = check_positive("amplitude", amplitude)

@@ -304,6 +304,13 @@ def hopf_point(params: LumpedParameters, k2: float = 0.1) -> HopfPoint:
     ------
     InputError
         If no complex pair crosses the imaginary axis for any ``k1``.
+
+    Examples
+    --------
+    >>> from iwp import hopf_point, table1
+    >>> h = hopf_point(table1(), k2=0.1)
+    >>> round(h.k1, 3), h.criticality  # the hanging equilibrium loses stability at k1*
+    (-0.945, 'supercritical')
     """
     params = lumped_parameters(params)
     k2 = check_finite("k2", k2)

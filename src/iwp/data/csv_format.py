@@ -175,6 +175,19 @@ def read_static_curve(path: str | os.PathLike, *, min_points: int = 2) -> Static
     DataFormatError
         One line naming the file, line and column (missing or unexpected
         column, both ``u`` and ``v``, text, NaN/inf, too few rows, ...).
+
+    Examples
+    --------
+    A static curve of the motor-disk subsystem (input, steady disk velocity):
+
+    >>> import numpy as np
+    >>> from iwp import StaticCurve, read_static_curve
+    >>> from iwp.data import write_static_curve
+    >>> curve = StaticCurve("v", np.array([40.0, 60.0, 80.0]), np.array([24.0, 76.0, 128.0]))
+    >>> path = write_static_curve(curve, "static.csv")
+    >>> back = read_static_curve("static.csv")
+    >>> back.input_name, back.q4.tolist()
+    ('v', [24.0, 76.0, 128.0])
     """
     if isinstance(min_points, bool) or not isinstance(min_points, (int, np.integer)) or min_points < 1:
         raise InputError(f"min_points must be an integer >= 1, got {min_points!r}")

@@ -26,6 +26,7 @@ from ..checks import check_finite, check_positive
 from ..errors import InputError
 from .glitches import Glitch, find_glitches, repair, summarize
 
+#: The columns of an iwp log, in order: time [s], angles [rad], velocities [rad/s], inputs ``u`` and ``v``.
 CANONICAL_COLUMNS = ("t", "q1", "q2", "q3", "q4", "u", "v")
 #: Columns every time-series log must have (``q2`` may be replaced by ``q4``, see :func:`missing_required`).
 REQUIRED_COLUMNS = ("t", "q1", "q2")
@@ -45,6 +46,7 @@ def missing_required(names) -> list[str]:
 #: Input formats known to :func:`read_experiment` (``format=``).
 FORMATS = ("csv", "mat", "parquet", "angle-log")
 
+#: A pendulum angle beyond this [rad] (``3 pi``) is checked for degrees (:func:`iwp.data.tables.warn_if_degrees`).
 DEGREES_THRESHOLD = 3.0 * math.pi
 
 # --------------------------------------------------------------------------
@@ -466,7 +468,7 @@ class ExperimentData:
 
 @dataclass(frozen=True, eq=False, repr=False)
 class StaticCurve:
-    """Static input / steady-state disk-velocity curve (paper section 5, fig. 2).
+    """Static input / steady-state disk-velocity curve (paper section 5, figure 2).
 
     One point per steady state: the constant input applied and the disk
     velocity it settled at.

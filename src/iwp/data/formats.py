@@ -78,6 +78,15 @@ def read_experiment(path: str | os.PathLike, format: str | None = None, **kw) ->
         Unknown format/extension, or an option the chosen reader does not take.
     DataFormatError
         From the reader.
+
+    Examples
+    --------
+    >>> from iwp import Plant, read_experiment, simulate, table1, write_experiment
+    >>> log = simulate(Plant(table1(), model="free"), x0=[1.0, 0, 0, 0], t_end=2.0).to_experiment()
+    >>> path = write_experiment(log, "free.csv")
+    >>> back = read_experiment("free.csv")
+    >>> back.n_samples, float(back.q1[0])
+    (401, 1.0)
     """
     if format is None:
         fmt = _format_of(path, _READERS, "input")
@@ -122,6 +131,13 @@ def write_experiment(
     Returns
     -------
     pathlib.Path
+
+    Examples
+    --------
+    >>> from iwp import Plant, simulate, table1, write_experiment
+    >>> log = simulate(Plant(table1(), model="free"), x0=[1.0, 0, 0, 0], t_end=2.0).to_experiment()
+    >>> write_experiment(log, "free.mat").name  # the format from the extension
+    'free.mat'
     """
     if format is None:
         fmt = _format_of(path, _WRITERS, "output")
@@ -166,6 +182,14 @@ def convert(
     -------
     ExperimentData
         The log as written.
+
+    Examples
+    --------
+    >>> from iwp import Plant, convert, simulate, table1, write_experiment
+    >>> log = simulate(Plant(table1(), model="free"), x0=[1.0, 0, 0, 0], t_end=2.0).to_experiment()
+    >>> path = write_experiment(log, "free.csv")
+    >>> convert("free.csv", "free.mat", t_start=0.5).n_samples  # the window from 0.5 s on
+    301
     """
     if to_format is None:
         check_output_file(dst, force=force, argument="out", suffixes=LOG_SUFFIXES)

@@ -51,16 +51,17 @@ __all__ = [
     "DRIVE_KINDS",
 ]
 
-#: time units and their factor to seconds
+#: Time units and their factor to seconds.
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
-#: angle units and their factor to rad (``counts`` uses ``counts_per_rev``)
+#: Angle units and their factor to rad (``counts`` uses ``counts_per_rev``).
 ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0, "counts": None}
-#: speed units and their factor to rad/s
+#: Speed units and their factor to rad/s.
 SPEED_UNITS = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "rpm": 2.0 * math.pi / 60.0}
-#: current units and their factor to A
+#: Current units and their factor to A.
 CURRENT_UNITS = {"A": 1.0, "mA": 1e-3}
-#: input kinds: volts at the driver, the paper's units, a PWM duty in [-1, 1], counts of a DAC
+#: Input kinds: volts at the driver, the paper's units, a PWM duty in [-1, 1], counts of a DAC.
 INPUT_KINDS = ("volts", "units", "duty", "dac")
+#: Drive kinds between motor and wheel: direct, a gear (rigid, a ratio), a belt (flexible: model (15)).
 DRIVE_KINDS = ("direct", "gear", "belt")
 ZEROS = {"down": 0.0, "up": math.pi}
 

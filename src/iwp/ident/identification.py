@@ -358,6 +358,18 @@ def identify(
     A rank-deficient regressor does not raise: the result has
     ``success=False``, NaN standard errors for the parameters involved and a
     warning naming the collinear columns.
+
+    Examples
+    --------
+    The free pendulum of section 5.2 (set-up (d)), on a simulated swing:
+
+    >>> from iwp import Plant, identify, simulate, table1
+    >>> log = simulate(Plant(table1(), model="free"), x0=[1.0, 0, 0, 0], t_end=20.0).to_experiment()
+    >>> res = identify(log, "free")
+    >>> res.names
+    ('p1', 'sigma_a1', 'sigma_v1', 'sigma_b1')
+    >>> round(res.value("p1"), 1)  # Table 1: 26.095
+    26.0
     """
     opts = IdentifyOptions() if options is None else options
     if not isinstance(opts, IdentifyOptions):

@@ -43,6 +43,14 @@ def fit_percent(y, y_hat) -> float:
     -------
     float
         The fit [%].
+
+    Examples
+    --------
+    >>> from iwp import fit_percent
+    >>> fit_percent([1.0, 2.0, 3.0], [1.0, 2.0, 3.0])  # a perfect fit
+    100.0
+    >>> fit_percent([1.0, 2.0, 3.0], [2.0, 2.0, 2.0])  # no better than the mean
+    0.0
     """
     y = np.asarray(y, dtype=float).ravel()
     y_hat = np.asarray(y_hat, dtype=float).ravel()

@@ -276,7 +276,7 @@ def choose_model(data: ExperimentData, model: str = "auto", *, stored: str | Non
     return model
 
 
-#: the models that read a logged raw command ``v`` as their input ``u`` in ``iwp fit`` (no dead zone)
+#: The models that read a logged raw command ``v`` as their input ``u`` in ``iwp fit`` (no dead zone).
 READS_V_AS_U = ("compensated", "belt-full")
 
 
@@ -508,6 +508,14 @@ def validate(
     UninformativeValidation
         When the validation says nothing: every compared signal is constant, or the model explains less of each
         than its mean (fit < 0 %). Callers that report the fits themselves filter it.
+
+    Examples
+    --------
+    >>> from iwp import Plant, simulate, table1, validate
+    >>> log = simulate(Plant(table1(), model="free"), x0=[1.0, 0, 0, 0], t_end=20.0).to_experiment()
+    >>> v = validate(log, table1(), model="free", signals=["q1"])
+    >>> round(v.fit["q1"])  # fit percentage of the pendulum angle
+    100
     """
     opts = ValidationOptions() if options is None else options
     if not isinstance(experiment, ExperimentData):

@@ -165,6 +165,12 @@ def dead_zone(v, v_dz_pos: float, v_dz_neg: float):
     float or ndarray
         ``f(v)``: ``v`` clipped to ``[-v-, v+]`` [input units]; a float for a scalar ``v``, else an array of
         ``v``'s shape.
+
+    Examples
+    --------
+    >>> from iwp import dead_zone
+    >>> dead_zone([10.0, 40.0, -50.0], 31.0, 31.0)
+    array([ 10.,  31., -31.])
     """
     return _apply(lambda x, out: _dead_zone_array(x, float(v_dz_pos), float(v_dz_neg), out, False), v)
 
@@ -210,6 +216,15 @@ def feedforward(u, v_dz_pos: float, v_dz_neg: float | None = None):
     -------
     float or ndarray
         Command ``v`` (8) [input units]; a float for a scalar ``u``, else an array of ``u``'s shape.
+
+    Examples
+    --------
+    >>> from iwp import dead_zone, feedforward
+    >>> feedforward([-20.0, 0.0, 20.0], 31.0)
+    array([-51.,   0.,  51.])
+    >>> v = feedforward(20.0, 31.0)
+    >>> v - dead_zone(v, 31.0, 31.0)  # what passes the dead zone is u again
+    20.0
     """
     if v_dz_neg is None:
         v_dz_neg = v_dz_pos

@@ -36,6 +36,14 @@ def energy(params, x) -> dict[str, np.ndarray]:
     dict
         ``{"kinetic": T, "potential": V, "total": T + V}`` [J, or s^-2 per
         unit ``I1_hat`` for lumped parameters].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from iwp import energy, table1
+    >>> e = energy(table1(), np.array([[np.pi, 0.0, 0.0, 0.0]]))  # at rest, upright
+    >>> float(e["kinetic"][0]), float(e["potential"][0])  # 2 p1 [1/s^2]
+    (0.0, 52.19)
     """
     x = np.asarray(x, dtype=float)
     q1, q3, q4 = x[..., 0], x[..., 2], x[..., 3]
@@ -96,6 +104,16 @@ def linearize(params: LumpedParameters, equilibrium: str = "down") -> tuple[np.n
         State matrix [1/s, 1/s^2] of the state ``[q1, q2, q3, q4]``.
     B : ndarray, shape (4, 1)
         Input matrix [rad/(s^2 input unit)].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from iwp import linearize, table1
+    >>> A, B = linearize(table1(), "up")
+    >>> A.shape, B.shape
+    ((4, 4), (4, 1))
+    >>> bool(np.linalg.eigvals(A).real.max() > 0)  # the upright is unstable
+    True
     """
     if equilibrium not in EQUILIBRIA:
         raise InputError(f"equilibrium must be one of {', '.join(EQUILIBRIA)}, got {equilibrium!r}")

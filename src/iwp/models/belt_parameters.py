@@ -28,7 +28,7 @@ BELT_INFO: dict[str, ParameterInfo] = info_table("belt", (
 
 @dataclass(frozen=True)
 class BeltParameters:
-    """Flexible rubber belt of eq. (15) with the hysteresis of figure 5.
+    """Flexible rubber belt of equation (15) with the hysteresis of figure 5.
 
     The motor inertia ``J_m`` is neglected (as in the paper), so the motor
     position ``q_m`` follows ``gamma q_m' - Psi/N = (kT beta / R) u``. The

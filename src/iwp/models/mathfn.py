@@ -31,7 +31,7 @@ _S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969
 _C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
 _C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
 
-#: Largest |angle| [rad] that :func:`sincos` reduces accurately; beyond it
+#: Largest magnitude of an angle [rad] that :func:`sincos` reduces accurately; beyond it
 #: (and for inf or NaN) it returns NaN, which the simulator reports as a
 #: diverged run.
 SINCOS_MAX = 1.0e9

@@ -352,6 +352,15 @@ def table1() -> LumpedParameters:
         ``sigma~_v1 = 0.01`` [1/s], ``sigma~_b1 = 0.0005`` [s/rad^2] of
         model (9), and the dead-zone thresholds ``v_dz_pos = v_dz_neg = 31``
         [input units] of (5).
+
+    Examples
+    --------
+    >>> from iwp import table1
+    >>> p = table1()
+    >>> p.p1, p.p2, p.p3, p.rho
+    (26.095, 0.0106, 0.0286, 247.24)
+    >>> p.v_dz_pos  # the dead zone's threshold [input units]
+    31.0
     """
     return LumpedParameters(
         p1=26.0950,
@@ -376,6 +385,14 @@ def paper_belt() -> BeltParameters:
         ``k/I2 = 60`` [1/s^2], ``d = 2`` [-], ``N = 13.5`` [-],
         ``b2/I2 = 10`` [1/s], ``k/gamma = 780`` [1/s^2], ``kT beta/(R gamma) = 26``
         [rad/(s^2 input unit)].
+
+    Examples
+    --------
+    >>> from iwp import Plant, paper_belt, table1
+    >>> belt = paper_belt()
+    >>> belt.N  # the reduction ratio disk/pulley
+    13.5
+    >>> plant = Plant(table1(), model="belt-full", belt=belt)  # the virtual rig's truth structure
     """
     return BeltParameters()
 
@@ -441,6 +458,14 @@ def save_params(params, path: str | Path, *, force: bool = False, extra: dict[st
     ------
     OutputExistsError
         The file exists and ``force`` is not set.
+
+    Examples
+    --------
+    >>> from iwp import load_params, save_params, table1
+    >>> save_params(table1(), "table1.json").name
+    'table1.json'
+    >>> load_params("table1.json") == table1()
+    True
     """
     kind = next((k for k, cls in _KINDS.items() if isinstance(params, cls)), None)
     if kind is None:
@@ -623,6 +648,15 @@ def load_params(path_or_name: str | Path, *, physical_check: bool = True):
     InputError
         Naming the file and the field: unknown or missing names, values that
         are not finite numbers, wrong signs (``physical_check``).
+
+    Examples
+    --------
+    >>> from iwp import load_params, save_params, table1
+    >>> load_params("table1").p1  # a built-in name
+    26.095
+    >>> path = save_params(table1().replace(p1=25.0), "mine.json")
+    >>> load_params("mine.json").p1
+    25.0
     """
     s = str(path_or_name)
     if s in _NAMED:

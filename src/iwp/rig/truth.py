@@ -454,6 +454,13 @@ def default_truth() -> RigTruth:
     written by the calibration (:func:`iwp.calibration.calibrate.calibrate`) with the
     paper's published numbers as targets; where each came from and the
     calibration's residual table are in :func:`truth_record`.
+
+    Examples
+    --------
+    >>> from iwp import default_truth
+    >>> truth = default_truth()
+    >>> truth.Ts, truth.counts_per_rev  # the rig's period [s] and encoders
+    (0.005, 2000)
     """
     return _shipped_truth()[0]
 

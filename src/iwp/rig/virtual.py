@@ -70,6 +70,7 @@ __all__ = ["VirtualRig", "run_experiment", "RIG_RTOL", "RIG_ATOL", "STATIC_WINDO
 
 #: Integration tolerances of the truth plant (the belt play makes it non-smooth).
 RIG_RTOL = 1e-8
+#: Absolute integration tolerance of the truth plant, per state [rad, rad/s].
 RIG_ATOL = 1e-8
 #: Window over which the static curves fit the disk velocity [s].
 STATIC_WINDOW = 1.0

@@ -134,6 +134,16 @@ def simulate_sensitivities(
         An argument of the wrong type or value, in one line naming it.
     SimulationError
         The run failed and ``options.check`` is True.
+
+    Examples
+    --------
+    How the free swing's states depend on ``p1``:
+
+    >>> from iwp import Plant, simulate_sensitivities, table1
+    >>> s = simulate_sensitivities(Plant(table1(), model="free"), x0=[1, 0, 0, 0], wrt=("p1",),
+    ...                            t_eval=[0.005 * k for k in range(201)])
+    >>> s.x.shape, s.S.shape  # states, and d(state)/d(p1) per sample
+    ((201, 4), (201, 4, 1))
     """
     if not isinstance(plant, Plant):
         raise InputError(f"plant must be a Plant, got {type(plant).__name__}", argument="plant")

@@ -48,6 +48,7 @@ __all__ = ["BandOptions", "ParameterUncertainty", "PredictionBand", "identified_
 
 #: How a band is computed: linearised with the sensitivities, or by Monte Carlo draws.
 BAND_METHODS = ("linear", "monte-carlo")
+#: The column of each signal in a band's state arrays: ``q1, q2`` [rad], ``q3, q4`` [rad/s].
 SIGNAL_INDEX = {"q1": 0, "q2": 1, "q3": 2, "q4": 3}
 #: most draws of one Monte Carlo band
 MAX_DRAWS = 100_000
@@ -364,10 +365,10 @@ class PredictionBand:
         return out
 
 
-#: the draws a Monte Carlo band simulates side by side at a time (their samples held in memory: 64 x 60,001 x 4
-#: states is 123 MB, where all 1,000 draws of a 300 s log at 5 ms would be 1.9 GB)
+#: The draws a Monte Carlo band simulates side by side at a time. Their samples are held in memory: 64 x 60,001
+#: x 4 states is 123 MB, where all 1,000 draws of a 300 s log at 5 ms would be 1.9 GB.
 BAND_CHUNK = 64
-#: the quantiles of the 95 % band
+#: The quantiles of the 95 % band (2.5 % and 97.5 %).
 BAND_QUANTILES = (0.025, 0.975)
 #: the tolerances of a Monte Carlo band's draws and nominal run
 DRAW_TOLERANCES = Tolerances(rtol=1e-8, atol=1e-8)
