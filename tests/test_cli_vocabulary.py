@@ -125,6 +125,11 @@ VOCABULARY: dict[str, tuple[str, object]] = {
     "--baud": ("baud rate of a serial port", _INT),
     "--fast": ("run by the host's clock, faster than real time (emulator and twin)", _store_true),
     "--yes": ("do not ask before each set-up", _store_true),
+    "--accept-poor": ("exit 0 although the model predicts the held-out data poorly (else 1)", _store_true),
+    "--clear-fault": ("clear a fault or ESTOP latched on the device before arming", _store_true),
+    "--reset-params": ("restore the device's limits another client changed before arming", _store_true),
+    "--live": ("serve a live view of the run beside the model's prediction", _store_true),
+    "--live-port": ("the local port of the live view", _INT),
 }
 
 #: (command, former name) -> the flag it names now; accepted, shown in --help as a second name

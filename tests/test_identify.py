@@ -188,7 +188,7 @@ def _coverage(setup: str, log: ExperimentData, truth: dict, step: float, noise: 
         rng = np.random.default_rng(seed)
         meas = quantize(X + rng.normal(0.0, noise, size=X.shape), step)
         d = ExperimentData(t=log.t, q1=meas[:, 0], q2=meas[:, 1], u=log.u)
-        res = identify(d, setup, **kw)
+        res = identify(d, setup, options=AS_PRINTED, **kw)  # the estimator's own coverage (nothing held)
         for k, v in truth.items():
             lo, hi = res.ci95(k)
             hits[k] += lo <= v <= hi
@@ -316,10 +316,14 @@ def test_rank_deficiency_is_reported_not_hidden(clean) -> None:
 
 def test_tiny_swing_makes_rolling_and_viscous_friction_inseparable() -> None:
     log = VirtualRig(compensated_truth(), seed=1).run("free-pendulum", duration=60.0, x0=[-0.15, 0, 0, 0])
-    res = identify(log, "free", p2=TRUTH.p2)
+    res = identify(log, "free", p2=TRUTH.p2, options=AS_PRINTED)
     text = " ".join(res.warnings)
     assert "sigma_a1 and sigma_v1 are not separable" in text
     assert abs(res.correlation[1, 2]) > 0.99
+    # by default the one the logs say nothing of is held at its prior, and the warning names the release to make
+    held = identify(log, "free", p2=TRUTH.p2)
+    assert set(held.details["held"]) & {"sigma_a1", "sigma_v1"}
+    assert any("large angle" in w for w in held.warnings)
 
 
 def test_locked_set_up_on_a_swinging_pendulum_warns(clean) -> None:

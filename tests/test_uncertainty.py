@@ -14,7 +14,7 @@ from scipy import stats
 
 from iwp.cli import main
 from iwp.data import ExperimentData, write_experiment
-from iwp.errors import InputError
+from iwp.errors import GoalNotReached, InputError
 from iwp.ident.covariance import cluster_covariance
 from iwp.ident.output_error import OutputError
 from iwp.ident.problem import FitProblem, SolverOptions
@@ -106,7 +106,7 @@ def test_bad_uncertainties_are_refused(tmp_path):
         ParameterUncertainty(table1(), ("p1",), np.array([[np.nan]]))
     with pytest.raises(InputError, match="positive semi-definite"):
         ParameterUncertainty(table1(), ("p1", "p3"), np.array([[1.0, 2.0], [2.0, 1.0]]))
-    with pytest.raises(InputError, match="too uncertain to draw"):  # a friction of -10 +- 0.1: no physical draw
+    with pytest.raises(GoalNotReached, match="too uncertain to draw"):  # a friction of -10 +- 0.1: no physical draw
         ParameterUncertainty(table1().replace(sigma_v1=-10.0), ("sigma_v1",), np.array([[1e-2]])).draws(10)
     p = tmp_path / "p.json"
     save_params(table1(), p)

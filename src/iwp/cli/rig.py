@@ -213,7 +213,8 @@ def run_port(args) -> int:
                "noise_std": args.noise, "k1": args.k1, "k2": args.k2, "x0": args.x0,
                "v_dz": args.v_dz, "w0": args.w0, "tau": args.tau, "omega": args.omega,
                "hold_time": args.hold_time, "levels": args.levels, "step_time": args.step_time,
-               "locked": True if args.locked else None}
+               "locked": True if args.locked else None,
+               "where": args.where if run_kind(args.name).run.name == "CLOSED_LOOP" else None}
     if args.params is not None and not args.live:
         raise InputError("--params is the model of the live view's prediction: use it with --live")
     params = live_params(args.params) if args.live else None
@@ -223,7 +224,7 @@ def run_port(args) -> int:
         with open_port_rig(args, _truth(args.truth) if args.truth else None) as rig:
             if view is not None:
                 view.attach(rig, lambda Ts: predict_rig_run(args.name, params, Ts=Ts, **options))
-            run = run_on_rig(rig, args.name, controller=args.where, fast=args.fast, operator=port_operator(args),
+            run = run_on_rig(rig, args.name, fast=args.fast, operator=port_operator(args),
                              progress=port_progress(args) if view is None else view.feed, clearing=port_clearing(args),
                              **options)
         if view is not None:

@@ -160,9 +160,9 @@ def run_control(rig: Rig, run: ControlRun, *, params: LumpedParameters, fast: bo
             raise InputError(f"x0 = {q1_x0:g} rad is beyond the rig's angle limit q1_max = "
                              f"{rig.info.params['q1_max']:g} rad: the device would not arm", argument="x0")
     if what == "hopf":
-        return run_on_rig(rig, "closed-loop", controller=where, fast=fast, operator=operator, progress=progress,
+        return run_on_rig(rig, "closed-loop", fast=fast, operator=operator, progress=progress,
                           limits=limits, k1=k1, k2=k2, duration=duration, x0=HOPF_START if x0 is None else x0,
-                          clearing=clearing)
+                          clearing=clearing, where=where)
     if fast and not rig.has("HOST_CLOCK"):
         raise InputError(f"{rig.port}: this device runs in real time only (no HOST_CLOCK); drop --fast")
     # what the driver can give on top of the feedforward: |u| <= v_max - v_dz

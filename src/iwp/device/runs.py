@@ -134,7 +134,7 @@ def run_kind(name: str) -> ExperimentKind:
     raise InputError(f"unknown experiment or input {name!r}; valid: {', '.join(RUN_NAMES)}", argument="name")
 
 
-def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = False,
+def run_on_rig(rig: Rig, name: str, *, fast: bool = False,
                operator: Callable[[str], None] | None = None, progress: Callable[[dict], None] | None = None,
                limits: HostLimits | None = None, clearing: Clearing | None = None, **options) -> RigRun:
     """Run experiment or input ``name`` on ``rig``.
@@ -144,8 +144,6 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
     rig : Rig
     name : str
         One of the paper's experiments (``iwp rig list``) or :data:`USER_INPUTS`.
-    controller : {"device", "host"}
-        Where the closed loop's Hopf law runs (``closed-loop``).
     fast : bool
         Run by the host's clock (devices with caps ``HOST_CLOCK``: the emulator).
     operator : callable, optional
@@ -158,7 +156,8 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
         Clear a fault left on the device, restore its changed limits (see :func:`prepare`; without them a run
         refuses to start on such a device).
     **options
-        The experiment's options (``iwp rig list``; for user inputs :data:`USER_INPUTS`).
+        The experiment's options (``iwp rig list``; for user inputs :data:`USER_INPUTS`); a closed loop's also
+        ``where``: ``"device"`` (default) or ``"host"``, where its Hopf law runs.
 
     Notes
     -----
@@ -206,6 +205,7 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
     elif kind.run is RunKind.CLOSED_LOOP:
         k1, k2 = check_finite("k1", s["k1"]), check_finite("k2", s["k2"])
         tau = check_nonnegative("filter_tau", s["filter_tau"])
+        controller = s.get("where", "device")
         meta.update(k1=repr(k1), k2=repr(k2), filter_tau=repr(tau), controller=controller)
         if controller == "device":
             rig.set_params(k1=k1, k2=k2, filter_tau=tau)
@@ -214,7 +214,7 @@ def run_on_rig(rig: Rig, name: str, *, controller: str = "device", fast: bool = 
         elif controller == "host":
             command = HostLaw(EncoderHopfController(k1, k2, rig.info.params["period_us"] * 1e-6, tau))
         else:
-            raise InputError(f"controller must be 'device' or 'host', got {controller!r}")
+            raise InputError(f"where must be 'device' or 'host', got {controller!r}", argument="where")
     else:
         inp = law_input(kind.law, s, rig.info.params["period_us"] * 1e-6)
         command = OpenLoop(lambda t: inp.evaluate(t))
@@ -266,6 +266,8 @@ def _settings(name: str, kind: ExperimentKind, options: dict) -> dict:
     else:
         allowed = list(USER_INPUTS[name])
         s = dict(USER_INPUTS[name])
+    if kind.run is RunKind.CLOSED_LOOP:  # where its law runs: a setting of the loop, not of the experiment
+        allowed.append("where")
     given = {k: v for k, v in options.items() if v is not None}
     for k in given:
         if k in _SIMULATION_ONLY and name in EXPERIMENTS:
