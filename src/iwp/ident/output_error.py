@@ -351,7 +351,8 @@ def initial_state_bounds(data: ExperimentData) -> tuple[np.ndarray, np.ndarray]:
         half[pos] = max(X0_BOUND_SD * sd[pos], step)
         half[vel] = max(X0_BOUND_SD * sd[vel], step / data.Ts, float(np.ptp(speeds)) if speeds.size else 0.0)
     if data.q4 is not None:
-        half[3] = max(X0_BOUND_SD * sd[3], angle_quantum(data.q4))
+        q4 = np.asarray(data.q4[:m], dtype=float)
+        half[3] = max(X0_BOUND_SD * sd[3], angle_quantum(data.q4), float(np.ptp(q4)) if q4.size else 0.0)
     return centre - half, centre + half
 
 
@@ -744,6 +745,8 @@ class OutputError:
         for p in self.prepared:
             lo, hi = initial_state_bounds(p.data) if p.spec.x0_bounded else (np.full(4, -np.inf), np.full(4, np.inf))
             for s in p.est:
+                if s < 2 and ("q1", "q2")[s] in p.spec.offsets:  # an angle whose zero is estimated: its value is not
+                    lo[s], hi[s] = -np.inf, np.inf               # measured, only its changes are
                 start = float(np.clip(p.x0[s], lo[s], hi[s]))
                 out.append(Parameter(x0_name(s, p.index), start, min=float(lo[s]), max=float(hi[s]), scale=1.0,
                                      kind="initial state", unit="rad" if s < 2 else "rad/s"))
