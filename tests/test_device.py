@@ -663,7 +663,7 @@ def test_a_fault_or_changed_limits_left_on_the_device_refuse_a_run_until_cleared
             run_on_rig(rig, "sine-20", fast=True, duration=0.2)
         assert rig.device.core.status()[1:3] == (STATES["FAULT"], 3)  # not cleared silently
         rig.identify()  # a new connection finds the limit left by another client
-        with pytest.raises(DeviceError, match=r"limits were changed .*: q4_max = 20 \(default 400\); .*reset_params"):
+        with pytest.raises(DeviceError, match=r"limits were changed .*: q4_max = 20 \(default 300\); .*reset_params"):
             run_on_rig(rig, "sine-20", fast=True, duration=0.2, clearing=Clearing(clear_fault=True))
         assert rig.device.core.param("q4_max") == 20.0
         run = run_on_rig(rig, "sine-20", fast=True, duration=0.2,

@@ -909,7 +909,8 @@ def test_a_poor_held_out_prediction_is_a_warning_with_what_to_try():
     from iwp.ident.logfit import LogFit, poor_prediction_advice
 
     def fit(q1, q4):
-        return LogFit("h.csv", "validate", {"q1": q1, "q4": q4}, {}, {}, np.zeros(2), {}, {}, {}, np.zeros(4))
+        moving = {"q1": np.array([0.0, 1.0]), "q4": np.array([0.0, 10.0])}  # both signals move: both judged
+        return LogFit("h.csv", "validate", {"q1": q1, "q4": q4}, {}, {}, np.zeros(2), moving, {}, {}, np.zeros(4))
 
     assert poor_prediction_advice([fit(90.0, 95.0), fit(80.0, 97.0)], ("q1", "q4"), chose=True) == []
     msg = poor_prediction_advice([fit(60.0, 95.0), fit(-20.0, 97.0)], ("q1", "q4"), chose=False)

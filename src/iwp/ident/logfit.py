@@ -953,24 +953,34 @@ def friction_prior(name: str) -> float:
 def hold_unidentified(fitting: "_Fitting", fitted: Fitted) -> Fitted:
     """The fit again with the pendulum's friction coefficients its logs do not identify held at their prior.
 
-    A coefficient of :data:`HOLDABLE_FRICTION` the estimate says nothing of
+    The coefficient of :data:`HOLDABLE_FRICTION` the estimate says least of
     (:func:`~iwp.sim.uncertainty.undetermined`: a friction at its bound 0, or ``1e-18 +- 230`` where two of them
-    cannot be told apart) is held at :func:`friction_prior` and the structure fitted again from the fit's values;
-    the held ones are listed in ``fitted.held``. One whose interval merely reaches 0 keeps its estimate: held at a
-    prior that is not the rig's, it would bias those it is correlated with.
+    cannot be told apart; the largest interval relative to its value first) is held at :func:`friction_prior` and
+    the structure fitted again from the fit's values, one at a time until what is left is determined: of a pair the
+    logs cannot tell apart one is held and the other carries their sum (holding both at Table 1's values would
+    impose Table 1's damping on another rig). The held ones are listed in ``fitted.held``. One whose interval
+    merely reaches 0 keeps its estimate: held at a prior that is not the rig's, it would bias those it is
+    correlated with.
     """
-    r = fitted.result
-    names = [n for n in HOLDABLE_FRICTION if n in r.free and n in r.parameters]
-    held = {n: friction_prior(n) for n in names if undetermined(n, r.parameters[n].value, r.parameters[n].stderr)}
-    if not held:
-        return fitted
-    options = replace(fitted.options, fixed={**fitted.options.fixed, **held})
-    start = r.params.replace(**held)
-    if options.drive is None:
-        result = fitting.joint(options, start, x0=[x[:4] for x in r.x0])
-    else:
-        result = fitting.joint(options, start, x0=[x[:4] for x in r.x0], belt=r.belt)
-    return replace(fitted, options=options, result=result, held=tuple(held))
+    held: dict[str, float] = {}
+    while True:
+        r = fitted.result
+        names = [n for n in HOLDABLE_FRICTION if n in r.free and n in r.parameters
+                 and undetermined(n, r.parameters[n].value, r.parameters[n].stderr)]
+        if not names:
+            break
+
+        def spread(n: str) -> float:  # the interval's width over the value (inf: NaN or at the bound)
+            p = r.parameters[n]
+            return p.stderr / p.value if p.value > 0 and math.isfinite(p.stderr) else math.inf
+
+        name = max(names, key=spread)
+        held[name] = friction_prior(name)
+        options = replace(fitted.options, fixed={**fitted.options.fixed, name: held[name]})
+        start = r.params.replace(**{name: held[name]})
+        result = fitting.joint(options, start, x0=[x[:4] for x in r.x0], belt=r.belt if options.drive else None)
+        fitted = replace(fitted, options=options, result=result, held=tuple(held))
+    return fitted
 
 
 def rigid_structures(on: frozenset[str]) -> list[frozenset[str]]:
