@@ -668,7 +668,7 @@ def test_a_fault_or_changed_limits_left_on_the_device_refuse_a_run_until_cleared
         assert rig.device.core.param("q4_max") == 20.0
         run = run_on_rig(rig, "sine-20", fast=True, duration=0.2,
                          clearing=Clearing(clear_fault=True, reset_params=True))
-        assert not run.interrupted and rig.device.core.param("q4_max") == 400.0
+        assert not run.interrupted and rig.device.core.param("q4_max") == 300.0
         assert rig.device.core.status()[1] == STATES["DISARMED"]  # a normal end leaves it disarmed
         run = run_on_rig(rig, "sine-20", fast=True, duration=0.2)  # so the next run needs no flag
         assert not run.interrupted

@@ -638,8 +638,11 @@ def test_clamped_and_wheel_locked_logs_join_the_fit_through_the_cli(tmp_path):
     # the same logs all given as training logs: their motion shows their set-ups, and the fit is the same
     auto = tmp_path / "auto"
     held = write_rig_csv(vr.run(Chirp(0.3, 2.5, 6.0), duration=10.0, kind="clamped", seed=5), tmp_path / "h.csv")
-    assert main(["fit", str(chirp), str(clamp), str(swing), "--rig", str(rig_path), "--model", "pendulum-coulomb",
-                 "--validate", str(held), "--out", str(auto)]) == 0
+    # (the held-out log is clamped, simulated as a free pendulum: predicted poorly, exit 1 without --accept-poor)
+    argv = ["fit", str(chirp), str(clamp), str(swing), "--rig", str(rig_path), "--model", "pendulum-coulomb",
+            "--validate", str(held)]
+    assert main(argv + ["--out", str(tmp_path / "strict")]) == 1
+    assert main(argv + ["--accept-poor", "--out", str(auto)]) == 0
     doc_auto = json.loads((auto / "fit.json").read_text())
     assert {Path(f["source"]).name: (f["kind"], set(f["fit"])) for f in doc_auto["train"]} == kinds
     assert doc_auto["parameters"] == doc["parameters"]
@@ -798,6 +801,7 @@ def test_a_ladder_fit_that_ends_above_the_structure_it_extends_is_fitted_again_o
         return r
 
     monkeypatch.setattr(logfit, "refine", refine)
+    monkeypatch.setattr(logfit, "hold_unidentified", lambda fitting, fitted: fitted)  # the ladder's fits alone
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = fit_logs(logs, rig=rig_of(), options=LogFitOptions(select=True), warn=False)

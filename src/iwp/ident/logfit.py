@@ -69,7 +69,7 @@ from ..models.terms import (
     term,
 )
 from ..sim.inputs import HopfController, Input
-from ..sim.uncertainty import ParameterUncertainty, identified_names, prediction_band, undetermined
+from ..sim.uncertainty import ParameterUncertainty, prediction_band, undetermined
 from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
 from .metrics import JUDGED, fit_percent, judged_fits, poor_fits
@@ -1431,15 +1431,14 @@ class _Fitting:
 
 
 def _unidentified_added(r: RefineResult, rg: Rung, extended: Sequence[RungOutcome]) -> tuple[str, ...]:
-    """The parameters rung ``rg`` frees beyond the richest structure it extends that its fit ``r`` does not
-    identify (:func:`~iwp.sim.uncertainty.identified_names`); none for the ladder's first rung."""
+    """The parameters rung ``rg`` frees beyond the richest structure it extends that its fit ``r`` says nothing of
+    (:func:`~iwp.sim.uncertainty.undetermined`: at their bound, or an interval a hundred times wider than the
+    value); none for the ladder's first rung."""
     if not extended:
         return ()
     below = max(extended, key=lambda o: len(o.rung.terms)).rung.terms
     added = [n for n in free_parameters(rg.terms) if n not in free_parameters(below) and n in r.parameters]
-    values = {n: r.parameters[n].value for n in added}
-    known = identified_names(values, {n: r.parameters[n].stderr for n in added})
-    return tuple(n for n in added if n not in known)
+    return tuple(n for n in added if undetermined(n, r.parameters[n].value, r.parameters[n].stderr))
 
 
 def _parents(extended: Sequence[RungOutcome]) -> list[RungOutcome]:

@@ -250,9 +250,9 @@ class RungOutcome:
     success: bool
     message: str
     result: Any = field(repr=False, default=None)
-    #: the parameters this rung adds to the structure it extends that its fit does not identify (their 95 %
-    #: interval reaches past the physical range, :func:`~iwp.sim.uncertainty.identified_names`): such a rung buys
-    #: parameters the logs cannot tell from none, and :func:`select` does not take it
+    #: the parameters this rung adds to the structure it extends that its fit says nothing of (at their bound, or
+    #: an interval a hundred times wider than the value, :func:`~iwp.sim.uncertainty.undetermined`): such a rung
+    #: buys parameters the logs cannot tell from none, and :func:`select` does not take it
     unidentified: tuple[str, ...] = ()
 
     @property
