@@ -363,8 +363,10 @@ def test_cli_control_lqr(capsys):
 
 def test_cli_swingup_bad_x0_is_refused_before_writing(tmp_path, capsys):
     out = tmp_path / "never"
-    assert main(["control", "swingup", "--out", str(out), "--x0", "1,2"]) == 2
-    assert "--x0 must have 4 values" in capsys.readouterr().err and not out.exists()
+    with pytest.raises(SystemExit) as e:  # refused while parsing, as in every command (one --x0 vocabulary)
+        main(["control", "swingup", "--out", str(out), "--x0", "1,2"])
+    err = capsys.readouterr().err
+    assert e.value.code == 2 and "argument --x0: expected Q1 or Q1,Q2,Q3,Q4, got 2 numbers" in err and not out.exists()
 
 
 def test_json_output_is_strict_json_without_nan(tmp_path, capsys):

@@ -250,7 +250,8 @@ def test_numpy_reprs_never_reach_a_message():
 
 @pytest.mark.parametrize("kind", ["noise", "zeros"])
 def test_validate_warns_on_a_log_that_says_nothing(tmp_path, kind):
-    """Pure noise (the model explains less than the mean) and a log of zeros: exit 0, with a warning that says so."""
+    """Pure noise (the model explains less than the mean: exit 1, the prediction is poor) and a log of zeros
+    (nothing moves, nothing judged: exit 0), each with a warning that says so."""
     rng = np.random.default_rng(0)
     t = 0.005 * np.arange(2000)
     if kind == "noise":
@@ -260,7 +261,9 @@ def test_validate_warns_on_a_log_that_says_nothing(tmp_path, kind):
     np.savetxt(tmp_path / "log.csv", np.column_stack(cols), delimiter=",", header="t,q1,q2,u", comments="")
     status, out, err = run_cli(["validate", str(tmp_path / "log.csv"), "--params", "table1"])
     warnings = [ln for ln in err.splitlines() if ln.startswith("iwp: warning:")]
-    assert status == 0, err
+    assert status == (1 if kind == "noise" else 0), err
+    if kind == "noise":
+        assert err.splitlines()[-1].startswith("iwp: the model predicts") and "--accept-poor" in err
     expect = "less of the log than the log's mean" if kind == "noise" else "constant (no motion in the log)"
     assert len(warnings) == 1 and expect in warnings[0] and "log.csv" in warnings[0], err
     # a log the model explains gets no such warning

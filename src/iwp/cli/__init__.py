@@ -125,12 +125,18 @@ def _remember_parsers(parser: argparse.ArgumentParser) -> None:
 
 
 def _flags(parser: argparse.ArgumentParser) -> dict[str, str]:
-    """dest -> the long flag the user types (``t_end`` -> ``--t-end``)."""
+    """dest -> the long flag the user typed (``t_end`` -> ``--t-end``; of a flag with a former name, the name
+    typed), and each long name's own identifier -> the same (``amplitude`` -> ``--amplitude`` when that is what
+    was typed for ``--orbit-amplitude``)."""
+    typed = {w.split("=", 1)[0] for w in getattr(parser, "argv", []) if w.startswith("--")}
     out = {}
     for action in parser._actions:
         longs = [s for s in action.option_strings if s.startswith("--")]
         if longs:
-            out[action.dest] = longs[0]
+            flag = next((s for s in longs if s in typed), longs[0])
+            out[action.dest] = flag
+            for s in longs:
+                out.setdefault(s[2:].replace("-", "_"), flag)
     return out
 
 
