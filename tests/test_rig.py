@@ -437,7 +437,7 @@ def test_cli_run_writes_a_readable_file_and_refuses_overwrite(cli, capsys, tmp_p
         (["rig", "run", "static-curve", "--out", "{d}/x.parquet"], "extension '.parquet'; use one of .csv, .txt"),
         (["rig", "run", "sine-20", "--out", "{d}/x.xyz"], "x.xyz: extension '.xyz'"),
         (["rig", "run", "sine-20", "--truth", "{d}/missing.json", "--out", "{d}/x.csv"], "no such truth file"),
-        (["rig", "run", "sine-20", "--x0", "1,2", "--out", "{d}/x.csv"], "expected q1 or q1,q2,q3,q4"),
+        (["rig", "run", "sine-20", "--x0", "1,2", "--out", "{d}/x.csv"], "expected Q1 or Q1,Q2,Q3,Q4"),
     ],
 )
 def test_cli_bad_input_exit_2_one_line(cli, capsys, tmp_path, args, match):

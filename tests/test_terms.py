@@ -89,9 +89,9 @@ def test_iwp_fit_terms_stribeck_recovers_the_rise(stribeck_logs, tmp_path, capsy
     rig_path, train, held = stribeck_logs
     out = tmp_path / "fit"
     code = main(["fit", *map(str, train), "--rig", str(rig_path), "--validate", *map(str, held[:3]),
-                 "--terms", "stribeck", "--out", str(out)])
+                 "--terms", "stribeck", "--accept-poor", "--out", str(out)])
     printed = capsys.readouterr().out
-    assert code == 0
+    assert code == 0  # (the held-out swings' q1 drifts apart from the measured state: see the next test)
     fit = json.loads((out / "fit.json").read_text())
     assert fit["options"]["stribeck"] is True and fit["options"]["coulomb"] is True
     for name in ("sigma_c2", "sigma_s2", "v_s2"):

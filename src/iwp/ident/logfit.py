@@ -950,15 +950,28 @@ def friction_prior(name: str) -> float:
     return float(getattr(table1(), name))
 
 
+#: an undetermined friction coefficient is held only when the fit drove it to its bound 0 (below this share of its
+#: typical value): one left inside with a huge interval (the Stribeck fit's sigma_v1) is kept, for its refit from a
+#: prior that is not the rig's sent sigma_c2 16 % low and v_s2 to 3e7
+AT_BOUND = 1e-3
+
+#: a hold is kept only if the refit's cost stays within this share of the free fit's: holding what the logs say
+#: nothing of barely moves the cost; a refit that ends higher (seen: a Stribeck fit whose refit from sigma_v1 held
+#: went to v_s2 = 3e7 and sigma_c2 16 % low) says the parameter mattered, and the free fit is kept
+HOLD_SLACK = 0.01
+
+
 def hold_unidentified(fitting: "_Fitting", fitted: Fitted) -> Fitted:
     """The fit again with the pendulum's friction coefficients its logs do not identify held at their prior.
 
-    The coefficient of :data:`HOLDABLE_FRICTION` the estimate says least of
-    (:func:`~iwp.sim.uncertainty.undetermined`: a friction at its bound 0, or ``1e-18 +- 230`` where two of them
-    cannot be told apart; the largest interval relative to its value first) is held at :func:`friction_prior` and
-    the structure fitted again from the fit's values, one at a time until what is left is determined: of a pair the
-    logs cannot tell apart one is held and the other carries their sum (holding both at Table 1's values would
-    impose Table 1's damping on another rig). The held ones are listed in ``fitted.held``. One whose interval
+    The coefficient of :data:`HOLDABLE_FRICTION` the estimate says least of, driven to its bound 0
+    (:func:`~iwp.sim.uncertainty.undetermined` and below :data:`AT_BOUND` of its typical value: ``1e-18 +- 230``
+    where two of them cannot be told apart; the largest interval relative to its value first) is held at
+    :func:`friction_prior` and the structure fitted again from the fit's values, one at a time until what is left is
+    determined: of a pair the logs cannot tell apart one is held and the other carries their sum (holding both at
+    Table 1's values would impose Table 1's damping on another rig). A refit whose cost ends more than
+    :data:`HOLD_SLACK` above the free fit's is not kept (the coefficient mattered). The held ones are listed in
+    ``fitted.held``. One whose interval
     merely reaches 0 keeps its estimate: held at a prior that is not the rig's, it would bias those it is
     correlated with.
     """
@@ -966,7 +979,8 @@ def hold_unidentified(fitting: "_Fitting", fitted: Fitted) -> Fitted:
     while True:
         r = fitted.result
         names = [n for n in HOLDABLE_FRICTION if n in r.free and n in r.parameters
-                 and undetermined(n, r.parameters[n].value, r.parameters[n].stderr)]
+                 and undetermined(n, r.parameters[n].value, r.parameters[n].stderr)
+                 and r.parameters[n].value <= AT_BOUND * PARAMETER_INFO[n].typical]
         if not names:
             break
 
@@ -979,6 +993,9 @@ def hold_unidentified(fitting: "_Fitting", fitted: Fitted) -> Fitted:
         options = replace(fitted.options, fixed={**fitted.options.fixed, name: held[name]})
         start = r.params.replace(**{name: held[name]})
         result = fitting.joint(options, start, x0=[x[:4] for x in r.x0], belt=r.belt if options.drive else None)
+        if not result.cost <= r.cost * (1.0 + HOLD_SLACK):  # the data did say something, or the refit went astray
+            del held[name]
+            break
         fitted = replace(fitted, options=options, result=result, held=tuple(held))
     return fitted
 

@@ -350,7 +350,9 @@ def initial_state_bounds(data: ExperimentData) -> tuple[np.ndarray, np.ndarray]:
         speeds = np.diff(np.asarray(y[:m], dtype=float)) / data.Ts
         half[pos] = max(X0_BOUND_SD * sd[pos], step)
         half[vel] = max(X0_BOUND_SD * sd[vel], step / data.Ts, float(np.ptp(speeds)) if speeds.size else 0.0)
-    if data.q4 is not None:
+    if data.q4 is not None and data.q4_sampling == "mean":  # a mean over the preceding period: not the state at t[0]
+        half[3] = np.inf
+    elif data.q4 is not None:
         q4 = np.asarray(data.q4[:m], dtype=float)
         half[3] = max(X0_BOUND_SD * sd[3], angle_quantum(data.q4), float(np.ptp(q4)) if q4.size else 0.0)
     return centre - half, centre + half
