@@ -125,6 +125,9 @@ def test_the_ladder_fits_the_stribeck_rung_when_asked_and_ranks_it_best(stribeck
         true = getattr(STRIBECK_TRUTH, name)
         assert fitted[name].value == pytest.approx(true, rel=0.05)
         assert fitted[name].ci95_low <= true <= fitted[name].ci95_high
-    # the best rigid structure predicts the pendulum worse on the same logs
-    best_rigid = max((o for o in outcomes if o.rung.name != "stribeck"), key=lambda o: o.fit["q1"])
-    assert stribeck.fit["q1"] > best_rigid.fit["q1"] + 3.0
+    # on the held-out logs' scores (q1 and q4) it is the best; on q1 alone the best rigid structure comes within
+    # 0.3 points now that initial states are bounded by the measured ones (82.4 against 82.7 %; it was 3 points
+    # ahead when the fits could move them freely): the gain is on the wheel's speed
+    rigid = [o for o in outcomes if o.rung.name != "stribeck"]
+    assert stribeck.score < min(o.score for o in rigid)
+    assert stribeck.fit["q4"] > max(o.fit["q4"] for o in rigid)
