@@ -72,6 +72,7 @@ from ..sim.inputs import HopfController, Input
 from ..sim.uncertainty import ParameterUncertainty, prediction_band, undetermined
 from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
+from .identification import HOLDABLE
 from .metrics import JUDGED, fit_percent, judged_fits, poor_fits
 from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_initial_state, measured_state_covariance
 from .problem import Loss, SolverOptions
@@ -936,12 +937,8 @@ def fit_plan(plan: FitPlan) -> Fitted:
 
 
 #: the pendulum's friction coefficients a fit holds at their prior when its logs do not identify them, and the
-#: experiment that identifies them
-HOLDABLE_FRICTION: dict[str, str] = {
-    "sigma_a1": "a free release from a large angle (90 degrees or more, so that |cos q1| varies)",
-    "sigma_v1": "a free release from a large angle (90 degrees or more, so that |cos q1| varies)",
-    "sigma_b1": "a free release at high pendulum speed (a swing through the upright)",
-}
+#: experiment that identifies them (as the least squares hold them, :data:`~iwp.ident.identification.HOLDABLE`)
+HOLDABLE_FRICTION: dict[str, str] = {n: HOLDABLE[n] for n in ("sigma_a1", "sigma_v1", "sigma_b1")}
 
 
 def friction_prior(name: str) -> float:

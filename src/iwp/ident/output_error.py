@@ -254,8 +254,7 @@ def _local_fit(t: np.ndarray, y: np.ndarray, index: int, m: int) -> tuple[float,
     X = np.column_stack([np.ones(m), tt, tt * tt])
     coef, *_ = np.linalg.lstsq(X, y[sl], rcond=None)
     resid = y[sl] - X @ coef
-    diffs = np.abs(np.diff(y[sl]))
-    quantum = float(np.min(diffs[diffs > 0])) if np.any(diffs > 0) else 0.0
+    quantum = angle_quantum(y[sl])
     s2 = max(float(resid @ resid) / max(m - 3, 1), quantum * quantum / 12.0)
     cov = np.linalg.inv(X.T @ X)[:2, :2] * s2
     return float(coef[0]), float(coef[1]), cov
