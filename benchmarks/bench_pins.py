@@ -34,7 +34,10 @@ from iwp.rig.stepper import TwinStepper
 
 ROOT = Path(__file__).resolve().parents[1]
 STEP = 2 * math.pi / 2000
-RATES = (60_000, 80_000, 100_000, 120_000, 140_000, 160_000, 180_000, 200_000)
+#: the wheel's rates tried at each loop period [us] [edges/s]: at 1 kHz the control step has 16,000 cycles
+RATES = {5000.0: (60_000, 80_000, 100_000, 120_000, 140_000, 160_000, 180_000, 200_000),
+         1000.0: (20_000, 30_000, 40_000, 50_000, 60_000)}
+REPEATS = 3  # the host's bytes land at other cycles in each run: the interrupts' coincidences differ
 
 
 def _build(folder: Path) -> tuple[Path, Path]:
@@ -51,25 +54,31 @@ def _cpu(pid: int) -> float:
 
 
 def capacity(elf: Path, harness: Path, folder: Path) -> None:
-    print("## (a) The encoders' capacity (pendulum at 5000 edges/s)\n")
+    print(f"## (a) The encoders' capacity (pendulum at 5000 edges/s; {REPEATS} runs a rate, the worst shown)\n")
     print("| loop | wheel edges/s (rad/s) | samples | wrong | pending | step cycles mean | max | of the period |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|")
     best = {}
     for period, every in ((5000.0, 1), (1000.0, 5)):
-        for rate in RATES:
-            stats = folder / f"stats-{period:.0f}-{rate}.json"
+        for rate in RATES[period]:
+            runs = []
             try:
-                with SimavrRig(elf, harness, plant=ConstantSpeed(5000 * STEP, rate * STEP), stats=stats) as rig:
-                    c = count_check(rig, 0.5, period_us=period, every=every)
+                for k in range(REPEATS):
+                    stats = folder / f"stats-{period:.0f}-{rate}-{k}.json"
+                    with SimavrRig(elf, harness, plant=ConstantSpeed(5000 * STEP, rate * STEP), stats=stats) as rig:
+                        c = count_check(rig, 0.5, period_us=period, every=every)
+                    runs.append((c, json.loads(stats.read_text())))  # written when the harness ends
             except Exception as exc:  # noqa: BLE001 (the device could not answer: far beyond)
                 print(f"| {1e6 / period:.0f} Hz | {rate} ({rate * STEP:.0f}) | - | no answer: "
                       f"{str(exc)[:40]} | | | | |")
+                best[period] = (best.get(period, (0, ""))[0], f"at {rate}: the device no longer answers")
                 break
-            st = json.loads(stats.read_text())
+            c = max((r[0] for r in runs), key=lambda c: (c.wrong, c.max_error))
+            mean = max(r[1]["cycles_mean"] for r in runs)
+            worst = max(r[1]["cycles_max"] for r in runs)
             budget = period * 16
             print(f"| {1e6 / period:.0f} Hz | {rate} ({rate * STEP:.0f}) | {c.compared} | {c.wrong} | {c.pending} | "
-                  f"{st['cycles_mean']:.0f} | {st['cycles_max']} | {st['cycles_max'] / budget:.0%} |")
-            if c.wrong == 0 and c.compared > 0 and st["cycles_max"] < budget:
+                  f"{mean:.0f} | {worst} | {worst / budget:.0%} |")
+            if c.wrong == 0 and c.compared > 0 and worst < budget:
                 best[period] = (rate, "")
             else:
                 why = "counts lost" if c.wrong else "the control step overran its period"

@@ -2,8 +2,9 @@
  *
  * Everything the rig does is in the portable core (core/iwp_core.c); this file only connects it to the
  * board (see firmware/README.md for the wiring):
- *   pendulum encoder A/B  D2/D3 (INT0/INT1, both edges: 4 counts per line)
- *   wheel encoder A/B     D4/D5 (PCINT20/21, both edges)
+ *   wheel encoder A/B     D2/D3 (INT0/INT1, both edges: 4 counts per line): the fast one on the interrupts
+ *                         served first, so that no other interrupt delays its edges by more than one ISR
+ *   pendulum encoder A/B  D4/D5 (PCINT20/21, both edges)
  *   H-bridge              PWM D9 (OC1A, 20 kHz), IN1 D10, IN2 D12 (L298N, TB6612, ...): all on PORTB, so that
  *                         the encoders' port D is only read (simavr 1.6 lets a PORTD write override the pins
  *                         its pull-ups feed, which lost and invented encoder edges when IN1 was on D7), and
@@ -53,23 +54,28 @@ static iwp_core_t core;
  * The interrupts keep 16-bit counts (few registers to save: an edge costs about half the cycles of a 32-bit
  * count) and the loop extends them to 32 bits at every tick: exact while fewer than 32768 edges come between
  * two ticks (1.6 million edges/s at the longest period, 20 ms). */
-static const int8_t QUAD[16] = {0, -1, 1, 0, 1, 0, 0, -1, -1, 0, 0, 1, 0, 1, -1, 0};
+/* QUAD[4 * old + new]: +1, -1, 0 (no change), or 2: both lines changed, one edge came before the interrupt read
+ * the first (its latency behind another interrupt, about 60 cycles each, longer than the edges' spacing): the
+ * encoder went on the way it was going, two counts (a reversal exactly then would be 4 counts off; at the
+ * speeds where edges come that close, it does not reverse). Exact while no line changes twice before its read. */
+static const int8_t QUAD[16] = {0, -1, 1, 2, 1, 0, 2, -1, -1, 2, 0, 1, 2, 1, -1, 0};
 static volatile uint16_t count1, count2; /* wrap around; see encoder_counts() */
 static volatile uint8_t ab1, ab2;        /* the last A/B state, times 4 (QUAD's row) */
+static int8_t dir1, dir2;                /* the last direction counted, +1 or -1 (0: none yet) */
 
-ISR(INT0_vect)
+/* the count's step for the lines' new state ab (0-3); prev and dir: the encoder's last state and direction */
+static inline int8_t quad_step(uint8_t ab, volatile uint8_t *prev, int8_t *dir)
 {
-    uint8_t ab = (uint8_t)((PIND >> 2) & 3); /* D2 = A, D3 = B */
-    count1 += QUAD[ab1 | ab];
-    ab1 = (uint8_t)(ab << 2);
+    int8_t d = QUAD[*prev | ab];
+    if (d == 2) d = (int8_t)(*dir + *dir);
+    else if (d) *dir = d;
+    *prev = (uint8_t)(ab << 2);
+    return d;
 }
+
+ISR(INT0_vect) { count2 += quad_step((uint8_t)((PIND >> 2) & 3), &ab2, &dir2); } /* D2 = A, D3 = B: the wheel */
 ISR(INT1_vect, ISR_ALIASOF(INT0_vect));
-ISR(PCINT2_vect)
-{
-    uint8_t ab = (uint8_t)((PIND >> 4) & 3); /* D4 = A, D5 = B */
-    count2 += QUAD[ab2 | ab];
-    ab2 = (uint8_t)(ab << 2);
-}
+ISR(PCINT2_vect) { count1 += quad_step((uint8_t)((PIND >> 4) & 3), &ab1, &dir1); } /* D4, D5: the pendulum */
 
 static int32_t total1, total2;
 static uint16_t last1, last2;
@@ -193,8 +199,8 @@ static void io_init(void)
     EIMSK = _BV(INT0) | _BV(INT1);
     PCMSK2 = _BV(PCINT20) | _BV(PCINT21);
     PCICR = _BV(PCIE2);
-    ab1 = (uint8_t)(((PIND >> 2) & 3) << 2);
-    ab2 = (uint8_t)(((PIND >> 4) & 3) << 2);
+    ab2 = (uint8_t)(((PIND >> 2) & 3) << 2); /* the wheel on D2/D3 */
+    ab1 = (uint8_t)(((PIND >> 4) & 3) << 2); /* the pendulum on D4/D5 */
     /* Timer2: CTC, 16 MHz / 64 / 250 = 1 kHz */
     TCCR2A = _BV(WGM21);
     TCCR2B = _BV(CS22);

@@ -375,19 +375,19 @@ static void marker(struct avr_irq_t *irq, uint32_t value, void *param)
     }
 }
 
-/* quadrature: the pendulum's A/B on D2/D3 every spin_period cycles, the wheel's D4/D5 five times as often */
+/* quadrature: the pendulum's A/B on D4/D5 every spin_period cycles, the wheel's D2/D3 five times as often */
 static avr_cycle_count_t spin(struct avr_t *a, avr_cycle_count_t when, void *param)
 {
     (void)a; (void)param;
     static const uint8_t gray[4] = {0, 1, 3, 2};
     spin_phase++;
     uint8_t w = gray[spin_phase & 3];
-    avr_raise_irq(pins_d + 4, w & 1);
-    avr_raise_irq(pins_d + 5, (w >> 1) & 1);
+    avr_raise_irq(pins_d + 2, w & 1);
+    avr_raise_irq(pins_d + 3, (w >> 1) & 1);
     if (spin_phase % 5 == 0) {
         uint8_t p = gray[(spin_phase / 5) & 3];
-        avr_raise_irq(pins_d + 2, p & 1);
-        avr_raise_irq(pins_d + 3, (p >> 1) & 1);
+        avr_raise_irq(pins_d + 4, p & 1);
+        avr_raise_irq(pins_d + 5, (p >> 1) & 1);
     }
     return when + spin_period / 5;
 }
@@ -395,8 +395,13 @@ static avr_cycle_count_t spin(struct avr_t *a, avr_cycle_count_t when, void *par
 /* ------------------------------------------------------------------ the twin's loop */
 static avr_cycle_count_t chunk_end_timer(struct avr_t *a, avr_cycle_count_t when, void *param)
 {
-    (void)a; (void)when; (void)param;
-    return 0; /* only so that a sleeping core stops at the chunk's end */
+    (void)a; (void)param;
+    /* only so that a sleeping core stops at the chunk's end: simavr, having run this timer, sleeps on to the
+     * next timer in the same step, and past the chunk's end no encoder timer is left (each stops at its
+     * chunk's end), so that a core asleep here slept up to the next Timer2 tick with the encoders' pins frozen
+     * (up to 1 ms: the wheel's count then came as a burst of edges at twice its rate, which the firmware could
+     * not all count). Due again one cycle later, it keeps that sleep to one cycle; the loop cancels it. */
+    return when + 1;
 }
 
 static void no_sleep(struct avr_t *a, avr_cycle_count_t howLong) { (void)a; (void)howLong; }
@@ -484,17 +489,17 @@ int main(int argc, char **argv)
     int state = cpu_Running;
     if (twin) {
         for (int i = 0; i < 2; i++) {
-            enc[i].a = pins_d + 2 + 2 * i; /* pendulum D2/D3, wheel D4/D5 */
-            enc[i].b = pins_d + 3 + 2 * i;
+            enc[i].a = pins_d + 4 - 2 * i; /* pendulum D4/D5, wheel D2/D3 */
+            enc[i].b = pins_d + 5 - 2 * i;
             enc[i].step = 2.0 * M_PI / counts;
         }
         avr->data[A_GPIOR2] = SIM_HANDS;
         avr_register_io_write(avr, A_GPIOR0, hands_write, NULL);
         avr_register_io_write(avr, A_GPIOR1, hands_write, NULL);
-        /* INT0/INT1 (vectors 1, 2) read the pendulum's pins, PCINT2 (5) the wheel's */
-        avr_irq_register_notify(avr_get_interrupt_irq(avr, 1) + AVR_INT_IRQ_RUNNING, on_vector, (void *)0);
-        avr_irq_register_notify(avr_get_interrupt_irq(avr, 2) + AVR_INT_IRQ_RUNNING, on_vector, (void *)0);
-        avr_irq_register_notify(avr_get_interrupt_irq(avr, 5) + AVR_INT_IRQ_RUNNING, on_vector, (void *)1);
+        /* INT0/INT1 (vectors 1, 2) read the wheel's pins, PCINT2 (5) the pendulum's */
+        avr_irq_register_notify(avr_get_interrupt_irq(avr, 1) + AVR_INT_IRQ_RUNNING, on_vector, (void *)1);
+        avr_irq_register_notify(avr_get_interrupt_irq(avr, 2) + AVR_INT_IRQ_RUNNING, on_vector, (void *)1);
+        avr_irq_register_notify(avr_get_interrupt_irq(avr, 5) + AVR_INT_IRQ_RUNNING, on_vector, (void *)0);
         avr_irq_t *pind = avr_io_getirq(avr, AVR_IOCTL_IOPORT_GETIRQ('D'), IOPORT_IRQ_REG_PIN);
         pind->flags &= ~IRQ_FLAG_FILTERED; /* every read, also of the value read last time */
         avr_irq_register_notify(pind, on_pind_read, NULL);

@@ -374,11 +374,21 @@ class Rig:
         self.link.send("HEARTBEAT", seq=self._hb_seq, tick=int(tick))
 
     def samples(self, timeout: float) -> list[Sample]:
-        """The telemetry that arrives within ``timeout`` [s] (returns as soon as some did), oldest first."""
+        """The telemetry that arrives within ``timeout`` [s] (returns as soon as some did), oldest first.
+
+        Other messages that come meanwhile (an acknowledgement, a refusal) are passed over: empty means no
+        telemetry for ``timeout``, not that something else came first.
+        """
+        end = _now() + timeout
         msgs = list(self._telemetry)
         self._telemetry.clear()
-        if not msgs:
-            msgs = self._next_messages(timeout)
+        read = False
+        while not any(m.name == "TELEMETRY" for m in msgs):
+            left = end - _now()
+            if read and left <= 0:
+                return []
+            msgs = self._next_messages(max(left, 0.0))
+            read = True
         now = _now()
         s1 = 2 * math.pi / self.info.params["counts1"]
         s2 = 2 * math.pi / self.info.params["counts2"]
