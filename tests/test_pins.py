@@ -118,3 +118,22 @@ def test_motor_disk_identification_through_the_pins_matches_the_emulator(build):
         a, b = pins.parameters[name].value, emulated.parameters[name].value
         print(f"{name}: through the pins {a:.4f}, through the emulator {b:.4f}")
         assert abs(a - b) <= 0.02 * abs(b)
+
+
+def _full(rig, **kw):
+    run = run_on_rig(rig, "full-chirp", duration=20.0, **kw)
+    assert not run.interrupted, run.reason
+    return identify(run.log, "full")
+
+
+def test_full_set_up_identification_through_the_pins_matches_the_emulator(build):
+    """Section 5.2's full set-up on a 20 s full chirp through the board's image gives the emulator's p1, p2, p3
+    (the same core compiled for this computer, whose runs give the virtual rig's numbers: test_device)."""
+    with _rig(build) as rig:
+        pins = _full(rig)
+    with TwinRig(fast=True) as twin:
+        emulated = _full(twin, fast=True)
+    for name in ("p1", "p2", "p3"):
+        a, b = pins.parameters[name].value, emulated.parameters[name].value
+        print(f"{name}: through the pins {a:.5g}, through the emulator {b:.5g}")
+        assert abs(a - b) <= 0.02 * abs(b)
