@@ -1,4 +1,5 @@
-"""pytest's root configuration (tests/ and docs/test_code_blocks.py): numba's caches outside the source tree.
+"""pytest's root configuration (tests/ and docs/test_code_blocks.py): numba's caches outside the source tree, and
+the ``realtime`` marker on the tests that keep wall-clock deadlines.
 
 numba writes a kernel's cache beside its source (``src/iwp/*/__pycache__``) unless ``NUMBA_CACHE_DIR`` is set,
 and a wheel built after a test run would pack those caches too (setup.py now builds its own, but a clean source
@@ -9,5 +10,24 @@ by the caller wins.
 import os
 from pathlib import Path
 
+import pytest
+
 os.environ.setdefault(
     "NUMBA_CACHE_DIR", str(Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "iwp" / "numba"))
+
+
+#: Test files whose tests keep wall-clock deadlines (a device's watchdog, a real-time loop, signals sent into a
+#: running command, a browser's refresh rate): marked ``realtime``. The README's test command runs the others on
+#: two processes (pytest-xdist) and these alone afterwards, so that no other test takes their cores meanwhile.
+REALTIME_FILES = ("test_device.py", "test_firmware.py", "test_live.py", "test_live_browser.py", "test_outputs.py",
+                  "test_pins.py", "test_sweep.py", "test_threads.py")
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "realtime: keeps wall-clock deadlines; run alone (conftest.REALTIME_FILES)")
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.path.name in REALTIME_FILES:
+            item.add_marker(pytest.mark.realtime)
