@@ -25,6 +25,13 @@ REALTIME_FILES = ("test_device.py", "test_firmware.py", "test_live.py", "test_li
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "realtime: keeps wall-clock deadlines; run alone (conftest.REALTIME_FILES)")
+    if config.pluginmanager.hasplugin("xdist") and config.getoption("numprocesses", None) \
+            and not hasattr(config, "workerinput"):
+        # pytest-xdist's controller, before its workers start: iwp's kernels compiled once, in parallel processes
+        # (iwp warmup), not by each worker as it meets them (a cold cache cost the first phase 173 s, 306 -> 479 s)
+        from iwp.warmup import warmup
+
+        warmup(processes=2)
 
 
 def pytest_collection_modifyitems(config, items):

@@ -26,6 +26,7 @@ from iwp.rig import (
 )
 from iwp.rig.run_settings import open_loop_input
 from iwp.sim import HopfController, SimOptions, Tolerances, simulate
+from iwp.sim.inputs import Sampled
 
 STEP = 2 * math.pi / 2000
 
@@ -477,3 +478,11 @@ def test_cli_truth_writes_the_default_for_editing(cli, capsys, tmp_path):
     curve = read_static_curve(out)
     neg, pos = _band(curve)
     assert pos > 1.15 * 40.0  # the edited threshold moved the dead band
+
+
+def test_a_recorded_sampled_input_is_described_in_one_line():
+    """A log's ``input`` metadata is one line: a recorded array input once gave numpy's multi-line repr, which the
+    log refused ("must not contain a line break"; benchmarks/coverage_study.py stopped there)."""
+    u = 40.0 * np.sin(0.01 * np.arange(2001))
+    d = VirtualRig().record(Sampled(u, 0.005), duration=2.0, seed=1)
+    assert d.metadata["input"] == "Sampled(2001 samples at Ts=0.005 s from t0=0 s, in [-40, 40])"

@@ -253,6 +253,11 @@ class Sampled(Input):
         k = int(math.floor((float(t) - self.t0) / self.Ts + 1e-9))
         return float(self.values[min(max(k, 0), self.values.size - 1)])
 
+    def describe(self) -> str:
+        """One line (a log's ``input`` metadata): the samples' count, period and range, not the array."""
+        v = self.values
+        return f"Sampled({v.size} samples at Ts={self.Ts:g} s from t0={self.t0:g} s, in [{v.min():g}, {v.max():g}])"
+
 
 @dataclass(frozen=True)
 class HopfController(Input):
