@@ -28,10 +28,11 @@ def pytest_configure(config):
     if config.pluginmanager.hasplugin("xdist") and config.getoption("numprocesses", None) \
             and not hasattr(config, "workerinput"):
         # pytest-xdist's controller, before its workers start: iwp's kernels compiled once, in parallel processes
-        # (iwp warmup), not by each worker as it meets them (a cold cache cost the first phase 173 s, 306 -> 479 s)
+        # (iwp warmup, one per core), not by each worker as it meets them (a cold cache cost the first phase
+        # 173 s, 306 -> 479 s)
         from iwp.warmup import warmup
 
-        warmup(processes=2)
+        warmup()
 
 
 def pytest_collection_modifyitems(config, items):

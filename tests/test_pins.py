@@ -103,37 +103,25 @@ def test_hopf_on_the_device_through_the_pins_oscillates_at_2_58(build):
     assert len(run_ticks) == len(samples) and np.max(np.abs(err)) <= 0.55 * STEP
 
 
-def _motor_disk(rig, **kw):
-    run = run_on_rig(rig, "motor-disk-chirp", duration=20.0, **kw)
+def _identified(rig, experiment: str, setup: str, **kw):
+    run = run_on_rig(rig, experiment, duration=20.0, **kw)
     assert not run.interrupted, run.reason
-    return identify(run.log, "motor-disk")
+    return identify(run.log, setup)
 
 
-def test_motor_disk_identification_through_the_pins_matches_the_emulator(build):
+@pytest.mark.parametrize("experiment, setup, names", [
+    ("motor-disk-chirp", "motor-disk", ("p2_1rho", "p3_1rho")),
+    ("full-chirp", "full", ("p1", "p2", "p3")),
+], ids=["motor-disk", "full"])
+def test_identification_through_the_pins_matches_the_emulator(build, experiment, setup, names):
+    """Section 5.1's motor-disk set-up and section 5.2's full set-up on 20 s chirps through the board's image give
+    the emulator's parameters (the same core compiled for this computer, whose runs give the virtual rig's
+    numbers: test_device) within 2 %."""
     with _rig(build) as rig:
-        pins = _motor_disk(rig)
+        pins = _identified(rig, experiment, setup)
     with TwinRig(fast=True) as twin:
-        emulated = _motor_disk(twin, fast=True)
-    for name in ("p2_1rho", "p3_1rho"):
-        a, b = pins.parameters[name].value, emulated.parameters[name].value
-        print(f"{name}: through the pins {a:.4f}, through the emulator {b:.4f}")
-        assert abs(a - b) <= 0.02 * abs(b)
-
-
-def _full(rig, **kw):
-    run = run_on_rig(rig, "full-chirp", duration=20.0, **kw)
-    assert not run.interrupted, run.reason
-    return identify(run.log, "full")
-
-
-def test_full_set_up_identification_through_the_pins_matches_the_emulator(build):
-    """Section 5.2's full set-up on a 20 s full chirp through the board's image gives the emulator's p1, p2, p3
-    (the same core compiled for this computer, whose runs give the virtual rig's numbers: test_device)."""
-    with _rig(build) as rig:
-        pins = _full(rig)
-    with TwinRig(fast=True) as twin:
-        emulated = _full(twin, fast=True)
-    for name in ("p1", "p2", "p3"):
+        emulated = _identified(twin, experiment, setup, fast=True)
+    for name in names:
         a, b = pins.parameters[name].value, emulated.parameters[name].value
         print(f"{name}: through the pins {a:.5g}, through the emulator {b:.5g}")
         assert abs(a - b) <= 0.02 * abs(b)
