@@ -456,7 +456,8 @@ def test_a_failed_simulation_makes_its_statement_fail(tmp_path):
                                                 "simulation_error": "step size underflow at t = 3 s"}}
     st = Statement("full-setup-far", "", "")
     st_full_setup_far(ctx, st)
-    assert st.passed is False and "simulation failed" in st.found
+    assert st.passed is False and [p.passed for p in st.parts] == [True, False]  # far (ratio 170), no prediction
+    assert "simulation with these parameters failed" in st.parts[1].what
     # the same numbers with a simulation that ran and predicts worse: the statement holds
     ctx.numbers["full-setup"]["unweighted"] = {"theta": theta, "fit_q1": 20.0}
     st = Statement("full-setup-far", "", "")
@@ -500,7 +501,9 @@ def test_a_closed_loop_that_drifts_does_not_match_closely(tmp_path):
     st = Statement("amplitude", "", "")
     st_amplitude(ctx, st)
     assert st.passed is False and "49.3 %" in st.found and "phase" in st.found
+    assert [p.passed for p in st.parts] == [True, True, False]  # the two rows hold; the fit does not
     ctx.numbers["closed-loop"]["fit_q1"] = 85.0
+    st = Statement("amplitude", "", "")
     st_amplitude(ctx, st)
     assert st.passed is True
 
@@ -530,10 +533,36 @@ def test_the_compensated_error_at_u15_is_part_of_its_statement(tmp_path):
     ctx.numbers["dead-zone"] = {"line": [2.5, -10.0], "linearity": 0.01, "error_at_u15": 2.3}
     st = Statement("linear-after-compensation", "", "")
     st_linear_after_compensation(ctx, st)
-    assert st.passed is False and "2.3 rad/s" in st.found  # the paper: 25 rad/s
+    part = {p.row: p for p in st.parts}["compensated_error_u15"]
+    assert st.passed is False and part.passed is False and "2.3" in part.what  # the paper: 25 rad/s
+    assert [p.passed for p in st.parts if not p.row] == [True, True]  # linear, and below the line at u = 15
     ctx.numbers["dead-zone"]["error_at_u15"] = 25.5
+    st = Statement("linear-after-compensation", "", "")
     st_linear_after_compensation(ctx, st)
     assert st.passed is True
+
+
+def test_statements_take_their_verdicts_from_the_rows_of_the_numbers_table(quick_run):
+    """A statement's part graded on a row of the paper's numbers has that row's verdict, and the statement's
+    verdict is its parts': the page cannot say PASS beside a row that says NO (issue 39)."""
+    res = quick_run["result"]
+    rows = {r.target.key: r.within for r in res.extra["paper-rows"]}
+    by = {s.key: s for s in res.statements}
+    graded = {p.row for s in res.statements for p in s.parts if p.row}
+    assert {"v_dz_pos", "a_p2_1rho", "b_sigma_c2_1rho", "full13_friction_far", "rho", "full_chirp_fit",
+            "cl_amplitude_rig", "cl_model_over_rig"} <= graded
+    for s in res.statements:
+        for p in s.parts:
+            if p.row:
+                assert p.passed is rows[p.row], (s.key, p.row, p.what)
+        if s.parts:
+            verdicts = [p.passed for p in s.parts]
+            assert s.passed is (False if False in verdicts else (None if None in verdicts else True)), s.key
+    # the closed loop's three parts: two rows and the fit, which the paper prints no number for
+    assert [bool(p.row) for p in by["amplitude"].parts] == [True, True, False]
+    doc = json.loads((quick_run["out"] / "results.json").read_text())
+    saved = {s["key"]: s for s in doc["statements"]}
+    assert [p["row"] for p in saved["amplitude"]["parts"]] == ["cl_amplitude_rig", "cl_model_over_rig", None]
 
 
 def test_the_report_fills_every_row_it_has_a_value_for(quick_run):

@@ -17,13 +17,14 @@ the page through the DOM.
 from __future__ import annotations
 
 from .folder import prepare_output_dir, save_figure
-from .page import FigureEntry, Report, Section, Statement, Table, fmt, fmt_interval, render_html, write_html
+from .page import FigureEntry, Part, Report, Section, Statement, Table, fmt, fmt_interval, render_html, write_html
 
 __all__ = [
     "FigureEntry",
     "Report",
     "Section",
     "Statement",
+    "Part",
     "Table",
     "fmt",
     "fmt_interval",

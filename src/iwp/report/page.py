@@ -24,13 +24,37 @@ from typing import Any, Sequence
 from ..files import jsonable, prepare_output_file
 from .words import ERRATA_SOURCE
 
-__all__ = ["Statement", "Table", "FigureEntry", "Section", "Report", "render_html", "write_html", "fmt",
+__all__ = ["Statement", "Part", "Table", "FigureEntry", "Section", "Report", "render_html", "write_html", "fmt",
            "fmt_interval"]
 
 
 # --------------------------------------------------------------------------
 # content
 # --------------------------------------------------------------------------
+@dataclass
+class Part:
+    """One part of a statement's claim, graded on its own.
+
+    Attributes
+    ----------
+    what : str
+        The part and what this run found for it, with the numbers.
+    passed : bool or None
+        ``None``: not checked (the number it needs is missing).
+    row : str
+        The key of the row of the paper's numbers (``paper_targets.json``) it is graded on, so that the
+        statement and the numbers table cannot disagree; ``""`` when the paper prints no number for it and
+        iwp's criterion grades it.
+    """
+
+    what: str
+    passed: bool | None
+    row: str = ""
+
+    def to_dict(self) -> dict:
+        return {"what": self.what, "passed": self.passed, "row": self.row or None}
+
+
 @dataclass
 class Statement:
     """One of the paper's statements, checked with the numbers of this run.
@@ -51,6 +75,8 @@ class Statement:
         ``None``: not checked (a step it needs failed); see ``found``.
     values : dict
         The numbers behind ``found`` (JSON-ready).
+    parts : list of Part
+        The claim's parts, each graded (:meth:`grade`); empty for a claim checked as one.
     """
 
     key: str
@@ -60,6 +86,12 @@ class Statement:
     criterion: str = ""
     passed: bool | None = None
     values: dict = field(default_factory=dict)
+    parts: list = field(default_factory=list)
+
+    def grade(self) -> None:
+        """The verdict from the parts: fail if one fails, else not checked if one is not checked, else pass."""
+        verdicts = [p.passed for p in self.parts]
+        self.passed = False if False in verdicts else (None if None in verdicts else True)
 
     @property
     def verdict(self) -> str:
@@ -67,7 +99,8 @@ class Statement:
 
     def to_dict(self) -> dict:
         return {"key": self.key, "claim": self.claim, "reference": self.reference, "found": self.found,
-                "criterion": self.criterion, "verdict": self.verdict, "values": jsonable(self.values)}
+                "criterion": self.criterion, "verdict": self.verdict, "values": jsonable(self.values),
+                "parts": [p.to_dict() for p in self.parts]}
 
 
 @dataclass
@@ -191,6 +224,8 @@ th,td{border:1px solid #ccc;padding:0.25em 0.55em;text-align:left;vertical-align
 th{background:#f0f3f7}td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
 .pass{background:#e2f5e2;color:#145214;font-weight:bold}.fail{background:#fbe3e3;color:#8a1010;font-weight:bold}
 .nc{background:#f3f3f3;color:#666;font-weight:bold}
+ul.parts{margin:.3em 0 0 1.1em;padding:0}ul.parts li{margin:.1em 0}.part-yes{color:#145214;font-weight:bold}
+.part-no{color:#8a1010;font-weight:bold}.part-nc{color:#666;font-weight:bold}
 figure{margin:1em 0 2em 0;padding:0}figure img{max-width:100%;border:1px solid #eee}
 figcaption{font-size:0.9em;color:#333;margin-top:0.3em}.note{font-size:0.88em;color:#444}
 .summary td:first-child{font-weight:bold}code{background:#f4f4f4;padding:0 0.2em}
@@ -266,6 +301,19 @@ def _figure_html(f: FigureEntry, errata=None) -> str:
             f"<figcaption>{_linked(f.caption, errata)}{files}</figcaption></figure>")
 
 
+def _parts_html(parts: Sequence[Part], errata=None) -> str:
+    """A statement's parts as a list: verdict, what was found, and the numbers-table row it is graded on."""
+    if not parts:
+        return ""
+    items = []
+    for p in parts:
+        verdict = "not checked" if p.passed is None else ("yes" if p.passed else "no")
+        cls = {"yes": "part-yes", "no": "part-no"}.get(verdict, "part-nc")
+        where = f" (row <code>{_e(p.row)}</code>)" if p.row else " (no published number: iwp's criterion)"
+        items.append(f'<li><span class="{cls}">{verdict}</span>: {_linked(p.what, errata)}{where}</li>')
+    return '<ul class="parts">' + "".join(items) + "</ul>"
+
+
 def _statements_html(statements: Sequence[Statement], errata=None) -> str:
     rows = []
     for i, s in enumerate(statements, 1):
@@ -273,7 +321,7 @@ def _statements_html(statements: Sequence[Statement], errata=None) -> str:
         rows.append(
             f"<tr><td class=\"num\">{i}</td><td>{_e(s.claim)}<br><span class=\"note\">"
             f"{_linked(s.reference, errata)}</span></td>"
-            f"<td>{_linked(s.found, errata)}</td><td class=\"note\">{_e(s.criterion)}</td>"
+            f"<td>{_linked(s.found, errata)}{_parts_html(s.parts, errata)}</td><td class=\"note\">{_e(s.criterion)}</td>"
             f'<td class="{cls}">{_e(s.verdict.upper())}</td></tr>')
     return ("<table><thead><tr><th>#</th><th>the paper says</th><th>found here</th><th>criterion</th>"
             "<th>verdict</th></tr></thead><tbody>" + "".join(rows) + "</tbody></table>")
