@@ -164,7 +164,8 @@ WIDE_KERNELS = {"iwp.sim.engine.kink_step", "iwp.sim.engine.put_near", "iwp.sim.
 SHORT = ("iwp.ident", "iwp.sim")
 MAX_LINES = 120
 #: The compiled kernels longer than that: the lanes' and the single run's integrators (their parts are named
-#: functions; what is left is the step loop, which numba compiles as one).
+#: functions; what is left is the step loop, which numba compiles as one). Splitting the single run's loop further
+#: cost 6-18 % of its speed, measured: BENCHMARKS.md, issue 38.
 LONG_KERNELS = {"iwp.sim.lanes.run_lanes", "iwp.sim.engine.integrate"}
 
 
