@@ -47,6 +47,10 @@ def register(sub) -> None:
     p.add_argument("--order", type=int, metavar="N", help="butter: filter order")
     p.add_argument("--covariance", choices=["noise", "hac", "ols"], default="noise",
                    help="uncertainty: encoder noise through the differentiator (default), HAC, or OLS")
+    p.add_argument("--input-hold", choices=["auto", "zoh", "continuous"], default="auto",
+                   help="how the logged input acted between samples: held until the next (zoh, a rig's "
+                        "controller), continuous (a continuous simulation), or auto (default: the log's metadata "
+                        "input_hold, else zoh)")
     p.add_argument("--base", metavar="PARAMS", default=None,
                    help="parameter set for the values the set-up does not identify (default table1)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -149,7 +153,8 @@ def run(args) -> int:
         diff = _differentiator(args, data[0].Ts)
         res = identify(data if len(data) > 1 else data[0], args.setup, pendulum=pendulum, p2=p2, t_start=args.t_start,
                        t_end=args.t_end, base=base,
-                       options=IdentifyOptions(differentiator=diff, covariance=args.covariance))
+                       options=IdentifyOptions(differentiator=diff, covariance=args.covariance,
+                                               input_hold=args.input_hold))
     files = ", ".join(args.files)
     if not res.success:
         raise IdentificationError(f"{files}: {res.message}; nothing written")

@@ -345,6 +345,10 @@ class VirtualRig:
                        "[rad, rad/s], not available on a real rig"
                        + ("; v_command: driver command after compensation and saturation" if compensated else ""),
             "truth": truth.replace(noise_std=noise).to_json_line(),
+            # how the input acted between samples (iwp identify reads it): held by a controller or a sampled
+            # array, else evaluated continuously (the twin's chirps and sines)
+            "input_hold": "zoh" if controller is not None or (input is not None and input.sampled_period)
+            else "continuous",
         }
         if not compensated:
             del fixed["v_dz_pos"], fixed["v_dz_neg"]
@@ -435,5 +439,22 @@ def run_experiment(name: str, *, truth: RigTruth | None = None, seed: int = 0, *
     ------
     InputError
         Unknown experiment, an option it does not take, or a bad value.
+
+    Examples
+    --------
+    Two seconds of figure 3(a)'s sinusoid ``u = 60 sin(5 t)``, pendulum locked:
+
+    >>> from iwp.rig import run_experiment
+    >>> log = run_experiment("sine-60", duration=2.0)
+    >>> log.n_samples, round(log.Ts, 3), log.metadata["pendulum"]
+    (401, 0.005, 'locked')
+    >>> round(float(abs(log.extra["true_q4"]).max()), 1)  # the disk's peak speed [rad/s]
+    100.8
+
+    The static curve of figure 2(a), coarsely (every 20 input units, held 2 s):
+
+    >>> curve = run_experiment("static-curve", step=20.0, duration=2.0)
+    >>> curve.input[6:], curve.q4[6:].round(1)  # v [input units], steady q4 [rad/s]: the dead zone
+    (array([ 20.,  40.,  60.,  80., 100.]), array([  0. ,  27.7,  89.7, 151.5, 213.3]))
     """
     return VirtualRig(truth, seed=seed).run(name, **overrides)
