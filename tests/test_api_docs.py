@@ -29,7 +29,8 @@ sys.path.insert(0, str(ROOT / "docs" / "_ext"))
 
 from iwp_api import constant_doc, is_data, public_names  # noqa: E402
 
-#: the functions whose docstrings must hold an Examples section that runs (module, name): the ``iwp`` top level
+#: the functions whose docstrings must hold an Examples section that runs (module, name): the ``iwp`` top level first,
+#: then the subpackages' own (a function exported from two modules is listed once)
 WITH_EXAMPLES: tuple[tuple[str, str], ...] = (
     ("iwp", "table1"), ("iwp", "load_params"), ("iwp", "save_params"), ("iwp", "paper_belt"),
     ("iwp", "linearize"), ("iwp", "energy"), ("iwp", "feedforward"), ("iwp", "dead_zone"),
@@ -38,6 +39,37 @@ WITH_EXAMPLES: tuple[tuple[str, str], ...] = (
     ("iwp", "identify"), ("iwp", "validate"), ("iwp", "fit_percent"),
     ("iwp", "hopf_point"), ("iwp", "design_hopf"), ("iwp", "lqr_balance"),
     ("iwp", "default_truth"),
+    ("iwp", "refine"), ("iwp", "refine_identification"), ("iwp", "refine_belt"), ("iwp", "continue_hopf"),
+    ("iwp", "find_orbit"), ("iwp", "swing_up"), ("iwp", "robust_hopf"), ("iwp", "robust_balance"),
+    ("iwp", "robust_swingup"), ("iwp", "open_rig"), ("iwp", "run_on_rig"), ("iwp", "run_control"),
+    ("iwp.models", "dead_zone_output"), ("iwp.models", "encoder_step"), ("iwp.models", "model_info"),
+    ("iwp.models", "named_params"), ("iwp.models", "pendulum_energy"), ("iwp.models", "quantize"),
+    ("iwp.models", "to_statespace"),
+    ("iwp.sim", "make_input"),
+    ("iwp.ident", "as_experiments"), ("iwp.ident", "auto_model"), ("iwp.ident", "held_out_q1_offset"),
+    ("iwp.ident", "model_input"), ("iwp.ident", "default_differentiator"), ("iwp.ident", "fit_plant"),
+    ("iwp.ident", "get_setup"), ("iwp.ident", "identify_dead_zone"), ("iwp.ident", "load_pendulum"),
+    ("iwp.ident", "solve_least_squares"), ("iwp.ident", "validation_plant"),
+    ("iwp.control", "closed_loop_matrix"), ("iwp.control", "simulated_amplitude"), ("iwp.control", "wilson_interval"),
+    ("iwp.rig", "check_output_path"), ("iwp.rig", "list_experiments"), ("iwp.rig", "rigid_fit_error"),
+    ("iwp.rig", "run_experiment"), ("iwp.rig", "truth_record"), ("iwp.rig", "uncalibrated_truth"),
+    ("iwp.rig", "write_result"),
+    ("iwp.data", "check_distinct"), ("iwp.data", "format_of"), ("iwp.data", "read_angle_log"),
+    ("iwp.data", "read_csv"), ("iwp.data", "read_mat"), ("iwp.data", "read_parquet"), ("iwp.data", "write_csv"),
+    ("iwp.data", "write_mat"), ("iwp.data", "write_parquet"), ("iwp.data", "write_static_curve"),
+    ("iwp.device", "connect"), ("iwp.device", "run_loop"),
+    ("iwp.calibration", "calibrate"), ("iwp.calibration", "compare_targets"), ("iwp.calibration", "load_targets"),
+    ("iwp.calibration", "paper_numbers"), ("iwp.calibration", "truth_with"), ("iwp.calibration", "twin_statistics"),
+    ("iwp.report", "fmt"), ("iwp.report", "fmt_interval"), ("iwp.report", "prepare_output_dir"),
+    ("iwp.report", "render_html"), ("iwp.report", "save_figure"), ("iwp.report", "write_html"),
+    ("iwp.plotting", "animate_pendulum"), ("iwp.plotting", "plot_bifurcation"),
+    ("iwp.plotting", "plot_branch_details"), ("iwp.plotting", "plot_capture"), ("iwp.plotting", "plot_comparison"),
+    ("iwp.plotting", "plot_comparison_panel"), ("iwp.plotting", "plot_comparisons"),
+    ("iwp.plotting", "plot_correlation"), ("iwp.plotting", "plot_dead_zone"), ("iwp.plotting", "plot_distribution"),
+    ("iwp.plotting", "plot_errors"), ("iwp.plotting", "plot_simulation"), ("iwp.plotting", "plot_static_curve"),
+    ("iwp.plotting", "plot_swingup"), ("iwp.plotting", "plot_validation"), ("iwp.plotting", "savefig"),
+    ("iwp.plotting", "stacked_axes"),
+    ("iwp.reproduce", "experiment_settings"), ("iwp.reproduce", "log_command"),
 )
 #: abbreviations a summary may not end on (a sentence cut at its first full stop)
 CUT = ("e.g.", "i.e.", "cf.", "etc.", "vs.", "approx.", "eq.", "Eq.", "fig.", "Fig.", "no.", "No.", "resp.")

@@ -96,7 +96,24 @@ def check_output_dir(path: str | Path, *, force: bool = False, argument: str = "
 
 
 def prepare_output_dir(path: str | Path, *, force: bool = False, argument: str = "out") -> Path:
-    """:func:`check_output_dir`, then create the folder."""
+    """:func:`check_output_dir`, then create the folder.
+
+    Examples
+    --------
+    A new folder is created; one that holds files only with ``force``:
+
+    >>> from iwp.report import prepare_output_dir
+    >>> out = prepare_output_dir("report")
+    >>> out.is_dir()
+    True
+    >>> _ = (out / "page.html").write_text("<html></html>")
+    >>> prepare_output_dir("report")
+    Traceback (most recent call last):
+    ...
+    iwp.errors.OutputExistsError: out report: folder exists and is not empty; pass --force to write into it
+    >>> prepare_output_dir("report", force=True).name
+    'report'
+    """
     p = check_output_dir(path, force=force, argument=argument)
     p.mkdir(exist_ok=True)
     return p

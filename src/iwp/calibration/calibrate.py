@@ -215,6 +215,19 @@ def truth_with(base: RigTruth, values: Mapping[str, float]) -> RigTruth:
     ------
     InputError
         A truth without a belt, an unknown coordinate name or one given twice.
+
+    Examples
+    --------
+    A disk 5 % stronger: the belt's gain follows, so that its rigid limit is the new ``p3 rho``:
+
+    >>> from iwp.calibration import truth_with
+    >>> from iwp.rig import default_truth
+    >>> base = default_truth()
+    >>> stronger = truth_with(base, {"lumped.p3": 1.05 * base.lumped.p3})
+    >>> round(stronger.belt.kTbeta_over_Rgamma / base.belt.kTbeta_over_Rgamma, 6)
+    1.05
+    >>> stronger.lumped.p1 == base.lumped.p1  # the other coordinates are kept
+    True
     """
     _check_names(list(values), "values")
     current = truth_values(base)
@@ -247,6 +260,24 @@ def twin_statistics(truth: RigTruth, targets: Sequence[PaperTarget], *, seed: in
     -------
     dict of str to float
         Value of each target's statistic, by statistic name (in the statistic's unit).
+
+    Examples
+    --------
+    On shortened experiments, the hand-set start of the calibration reads the static curve's threshold far from
+    the paper's ``v+ ~ 31``; the calibrated twin reads it:
+
+    >>> from iwp.calibration import load_targets, twin_statistics
+    >>> from iwp.rig import default_truth, uncalibrated_truth
+    >>> short = {"static-curve": {"step": 20.0, "duration": 2.0},
+    ...          "static-curve-compensated": {"step": 20.0, "duration": 2.0},
+    ...          "motor-disk-chirp": {"duration": 5.0}, "full-chirp": {"duration": 5.0},
+    ...          "free-pendulum": {"duration": 3.0}, "closed-loop": {"duration": 3.0}}
+    >>> targets = [t for t in load_targets() if t.key in ("v_dz_pos", "c_p1")]
+    >>> for truth in (uncalibrated_truth(), default_truth()):
+    ...     stats = twin_statistics(truth, targets, overrides=short)
+    ...     print(round(stats["dead-zone.v_dz_pos"], 2), round(stats["free.p1"], 2))
+    38.04 25.99
+    30.96 26.36
     """
     numbers = paper_numbers(truth, seed=seed, overrides=overrides)
     return numbers.values(sorted({t.statistic for t in targets}))
@@ -548,6 +579,27 @@ def calibrate(
     InputError
         Unknown coordinates, no calibrated target, a start without a belt, a
         start outside the bounds that cannot be clipped.
+
+    Examples
+    --------
+    The smallest calibration: the twin with its dead zone's ``v+`` set to 28 reads 34.3 on the static curve;
+    calibrating ``v+`` alone on shortened experiments brings the reading back to the paper's 31:
+
+    >>> from iwp.calibration import calibrate, load_targets, truth_with
+    >>> from iwp.ident import SolverOptions
+    >>> from iwp.rig import default_truth
+    >>> short = {"static-curve": {"step": 20.0, "duration": 2.0},
+    ...          "static-curve-compensated": {"step": 20.0, "duration": 2.0},
+    ...          "motor-disk-chirp": {"duration": 5.0}, "full-chirp": {"duration": 5.0},
+    ...          "free-pendulum": {"duration": 3.0}, "closed-loop": {"duration": 3.0}}
+    >>> targets = [t for t in load_targets() if t.key in ("v_dz_pos", "v_dz_neg")]
+    >>> start = truth_with(default_truth(), {"lumped.v_dz_pos": 28.0})
+    >>> res = calibrate(targets, start=start, free=["lumped.v_dz_pos"], overrides=short,
+    ...                 options=SolverOptions(tol=1e-3, max_nfev=4), warn=False)
+    >>> res.success, round(res.values["lumped.v_dz_pos"], 2)  # the truth's v+ [input units]
+    (True, 24.75)
+    >>> [round(r.reproduced, 2) for r in res.rows_start], [round(r.reproduced, 2) for r in res.rows]
+    ([34.26, 30.98], [31.0, 30.98])
     """
     t0 = time.perf_counter()
     if targets is None or isinstance(targets, (str, os.PathLike)):

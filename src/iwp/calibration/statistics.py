@@ -387,6 +387,23 @@ def paper_numbers(truth: RigTruth | None = None, *, seed: int = 0,
     Returns
     -------
     PaperNumbers
+
+    Examples
+    --------
+    The paper's procedures on shortened experiments of the default twin (the paper: ``v+ ~ 31``,
+    ``p1 = 26.095``, ``rho = 247.24``, ``p3(1+rho) = 7.759``):
+
+    >>> from iwp.calibration import paper_numbers
+    >>> short = {"static-curve": {"step": 20.0, "duration": 2.0},
+    ...          "static-curve-compensated": {"step": 20.0, "duration": 2.0},
+    ...          "motor-disk-chirp": {"duration": 5.0}, "full-chirp": {"duration": 5.0},
+    ...          "free-pendulum": {"duration": 3.0}, "closed-loop": {"duration": 3.0}}
+    >>> numbers = paper_numbers(overrides=short)
+    >>> stats = numbers.values(["dead-zone.v_dz_pos", "free.p1", "two-step.rho", "motor-disk.p3_1rho"])
+    >>> {k: round(v, 2) for k, v in stats.items()}
+    {'dead-zone.v_dz_pos': 30.96, 'free.p1': 26.36, 'two-step.rho': 248.5, 'motor-disk.p3_1rho': 7.76}
+    >>> sorted(numbers.logs)[:3]  # the experiments it ran
+    ['closed-loop', 'free-pendulum', 'full-chirp']
     """
     overrides = dict(overrides or {})
     unknown = sorted(set(overrides) - set(PAPER_EXPERIMENTS))

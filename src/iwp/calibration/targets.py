@@ -205,6 +205,16 @@ def load_targets(path: str | os.PathLike | None = None) -> list[PaperTarget]:
     InputError
         No such file, not JSON, or an entry that is not a valid target
         (naming the file, the entry and the field); repeated keys.
+
+    Examples
+    --------
+    >>> from iwp.calibration import load_targets
+    >>> targets = load_targets()
+    >>> len(targets), sum(t.graded for t in targets)  # the paper's numbers, those the twin is graded on
+    (27, 21)
+    >>> t = targets[7]
+    >>> t.key, t.statistic, t.published, t.tolerance  # Table 1's p1 within 5 %
+    ('c_p1', 'free.p1', 26.095, 0.05)
     """
     p = TARGETS_FILE if path is None else Path(path)
     if not p.is_file():
@@ -242,6 +252,20 @@ def compare_targets(targets: Sequence[PaperTarget], values: Mapping[str, float])
     ------
     InputError
         ``values`` lacks the statistic of a target.
+
+    Examples
+    --------
+    The paper's numbers against what the default twin reproduced when it was calibrated (its record):
+
+    >>> from iwp.calibration import compare_targets, load_targets
+    >>> from iwp.rig import truth_record
+    >>> reproduced = {r["statistic"]: r["reproduced"] for r in truth_record()["calibration"]["residuals"]}
+    >>> rows = compare_targets(load_targets(), reproduced)
+    >>> row = rows[7]
+    >>> row.target.key, row.target.published, round(row.reproduced, 3), round(row.deviation, 4), row.within
+    ('c_p1', 26.095, 26.361, 0.0102, True)
+    >>> sum(r.within for r in rows if r.target.graded)  # of 21
+    20
     """
     rows = []
     for t in targets:

@@ -420,6 +420,24 @@ def continue_hopf(
     Returns
     -------
     HopfBranch
+
+    See Also
+    --------
+    find_orbit : The orbit at one ``k1`` of the branch.
+    design_hopf : The gains for a wanted amplitude.
+
+    Examples
+    --------
+    The branch of figure 10's law (``k2 = 0.1``) from the Hopf point up to 1 rad:
+
+    >>> from iwp import continue_hopf, table1
+    >>> branch = continue_hopf(table1(), 0.1, a_max=1.0)
+    >>> branch.stop_reason
+    'amplitude reached a_max = 1 rad'
+    >>> round(branch.hopf.k1, 3), round(float(branch.k1[-1]), 2), round(float(branch.amplitude[-1]), 2)  # [rad]
+    (-0.945, -3.32, 1.05)
+    >>> bool(branch.stable.all())  # a supercritical Hopf point: every orbit is stable
+    True
     """
     params = lumped_parameters(params)
     a_start = check_positive("a_start", a_start)
@@ -474,6 +492,21 @@ def find_orbit(params: LumpedParameters, k1: float, k2: float = 0.1, **continuat
     ------
     InputError
         If ``k1`` is not on the branch (the reachable interval is given).
+
+    See Also
+    --------
+    continue_hopf : The whole branch.
+
+    Examples
+    --------
+    The paper's gains ``k1 = -10``, ``k2 = 0.1`` (section 5.3, figure 10: ``q1max ~ 2.58`` rad on the rig):
+
+    >>> from iwp import find_orbit, table1
+    >>> orbit = find_orbit(table1(), -10.0, 0.1)
+    >>> round(orbit.amplitude, 3), round(orbit.period, 3), orbit.stable  # [rad], [s]
+    (2.568, 2.082, True)
+    >>> round(orbit.u_max, 1)  # the largest input along the orbit [input units]
+    38.5
     """
     params = lumped_parameters(params)
     k1 = check_finite("k1", k1)

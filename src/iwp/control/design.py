@@ -326,6 +326,20 @@ def simulated_amplitude(
     Returns
     -------
     SimulatedOscillation
+
+    See Also
+    --------
+    find_orbit : The same orbit by continuation.
+
+    Examples
+    --------
+    The paper's gains for 60 s, measured over the last 10 s (the orbit itself: 2.568 rad, 2.082 s):
+
+    >>> from iwp import table1
+    >>> from iwp.control import simulated_amplitude
+    >>> osc = simulated_amplitude(table1(), -10.0, 0.1, t_end=60.0, window=10.0)
+    >>> round(osc.amplitude, 3), round(osc.period, 3), osc.rotating  # [rad], [s]
+    (2.542, 2.018, False)
     """
     x0 = [0.1, 0.0, 0.0, 0.0] if x0 is None else x0
     r = simulate(params, x0=x0, t_end=t_end, Ts=Ts, input=HopfController(k1, k2, controller_Ts), options=options)

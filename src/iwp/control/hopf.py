@@ -48,6 +48,22 @@ def closed_loop_matrix(params: LumpedParameters, k1: float) -> np.ndarray:
     Returns
     -------
     ndarray, shape (3, 3)
+
+    See Also
+    --------
+    hopf_point : The ``k1`` where its complex pair crosses the imaginary axis.
+
+    Examples
+    --------
+    The hanging pendulum loses stability between ``k1 = -0.5`` and ``k1 = -2`` (the Hopf point: -0.945):
+
+    >>> import numpy as np
+    >>> from iwp import table1
+    >>> from iwp.control import closed_loop_matrix
+    >>> for k1 in (-0.5, -2.0):
+    ...     print(k1, np.linalg.eigvals(closed_loop_matrix(table1(), k1)).real.max().round(4))
+    -0.5 -0.005
+    -2.0 0.012
     """
     params = lumped_parameters(params)
     k1 = check_finite("k1", k1)

@@ -283,6 +283,17 @@ def swing_up(
     Returns
     -------
     SwingUpResult
+
+    Examples
+    --------
+    From rest at the bottom, under the rig's conditions (dead zone, encoders, observer, ``|u| <= 100``):
+
+    >>> from iwp import swing_up, table1
+    >>> res = swing_up(table1(), t_end=13.0)
+    >>> res.success, res.t_catch, res.switches  # caught and balanced after 9.2 s
+    (True, 9.185, [(9.185, 'balance')])
+    >>> float(abs(res.theta[res.result.t >= 10.0]).max().round(4))  # then within 3 mrad of the upright [rad]
+    0.0026
     """
     params = lumped_parameters(params)
     t_end = check_positive("t_end", t_end)

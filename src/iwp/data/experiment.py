@@ -127,6 +127,17 @@ def check_distinct(logs: Sequence["ExperimentData"], what: str = "logs") -> None
 
     Stacked or fitted jointly, a log with itself shrinks the standard errors
     by ``sqrt(2)`` without new information.
+
+    Examples
+    --------
+    >>> from iwp.data import check_distinct
+    >>> from iwp.rig import run_experiment
+    >>> a, b = run_experiment("sine-60", duration=1.0), run_experiment("sine-40", duration=1.0)
+    >>> check_distinct([a, b])  # two experiments: no error
+    >>> check_distinct([a, b, a])
+    Traceback (most recent call last):
+    ...
+    iwp.errors.InputError: logs: virtual rig: sine-60 is given twice; using a log twice shrinks the standard ...
     """
     seen: dict[bytes, int] = {}
     for i, d in enumerate(logs):

@@ -32,7 +32,18 @@ _WRITERS = {"csv": write_csv, "mat": write_mat, "parquet": write_parquet}
 
 
 def format_of(path: str | os.PathLike, *, writing: bool = False) -> str:
-    """The log format of ``path`` from its extension (one a reader, or with ``writing`` a writer, handles)."""
+    """The log format of ``path`` from its extension (one a reader, or with ``writing`` a writer, handles).
+
+    Examples
+    --------
+    >>> from iwp.data import format_of
+    >>> format_of("sine60.pq"), format_of("log.txt"), format_of("run.mat", writing=True)
+    ('parquet', 'csv', 'mat')
+    >>> format_of("run.xlsx")
+    Traceback (most recent call last):
+    ...
+    iwp.errors.InputError: run.xlsx: cannot tell the input format from the extension '.xlsx'; use one of ...
+    """
     return _format_of(path, _WRITERS if writing else _READERS, "output" if writing else "input")
 
 

@@ -130,6 +130,23 @@ def read_mat(
     ------
     DataFormatError
         Naming the file, the variable and the sample (1-based).
+
+    See Also
+    --------
+    write_mat : Write a log as MATLAB file.
+
+    Examples
+    --------
+    A MATLAB struct ``logdata`` with other names, as another rig's software saves it:
+
+    >>> import numpy as np
+    >>> import scipy.io
+    >>> from iwp.data import read_mat
+    >>> t = np.arange(400) * 0.005
+    >>> scipy.io.savemat("rig.mat", {"logdata": {"time": t, "theta": 0.5 * np.cos(5.1 * t), "phi": 0 * t}})
+    >>> log = read_mat("rig.mat", mapping={"t": "time", "q1": "theta", "q2": "phi"})
+    >>> log.n_samples, round(log.Ts, 3), round(float(log.q1[0]), 2)
+    (400, 0.005, 0.5)
     """
     min_samples, sampling_tol = check_read_options(min_samples, sampling_tol)
     mapping = check_mapping(mapping)
@@ -235,6 +252,24 @@ def write_mat(data: ExperimentData, path: str | os.PathLike, force: bool = False
     ------
     InputError
         If an extra column name is not a valid MATLAB variable name.
+
+    See Also
+    --------
+    read_mat : Read it back.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import scipy.io
+    >>> from iwp.data import read_mat, write_mat
+    >>> from iwp.rig import run_experiment
+    >>> log = run_experiment("sine-60", duration=1.0)
+    >>> write_mat(log, "sine60.mat").name
+    'sine60.mat'
+    >>> sorted(scipy.io.loadmat("sine60.mat"))[3:7]  # what MATLAB sees
+    ['iwp_metadata', 'q1', 'q2', 't']
+    >>> np.array_equal(read_mat("sine60.mat").u, log.u)  # bit-exact
+    True
     """
     if not isinstance(data, ExperimentData):
         raise InputError(f"data must be an ExperimentData, got {type(data).__name__}")

@@ -461,6 +461,29 @@ def connect(port: str, *, baudrate: int = DEFAULT_BAUD) -> Rig:
     -------
     Rig
         The open rig.
+
+    See Also
+    --------
+    iwp.device.open_rig : The same, or the in-process twin for ``"twin"``.
+
+    Examples
+    --------
+    The emulator (as ``iwp rig emulate`` serves it) on a pseudo-terminal of this process stands in for a board:
+
+    >>> import os
+    >>> from iwp.device import connect
+    >>> from iwp.device.emulator import Emulator, TwinDevice, open_pty
+    >>> master, slave, port = open_pty()
+    >>> emulator = Emulator(TwinDevice(), master)
+    >>> thread = emulator.start()
+    >>> with connect(port) as rig:
+    ...     print(rig.info.firmware, rig.info.caps)
+    ...     print(rig.get_param("v_dz_pos"), rig.get_param("watchdog_ms"))  # [input units], [ms]
+    1.0.0 ('HOST_CLOCK', 'HOPF', 'STATE_FEEDBACK', 'FIXTURE')
+    31.0 100.0
+    >>> emulator.stop(); thread.join(); os.close(master); os.close(slave)
+
+    A board is ``connect("/dev/ttyACM0")`` (or ``"COM3"``).
     """
     return Rig(port, baudrate=baudrate)
 

@@ -240,6 +240,27 @@ def run_loop(
     on_start : callable, optional
         Called once the motor is armed (e.g. to release the pendulum); returns the device tick of the run's
         first sample (None: as without it). Not with an open-loop input.
+
+    Returns
+    -------
+    LoopResult
+        The samples recorded, and how the run ended.
+
+    Examples
+    --------
+    One second of a constant input ``u = 40`` on the twin (the device adds its feedforward of 31):
+
+    >>> from iwp import open_rig
+    >>> from iwp.device import run_loop
+    >>> from iwp.device.loop import OpenLoop
+    >>> with open_rig("twin", fast=True) as rig:
+    ...     rig.mode("HOST")
+    ...     res = run_loop(rig, duration=1.0, command=OpenLoop(lambda t: 40.0))
+    >>> res.reason, len(res.samples)
+    ('complete', 201)
+    >>> last = res.samples[-1]
+    >>> last.u, last.v, round(last.q4, 1)  # [input units], [input units], [rad/s]
+    (40.0, 71.0, 108.7)
     """
     if command is not None and not isinstance(command, (OpenLoop, HostLaw, DeviceLaw)):
         raise DeviceError(f"command must be OpenLoop, HostLaw, DeviceLaw or None, got {type(command).__name__}")

@@ -163,6 +163,19 @@ def run_on_rig(rig: Rig, name: str, *, fast: bool = False,
     -----
     It runs as its kind says (:func:`run_kind`: open loop with its input law, static curve, release or
     closed loop), whatever its name.
+
+    Examples
+    --------
+    Two seconds of figure 3(a)'s sinusoid on the twin, the pendulum clamped by its emulated hands:
+
+    >>> import numpy as np
+    >>> from iwp import open_rig, run_on_rig
+    >>> with open_rig("twin", fast=True) as rig:
+    ...     run = run_on_rig(rig, "sine-60", fast=True, duration=2.0)
+    >>> run.reason, run.log.n_samples, run.log.metadata["pendulum"]
+    ('complete', 401, 'locked')
+    >>> round(float(np.abs(run.log.extra["q4_device"]).max()), 1)  # the device's peak disk speed [rad/s]
+    101.2
     """
     if name not in RUN_NAMES:
         raise InputError(f"unknown experiment or input {name!r}; valid: {', '.join(RUN_NAMES)}", argument="name")

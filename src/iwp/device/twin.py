@@ -92,6 +92,23 @@ def open_rig(port: str, *, baudrate: int | None = None, truth: RigTruth | None =
     Rig
         A :class:`TwinRig` or a :class:`~iwp.device.connection.Rig`, to be closed
         (a context manager).
+
+    See Also
+    --------
+    iwp.device.run_on_rig : Run one of the paper's experiments on it.
+
+    Examples
+    --------
+    The twin (no hardware: the firmware's core in this process, on a pseudo-terminal), faster than real time:
+
+    >>> from iwp import open_rig
+    >>> with open_rig("twin", fast=True) as rig:
+    ...     print(type(rig).__name__, rig.info.board)
+    ...     print(rig.info.params["period_us"], rig.info.params["v_dz_pos"])  # [us], [input units]
+    TwinRig host (emulator or software in the loop)
+    5000.0 31.0
+
+    A board on a serial port is opened the same way (``open_rig("/dev/ttyACM0")``).
     """
     if port == TWIN_PORT:
         return TwinRig(truth, fast=fast)

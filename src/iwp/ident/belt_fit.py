@@ -102,6 +102,28 @@ def refine_belt(
         estimates with standard errors (from the Jacobian at the optimum,
         a lower bound: simulation residuals are correlated in time); ``fit``
         and ``fit_start`` the fit of ``q4`` per log [%].
+
+    See Also
+    --------
+    refine : The same for the rigid models.
+
+    Examples
+    --------
+    The belt's stiffness, damping and gain on 4 s of figures 3(a) and 4 (``sine-60``, ``sine-20``), from the
+    paper's ``k/I2 = 60``, ``d = 2`` around Table 1's rigid disk:
+
+    >>> from iwp import Plant, refine_belt, table1
+    >>> from iwp.models import BeltParameters
+    >>> from iwp.rig import run_experiment
+    >>> p = table1()
+    >>> belt = BeltParameters.from_rigid(p.p2 * (1 + p.rho), p.p3 * (1 + p.rho), k_over_I2=60.0, d=2.0)
+    >>> logs = [run_experiment("sine-60", duration=4.0), run_experiment("sine-20", duration=4.0)]
+    >>> res = refine_belt(logs, Plant(p, model="belt", belt=belt), free=["k_over_I2", "d", "kTbeta_over_Rgamma"],
+    ...                   windows=(1.0, None), warn=False)
+    >>> [round(f["q4"]) for f in res.fit_start], [round(f["q4"]) for f in res.fit]  # fit of q4 [%]
+    ([77, 58], [94, 84])
+    >>> round(res.belt.k_over_I2), round(res.belt.kTbeta_over_Rgamma, 1)
+    (96, 32.2)
     """
     if not isinstance(start, Plant) or start.model != "belt":
         raise InputError("the belt model (15) is fitted from Plant(lumped, model='belt', belt=BeltParameters(...))")

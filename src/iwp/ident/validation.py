@@ -198,6 +198,17 @@ def auto_model(data: ExperimentData) -> str:
     -------
     str
         ``"free-nowheel"``, ``"free"``, ``"raw"`` or ``"compensated"``.
+
+    Examples
+    --------
+    >>> from iwp.ident import auto_model
+    >>> from iwp.rig import run_experiment
+    >>> auto_model(run_experiment("free-pendulum", duration=1.0))  # no input
+    'free'
+    >>> auto_model(run_experiment("sine-60", duration=1.0))  # the compensated input u
+    'compensated'
+    >>> auto_model(run_experiment("sine-60", duration=1.0, v_dz=None))  # no compensation: the raw command v
+    'raw'
     """
     m = data.metadata
     if data.input_name is None:
@@ -305,6 +316,20 @@ def model_input(d: ExperimentData, model: str, argument: str) -> ExperimentData:
     ------
     InputError
         A log of the compensated input ``u`` for the raw model (6).
+
+    Examples
+    --------
+    A log of the raw command ``v`` (the rig's compensation off) as model (9) reads it:
+
+    >>> from iwp.ident import model_input
+    >>> from iwp.rig import run_experiment
+    >>> raw = run_experiment("sine-60", duration=1.0, v_dz=None)
+    >>> raw.input_name, model_input(raw, "compensated", "train").input_name
+    ('v', 'u')
+    >>> model_input(run_experiment("sine-60", duration=1.0), "raw", "train")
+    Traceback (most recent call last):
+    ...
+    iwp.errors.InputError: train: virtual rig: sine-60 logs the compensated input u (...); the dead-zone model (6) ...
     """
     if model in READS_V_AS_U and d.input_name == "v":
         return replace(d, u=d.v, v=None)
@@ -335,6 +360,18 @@ def held_out_q1_offset(data: ExperimentData, stored: float) -> float:
     -------
     float
         ``stored`` for a log whose offset is to be estimated, else 0.
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from iwp.ident import held_out_q1_offset
+    >>> from iwp.rig import run_experiment
+    >>> log = run_experiment("free-pendulum", duration=1.0)
+    >>> held_out_q1_offset(log, 0.012)  # the virtual rig's encoders have no offset
+    0.0
+    >>> converted = replace(log, metadata={**log.metadata, "q1_offset": "estimate"})
+    >>> held_out_q1_offset(converted, 0.012)  # [rad]
+    0.012
     """
     return float(stored) if data.metadata.get("q1_offset") == "estimate" else 0.0
 
@@ -373,6 +410,19 @@ def validation_plant(params, data: ExperimentData, model: str = "compensated", *
     ------
     InputError
         ``params`` of another type, an unknown model, or a belt model without ``belt``.
+
+    Examples
+    --------
+    Table 1 on a log of figure 3(a), whose metadata say the pendulum was locked, and on a free swing:
+
+    >>> from iwp import table1
+    >>> from iwp.ident import validation_plant
+    >>> from iwp.rig import run_experiment
+    >>> plant = validation_plant(table1(), run_experiment("sine-60", duration=1.0))
+    >>> plant.model, plant.locked
+    ('compensated', True)
+    >>> validation_plant(table1(), run_experiment("free-pendulum", duration=1.0), "auto").model
+    'free'
     """
     if isinstance(params, Plant):
         return params

@@ -192,6 +192,23 @@ def dead_zone_output(v, v_dz_pos: float, v_dz_neg: float):
     float or ndarray
         ``v - f(v)`` [input units]: zero inside ``[-v-, v+]``, ``v - v+`` above and ``v + v-`` below; a float
         for a scalar ``v``, else an array of ``v``'s shape.
+
+    See Also
+    --------
+    dead_zone : The part ``f(v)`` the dead zone swallows.
+    feedforward : The command whose net input is a wanted ``u``.
+
+    Examples
+    --------
+    With Table 1's thresholds (31 input units), a command of 40 moves the disk like 9:
+
+    >>> from iwp import table1
+    >>> from iwp.models import dead_zone_output
+    >>> p = table1()
+    >>> dead_zone_output([-40.0, 20.0, 40.0], p.v_dz_pos, p.v_dz_neg)
+    array([-9.,  0.,  9.])
+    >>> dead_zone_output(40.0, p.v_dz_pos, p.v_dz_neg)
+    9.0
     """
     return _apply(lambda x, out: _dead_zone_array(x, float(v_dz_pos), float(v_dz_neg), out, True), v)
 

@@ -72,6 +72,20 @@ def pendulum_energy(params: LumpedParameters, x) -> np.ndarray:
     -------
     ndarray
         The energy [1/s^2], one per state.
+
+    See Also
+    --------
+    energy : The energy of the whole pendulum and wheel.
+
+    Examples
+    --------
+    Hanging at rest, upright at rest (``2 p1``), and swinging through the bottom at 5 rad/s:
+
+    >>> import numpy as np
+    >>> from iwp import table1
+    >>> from iwp.models import pendulum_energy
+    >>> pendulum_energy(table1(), [[0, 0, 0, 0], [np.pi, 0, 0, 0], [0, 0, 5.0, 0]])
+    array([ 0.  , 52.19, 12.5 ])
     """
     x = np.asarray(x, dtype=float)
     return 0.5 * x[..., 2] ** 2 + params.p1 * (1.0 - np.cos(x[..., 0]))
@@ -150,6 +164,23 @@ def to_statespace(params: LumpedParameters, equilibrium: str = "down"):
     control.StateSpace
         ``(A, B, I, 0)`` of :func:`linearize`: input ``u`` [input units],
         outputs ``q1, q2, q3, q4`` [rad, rad, rad/s, rad/s].
+
+    See Also
+    --------
+    linearize : The same ``A`` and ``B`` as arrays.
+
+    Examples
+    --------
+    Upright, model (9) has one unstable pole:
+
+    >>> from iwp import table1
+    >>> from iwp.models import to_statespace
+    >>> sys = to_statespace(table1(), "up")
+    >>> sys.output_labels
+    ['q1', 'q2', 'q3', 'q4']
+    >>> poles = sys.poles().real
+    >>> int((poles > 1e-9).sum()), round(float(poles.max()), 3)  # [1/s]
+    (1, 5.098)
     """
     try:
         import control

@@ -417,6 +417,18 @@ def named_params(name: str) -> LumpedParameters:
     ------
     InputError
         Unknown name (the message lists the built-in sets).
+
+    See Also
+    --------
+    table1 : The paper's Table 1, the one built-in set.
+
+    Examples
+    --------
+    >>> from iwp import table1
+    >>> from iwp.models import named_params
+    >>> p = named_params("table1")
+    >>> p == table1(), p.p1
+    (True, 26.095)
     """
     try:
         return _NAMED[name]()

@@ -157,6 +157,15 @@ def model_info(model: str) -> ModelInfo:
     ------
     InputError
         Not a string, or an unknown model (the message lists the valid names).
+
+    Examples
+    --------
+    >>> from iwp.models import model_info
+    >>> info = model_info("free")  # the free pendulum of section 5.2
+    >>> info.input, info.n_states, info.parameters[:4]
+    (None, 4, ('p1', 'sigma_a1', 'sigma_v1', 'sigma_b1'))
+    >>> model_info("compensated").equation, model_info("belt").n_states
+    ('(9)', 6)
     """
     if not isinstance(model, str) or model not in MODELS:
         raise InputError(f"unknown model {model!r}; choose one of: {', '.join(MODELS)}")

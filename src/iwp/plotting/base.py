@@ -42,6 +42,15 @@ def stacked_axes(n: int, axes=None, sharex=True, figsize=None):
     ------
     ValueError
         ``axes`` does not hold ``n`` axes.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp.plotting import stacked_axes
+    >>> fig, axes = stacked_axes(3)  # e.g. q1, q4 and u against time
+    >>> len(axes), [float(x) for x in fig.get_size_inches()]
+    (3, [7.0, 6.2])
+    >>> plt.close(fig)
     """
     if axes is not None:
         axes = list(axes) if hasattr(axes, "__len__") else [axes]
@@ -69,6 +78,17 @@ def savefig(fig, path, *, dpi=150):
     -------
     str or path-like
         ``path``, as given.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp.plotting import savefig
+    >>> fig, ax = plt.subplots()
+    >>> _ = ax.plot([0, 1], [0, 1])
+    >>> savefig(fig, "line.svg")
+    'line.svg'
+    >>> plt.fignum_exists(fig.number)  # closed
+    False
     """
     fig.savefig(path, dpi=dpi)
     plt.close(fig)

@@ -42,6 +42,16 @@ def plot_bifurcation(branch, *, ax=None, simulations=None, prediction=None, desi
     -------
     dict
         ``{"figure", "axes", "lines", "markers"}``.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import continue_hopf, table1
+    >>> from iwp.plotting import plot_bifurcation
+    >>> out = plot_bifurcation(continue_hopf(table1(), 0.1, a_max=1.0))
+    >>> [t.get_text() for t in out["axes"][0].get_legend().get_texts()]
+    ['periodic orbits, $k_2$ = 0.1 (stable)', 'hanging equilibrium', 'Hopf point $k_1^*$ = -0.9447']
+    >>> plt.close(out["figure"])
     """
     if ax is None:
         fig, ax = plt.subplots(figsize=(7.0, 4.2), constrained_layout=True)
@@ -115,6 +125,16 @@ def plot_branch_details(branch, *, axes=None):
     -------
     dict
         ``{"figure", "axes", "lines"}``.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import continue_hopf, table1
+    >>> from iwp.plotting import plot_branch_details
+    >>> out = plot_branch_details(continue_hopf(table1(), 0.1, a_max=1.0))
+    >>> len(out["axes"]), out["axes"][0].get_ylabel()  # the period, and the Floquet multiplier below
+    (2, 'period [s]')
+    >>> plt.close(out["figure"])
     """
     fig, axes = stacked_axes(2, axes, figsize=(7.0, 4.6))
     k1 = np.asarray(branch.k1)
@@ -149,6 +169,16 @@ def plot_swingup(result, *, axes=None, label=None):
     -------
     dict
         ``{"figure", "axes", "lines"}``.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import swing_up, table1
+    >>> from iwp.plotting import plot_swingup
+    >>> out = plot_swingup(swing_up(table1(), t_end=10.0, rig=None))  # ideal conditions
+    >>> [ax.get_ylabel() for ax in out["axes"]]
+    ['$q_1$ [rad]', '$q_3$ [rad/s]', '$q_4$ [rad/s]', '$u$ [-]']
+    >>> plt.close(out["figure"])
     """
     fig, axes = stacked_axes(4, axes, figsize=(7.5, 7.5))
     r = result.result
@@ -207,6 +237,19 @@ def animate_pendulum(t, q1, q2, path, *, frames: int = 100, fps: int = 20, u=Non
     -------
     dict
         ``{"figure", "axes", "path", "frames"}``.
+
+    Examples
+    --------
+    Four seconds of the Hopf law of section 5.3 from just off the bottom, as a 10-frame GIF (needs Pillow):
+
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import HopfController, Plant, simulate, table1
+    >>> from iwp.plotting import animate_pendulum
+    >>> res = simulate(Plant(table1()), input=HopfController(k1=-10, k2=0.1), x0=[0.1, 0, 0, 0], t_end=4.0)
+    >>> out = animate_pendulum(res.t, res.q1, res.q2, "hopf.gif", frames=10, fps=5, size=2.0, dpi=50)
+    >>> out["frames"], str(out["path"])
+    (10, 'hopf.gif')
+    >>> plt.close(out["figure"])
     """
     from matplotlib import animation
 

@@ -63,6 +63,20 @@ def plot_static_curve(x, q4, *, input_name="v", lines=(), ax=None, title=None, l
     -------
     dict
         ``{"figure", "axes": [ax], "points": Line2D, "lines": [Line2D, ...]}``.
+
+    Examples
+    --------
+    Figure 2(a) on the virtual rig, with a straight line from the threshold ``v+ = 31`` (as
+    :func:`~iwp.ident.identify_dead_zone` fits it):
+
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp.plotting import plot_static_curve
+    >>> from iwp.rig import run_experiment
+    >>> curve = run_experiment("static-curve", step=10.0, duration=2.0)
+    >>> out = plot_static_curve(curve.input, curve.q4, lines=[([31.0, 100.0], [0.0, 213.3], "v+ = 31")])
+    >>> out["axes"][0].get_xlabel(), len(out["points"].get_xdata()), len(out["lines"])
+    ('$v$ [-]', 21, 1)
+    >>> plt.close(out["figure"])
     """
     if ax is None:
         fig, ax = plt.subplots(figsize=(5.0, 3.8), constrained_layout=True)
@@ -100,6 +114,20 @@ def plot_dead_zone(raw, compensated, *, raw_lines=(), compensated_lines=(), axes
     -------
     dict
         ``{"figure", "axes": [ax_a, ax_b], "points": [..], "lines": [..]}``.
+
+    Examples
+    --------
+    Figure 2 on the virtual rig, every 10 input units:
+
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp.plotting import plot_dead_zone
+    >>> from iwp.rig import run_experiment
+    >>> raw = run_experiment("static-curve", step=10.0, duration=2.0)
+    >>> compensated = run_experiment("static-curve-compensated", step=10.0, duration=2.0)
+    >>> out = plot_dead_zone((raw.input, raw.q4), (compensated.input, compensated.q4))
+    >>> [ax.get_xlabel() for ax in out["axes"]]
+    ['$v$ [-]', '$u$ [-]']
+    >>> plt.close(out["figure"])
     """
     if axes is None:
         fig, axes = plt.subplots(1, 2, figsize=(9.0, 3.8), constrained_layout=True)
@@ -147,6 +175,22 @@ def plot_comparison_panel(measured, simulated, error=None, *, signal="q4", axes=
     dict
         ``{"figure", "axes", "lines", "zoom_axes", "zoom_lines", "window"}``: ``lines`` holds the measured
         artist, then the simulated ones, then the error ones (a line, or the filled envelope of a long record).
+
+    Examples
+    --------
+    Table 1's model (9) against 4 s of figure 3(a) on the virtual rig:
+
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import table1, validate
+    >>> from iwp.rig import run_experiment
+    >>> v = validate(run_experiment("sine-60", duration=4.0), table1(), signals=["q4"])  # figure 3(a), 4 s
+    >>> from iwp.plotting import plot_comparison_panel
+    >>> error = v.measured["q4"] - v.simulated["q4"]
+    >>> out = plot_comparison_panel((v.t, v.measured["q4"]), (v.t, v.simulated["q4"], "model (9), Table 1"),
+    ...                             (v.t, error, "error"), title="figure 3(a)")
+    >>> len(out["axes"]), out["zoom_axes"]  # a short record: no zoom panel
+    (2, [])
+    >>> plt.close(out["figure"])
     """
     if axes is None:
         window = zoom_window(measured[0], zoom)
@@ -236,6 +280,24 @@ def plot_comparisons(panels, *, axes=None, width=8.0, panel_height=3.0):
     -------
     dict
         ``{"figure", "axes", "lines", "panels": [dict per panel], "zoom_axes"}``.
+
+    Examples
+    --------
+    Figures 3(a) and 4 (4 s each on the virtual rig) against Table 1's model (9):
+
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import table1, validate
+    >>> from iwp.plotting import plot_comparisons
+    >>> from iwp.rig import run_experiment
+    >>> panels = []
+    >>> for name in ("sine-60", "sine-20"):
+    ...     v = validate(run_experiment(name, duration=4.0), table1(), signals=["q4"])
+    ...     panels.append({"measured": (v.t, v.measured["q4"]), "simulated": (v.t, v.simulated["q4"], "model (9)"),
+    ...                    "error": (v.t, v.measured["q4"] - v.simulated["q4"], "error"), "title": name})
+    >>> out = plot_comparisons(panels)
+    >>> len(out["panels"]), len(out["axes"])  # a signal and an error axes per panel
+    (2, 4)
+    >>> plt.close(out["figure"])
     """
     n = len(panels)
     if axes is None:
@@ -279,6 +341,20 @@ def plot_errors(errors, *, signal="q1", ax=None, title=None, zoom=None):
     -------
     dict
         ``{"figure", "axes": [ax], "lines", "zoom_axes", "zoom_lines", "window"}``.
+
+    Examples
+    --------
+    The error of Table 1's model (9) on 4 s of figure 3(a):
+
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import table1, validate
+    >>> from iwp.rig import run_experiment
+    >>> v = validate(run_experiment("sine-60", duration=4.0), table1(), signals=["q4"])  # figure 3(a), 4 s
+    >>> from iwp.plotting import plot_errors
+    >>> out = plot_errors([(v.t, v.measured["q4"] - v.simulated["q4"], "Table 1")], signal="q4")
+    >>> len(out["axes"]), [line.get_label() for line in out["lines"]]
+    (1, ['Table 1'])
+    >>> plt.close(out["figure"])
     """
     t_all = errors[0][0] if errors else ()
     if ax is None:

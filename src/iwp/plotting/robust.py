@@ -73,6 +73,24 @@ def plot_distribution(spread, *, nominal=None, label="outcome", title=None, axes
     -------
     dict
         ``{"figure", "axes", ...}``.
+
+    Examples
+    --------
+    The settling time of the balance LQR over 20 parameter draws (:func:`~iwp.control.robust.robust_balance`):
+
+    >>> import numpy as np
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import robust_balance, table1
+    >>> from iwp.sim.uncertainty import ParameterUncertainty
+    >>> p = table1()
+    >>> sd = [0.01 * p.p1, 0.05 * p.p2, 0.01 * p.p3]  # standard errors of a fit
+    >>> fit = ParameterUncertainty(p, ("p1", "p2", "p3"), np.diag(np.square(sd)))
+    >>> r = robust_balance(fit, angles=(0.03, 0.08), draws=20, t_end=3.0)
+    >>> from iwp.plotting import plot_distribution
+    >>> out = plot_distribution(r.settling_time, label="settling time [s]")
+    >>> len(out["axes"]), out["axes"][0].get_xlabel()  # the histogram, and the empirical CDF beside it
+    (2, 'settling time [s]')
+    >>> plt.close(out["figure"])
     """
     fig, (ax_h, ax_e) = _axes(2, axes, (10.0, 3.8))
     out = _draw_spread(ax_h, ax_e, spread, nominal, label)
@@ -102,6 +120,26 @@ def plot_capture(proportions, *, labels, nominal_captured, settling, nominal_set
     Returns
     -------
     dict
+
+    Examples
+    --------
+    The balance LQR over 20 parameter draws, released 0.03 rad and 0.08 rad from the upright
+    (:func:`~iwp.control.robust.robust_balance`):
+
+    >>> import numpy as np
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import robust_balance, table1
+    >>> from iwp.sim.uncertainty import ParameterUncertainty
+    >>> p = table1()
+    >>> sd = [0.01 * p.p1, 0.05 * p.p2, 0.01 * p.p3]  # standard errors of a fit
+    >>> fit = ParameterUncertainty(p, ("p1", "p2", "p3"), np.diag(np.square(sd)))
+    >>> r = robust_balance(fit, angles=(0.03, 0.08), draws=20, t_end=3.0)
+    >>> from iwp.plotting import plot_capture
+    >>> out = plot_capture(r.capture_by_state, labels=["0.03 rad", "0.08 rad"], nominal_captured=r.nominal_captured,
+    ...                    settling=r.settling_time)
+    >>> len(out["axes"]), [float(bar.get_height()) for bar in out["bars"]]  # the probability of capture from each
+    (3, [1.0, 0.0])
+    >>> plt.close(out["figure"])
     """
     fig, (ax_c, ax_h, ax_e) = _axes(3, axes, (13.0, 3.8))
     x = np.arange(len(labels))

@@ -27,6 +27,17 @@ def plot_simulation(result, signals=("q1", "q2", "q3", "q4", "u"), axes=None, la
     -------
     dict
         ``{"figure": Figure, "axes": [...], "lines": [...]}``.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import Plant, simulate, table1
+    >>> from iwp.plotting import plot_simulation
+    >>> res = simulate(Plant(table1(), model="free"), x0=[1.0, 0, 0, 0], t_end=5.0)
+    >>> out = plot_simulation(res, signals=("q1", "q3"), label="free pendulum")
+    >>> [ax.get_ylabel() for ax in out["axes"]]
+    ['$q_1$ [rad]', '$q_3$ [rad/s]']
+    >>> plt.close(out["figure"])
     """
     cols = result.columns()
     fig, axs = stacked_axes(len(signals), axes)
@@ -78,6 +89,20 @@ def plot_comparison(t, measured, simulated, *, name="q4", ax=None, error_ax=None
     -------
     dict
         ``{"figure", "axes", "lines", "bands"}``; ``lines`` holds the measured, simulated and error lines.
+
+    Examples
+    --------
+    Table 1's model (9) against 4 s of figure 3(a) on the virtual rig:
+
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import table1, validate
+    >>> from iwp.rig import run_experiment
+    >>> v = validate(run_experiment("sine-60", duration=4.0), table1(), signals=["q4"])  # figure 3(a), 4 s
+    >>> from iwp.plotting import plot_comparison
+    >>> out = plot_comparison(v.t, v.measured["q4"], v.simulated["q4"], name="q4")
+    >>> len(out["axes"]), [line.get_label() for line in out["lines"][:2]]  # the signals, and the error below
+    (2, ['experimental data', 'numerical simulation'])
+    >>> plt.close(out["figure"])
     """
     if ax is None:
         fig, (ax, error_ax) = plt.subplots(2, 1, sharex=True, figsize=(7.0, 4.2), constrained_layout=True,

@@ -43,6 +43,20 @@ def plot_validation(t, measured, simulated, *, signals=None, fit=None, restart_t
     -------
     dict
         ``{"figure", "axes", "lines", "restart_lines"}``.
+
+    Examples
+    --------
+    Table 1's model (9) against 4 s of figure 3(a) on the virtual rig:
+
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import table1, validate
+    >>> from iwp.rig import run_experiment
+    >>> v = validate(run_experiment("sine-60", duration=4.0), table1(), signals=["q4"])  # figure 3(a), 4 s
+    >>> from iwp.plotting import plot_validation
+    >>> out = plot_validation(v.t, v.measured, v.simulated, fit=v.fit)
+    >>> len(out["axes"]), out["axes"][0].get_title()  # the signal, and its error below
+    (2, 'q4: fit 90.3 %')
+    >>> plt.close(out["figure"])
     """
     sig = list(signals) if signals is not None else list(measured)
     if not sig:
@@ -93,6 +107,21 @@ def plot_correlation(names, correlation, *, ax=None, threshold=0.95):
     -------
     dict
         ``{"figure", "axes", "image", "texts"}``.
+
+    Examples
+    --------
+    The free pendulum's least squares (set-up (c)) on 10 s of the virtual rig: ``sigma_a1`` and ``sigma_v1``
+    cannot be told apart, and their cells are bold:
+
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import identify
+    >>> from iwp.plotting import plot_correlation
+    >>> from iwp.rig import run_experiment
+    >>> res = identify(run_experiment("free-pendulum", duration=10.0), "free")
+    >>> out = plot_correlation(res.names, res.correlation)
+    >>> [t.get_text() for t in out["texts"] if t.get_fontweight() == "bold"]
+    ['-0.96', '-0.96']
+    >>> plt.close(out["figure"])
     """
     if ax is None:
         fig, ax = plt.subplots(figsize=(1.0 + 0.8 * len(names), 0.8 + 0.8 * len(names)), constrained_layout=True)

@@ -32,6 +32,20 @@ def save_figure(fig, out_dir: str | os.PathLike, name: str, *, dpi: int = 110) -
         The figure as a PNG image.
     paths : list of Path
         The SVG file.
+
+    Examples
+    --------
+    >>> import matplotlib.pyplot as plt
+    >>> from iwp import Plant, simulate, table1
+    >>> from iwp.report import save_figure
+    >>> res = simulate(Plant(table1(), model="free"), x0=[1.0, 0, 0, 0], t_end=5.0)
+    >>> fig, ax = plt.subplots()
+    >>> _ = ax.plot(res.t, res.q1)
+    >>> png, paths = save_figure(fig, "report", "free-swing")
+    >>> png[1:4], [p.as_posix() for p in paths]  # the PNG for the page, the SVG beside it
+    (b'PNG', ['report/figures/free-swing.svg'])
+    >>> plt.fignum_exists(fig.number)  # closed
+    False
     """
     import io
 

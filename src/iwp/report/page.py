@@ -166,6 +166,12 @@ def fmt(x: Any, digits: int = 4) -> str:
     -------
     str
         The text; ``"-"`` for None and NaN, ``"inf"``/``"-inf"``, ``"0"`` for zero.
+
+    Examples
+    --------
+    >>> from iwp.report import fmt
+    >>> fmt(26.0954321), fmt(247.24, digits=6), fmt(0.0000286), fmt(float("nan"))
+    ('26.1', '247.24', '2.860e-05', '-')
     """
     if x is None:
         return "-"
@@ -201,6 +207,14 @@ def fmt_interval(low: Any, high: Any, digits: int = 4) -> str:
     Returns
     -------
     str
+
+    Examples
+    --------
+    The 95 % interval of a well-determined ``p1`` and of a friction coefficient:
+
+    >>> from iwp.report import fmt_interval
+    >>> fmt_interval(26.3596, 26.3604), fmt_interval(0.0122, 0.0151)
+    ('[26.3596, 26.3604]', '[0.0122, 0.0151]')
     """
     try:
         lo, hi = float(low), float(high)
@@ -321,7 +335,8 @@ def _statements_html(statements: Sequence[Statement], errata=None) -> str:
         rows.append(
             f"<tr><td class=\"num\">{i}</td><td>{_e(s.claim)}<br><span class=\"note\">"
             f"{_linked(s.reference, errata)}</span></td>"
-            f"<td>{_linked(s.found, errata)}{_parts_html(s.parts, errata)}</td><td class=\"note\">{_e(s.criterion)}</td>"
+            f"<td>{_linked(s.found, errata)}{_parts_html(s.parts, errata)}</td>"
+            f"<td class=\"note\">{_e(s.criterion)}</td>"
             f'<td class="{cls}">{_e(s.verdict.upper())}</td></tr>')
     return ("<table><thead><tr><th>#</th><th>the paper says</th><th>found here</th><th>criterion</th>"
             "<th>verdict</th></tr></thead><tbody>" + "".join(rows) + "</tbody></table>")
@@ -339,6 +354,14 @@ def render_html(report: Report) -> str:
     -------
     str
         The HTML document, CSS and script inline, figures as embedded images.
+
+    Examples
+    --------
+    >>> from iwp.report import Report, Section, Table, fmt, render_html
+    >>> table = Table("free pendulum", ["parameter", "value"], [["p1", fmt(26.3612)]])
+    >>> page = render_html(Report("Set-up (c)", sections=[Section("Parameters", tables=[table])]))
+    >>> page.startswith("<!DOCTYPE html>"), '<td class="num">26.36</td>' in page, 'src="http' in page
+    (True, True, False)
     """
     parts = [
         "<!DOCTYPE html>",
@@ -386,7 +409,7 @@ def write_html(report: Report, path: str | os.PathLike, *, force: bool = False) 
     report : Report
         The page's content.
     path : str or path-like
-        Output file; its folder is created.
+        Output file; its folder must exist.
     force : bool, default False
         Allow overwriting an existing file.
 
@@ -398,7 +421,20 @@ def write_html(report: Report, path: str | os.PathLike, *, force: bool = False) 
     Raises
     ------
     InputError
-        ``path`` exists (without ``force``) or is a folder.
+        ``path`` exists (without ``force``), is a folder, or its folder does not exist.
+
+    Examples
+    --------
+    >>> from iwp.report import Report, Section, write_html
+    >>> report = Report("Free pendulum", sections=[Section("Swing", paragraphs=["5 s of figure 8."])])
+    >>> write_html(report, "page.html").name
+    'page.html'
+    >>> write_html(report, "page.html")
+    Traceback (most recent call last):
+    ...
+    iwp.errors.OutputExistsError: out page.html: file exists; pass --force to overwrite it
+    >>> write_html(report, "page.html", force=True).stat().st_size > 1000
+    True
     """
     p = prepare_output_file(path, force=force)
     p.write_text(render_html(report), encoding="utf-8")

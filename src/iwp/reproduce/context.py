@@ -34,7 +34,18 @@ _QUICK_SETTINGS: dict[str, dict[str, float]] = {
 }
 
 def experiment_settings(quick: bool = False) -> dict[str, dict[str, float]]:
-    """Return the overrides of :meth:`iwp.rig.VirtualRig.run` per experiment (shorter runs for ``quick``)."""
+    """Return the overrides of :meth:`iwp.rig.VirtualRig.run` per experiment (shorter runs for ``quick``).
+
+    Examples
+    --------
+    >>> from iwp.reproduce import experiment_settings
+    >>> full = experiment_settings()
+    >>> list(full)[:4], full["full-chirp"]  # the paper's settings: no overrides
+    (['static-curve', 'static-curve-compensated', 'motor-disk-chirp', 'sine-60'], {})
+    >>> quick = experiment_settings(quick=True)
+    >>> quick["full-chirp"], quick["static-curve"]  # [s], [input units]
+    ({'duration': 90.0}, {'step': 5.0, 'duration': 2.0})
+    """
     return {name: dict(_QUICK_SETTINGS[name]) if quick else {} for name in _ALL_EXPERIMENTS}
 
 
@@ -54,6 +65,14 @@ def log_command(name: str, *, quick: bool = False, seed: int = 0) -> str:
     -------
     str
         ``iwp rig run NAME --seed S [--duration D] [--step X] --out NAME.csv``.
+
+    Examples
+    --------
+    >>> from iwp.reproduce import log_command
+    >>> log_command("sine-60")
+    'iwp rig run sine-60 --seed 0 --out sine-60.csv'
+    >>> log_command("static-curve", quick=True, seed=3)  # the reduced run's static curve
+    'iwp rig run static-curve --seed 3 --step 5 --duration 2 --out static-curve.csv'
     """
     flags = "".join(f" --{k} {v:g}" for k, v in experiment_settings(quick)[name].items())
     return f"iwp rig run {name} --seed {seed}{flags} --out {name}.csv"

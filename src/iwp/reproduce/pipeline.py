@@ -88,7 +88,7 @@ def reproduce(
     Parameters
     ----------
     out : path
-        Output folder; created if needed. A folder that exists and is not
+        Output folder, created if needed inside a folder that exists. One that exists and is not
         empty is refused unless ``force`` (files are then overwritten).
     force : bool
     quick : bool

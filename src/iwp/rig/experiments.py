@@ -256,7 +256,18 @@ EXPERIMENTS: dict[str, ExperimentSpec] = {
 
 
 def list_experiments() -> list[ExperimentSpec]:
-    """The paper's experiments, in the paper's order (name, description, reference, settings)."""
+    """The paper's experiments, in the paper's order (name, description, reference, settings).
+
+    Examples
+    --------
+    >>> from iwp.rig import list_experiments
+    >>> [spec.name for spec in list_experiments()]  # doctest: +NORMALIZE_WHITESPACE
+    ['static-curve', 'static-curve-compensated', 'motor-disk-chirp', 'sine-60', 'sine-40', 'sine-20',
+     'free-pendulum', 'full-chirp', 'closed-loop']
+    >>> spec = list_experiments()[3]
+    >>> spec.reference, spec.settings["amplitude"], spec.settings["duration"]  # input units, s
+    ('section 5.1, figure 3(a)', 60.0, 20.0)
+    """
     return list(EXPERIMENTS.values())
 
 

@@ -42,6 +42,22 @@ def check_output_path(name: str, path: str | os.PathLike, *, force: bool = False
     InputError
         Unknown experiment, an extension the result cannot be written as, a folder, or an existing file
         without ``force``.
+
+    See Also
+    --------
+    write_result : Write the result once the experiment has run.
+
+    Examples
+    --------
+    A log may be Parquet; a static curve only CSV:
+
+    >>> from iwp.rig import check_output_path
+    >>> check_output_path("sine-60", "sine60.parquet").name
+    'sine60.parquet'
+    >>> check_output_path("static-curve", "curve.mat")
+    Traceback (most recent call last):
+    ...
+    iwp.errors.InputError: out curve.mat: extension '.mat'; use one of .csv, .txt
     """
     return check_output_file(path, force=force, argument="out", suffixes=result_suffixes(experiment_spec(name).kind))
 
@@ -84,6 +100,20 @@ def write_result(result, path: str | os.PathLike, *, force: bool = False) -> Pat
     ------
     InputError
         Another kind of result, or an extension the result cannot be written as.
+
+    See Also
+    --------
+    check_output_path : The same check before the experiment runs.
+
+    Examples
+    --------
+    >>> from iwp.rig import run_experiment, write_result
+    >>> log = run_experiment("sine-60", duration=2.0)
+    >>> write_result(log, "sine60.csv").name
+    'sine60.csv'
+    >>> curve = run_experiment("static-curve", step=20.0, duration=2.0)
+    >>> write_result(curve, "curve.csv").name  # a static curve: CSV only
+    'curve.csv'
     """
     if isinstance(result, StaticCurve):
         if Path(path).suffix.lower() not in _STATIC_EXT:

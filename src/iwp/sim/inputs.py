@@ -414,6 +414,21 @@ def make_input(name: str, argument: str = "input", **kw) -> Input | None:
     ------
     InputError
         An unknown name, or a setting that is not finite.
+
+    Examples
+    --------
+    What ``iwp simulate --input sine --amplitude 60 --omega 2`` builds, and the Hopf law of section 5.3:
+
+    >>> from iwp.sim import make_input
+    >>> sine = make_input("sine", amplitude=60.0, omega=2.0)
+    >>> sine
+    Sine(amplitude=60.0, omega=2.0, phase=0.0, offset=0.0)
+    >>> round(sine.evaluate(0.5), 2)  # 60 sin(2 * 0.5) [input units]
+    50.49
+    >>> make_input("hopf", argument="controller", k1=-10, k2=0.1)
+    HopfController(k1=-10, k2=0.1, Ts=None)
+    >>> make_input("zero") is None
+    True
     """
     for k, v in kw.items():
         if v is not None:

@@ -47,6 +47,15 @@ def get_setup(name: str) -> Setup:
     ------
     InputError
         Not a string, or an unknown name (the message lists the set-ups).
+
+    Examples
+    --------
+    >>> from iwp.ident import get_setup
+    >>> setup = get_setup("two-step")  # theta^d of section 5.2
+    >>> setup.paper, setup.parameters
+    ('theta^d, section 5.2', ('p2', 'p3', 'p2_1rho', 'p3_1rho', 'rho'))
+    >>> setup.refine  # what its refinement by simulation error frees and compares
+    RefineSpec(model='compensated', free=('p2', 'p3', 'rho'), outputs=('q1', 'q4'))
     """
     if not isinstance(name, str) or name not in SETUPS:
         raise InputError(f"unknown set-up {name!r}: setup must be one of {', '.join(SETUPS)}")
