@@ -104,7 +104,7 @@ def test_hopf_on_the_device_through_the_pins_oscillates_at_2_58(build):
 
 
 def _identified(rig, experiment: str, setup: str, **kw):
-    run = run_on_rig(rig, experiment, duration=20.0, **kw)
+    run = run_on_rig(rig, experiment, duration=12.0, **kw)
     assert not run.interrupted, run.reason
     return identify(run.log, setup)
 
@@ -114,7 +114,7 @@ def _identified(rig, experiment: str, setup: str, **kw):
     ("full-chirp", "full", ("p1", "p2", "p3")),
 ], ids=["motor-disk", "full"])
 def test_identification_through_the_pins_matches_the_emulator(build, experiment, setup, names):
-    """Section 5.1's motor-disk set-up and section 5.2's full set-up on 20 s chirps through the board's image give
+    """Section 5.1's motor-disk set-up and section 5.2's full set-up on 12 s chirps through the board's image give
     the emulator's parameters (the same core compiled for this computer, whose runs give the virtual rig's
     numbers: test_device) within 2 %."""
     with _rig(build) as rig:
