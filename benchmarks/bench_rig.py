@@ -72,7 +72,21 @@ def iwp(*args) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "iwp", *args], capture_output=True, text=True, env=ENV)
 
 
+def sleeper_lateness(seconds: float = 10.0, period: float = 0.005) -> np.ndarray:
+    """The machine's floor: how late a bare Python loop that sleeps to a 5 ms grid wakes [ms] (no I/O, no work)."""
+    late = []
+    nxt = time.perf_counter()
+    for _ in range(int(seconds / period)):
+        nxt += period
+        d = nxt - time.perf_counter()
+        if d > 0:
+            time.sleep(d)
+        late.append(time.perf_counter() - nxt)
+    return np.asarray(late) * 1e3
+
+
 def loop_timing(folder: Path, duration: float) -> None:
+    floor = sleeper_lateness()
     emu = Emulator(folder)
     out = folder / "rt.csv"
     r = iwp("rig", "run", "sine-40", "--port", emu.port, "--duration", str(duration), "--out", str(out))
@@ -86,13 +100,22 @@ def loop_timing(folder: Path, duration: float) -> None:
     print("| | p50 | p99 | max |\n|---|---:|---:|---:|")
     print(f"| host: period jitter \\|period - 5 ms\\| | {t['jitter_p50_ms']:.3f} ms | {t['jitter_p99_ms']:.3f} ms | "
           f"{t['jitter_max_ms']:.3f} ms |")
+    if "device_jitter_p50_ms" in t:
+        print(f"| device: its ticks' period jitter (the telemetry's own clock) | {t['device_jitter_p50_ms']:.3f} ms | "
+              f"{t['device_jitter_p99_ms']:.3f} ms | {t['device_jitter_max_ms']:.3f} ms |")
     if m:
         print(f"| emulator: lateness of its ticks | {float(m.group(1)):.3f} ms | {float(m.group(2)):.3f} ms | "
               f"{float(m.group(3)):.3f} ms |")
+    print("| baseline: a bare Python loop sleeping to a 5 ms grid (normal scheduling), 10 s just before (its "
+          f"lateness) | "
+          f"{np.percentile(floor, 50):.3f} ms | {np.percentile(floor, 99):.3f} ms | {floor.max():.3f} ms |")
+    load = t.get("load_avg") or []
     print(f"\nScheduling: host {t['scheduling']}, emulator {m.group(4) if m else '?'}. "
           f"{t['samples']} samples in {t['wall_s']:.2f} s; host missed periods {t['host_overruns']}, device "
           f"overruns {t['device_overruns']}, late ticks {t['late_ticks']}, lost samples {t['lost_samples']}. "
-          "Target: p99 below 1 ms.\n")
+          + (f"Load average (1, 5, 15 min) at the run's end: {', '.join(f'{x:.2f}' for x in load)} on "
+             f"{os.cpu_count()} cores. " if load else "")
+          + "Target: p99 below 1 ms.\n")
 
 
 def watchdog(folder: Path, repeats: int) -> None:
