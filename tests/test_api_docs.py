@@ -70,6 +70,7 @@ WITH_EXAMPLES: tuple[tuple[str, str], ...] = (
     ("iwp.plotting", "plot_swingup"), ("iwp.plotting", "plot_validation"), ("iwp.plotting", "savefig"),
     ("iwp.plotting", "stacked_axes"),
     ("iwp.reproduce", "experiment_settings"), ("iwp.reproduce", "log_command"),
+    ("iwp.reproduce", "check_statements"), ("iwp.reproduce", "reproduce"),
 )
 #: abbreviations a summary may not end on (a sentence cut at its first full stop)
 CUT = ("e.g.", "i.e.", "cf.", "etc.", "vs.", "approx.", "eq.", "Eq.", "fig.", "Fig.", "no.", "No.", "resp.")
@@ -148,3 +149,20 @@ def test_examples_run(module, name, tmp_path, monkeypatch):
         for t in tests:
             runner.run(t)
     assert runner.failures == 0, f"{module}.{name}: {runner.failures} example(s) failed (output above)"
+
+
+def test_every_public_function_has_examples_that_this_file_runs():
+    """Every function in the ``__all__`` of iwp and its subpackages has an Examples section, and one of its names is
+    in :data:`WITH_EXAMPLES` (so that the section runs here)."""
+    import importlib
+
+    listed = {id(getattr(importlib.import_module(m), n)) for m, n in WITH_EXAMPLES}
+    missing = []
+    for sub in ("iwp", "iwp.models", "iwp.sim", "iwp.ident", "iwp.control", "iwp.rig", "iwp.data", "iwp.device",
+                "iwp.calibration", "iwp.report", "iwp.plotting", "iwp.reproduce"):
+        mod = importlib.import_module(sub)
+        for name in mod.__all__:
+            obj = getattr(mod, name)
+            if inspect.isfunction(obj) and ("\nExamples\n" not in (inspect.getdoc(obj) or "") or id(obj) not in listed):
+                missing.append(f"{sub}.{name}")
+    assert missing == []

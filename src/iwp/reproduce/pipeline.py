@@ -117,6 +117,21 @@ def reproduce(
         ``out`` exists, is not empty, and ``force`` is false.
     InputError
         Bad ``seed`` or ``truth``.
+
+    See Also
+    --------
+    iwp.reproduce.check_statements : The paper's statements checked with a run's numbers.
+
+    Examples
+    --------
+    The quick run (shortened experiments, about 25 s): the report, its numbers and the statements' verdicts:
+
+    >>> from iwp.reproduce import reproduce
+    >>> res = reproduce("paper", quick=True)
+    >>> res.ok, sorted(p.name for p in res.out.iterdir() if p.suffix in (".html", ".json"))
+    (True, ['parameters.json', 'report.html', 'results.json'])
+    >>> len(res.statements), {s.verdict for s in res.statements} <= {"pass", "fail"}
+    (15, True)
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise InputError(f"seed must be an integer >= 0, got {seed!r}")

@@ -68,7 +68,37 @@ def _need(ctx: ReproduceResult, *keys: str) -> None:
 
 
 def check_statements(ctx: ReproduceResult) -> list:
-    """The paper's statements, each checked with this run's numbers (``passed=None`` when a step is missing)."""
+    """The paper's statements, each checked with this run's numbers (``passed=None`` when a step is missing).
+
+    Parameters
+    ----------
+    ctx : ReproduceResult
+        A run's numbers (:func:`iwp.reproduce.reproduce`), complete or not.
+
+    Returns
+    -------
+    list of Statement
+        One per entry of :data:`STATEMENTS`, in the paper's order, each with its claim, what the run found, its
+        criterion, its parts (each graded on a row of the paper's numbers or on iwp's named criterion) and its
+        verdict.
+
+    See Also
+    --------
+    iwp.reproduce.reproduce : The run that fills the numbers.
+
+    Examples
+    --------
+    The closed loop of section 5.3 with the numbers of a run whose simulated oscillation drifts in phase:
+
+    >>> from iwp.reproduce import ReproduceResult, check_statements
+    >>> ctx = ReproduceResult(out="unused")
+    >>> ctx.numbers["closed-loop"] = {"amplitude_rig": 2.58, "amplitude_model": 2.60, "fit_q1": 49.3}
+    >>> amplitude = {s.key: s for s in check_statements(ctx)}["amplitude"]
+    >>> amplitude.verdict, [p.passed for p in amplitude.parts], [p.row for p in amplitude.parts]
+    ('fail', [True, True, False], ['cl_amplitude_rig', 'cl_model_over_rig', ''])
+    >>> {s.key: s for s in check_statements(ctx)}["dead-zone"].found  # no dead-zone step in these numbers
+    "not checked: 'dead-zone' missing"
+    """
 
     out = []
     for fn in STATEMENTS:
