@@ -121,9 +121,9 @@ def refine_belt(
     >>> res = refine_belt(logs, Plant(p, model="belt", belt=belt), free=["k_over_I2", "d", "kTbeta_over_Rgamma"],
     ...                   windows=(1.0, None), warn=False)
     >>> [round(f["q4"]) for f in res.fit_start], [round(f["q4"]) for f in res.fit]  # fit of q4 [%]
-    ([77, 58], [94, 84])
+    ([79, 59], [94, 84])
     >>> round(res.belt.k_over_I2), round(res.belt.kTbeta_over_Rgamma, 1)
-    (96, 32.2)
+    (94, 32.8)
     """
     if not isinstance(start, Plant) or start.model != "belt":
         raise InputError("the belt model (15) is fitted from Plant(lumped, model='belt', belt=BeltParameters(...))")

@@ -43,6 +43,7 @@ from ..sim.sensitivity import simulate_sensitivities
 from ..threads import thread_map
 from .differentiate import Differentiator
 from .fit_parameters import Parameter, Parameters
+from .signals import hold_of
 
 __all__ = [
     "measured_initial_state",
@@ -136,6 +137,13 @@ def offset_name(output: str, experiment: int) -> str:
 def replay(data: ExperimentData, input_name: str | None) -> Sampled | None:
     """A log's input ``u`` or ``v`` replayed with a zero-order hold on its sample grid, or ``None``.
 
+    A rig's controller held each sample until the next, and so does the replay. A log whose metadata
+    ``input_hold`` says ``continuous`` (the virtual rig's chirps and sines) sampled an input that moved between
+    the samples: each interval then holds the mean of its two ends, the input's average over it to second
+    order, instead of its first sample, which would lag the input half a sample (on the twin's 60 s full chirp
+    at 5 ms: a wheel-speed error of 0.58 rad/s and a fit of 99.1 % for the true model, against 0.002 rad/s
+    and 99.997 % with the means).
+
     Parameters
     ----------
     data : ExperimentData
@@ -150,7 +158,11 @@ def replay(data: ExperimentData, input_name: str | None) -> Sampled | None:
     """
     if input_name is None or data.input_name is None:
         return None
-    return Sampled(np.asarray(getattr(data, input_name), dtype=float), data.Ts, float(data.t[0]))
+    values = np.asarray(getattr(data, input_name), dtype=float)
+    if hold_of(data, "auto") == "continuous":
+        values = values.copy()
+        values[:-1] = 0.5 * (values[:-1] + values[1:])
+    return Sampled(values, data.Ts, float(data.t[0]))
 
 
 def measured_signals(data: ExperimentData, names: Sequence[str], differentiator: Differentiator | None = None
