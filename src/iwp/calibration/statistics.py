@@ -243,7 +243,8 @@ def closed_loop_model(log: ExperimentData, params: LumpedParameters, *, k1: floa
             "amplitude_model": oscillation_amplitude(t, sim, window)}
 
 
-def friction_ratio(full: IdentificationResult, free: IdentificationResult) -> float:
+def friction_ratio(full: IdentificationResult | Mapping[str, float],
+                   free: IdentificationResult | Mapping[str, float]) -> float:
     """Geometric mean of ``|sigma(16) / sigma(theta^c)|`` over the pendulum frictions (section 5.2).
 
     The paper's numbers give 930 (``sigma~_a1``), 76 (``sigma~_v1``) and 123
@@ -251,19 +252,22 @@ def friction_ratio(full: IdentificationResult, free: IdentificationResult) -> fl
 
     Parameters
     ----------
-    full : IdentificationResult
-        Result of the full identification (16).
-    free : IdentificationResult
-        Result of set-up ``free`` (``theta^c``).
+    full : IdentificationResult or mapping of str to float
+        Result of the full identification (16), or its values by name.
+    free : IdentificationResult or mapping of str to float
+        Result of set-up ``free`` (``theta^c``), or its values by name.
 
     Returns
     -------
     float
         The ratio [-]; ``inf`` if a free-pendulum value is 0, ``0`` if only a full-model value is 0.
     """
+    def value(source, k: str) -> float:
+        return source.value(k) if isinstance(source, IdentificationResult) else float(source[k])
+
     logs = []
     for k in FRICTION_TERMS:
-        a, b = full.value(k), free.value(k)
+        a, b = value(full, k), value(free, k)
         if b == 0.0 or a == 0.0:
             return math.inf if b == 0.0 else 0.0
         logs.append(math.log(abs(a / b)))

@@ -128,6 +128,7 @@ from scipy import stats
 from ..data import ExperimentData, check_distinct
 from ..errors import IdentificationError, InputError, IwpError
 from ..files import read_json
+from ..models.encoder import quantize
 from ..models.parameters import load_params, table1
 from ..sim import simulate
 from ..sim.inputs import Sampled
@@ -561,26 +562,26 @@ def _noise_or_misfit(plan: _IdentPlan, opts: IdentifyOptions, res: LeastSquaresR
     if own is not None:
         details["own_model_ratios"] = own
     if own is not None and worst in own and ratios[worst] <= _MISFIT_RATIO * own[worst]:
-        # as large as the set-up's own model leaves: the differentiator's error on smooth signals, not a missing term
+        # no more than the set-up's own model leaves (quantisation, the differentiator): no missing term to warn of
         details["residuals_note"] = (
             f"the residuals of the {row} row of (10) are {ratios[worst]:.3g} times what the noise of encoder "
             f"{worst} explains, and the set-up's own model, simulated with these estimates on the same inputs and "
             f"logged like these logs, leaves {own[worst]:.3g} times: the excess is what the regression leaves on the "
             "set-up's own model (the encoders' quantisation, the differentiator's error), not a term the model "
             "lacks. Standard errors from the model-free HAC covariance")
-        return _Solved(res=hac, cov=np.array(hac.covariance, dtype=float), critical=hac.critical_value,
-                       details=details)
-    against = ("" if own is None or worst not in own else
-               f", and {ratios[worst] / own[worst]:.3g} times what the set-up's own model leaves when simulated "
-               f"with these estimates on the same inputs and logged like these logs ({own[worst]:.3g} times)")
-    warning = (
-        f"model misfit: the residuals of the {row} row of (10) are {ratios[worst]:.3g} times larger than "
-        f"the measurement noise of encoder {worst} ({noise_sd[worst]:.2g} rad) explains{against}; the model does "
-        "not describe these data exactly (unmodelled friction, belt, dead-zone residue, wrong known "
-        "parameters), so the estimates carry a bias that no standard error shows. Standard errors from "
-        "the model-free HAC covariance")
+        warnings: tuple[str, ...] = ()
+    else:
+        against = ("" if own is None or worst not in own else
+                   f", and {ratios[worst] / own[worst]:.3g} times what the set-up's own model leaves when simulated "
+                   f"with these estimates on the same inputs and logged like these logs ({own[worst]:.3g} times)")
+        warnings = (
+            f"model misfit: the residuals of the {row} row of (10) are {ratios[worst]:.3g} times larger than "
+            f"the measurement noise of encoder {worst} ({noise_sd[worst]:.2g} rad) explains{against}; the model "
+            "does not describe these data exactly (unmodelled friction, belt, dead-zone residue, wrong known "
+            "parameters), so the estimates carry a bias that no standard error shows. Standard errors from "
+            "the model-free HAC covariance",)
     return _Solved(res=hac, cov=np.array(hac.covariance, dtype=float), critical=hac.critical_value,
-                   warnings=(warning,), details=details)
+                   warnings=warnings, details=details)
 
 
 def _logged_like(angle: np.ndarray, logged: np.ndarray, noise_sd: float, rng: np.random.Generator) -> np.ndarray:
@@ -591,8 +592,7 @@ def _logged_like(angle: np.ndarray, logged: np.ndarray, noise_sd: float, rng: np
     if moving.size:
         q = float(moving.min())
         if np.all(np.abs(moving / q - np.round(moving / q)) < 1e-6):
-            shifted = angle + rng.uniform(-0.5 * q, 0.5 * q)
-            return np.round(shifted / q) * q
+            return quantize(angle + rng.uniform(-0.5 * q, 0.5 * q), q)
     return angle + rng.normal(0.0, noise_sd, angle.size)
 
 
@@ -620,7 +620,8 @@ def _own_model_ratios(plan: _IdentPlan, opts: IdentifyOptions, res: LeastSquares
         values.update({k: p.value for k, p in derived.parameters.items()})
     rng = np.random.default_rng(0)
     try:
-        params = _reference(plan.known.base).replace(**spec.parameter_changes(values, {}, _reference(plan.known.base)))
+        base = _reference(plan.known.base)
+        params = base.replace(**spec.parameter_changes(values, {}, base))
         logs = []
         for d in plan.logs:
             u = d.u if d.u is not None else np.zeros(d.n_samples)

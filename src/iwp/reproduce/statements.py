@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+from ..calibration.statistics import friction_ratio
 from ..calibration.targets import PaperTarget, TargetRow, load_targets
 from ..report import Part, Statement, fmt
 from .context import ReproduceResult, rel_diff
@@ -282,10 +283,8 @@ def st_full_setup_far(ctx, st):
                 "property of the unweighted (13).")
     st.values = {"ratios": ratios, "fit_full": fit_full, "fit_two_step": fit_two, "simulation_error": sim_err,
                  "default_weights": {"theta": dw, "fit_q1": fs.get("fit_q1")}}
-    finite = [abs(r) for r in ratios.values() if math.isfinite(r) and r != 0]
-    geometric = math.exp(sum(map(math.log, finite)) / len(finite)) if len(finite) == len(ratios) else float("inf")
     _by_row(ctx, st, "full13_friction_far", "friction terms far from the free pendulum's, (13) as printed "
-                                            "(geometric mean of |sigma(16)/sigma(theta^c)|)", geometric)
+                                            "(geometric mean of |sigma(16)/sigma(theta^c)|)", friction_ratio(th, fr))
     if sim_err is not None:  # no prediction to judge: the part fails rather than pass on a missing number
         _by_rule(st, f"a poor prediction: the simulation with these parameters failed ({sim_err})", False)
     elif not math.isfinite(fit_two):
