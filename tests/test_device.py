@@ -119,7 +119,7 @@ def test_injected_byte_errors_lose_no_good_frame_and_pass_no_bad_one():
     rng = np.random.default_rng(3)
     payloads = [encode("TELEMETRY", seq=k, t_us=5000 * k, count1=int(rng.integers(-9000, 9000)), count2=k * 37,
                        q4=float(rng.normal()), u=float(rng.normal()), v=0.0, current=float("nan"), state=1,
-                       fault=0, flags=0, overruns=0, late=0, rx_errors=0) for k in range(1, 3001)]
+                       fault=0, flags=0, overruns=0, late=0, rx_errors=0, dropped=0) for k in range(1, 3001)]
     frames = [encode_frame(p) for p in payloads]
     stream, hit = _corrupt(b"".join(frames), 0.002, rng)
     bounds = np.cumsum([0] + [len(f) for f in frames])
@@ -402,6 +402,7 @@ def test_ctrl_c_leaves_a_complete_readable_log_marked_interrupted(emulator, tmp_
     # reported, and bounded loosely (a loaded CI machine gave 5.6 ms at a 5 ms period; BENCHMARKS.md has the figures)
     assert timing["clock"] == "device (real time)" and 0.0 <= timing["jitter_p99_ms"] < 50.0
     assert {"jitter_p50_ms", "jitter_max_ms", "device_overruns", "late_ticks", "host_overruns"} <= set(timing)
+    assert timing["dropped_commands"] == 0  # the host keeps at most 4 ticks queued of the device's 8
 
 
 def test_a_second_interrupt_during_the_stop_still_writes_the_log(emulator, tmp_path):
@@ -814,13 +815,15 @@ def test_protocol_command_queue_past_ticks_replacement_and_a_full_queue():
     command(k + 2, 2.0)  # an earlier tick than those queued replaces them
     got = b.tick(5)
     assert [m["u"] for m in got] == [1.0, 2.0, 2.0, 2.0, 2.0]
-    k = got[-1]["seq"]
-    for j in range(1, 10):  # 9 commands ahead: the queue holds 8, the 9th is dropped with the flag QUEUE_FULL
+    k, dropped0 = got[-1]["seq"], got[-1]["dropped"]
+    assert dropped0 == 0
+    for j in range(1, 12):  # 11 commands ahead: the queue holds 8, the 9th to 11th are dropped (QUEUE_FULL), counted
         command(k + j, float(10 + j))
-    got = b.tick(10)
-    assert [m["u"] for m in got] == [11.0, 12.0, 13.0, 14.0, 15.0, 16.0, 17.0, 18.0, 18.0, 18.0]
+    got = b.tick(12)
+    assert [m["u"] for m in got] == [11.0, 12.0, 13.0, 14.0, 15.0, 16.0, 17.0, 18.0, 18.0, 18.0, 18.0, 18.0]
     assert got[0]["flags"] & 4 == 0  # the flag was cleared by the first command applied
-    assert got[-1]["late"] - got[0]["late"] == 2  # the dropped tick's hold counts as late, not as dropped
+    assert [m["dropped"] for m in (got[0], got[-1])] == [3, 3]  # counted when dropped, kept since boot
+    assert got[-1]["late"] - got[0]["late"] == 4  # the ticks whose command was dropped hold the last input: late
 
 
 def test_the_timing_reports_the_devices_tick_jitter_and_load_and_warns_past_a_tenth_of_the_period(tmp_path, capsys):
@@ -833,7 +836,7 @@ def test_the_timing_reports_the_devices_tick_jitter_and_load_and_warns_past_a_te
     from iwp.device.runs import RigRun
 
     base = Sample(seq=0, t_device=0.0, count1=0, count2=0, q1=0.0, q2=0.0, q4=0.0, u=0.0, v=0.0, current=math.nan,
-                  state="ARMED", fault="NONE", flags=(), overruns=0, late=0, rx_errors=0, t_host=0.0)
+                  state="ARMED", fault="NONE", flags=(), overruns=0, late=0, rx_errors=0, dropped=0, t_host=0.0)
     t_us = 5000 * np.arange(1, 201)
     t_us[::20] += 1000  # every 20th tick 1 ms late (the next on time again)
     t_us[150:] += 12000  # tick 151 more than a period late, the rest kept its pace

@@ -29,7 +29,7 @@ pytest.importorskip("bokeh", reason="the live view serves BokehJS from the bokeh
 def _sample(k: int, **kw) -> Sample:
     values = dict(seq=k, t_device=k * 0.005, count1=0, count2=0, q1=math.sin(k * 0.005), q2=0.01 * k, q4=1.0,
                   u=float(k % 100), v=31.0 + k % 100, current=math.nan, state="ARMED", fault="NONE", flags=(),
-                  overruns=0, late=0, rx_errors=0, t_host=0.0)
+                  overruns=0, late=0, rx_errors=0, dropped=0, t_host=0.0)
     values.update(kw)
     return Sample(**values)
 

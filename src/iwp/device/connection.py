@@ -100,8 +100,9 @@ class Sample:
         Motor current [A] (NaN: not measured).
     state, fault : str
     flags : tuple of str
-    overruns, late, rx_errors : int
-        The device's counters (16 bits, wrapping).
+    overruns, late, rx_errors, dropped : int
+        The device's counters (16 bits, wrapping): loop overruns, ticks without a command, frames refused,
+        COMMANDs dropped by a full queue (protocol 3).
     t_host : float
         When the host received it (``time.monotonic``) [s].
     """
@@ -122,6 +123,7 @@ class Sample:
     overruns: int
     late: int
     rx_errors: int
+    dropped: int
     t_host: float
 
 
@@ -402,7 +404,8 @@ class Rig:
                               q1=v["count1"] * s1, q2=v["count2"] * s2, q4=v["q4"], u=v["u"], v=v["v"],
                               current=v["current"], state=name_of(STATES, v["state"]),
                               fault=name_of(FAULTS, v["fault"]), flags=tuple(flag_names(v["flags"])),
-                              overruns=v["overruns"], late=v["late"], rx_errors=v["rx_errors"], t_host=now))
+                              overruns=v["overruns"], late=v["late"], rx_errors=v["rx_errors"],
+                              dropped=v["dropped"], t_host=now))
         return out
 
     def state_text(self) -> str:

@@ -132,7 +132,7 @@ class LoopResult:
     host_clock : bool
         Ran by the host's clock (faster than real time).
     counters0 : tuple of int
-        The device's ``(overruns, late, rx_errors)`` before the run.
+        The device's ``(overruns, late, rx_errors, dropped)`` before the run.
     """
 
     samples: list[Sample] = field(default_factory=list)
@@ -141,7 +141,7 @@ class LoopResult:
     reason: str = "complete"
     error: BaseException | None = None
     host_clock: bool = False
-    counters0: tuple[int, int, int] = (0, 0, 0)
+    counters0: tuple[int, int, int, int] = (0, 0, 0, 0)
     wall: float = 0.0
     scheduling: str = "normal"
 
@@ -156,10 +156,11 @@ class LoopResult:
                      "scheduling": self.scheduling}
         if self.samples:
             last = self.samples[-1]
-            o0, l0, r0 = self.counters0
+            o0, l0, r0, d0 = self.counters0
             out["device_overruns"] = (last.overruns - o0) & 0xFFFF
             out["late_ticks"] = (last.late - l0) & 0xFFFF
             out["device_rx_errors"] = (last.rx_errors - r0) & 0xFFFF
+            out["dropped_commands"] = (last.dropped - d0) & 0xFFFF
             seqs = np.array([s.seq for s in self.samples])
             out["lost_samples"] = int(seqs[-1] - seqs[0] + 1 - seqs.size)
         out["load_avg"] = list(_load_avg())
@@ -292,7 +293,7 @@ def run_loop(
         if input is not None:
             input(0.0)  # load what it needs (compiled code) now, not while the watchdog counts
         got = _first_sample(rig, link_timeout)
-        res.counters0 = (got.overruns, got.late, got.rx_errors)
+        res.counters0 = (got.overruns, got.late, got.rx_errors, got.dropped)
         if arm:
             rig.arm()
             armed = True
@@ -321,7 +322,7 @@ def run_loop(
                         _answer(rig, s, s.seq + lead, start, Ts, input, None)
                     continue
                 if not res.samples:  # the device's counters at time 0
-                    res.counters0 = (s.overruns, (s.late - ("LATE" in s.flags)) & 0xFFFF, s.rx_errors)
+                    res.counters0 = (s.overruns, (s.late - ("LATE" in s.flags)) & 0xFFFF, s.rx_errors, s.dropped)
                 res.samples.append(s)
                 if observer is not None:
                     observer.on_sample((s.seq - start) * Ts, s)

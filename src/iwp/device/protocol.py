@@ -55,7 +55,7 @@ __all__ = [
 ]
 
 #: Protocol version: a device with another version is refused.
-PROTOCOL_VERSION = 2
+PROTOCOL_VERSION = 3
 #: Largest payload (type byte + fields) of a frame [bytes].
 MAX_PAYLOAD = 64
 
@@ -191,7 +191,8 @@ MESSAGES: dict[str, Message] = {m.name: m for m in [
                                 _f("flags", "H", "-", "see FLAGS"),
                                 _f("overruns", "H", "-", "loop overruns since boot (wraps)"),
                                 _f("late", "H", "-", "ticks without a command for them while armed (wraps)"),
-                                _f("rx_errors", "H", "-", "frames refused by the device since boot (wraps)")),
+                                _f("rx_errors", "H", "-", "frames refused by the device since boot (wraps)"),
+                                _f("dropped", "H", "-", "COMMANDs dropped by a full queue since boot (wraps)")),
             "one sample of the loop"),
 ]}
 

@@ -140,6 +140,7 @@ static void telemetry(iwp_core_t *c)
     put_u16(b + IWP_OFF_TELEMETRY_OVERRUNS, c->overruns);
     put_u16(b + IWP_OFF_TELEMETRY_LATE, c->late);
     put_u16(b + IWP_OFF_TELEMETRY_RX_ERRORS, c->rx_errors);
+    put_u16(b + IWP_OFF_TELEMETRY_DROPPED, c->dropped);
     send_frame(c, b, sizeof b, TX_RESERVE);
 }
 
@@ -241,6 +242,7 @@ static void enqueue(iwp_core_t *c, uint32_t tick, float u)
     while (c->n_queue && c->queue[c->n_queue - 1].tick >= tick) c->n_queue--;
     if (c->n_queue == IWP_QUEUE_LEN) {
         c->flags |= IWP_FLAG_QUEUE_FULL;
+        c->dropped++; /* counted, wrapping: TELEMETRY dropped */
         return;
     }
     c->queue[c->n_queue].tick = tick;

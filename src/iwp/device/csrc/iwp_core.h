@@ -59,7 +59,7 @@ typedef struct {
     uint32_t sat_us;
     uint8_t fixture_pending, fixture_action;
     float fixture_q1;
-    uint16_t flags, overruns, late, rx_errors;
+    uint16_t flags, overruns, late, rx_errors, dropped;
     /* link */
     uint8_t rx[IWP_RX_LEN];
     uint8_t rx_len, rx_skip;

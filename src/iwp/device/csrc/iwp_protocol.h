@@ -3,8 +3,8 @@
 #ifndef IWP_PROTOCOL_H
 #define IWP_PROTOCOL_H
 
-#define IWP_PROTOCOL_VERSION 2
-#define IWP_DICT_HASH 0x01319c63UL
+#define IWP_PROTOCOL_VERSION 3
+#define IWP_DICT_HASH 0xc1c31ac8UL
 #define IWP_MAX_PAYLOAD 64
 
 /* messages: type byte, payload size, byte offset of each field (little-endian, packed) */
@@ -79,7 +79,7 @@
 #define IWP_OFF_ACK_PARAM 5 /* uint8_t, - */
 #define IWP_OFF_ACK_VALUE 6 /* float, param */
 #define IWP_MSG_TELEMETRY 0x83
-#define IWP_MSG_TELEMETRY_SIZE 43
+#define IWP_MSG_TELEMETRY_SIZE 45
 #define IWP_OFF_TELEMETRY_SEQ 1 /* uint32_t, ticks */
 #define IWP_OFF_TELEMETRY_T_US 5 /* uint32_t, us */
 #define IWP_OFF_TELEMETRY_COUNT1 9 /* int32_t, counts */
@@ -94,6 +94,7 @@
 #define IWP_OFF_TELEMETRY_OVERRUNS 37 /* uint16_t, - */
 #define IWP_OFF_TELEMETRY_LATE 39 /* uint16_t, - */
 #define IWP_OFF_TELEMETRY_RX_ERRORS 41 /* uint16_t, - */
+#define IWP_OFF_TELEMETRY_DROPPED 43 /* uint16_t, - */
 
 #define IWP_STATE_DISARMED 0
 #define IWP_STATE_ARMED 1
