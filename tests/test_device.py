@@ -644,6 +644,8 @@ def test_the_emulators_watchdog_counts_wall_time_when_the_emulator_falls_behind(
     assert measured <= 0.100 + 0.005 + 0.015, measured
     assert abs(trip[0]["after_host"] - measured) < 0.003, (trip[0]["after_host"], measured)
     assert trip[0]["v"] == 0.0
+    # the emulator's own 90 ms pause is told apart from the host's silence
+    assert 0.09 <= trip[0]["own_pause"] < 0.09 + 0.05, trip[0]["own_pause"]
 
 
 def test_fast_runs_are_lock_stepped_identical_under_load(monkeypatch):

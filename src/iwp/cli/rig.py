@@ -321,6 +321,9 @@ def run_emulate(args) -> int:
         what = e["state"] + (f" ({e['fault']})" if e["fault"] != "NONE" else "")
         after = "" if e["after_host"] != e["after_host"] else f", {e['after_host'] * 1e3:.1f} ms after the host's " \
                                                                 "last bytes"
+        if e["fault"] == "WATCHDOG" and e["own_pause"] > 2.0 * device.period:
+            after += (f"; the emulator itself paused {e['own_pause'] * 1e3:.0f} ms meanwhile (its machine is "
+                      "overloaded: no telemetry went out, so the host had nothing to answer)")
         print(f"iwp: device {what} at t = {e['t_device']:.3f} s (tick {e['tick']}){after}", file=sys.stderr,
               flush=True)
 

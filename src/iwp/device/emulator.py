@@ -35,6 +35,7 @@ telemetry); the lateness of every real-time tick is kept
 
 from __future__ import annotations
 
+import collections
 import errno
 import math
 import os
@@ -59,6 +60,8 @@ _NAN = float("nan")
 #: Bytes kept for a host that does not read (beyond them the oldest are dropped, as a UART without flow control
 #: drops them; the host sees the gap).
 _TX_BACKLOG = 2048
+#: The window [s] before a change of state over which the emulator's own longest tick interval is reported.
+OWN_PAUSE_WINDOW = 0.25
 #: By the host's clock, armed, the device waits this long [s] of wall time for the host's next command before it
 #: ticks in real time again (a host gone: its watchdog stops the motor).
 HOST_WAIT = 2.0
@@ -139,6 +142,8 @@ class Emulator:
         self._stop = threading.Event()
         self._out = bytearray()
         self.lateness: list[float] = []
+        #: (wall time, wall time since the tick before) of the latest ticks: the emulator's own pauses [s]
+        self._intervals: collections.deque[tuple[float, float]] = collections.deque(maxlen=256)
         self.ticks = 0
         self.dropped = 0
         self.error: BaseException | None = None
@@ -240,6 +245,7 @@ class Emulator:
                 # the device's clock: the wall clock as a board's crystal (its watchdog counts real time, also when
                 # the emulator fell behind), the ideal period by the host's clock (deterministic)
                 self.clock_us += dev.core.period_us if fast else int(round((now - last_tick) * 1e6))
+                self._intervals.append((now, now - last_tick))
                 last_tick = now
                 dev.tick(self.clock_us)
                 self.ticks += 1
@@ -264,16 +270,21 @@ class Emulator:
         return self._clocked
 
     def _report(self) -> None:
-        """Tell :attr:`on_event` when the state changed: device time, wall time, and how long after the host's
-        last bytes (the watchdog's measure)."""
+        """Tell :attr:`on_event` when the state changed: device time, wall time, how long after the host's
+        last bytes (the watchdog's measure), and the longest wall time between two of the emulator's own ticks
+        in the last :data:`OWN_PAUSE_WINDOW` (``own_pause``: a board ticks every period whatever the machine does;
+        an emulator paused by its machine sends no telemetry meanwhile, so a host that answers each sample falls
+        silent with it)."""
         tick, state, fault, v = self.device.core.status()
         if state == self._state:
             return
         self._state = state
         now = time.monotonic()
+        recent = [dt for w, dt in self._intervals if w >= now - OWN_PAUSE_WINDOW]
         self.on_event({"state": name_of(STATES, state), "fault": name_of(FAULTS, fault), "tick": tick,
                        "t_device": self.device.stepper.t, "wall": now, "v": v,
-                       "after_host": now - self.last_rx if math.isfinite(self.last_rx) else math.nan})
+                       "after_host": now - self.last_rx if math.isfinite(self.last_rx) else math.nan,
+                       "own_pause": max(recent, default=0.0)})
 
     def start(self) -> threading.Thread:
         """Serve in a daemon thread (the in-process twin, tests)."""
@@ -312,7 +323,8 @@ def run_emulator(device: TwinDevice, *, on_port, link: str | None = None, setup:
         Device parameters to set before serving (``period_us``, ``counts1``, ...), as a host would.
     on_event : callable, optional
         Called with a dict at each change of the device's state (state, fault, tick, device and wall
-        time, ``after_host``: seconds since the host's last bytes).
+        time, ``after_host``: seconds since the host's last bytes, ``own_pause``: the emulator's longest interval
+        between two of its ticks in the last :data:`OWN_PAUSE_WINDOW` seconds).
 
     Returns
     -------
