@@ -51,6 +51,9 @@ def register(sub) -> None:
                    help="how the logged input acted between samples: held until the next (zoh, a rig's "
                         "controller), continuous (a continuous simulation), or auto (default: the log's metadata "
                         "input_hold, else zoh)")
+    p.add_argument("--angle-zero", choices=["estimate", "logged"], default="estimate",
+                   help="the pendulum angle's zero in each log: estimate its offset from the hanging position "
+                        "(default; a column cos q1 per log) or take the logged zero as exact (the paper's (10))")
     p.add_argument("--base", metavar="PARAMS", default=None,
                    help="parameter set for the values the set-up does not identify (default table1)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -154,7 +157,7 @@ def run(args) -> int:
         res = identify(data if len(data) > 1 else data[0], args.setup, pendulum=pendulum, p2=p2, t_start=args.t_start,
                        t_end=args.t_end, base=base,
                        options=IdentifyOptions(differentiator=diff, covariance=args.covariance,
-                                               input_hold=args.input_hold))
+                                               input_hold=args.input_hold, angle_zero=args.angle_zero))
     files = ", ".join(args.files)
     if not res.success:
         raise IdentificationError(f"{files}: {res.message}; nothing written")

@@ -245,6 +245,8 @@ _NONNEG = ("p2", "p2_1rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2_1rho",
 
 #: how a log's input acted between its samples (:class:`IdentifyOptions`)
 INPUT_HOLDS = ("auto", "zoh", "continuous")
+#: what :class:`IdentifyOptions` ``angle_zero`` may say of each log's pendulum angle zero
+ANGLE_ZEROS = ("estimate", "logged")
 
 
 @dataclass(frozen=True)
@@ -300,11 +302,24 @@ class IdentifyOptions:
         at 5 ms, ``p2`` and ``p3`` come out 1.1 % and 0.6 % low (25 and 15
         standard errors) and the residuals of the ``dq4/dt`` row 170 times
         the encoder noise.
+    angle_zero : {"estimate", "logged"}
+        ``"estimate"`` (default): each log's pendulum angle may be off the
+        angle at which the pendulum hangs by a constant ``d`` (an encoder
+        zeroed where friction held the pendulum, or anywhere within a count):
+        ``p1 sin(q1 - d) = p1 cos d sin q1 - p1 sin d cos q1``, so a column
+        ``K cos q1`` per log and row of (10) is projected out of the
+        regression before the least squares (one degree of freedom each), and
+        ``d`` is reported per log from the first row (``details
+        ["q1_zero_offset"]``, rad). Set-ups without ``p1`` are not affected.
+        ``"logged"``: the logged zero is taken as exact, as the paper's (10)
+        does (:data:`AS_PRINTED`); then an offset of 0.8 / 1.6 mrad moves the
+        full set-up's ``rho`` by about +0.1-0.3 / +0.6-1.0 % (on quantised
+        logs three to four standard errors; BENCHMARKS.md, issue 39).
 
     Raises
     ------
     InputError
-        An unknown covariance, nonlinear mode, weighting or input hold; a differentiator that is not a
+        An unknown covariance, nonlinear mode, weighting, input hold or angle zero; a differentiator that is not a
         :class:`Differentiator`.
     """
 
@@ -314,8 +329,12 @@ class IdentifyOptions:
     weights: str = "blocks"
     admissible: bool = True
     input_hold: str = "auto"
+    angle_zero: str = "estimate"
 
     def __post_init__(self) -> None:
+        if self.angle_zero not in ANGLE_ZEROS:
+            raise InputError(f"angle_zero must be 'estimate' or 'logged', got {self.angle_zero!r}",
+                             argument="angle_zero")
         if self.input_hold not in INPUT_HOLDS:
             raise InputError(f"input_hold must be 'auto', 'zoh' or 'continuous', got {self.input_hold!r}")
         if self.covariance not in ("noise", "hac", "ols"):
@@ -333,8 +352,8 @@ class IdentifyOptions:
 
 #: the paper's procedures as printed: the unconstrained least squares (13), negative friction included (eq. (16)),
 #: with the logged input taken at its sample (the half-sample lag of a held input included: the paper's numbers
-#: carry it); what the reproduction and the twin's calibration run
-AS_PRINTED = IdentifyOptions(admissible=False, input_hold="continuous")
+#: carry it) and the logged angle's zero as exact; what the reproduction and the twin's calibration run
+AS_PRINTED = IdentifyOptions(admissible=False, input_hold="continuous", angle_zero="logged")
 
 
 def identify(
@@ -461,6 +480,8 @@ class _IdentPlan:
     held: Mapping[str, float] = field(default_factory=dict)
     #: the logs, for the misfit test's reference run (:func:`_own_model_ratios`); empty in that run itself
     logs: tuple = ()
+    #: each log's angle-zero column, projected out of the regression (``angle_zero="estimate"``), or None
+    zero: _ZeroColumns | None = None
 
     @property
     def names(self) -> list[str]:
@@ -479,6 +500,61 @@ class _Solved:
     details: dict[str, Any] = field(default_factory=dict)
 
 
+@dataclass(frozen=True, eq=False)
+class _ZeroColumns:
+    """Each log's column of an offset ``d`` of its pendulum angle's zero, and the regression it was taken from.
+
+    A logged angle ``q1 = q1_true + d`` puts ``p1 sin(q1 - d) = p1 cos d sin q1 - p1 sin d cos q1`` in ``xi``:
+    beside the ``p1`` column (``s K sin q1`` in a row whose ``p1`` column has the sign ``s``) a column
+    ``s K cos q1`` per log, with the coefficient ``c = -p1 sin d``. ``N`` holds them, one per log and row of
+    (10) (rows of the regression by ``logs x rows``: each row's column is its own, so that the projection keeps
+    the rows apart and the rows' weights of the least squares act on it as on the others); :meth:`project`
+    removes their span from the regressor and the target (the least squares then estimates the set-up's columns
+    as if the ``c`` were estimated with them, to one degree of freedom per log and row), and :meth:`offsets`
+    gives ``d`` of each log from the estimates and its first row (the pendulum's, ``dq3/dt``).
+    """
+
+    N: np.ndarray
+    Phi: np.ndarray
+    phi: np.ndarray
+    p1: int
+    n_logs: int
+
+    def _residual(self, X: np.ndarray) -> np.ndarray:
+        coef, *_ = np.linalg.lstsq(self.N, X, rcond=None)
+        return X - self.N @ coef
+
+    def project(self, reg: Regression) -> Regression:
+        known = reg.known_sensitivity
+        return replace(reg, Phi=np.ascontiguousarray(self._residual(reg.Phi)), phi=self._residual(reg.phi),
+                       known_sensitivity=None if known is None else self._residual(known))
+
+    def offsets(self, theta: np.ndarray) -> np.ndarray:
+        """``d`` [rad] of each log from the estimates ``theta`` over the set-up's columns (held ones at their prior)."""
+        c, *_ = np.linalg.lstsq(self.N, self.phi - self.Phi @ theta, rcond=None)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return -np.arcsin(np.clip(c[: self.n_logs] / theta[self.p1], -1.0, 1.0))
+
+
+def _zero_columns(reg: Regression, sig: Signals, spec: Setup) -> _ZeroColumns | None:
+    """The angle-zero columns of the set-up's regression (None: a set-up without ``p1``, or rows not one block per
+    equation over all samples)."""
+    if "p1" not in spec.columns or reg.Phi.shape[0] != len(reg.labels) * sig.n:
+        return None
+    j = list(spec.columns).index("p1")
+    ends = np.cumsum([0] + [f["n_full"] - 2 * f["kk"] for f in sig.files])
+    if ends[-1] != sig.n:
+        return None
+    n_logs = len(sig.files)
+    N = np.zeros((reg.Phi.shape[0], len(reg.labels) * n_logs))
+    for b in range(len(reg.labels)):
+        rows = slice(b * sig.n, (b + 1) * sig.n)
+        sign = 1.0 if float(reg.Phi[rows, j] @ sig.S) >= 0.0 else -1.0
+        for k in range(n_logs):
+            N[b * sig.n + ends[k]: b * sig.n + ends[k + 1], b * n_logs + k] = sign * sig.Z[ends[k]:ends[k + 1]]
+    return _ZeroColumns(N=N, Phi=reg.Phi.copy(), phi=reg.phi.copy(), p1=j, n_logs=n_logs)
+
+
 def _plan_identification(data: Any, spec: Setup, window: _Window, known: _Known, opts: IdentifyOptions) -> _IdentPlan:
     """Window and differentiate the logs, build the set-up's regression, and warn of too few samples."""
     datas = as_list(data)
@@ -488,6 +564,9 @@ def _plan_identification(data: Any, spec: Setup, window: _Window, known: _Known,
     sig = prepare_signals(spec, datas, d, window.t_start, window.t_end, nonlinear=opts.nonlinear,
                           input_hold=opts.input_hold)
     reg = spec.regression(sig, pendulum=known.pendulum, p2=known.p2)
+    zero = _zero_columns(reg, sig, spec) if opts.angle_zero == "estimate" else None
+    if zero is not None:
+        reg = zero.project(reg)
     sources = _sources(datas)
     warnings = list(reg.warnings) + spec.check_signals(sig, sources)
     n_par = len(spec.columns)
@@ -498,7 +577,8 @@ def _plan_identification(data: Any, spec: Setup, window: _Window, known: _Known,
             f"(the filter correlates ~{sig.corr_len:.0f} neighbours) for {n_par} parameters; values and "
             f"uncertainty are unreliable below ~{int(_MIN_EFF_PER_PARAM * n_par * sig.corr_len)} samples")
     return _IdentPlan(spec=spec, window=window, known=known, differentiator=d, nonlinear=opts.nonlinear, sig=sig,
-                      reg=reg, sources=sources, pend_vals=pend_vals, warnings=tuple(warnings), logs=tuple(datas))
+                      reg=reg, sources=sources, pend_vals=pend_vals, warnings=tuple(warnings), logs=tuple(datas),
+                      zero=zero)
 
 
 def _solve_lsq(plan: _IdentPlan, opts: IdentifyOptions, covariance: str) -> LeastSquaresResult:
@@ -769,6 +849,28 @@ def _correlation_of(cov: np.ndarray) -> np.ndarray:
     return np.clip(corr, -1.0, 1.0)
 
 
+#: an offset of the logged angle's zero [rad] above which a warning says so: ``p1`` then comes out ``p1 cos d``
+#: (0.005 % low at 0.01 rad) and ``|cos q1|`` of the rolling friction is taken at the logged angle
+ZERO_OFFSET_WARN = 0.01
+
+
+def _zero_offsets_report(plan: _IdentPlan, theta: np.ndarray) -> tuple[list[str], dict[str, Any]]:
+    """Each log's offset of its angle's zero (``angle_zero="estimate"``), and a warning where one is large."""
+    d = [float(x) for x in plan.zero.offsets(theta)]
+    details = {"q1_zero_offset": d,
+               "q1_zero_offset_note": "logged pendulum angle minus the true one [rad], per log in the order of "
+                                      "'sources': its zero off the hanging position (a column K cos q1 per log, "
+                                      "projected out of (10))"}
+    large = [(k, v) for k, v in enumerate(d) if abs(v) > ZERO_OFFSET_WARN]
+    if not large:
+        return [], details
+    return [f"the pendulum angle's zero is off the hanging position by "
+            + ", ".join(f"{v:+.3g} rad in {plan.sources[k]} (log {k + 1})" for k, v in large)
+            + "; the estimates allow for it, but p1 comes out p1 cos d and the rolling friction's |cos q1| is "
+              "taken at the logged angle: zero the encoder with the pendulum hanging still, or subtract the "
+              "offset from the log's q1"], details
+
+
 def _report_identification(plan: _IdentPlan, solved: _Solved) -> IdentificationResult:
     """Derived parameters (``rho``), correlations, interpretation warnings and the verdict, as one result."""
     spec, sig, reg, res = plan.spec, plan.sig, plan.reg, solved.res
@@ -791,6 +893,10 @@ def _report_identification(plan: _IdentPlan, solved: _Solved) -> IdentificationR
     extra_w, extra_d = spec.extra_warnings(reg, sig, res, params, _reference(plan.known.base), plan.known.p2)
     warnings.extend(extra_w)
     details.update(extra_d)
+    if plan.zero is not None and res.success:
+        zero_w, zero_d = _zero_offsets_report(plan, np.asarray(res.values, dtype=float))
+        warnings.extend(zero_w)
+        details.update(zero_d)
     theta = np.asarray([res.values[columns.index(c)] for c in plan.names], dtype=float)  # the columns of reg.Phi
     explained = explained_fraction(reg.Phi, reg.phi, theta, reg.blocks, reg.labels)
     details["explained_fraction"] = explained

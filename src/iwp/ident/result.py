@@ -276,6 +276,10 @@ class IdentificationResult:
         lines += parameter_table(self.parameters.values(), units=PARAMETER_UNITS)
         if self.rho is not None:
             lines.append("rho: " + ", ".join(f"{k} = {v:.6g}" for k, v in self.rho.items()))
+        zero = self.details.get("q1_zero_offset")
+        if zero:
+            lines.append("the pendulum angle's zero, logged minus true [mrad]: "
+                         + ", ".join(f"{1e3 * d:+.3f}" for d in zero) + " (per file, estimated)")
         lines.append(f"condition number {self.condition_number:.3g}; residual rms "
                      + ", ".join(f"{k}: {v:.4g}" for k, v in self.residual_rms.items()))
         return "\n".join(lines + closing_lines(self.warnings, self.message))

@@ -36,6 +36,7 @@ class Signals:
     dq4: np.ndarray  # filtered disk acceleration [rad/s^2]
     u: np.ndarray  # filtered input [in]
     S: np.ndarray  # K sin q1
+    Z: np.ndarray  # K cos q1 (the column of an offset of the logged angle's zero)
     C: np.ndarray  # K |cos q1| q3
     B: np.ndarray  # K q3^3
     G: np.ndarray | None  # K sgn q4
@@ -252,7 +253,7 @@ def prepare_signals(setup, datas: list, d: Differentiator, t_start, t_end, *, no
 
 
 #: the signals stacked over the files, in the order of :class:`Signals`
-_STACKED = ("q1", "q3", "q4", "dq3", "dq4", "u", "S", "C", "B", "G", "sidx")
+_STACKED = ("q1", "q3", "q4", "dq3", "dq4", "u", "S", "Z", "C", "B", "G", "sidx")
 
 
 @dataclass(frozen=True, eq=False)
@@ -271,6 +272,7 @@ class _FileSignals:
     dq4: np.ndarray
     u: np.ndarray
     S: np.ndarray
+    Z: np.ndarray
     C: np.ndarray
     B: np.ndarray
     G: np.ndarray | None
@@ -288,12 +290,14 @@ class _FileSignals:
 @dataclass(frozen=True, eq=False)
 class _Terms:
     """The filtered model terms of one file: ``sin q1``, ``|cos q1| q3``, ``q3^3``, the input (and ``sgn q4``)
-    as columns of ``terms``, the filtered velocities ``q3``, ``q4`` [rad/s], and the point velocity ``v1``."""
+    as columns of ``terms``, the filtered velocities ``q3``, ``q4`` [rad/s], the point velocity ``v1`` and ``Z``,
+    ``cos q1`` filtered as ``sin q1`` is (the column of an offset of the angle's zero)."""
 
     terms: np.ndarray
     q3: np.ndarray
     q4: np.ndarray
     v1: np.ndarray | None
+    Z: np.ndarray
 
 
 def _check_log(setup, data: Any) -> None:
@@ -409,10 +413,12 @@ def _filtered_terms(w: ExperimentData, d: Differentiator, coulomb: bool, noise_s
     terms = [np.sin(q1r), np.abs(np.cos(q1r)) * v_pt[:, 0], cube, v_pt[:, 0], v_pt[:, 1], u_raw]
     if coulomb:
         terms.append(np.sign(vel[:, 1]))
+    terms.append(np.cos(q1r))  # last: Z
     sm = apply_KS(d, Ts, np.column_stack(terms))
     if input_hold == "zoh":  # the triangle average of the held input is exact: no point values to average
         sm[:, 5] = apply_K(d, Ts, held_input(u_raw)[:, None])[:, 0]
-    return _Terms(terms=np.delete(sm, [3, 4], axis=1), q3=sm[:, 3], q4=sm[:, 4], v1=v_pt[:, 0])
+    return _Terms(terms=np.delete(sm[:, :-1], [3, 4], axis=1), q3=sm[:, 3], q4=sm[:, 4], v1=v_pt[:, 0],
+                  Z=sm[:, -1])
 
 
 def _terms_of_filtered_states(w: ExperimentData, d: Differentiator, coulomb: bool, pos: np.ndarray,
@@ -424,7 +430,7 @@ def _terms_of_filtered_states(w: ExperimentData, d: Differentiator, coulomb: boo
     cols = [np.sin(q1f), np.abs(np.cos(q1f)) * q3f, q3f ** 3, uf]
     if coulomb:
         cols.append(np.sign(vel[:, 1]))
-    return _Terms(terms=np.column_stack(cols), q3=vel[:, 0], q4=vel[:, 1], v1=None)
+    return _Terms(terms=np.column_stack(cols), q3=vel[:, 0], q4=vel[:, 1], v1=None, Z=np.cos(q1f))
 
 
 def _file_signals(setup, w: ExperimentData, d: Differentiator, nonlinear: str, input_hold: str) -> _FileSignals:
@@ -444,7 +450,7 @@ def _file_signals(setup, w: ExperimentData, d: Differentiator, nonlinear: str, i
     n = w.n_samples - 2 * kk
     return _FileSignals(
         q1=w.q1[keep], q3=tm.q3[keep], q4=tm.q4[keep], dq3=acc[keep, 0], dq4=acc[keep, 1],
-        S=sm[keep, 0], C=sm[keep, 1], B=sm[keep, 2], u=sm[keep, 3], G=sm[keep, 4] if coulomb else None,
+        S=sm[keep, 0], Z=tm.Z[keep], C=sm[keep, 1], B=sm[keep, 2], u=sm[keep, 3], G=sm[keep, 4] if coulomb else None,
         sidx=np.arange(n, dtype=np.int64),
         file=dict(n_full=w.n_samples, kk=kk, Ts=Ts, noise=noise_sd, q1=np.asarray(w.q1, dtype=float), v1=tm.v1),
         q1_range=float(np.ptp(w.q1)), input_max=float(np.max(np.abs(w.input))),

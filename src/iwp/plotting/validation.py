@@ -120,7 +120,7 @@ def plot_correlation(names, correlation, *, ax=None, threshold=0.95):
     >>> res = identify(run_experiment("free-pendulum", duration=10.0), "free")
     >>> out = plot_correlation(res.names, res.correlation)
     >>> [t.get_text() for t in out["texts"] if t.get_fontweight() == "bold"]
-    ['-0.96', '-0.96']
+    ['-0.97', '-0.97']
     >>> plt.close(out["figure"])
     """
     if ax is None:
