@@ -542,16 +542,13 @@ def _zero_columns(reg: Regression, sig: Signals, spec: Setup) -> _ZeroColumns | 
     if "p1" not in spec.columns or reg.Phi.shape[0] != len(reg.labels) * sig.n:
         return None
     j = list(spec.columns).index("p1")
-    ends = np.cumsum([0] + [f["n_full"] - 2 * f["kk"] for f in sig.files])
-    if ends[-1] != sig.n:
-        return None
     n_logs = len(sig.files)
     N = np.zeros((reg.Phi.shape[0], len(reg.labels) * n_logs))
     for b in range(len(reg.labels)):
-        rows = slice(b * sig.n, (b + 1) * sig.n)
-        sign = 1.0 if float(reg.Phi[rows, j] @ sig.S) >= 0.0 else -1.0
-        for k in range(n_logs):
-            N[b * sig.n + ends[k]: b * sig.n + ends[k + 1], b * n_logs + k] = sign * sig.Z[ends[k]:ends[k + 1]]
+        sign = 1.0 if float(reg.Phi[b * sig.n:(b + 1) * sig.n, j] @ sig.S) >= 0.0 else -1.0
+        for k, f in enumerate(sig.files):  # the file's rows of the stacked signals (as the noise covariance reads them)
+            rows = slice(f["start"], f["start"] + f["n_full"] - 2 * f["kk"])
+            N[b * sig.n + rows.start: b * sig.n + rows.stop, b * n_logs + k] = sign * sig.Z[rows]
     return _ZeroColumns(N=N, Phi=reg.Phi.copy(), phi=reg.phi.copy(), p1=j, n_logs=n_logs)
 
 
@@ -781,7 +778,10 @@ def _hold_unidentified(plan: _IdentPlan, opts: IdentifyOptions, solved: _Solved)
     """Hold the friction coefficients the logs do not identify at their prior, one at a time, and solve again.
 
     Each round holds the least identified holdable column (:func:`_unidentified`) and re-solves (13) without it,
-    until every holdable column left is positive with a 95 % interval clear of 0 (an estimate that is there).
+    until every holdable column left is positive and determined (its 95 % interval less than a hundred times its
+    value, :func:`~iwp.sim.uncertainty.undetermined`). A column whose interval merely reaches 0 keeps its estimate
+    and its interval (with the warning that the data do not determine it): holding a prior for it biased its
+    correlated partner out of its own interval (tests/test_identify.py).
     A warning names each column held, its unconstrained estimate and the experiment that would identify it.
     """
     notes = []
