@@ -242,11 +242,11 @@ def test_belt_fit_recovers_a_known_belt_from_the_disk_velocity():
     start = BeltParameters.from_rigid(2.3, 7.0, k_over_I2=80.0, d=1.0, N=13.5, b2_over_I2=1.0)
     res = refine_belt(logs, Plant(lumped, model="belt", belt=start), warn=False)
     assert res.success and res.belt is not None
-    # recovered within the bias left by the encoder's quantisation and the differentiated q4; b2/I2 and
-    # kT beta/(R gamma) are 0.99 correlated (the velocity determines their combination best), hence 8 %
-    for name, rel in (("k_over_I2", 0.05), ("d", 0.05), ("b2_over_I2", 0.08), ("k_over_gamma", 0.02),
-                      ("kTbeta_over_Rgamma", 0.03)):
-        assert getattr(res.belt, name) == pytest.approx(getattr(true, name), rel=rel), name
+    # each log's initial wheel speed estimated (a log driven from rest is measured ~1 rad/s off by a one-sided
+    # fit) and the model's wheel speed differentiated as the log's is: every parameter within 0.4 % on these
+    # quantised logs (1-5 %, b2/I2 8 %, with either alone)
+    for name in ("k_over_I2", "d", "b2_over_I2", "k_over_gamma", "kTbeta_over_Rgamma"):
+        assert getattr(res.belt, name) == pytest.approx(getattr(true, name), rel=0.01), name
     assert all(f["q4"] > 99.0 for f in res.fit)
     assert res.cost < 1e-3 * res.cost_start
 

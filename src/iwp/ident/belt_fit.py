@@ -121,9 +121,9 @@ def refine_belt(
     >>> res = refine_belt(logs, Plant(p, model="belt", belt=belt), free=["k_over_I2", "d", "kTbeta_over_Rgamma"],
     ...                   windows=(1.0, None), warn=False)
     >>> [round(f["q4"]) for f in res.fit_start], [round(f["q4"]) for f in res.fit]  # fit of q4 [%]
-    ([79, 59], [94, 84])
+    ([79, 60], [94, 85])
     >>> round(res.belt.k_over_I2), round(res.belt.kTbeta_over_Rgamma, 1)
-    (94, 32.8)
+    (94, 32.6)
     """
     if not isinstance(start, Plant) or start.model != "belt":
         raise InputError("the belt model (15) is fitted from Plant(lumped, model='belt', belt=BeltParameters(...))")
@@ -140,7 +140,7 @@ def refine_belt(
             raise InputError(f"bounds[{n!r}] must be a pair (low, high), got {b!r}") from None
         if not 0 < a < c or not math.isfinite(c):
             raise InputError(f"bounds[{n!r}] = ({a}, {c}): need 0 < low < high")
-    exps = as_experiments(experiments, windows=windows, estimate_x0=False, kind="clamped")
+    exps = as_experiments(experiments, windows=windows, estimate_x0=True, kind="clamped")
     _check_logs(exps)
     model = OutputError(start, exps, ("q4",), rtol=options.rtol, atol=options.atol,
                         differences=belt_difference_step(options.rtol))

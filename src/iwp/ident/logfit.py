@@ -74,7 +74,8 @@ from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
 from .identification import HOLDABLE
 from .metrics import JUDGED, fit_percent, judged_fits, poor_fits
-from .output_error import EXPERIMENT_KINDS, Experiment, OutputError, measured_initial_state, measured_state_covariance
+from .output_error import (EXPERIMENT_KINDS, Experiment, OutputError, band_as_measured, measured_initial_state,
+                           measured_state_covariance)
 from .problem import Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, refine
 from .regressors import columns, q3_row, row_sum
@@ -1474,11 +1475,13 @@ def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset:
     model = OutputError(plant, [Experiment(dc, x0=x0, estimate_x0=False)], outputs, fitting=False)
     ev = model.evaluate(model.parameters().values())
     p = model.prepared[0]
-    fit = _log_fit(d, "validate", _Replayed(p.t, dict(p.y), model.predictions(ev)[0], dict(p.w),
-                                            model.states(ev.values)[0]), offset)
+    simulated = model.predictions(ev)[0]
+    fit = _log_fit(d, "validate", _Replayed(p.t, dict(p.y), simulated, dict(p.w), model.states(ev.values)[0]),
+                   offset)
     if uncertainty is not None and not p.mean:
-        band = prediction_band(plant, uncertainty, input=p.input, x0=x0, t_eval=p.t, signals=outputs,
-                               x0_covariance=measured_state_covariance(dc, 0))
+        band = band_as_measured(prediction_band(plant, uncertainty, input=p.input, x0=x0, t_eval=p.t,
+                                                signals=outputs, x0_covariance=measured_state_covariance(dc, 0)),
+                                p.derived, simulated)
         fit.coverage = band.coverage(p.y, {o: p.w[o] > 0 for o in outputs})
     if ev.status[0] != 0 or not all(math.isfinite(x) for x in fit.fit.values()):
         msgs.append(f"{d.source}: the validation simulation failed or diverged")

@@ -44,6 +44,7 @@ from .metrics import fit_percent
 from .output_error import (
     Experiment,
     OutputError,
+    band_as_measured,
     measured_initial_state,
     measured_signals,
     measured_state_covariance,
@@ -666,7 +667,7 @@ def _simulate_segments(plan: _ValidationPlan, uncertainty: ParameterUncertainty 
     used = {s: w if w.any() else np.ones_like(w) for s, w in weighed.items()}
     band = coverage = None
     if uncertainty is not None:
-        band = _band(model_, x0s, plan.x0_cov, uncertainty, signals)
+        band = _band(model_, x0s, plan.x0_cov, uncertainty, signals, pred)
         coverage = band.coverage(measured, weighed)
     return _ValidationRun(measured=measured, simulated=simulated, x0s=x0s, weighed=weighed, used=used,
                           status=list(ev.status), band=band, coverage=coverage)
@@ -722,11 +723,12 @@ def _moving(plant: Plant, C: np.ndarray) -> np.ndarray:
 
 
 def _band(model: OutputError, x0s: list[np.ndarray], x0_cov: list[np.ndarray], uncertainty: ParameterUncertainty,
-          signals: tuple[str, ...]) -> PredictionBand:
-    """The linearised bands of every segment of a validation (the initial state's uncertainty in), joined."""
-    parts = [prediction_band(p.plant, uncertainty, input=p.input, x0=x0, t_eval=p.t, signals=signals,
-                             x0_covariance=_moving(p.plant, c))
-             for p, x0, c in zip(model.prepared, x0s, x0_cov)]
+          signals: tuple[str, ...], simulated: list[dict[str, np.ndarray]]) -> PredictionBand:
+    """The linearised bands of every segment of a validation (the initial state's uncertainty in), about the
+    model's outputs as each segment measures them (``simulated``), joined."""
+    parts = [band_as_measured(prediction_band(p.plant, uncertainty, input=p.input, x0=x0, t_eval=p.t,
+                                              signals=signals, x0_covariance=_moving(p.plant, c)), p.derived, q)
+             for p, x0, c, q in zip(model.prepared, x0s, x0_cov, simulated)]
 
     def join(attr):
         return {s: np.concatenate([getattr(b, attr)[s] for b in parts]) for s in signals}
