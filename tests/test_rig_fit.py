@@ -482,6 +482,7 @@ def test_iwp_validate_of_a_held_out_log_gives_the_fits_own_numbers(tmp_path, cap
     got = json.loads(capsys.readouterr().out)["fit"]  # q1 and, the log holding only the wheel's speed, q4
     assert got["q1"] == pytest.approx(expected["q1"], abs=1e-6) and got["q4"] == pytest.approx(expected["q4"], abs=1e-6)
     assert expected["q1"] > 95.0
+    assert stored["q1_offset_logs"] == 2 and stored["q1_offset_spread"] > 0
     assert main(["validate", str(converted), "--params", str(out / "parameters.json"), "--signals", "q1,q2"]) == 2
     err = capsys.readouterr().err
     assert "has no wheel angle q2" in err and "compare q4 instead: --signals=q1,q4" in err
@@ -491,6 +492,41 @@ def test_iwp_validate_of_a_held_out_log_gives_the_fits_own_numbers(tmp_path, cap
     assert compared["model"] == "compensated" and set(compared["fit"]) == {"q1", "q4"}
     assert compared["fit"]["q1"] == pytest.approx(expected["q1"], abs=1e-6)
     assert compared["fit"]["q4"] == pytest.approx(expected["q4"], abs=1e-6)
+
+
+def test_iwp_validate_band_carries_the_held_out_zero_as_iwp_fit_does(tmp_path, capsys):
+    """Three training logs zeroed each its own way: iwp fit's held-out band and iwp validate's on the converted
+    log hold the same share of samples, both carrying the spread of a run's zero about the training mean."""
+    doc = {**BASE, "wheel": {"column": "phi", "quantity": "angle", "unit": "counts", "counts_per_rev": 1200}}
+    rig = RigDescription.from_dict(doc, where="rig.json")
+    rig_path = tmp_path / "rig.json"
+    rig_path.write_text(json.dumps(doc))
+    files = []
+    for i, (q1_offset, inp) in enumerate(((0.020, Chirp(0.3, 2.0, 15.0)), (0.030, Chirp(0.21, 3.0, 20.0)),
+                                          (0.015, Chirp(0.25, 2.5, 18.0)))):
+        vr = DescribedRig(rig, TRUTH, q1_offset=q1_offset)
+        files.append(write_rig_csv(vr.run(inp, duration=20.0), tmp_path / f"chirp{i}.csv"))
+    n = int(round(20.0 / rig.sample_period)) + 1
+    held = write_rig_csv(DescribedRig(rig, TRUTH, q1_offset=0.032).run(prbs(n, hold=15, amplitude=0.18, seed=3),
+                                                                       duration=20.0), tmp_path / "prbs.csv")
+    out = tmp_path / "out"
+    assert main(["fit", *map(str, files), "--rig", str(rig_path), "--validate", str(held), "--out", str(out),
+                 "--model", "9"]) == 0
+    stored = json.loads((out / "parameters.json").read_text())
+    # the three zeros, estimated: their mean and sample variance (5.8e-5 rad^2, far above a count's 1.9e-7)
+    zeros = [0.020, 0.030, 0.015]
+    assert stored["q1_offset"] == pytest.approx(np.mean(zeros), abs=2e-4) and stored["q1_offset_logs"] == 3
+    assert stored["q1_offset_spread"] == pytest.approx(np.var(zeros, ddof=1), rel=0.05)
+    coverage = json.loads((out / "fit.json").read_text())["validation"][0]["band_coverage"]
+    converted = tmp_path / "held.csv"
+    assert main(["convert", str(held), "--rig", str(rig_path), "--out", str(converted)]) == 0
+    capsys.readouterr()
+    assert main(["validate", str(converted), "--params", str(out / "parameters.json"), "--band", "--json"]) == 0
+    banded = json.loads(capsys.readouterr().out)["band"]["coverage"]
+    # the held-out log was zeroed 10 mrad from the training mean: a band without that spread held 60 % of its q1
+    assert {"q1", "q4"} <= set(coverage) and coverage["q1"] > 0.95
+    for s in ("q1", "q4"):
+        assert banded[s] == pytest.approx(coverage[s], abs=1e-9), s
 
 
 # --------------------------------------------------------------------------

@@ -29,6 +29,7 @@ from iwp.sim.uncertainty import (
     BandOptions,
     DrawTails,
     ParameterUncertainty,
+    StartUncertainty,
     load_uncertainty,
     prediction_band,
     uncertainty_record,
@@ -353,3 +354,58 @@ def test_the_slope_of_experiments_that_inform_it_unequally_is_covered_with_bell_
         inside_g1 += abs(beta[1] - 2.0) <= cov.critical * se
     assert inside_g1 / reps < 0.90
     assert 0.93 <= inside_bm / reps <= 0.97
+
+
+def test_an_unknown_zero_of_the_logged_angle_widens_the_band_by_one_minus_the_starts_sensitivity():
+    """A log's q1 is the model's plus a constant d: the start and every sample move by d together, so the band
+    spreads by |1 - dq1(t)/dq1(0)| sigma_d in q1 (0 at the start, about 2 sigma_d half a swing later) and
+    |dq4(t)/dq1(0)| sigma_d in q4; the sensitivities checked by central differences of whole simulations, and
+    the linear band against Monte Carlo draws of d."""
+    p = table1()
+    u = ParameterUncertainty(p, ("p1",), np.array([[1e-16]]))
+    t = np.arange(0.0, 6.0 + 1e-9, 0.01)
+    x0 = np.array([0.3, 0.0, 0.0, 0.0])
+    sd = 1e-3
+    lin = prediction_band(Plant(p), u, x0=x0, t_eval=t, start=StartUncertainty(zero_variance=sd * sd))
+    eps = 1e-6
+    tight = SimOptions(tolerances=Tolerances(rtol=1e-11, atol=1e-12))
+    hi = simulate(Plant(p), x0=x0 + [eps, 0, 0, 0], t_eval=t, t_end=t[-1], options=tight)
+    lo = simulate(Plant(p), x0=x0 - [eps, 0, 0, 0], t_eval=t, t_end=t[-1], options=tight)
+    z = stats.norm.ppf(0.975)
+    phi_q1 = (hi.q1 - lo.q1) / (2 * eps)
+    phi_q4 = (hi.q4 - lo.q4) / (2 * eps)
+    np.testing.assert_allclose(0.5 * (lin.upper["q1"] - lin.lower["q1"]), z * sd * np.abs(1 - phi_q1),
+                               rtol=1e-4, atol=1e-9)
+    np.testing.assert_allclose(0.5 * (lin.upper["q4"] - lin.lower["q4"]), z * sd * np.abs(phi_q4),
+                               rtol=1e-4, atol=1e-8)
+    assert lin.upper["q1"][0] - lin.lower["q1"][0] < 1e-8
+    period = 2 * np.pi / np.sqrt(p.p1)
+    k = int(round(0.5 * period / 0.01))
+    assert 0.5 * (lin.upper["q1"][k] - lin.lower["q1"][k]) == pytest.approx(2 * z * sd, rel=0.05)
+    mc = prediction_band(Plant(p), u, x0=x0, t_eval=t, start=StartUncertainty(zero_variance=sd * sd),
+                         options=BandOptions(method="monte-carlo", draws=400, seed=3))
+    for s in ("q1", "q4"):
+        wl, wm = lin.upper[s] - lin.lower[s], mc.upper[s] - mc.lower[s]
+        wide = wl > 0.5 * wl.max()
+        assert np.median(wm[wide] / wl[wide]) == pytest.approx(1.0, abs=0.1), s
+    with pytest.raises(InputError, match="zero_variance"):
+        StartUncertainty(zero_variance=-1.0)
+    with pytest.raises(InputError, match="4 x 4"):
+        StartUncertainty(np.eye(3))
+
+
+def test_a_held_out_logs_zero_varies_as_the_training_logs_zeros_do_and_at_least_within_a_count():
+    """The held-out zero is the training mean: its error is a run's own spread plus the mean's, at least the
+    uniform spread of a zero within one encoder count, step^2 / 12."""
+    from iwp.models import EncoderZero
+
+    floor = STEP ** 2 / 12.0
+    wide = EncoderZero.of([2e-3, -2e-3, 0.0])  # spread 4e-6 rad^2 > the count's 8.2e-7
+    assert wide.value == pytest.approx(0.0, abs=1e-15)
+    assert wide.variance(STEP) == pytest.approx(4e-6 * (1 + 1 / 3))
+    narrow = EncoderZero.of([3e-4, 5e-4])  # spread 2e-8 < the count's
+    assert narrow.value == pytest.approx(4e-4)
+    assert narrow.variance(STEP) == pytest.approx(floor * 1.5)
+    assert EncoderZero.of([1e-3]).variance(STEP) == pytest.approx(floor * 2)
+    given = EncoderZero.of([1e-3, 2e-3], given=True)  # the rig's offset is taken off every log already
+    assert given.value == 0.0 and given.variance(STEP) == pytest.approx(floor)

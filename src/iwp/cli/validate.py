@@ -84,7 +84,8 @@ def run(args) -> int:
         validate,
         validation_plant,
     )
-    from ..models.parameters import stored_belt, stored_model, stored_q1_offset, stored_reads_v_as_u
+    from ..ident.output_error import angle_quantum
+    from ..models.parameters import stored_belt, stored_model, stored_q1_zero, stored_reads_v_as_u
     from ..models.plant import MODELS
     from ..plotting import savefig
     from ..sim.uncertainty import load_uncertainty
@@ -113,13 +114,17 @@ def run(args) -> int:
         if args.band:
             raise InputError("--band: the prediction bands are for lumped parameters; a belt model has none")
         params = validation_plant(params, data, model, belt=stored_belt(args.params), source=f"--params {args.params}")
-    offset = held_out_q1_offset(data, stored_q1_offset(args.params))
+    zero = stored_q1_zero(args.params)
+    offset = held_out_q1_offset(data, zero.value)
+    # the log's own zero about the fit's mean, as iwp fit's held-out bands carry it
+    zero_variance = zero.variance(angle_quantum(data.q1)) if offset else None
     controller = controller_of(args)
     # default: q1 and the wheel's own signal, and its speed where that is its angle (q1 and q4 are judged)
     shown = signals if signals is not None else (("q1", "q2", "q4") if data.q2 is not None else None)
     v = validate(data, params, model=model, controller=controller, signals=shown,
                  options=ValidationOptions(window=(args.t_start, args.t_end), restart_times=args.restart or (),
-                                           estimate_x0=args.estimate_x0, q1_offset=offset))
+                                           estimate_x0=args.estimate_x0, q1_offset=offset,
+                                           q1_zero_variance=zero_variance))
     if args.plot is not None:
         fig = v.plot()["figure"]
         write_all([(args.plot, lambda tmp: savefig(fig, tmp))])

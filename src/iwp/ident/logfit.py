@@ -56,6 +56,7 @@ from ..data.rig_description import ControllerSpec, RigDescription, load_rig
 from ..data.rig_log import read_rig_log
 from ..errors import InputError
 from ..files import json_float
+from ..models.encoder import EncoderZero
 from ..models.parameters import PARAMETER_INFO, TYPICAL, BeltParameters, LumpedParameters, table1
 from ..models.plant import Plant
 from ..models.terms import (
@@ -69,13 +70,13 @@ from ..models.terms import (
     term,
 )
 from ..sim.inputs import HopfController, Input
-from ..sim.uncertainty import ParameterUncertainty, prediction_band, undetermined
+from ..sim.uncertainty import ParameterUncertainty, StartUncertainty, prediction_band, undetermined
 from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
 from .identification import HOLDABLE
 from .metrics import JUDGED, fit_percent, judged_fits, poor_fits
-from .output_error import (EXPERIMENT_KINDS, Experiment, OutputError, band_as_measured, measured_initial_state,
-                           measured_state_covariance)
+from .output_error import (EXPERIMENT_KINDS, Experiment, OutputError, angle_quantum, band_as_measured,
+                           measured_initial_state, measured_state_covariance)
 from .problem import Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, refine
 from .regressors import columns, q3_row, row_sum
@@ -169,10 +170,11 @@ class LogFitResult:
         Wall time [s].
     structures : LadderResult or None
         The ladder of structures fitted and ranked (``select``), or None.
-    held_out_offset : float
-        The pendulum zero offset [rad] taken off a held-out log's ``q1``: the
-        training logs' mean offset when the offset is estimated per log, 0
-        when the rig description gives it (its logs are corrected when read).
+    held_out_zero : EncoderZero
+        The pendulum zero taken off a held-out log's ``q1``: the training
+        logs' mean offset when the offset is estimated per log, 0 when the rig
+        description gives it (its logs are corrected when read), with the
+        spread of a run's own zero about it, which the held-out bands carry.
 
     Notes
     -----
@@ -195,7 +197,12 @@ class LogFitResult:
     rig: RigDescription | None = None
     elapsed: float = 0.0
     structures: LadderResult | None = None
-    held_out_offset: float = 0.0
+    held_out_zero: EncoderZero = field(default_factory=EncoderZero)
+
+    @property
+    def held_out_offset(self) -> float:
+        """The pendulum zero offset [rad] taken off a held-out log's ``q1`` (:attr:`held_out_zero`'s value)."""
+        return self.held_out_zero.value
 
     @property
     def belt(self) -> BeltParameters | None:
@@ -250,6 +257,7 @@ class LogFitResult:
             "outputs": list(self.outputs),
             "options": dict(self.options),
             "held_out_q1_offset": json_float(self.held_out_offset),
+            "held_out_q1_offset_spread": json_float(self.held_out_zero.spread),
             "rig": None if self.rig is None else self.rig.to_dict(),
             "parameters": {k: v.to_dict() for k, v in r.parameters.items()},
             "free": list(r.free),
@@ -1026,7 +1034,8 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
     for j, o in enumerate(plan.others, start=len(train_logs)):
         train_fits.append(_log_fit(o.data, "train", _Replayed.of(r, j), r.offsets[j].get("q1", (0.0, 0.0))[0],
                                    kind=o.kind))
-    val_off = 0.0 if plan.offset_given else float(np.mean(offs))
+    zero = EncoderZero.of(offs, plan.offset_given)
+    val_off = zero.value
     if val_logs and not plan.offset_given:
         msgs.append(f"held-out logs: the pendulum zero offset is taken as the training logs' mean, "
                     f"{val_off:+.4g} rad (offsets of the training logs: "
@@ -1039,7 +1048,7 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
     elif val_logs and uncertainty is None:
         msgs.append("held-out logs: no prediction band, for the fit did not determine every free parameter")
     plant = _Fitting(plan).plant(options, r.params, r.belt)
-    val_fits = [_held_out(d, plant, predicted_signals(d), val_off, msgs, uncertainty) for d in val_logs]
+    val_fits = [_held_out(d, plant, predicted_signals(d), zero, msgs, uncertainty) for d in val_logs]
     params = r.params
     if r.belt is not None:  # p2 and p3 do not enter the belt model: its rigid limit stands for them
         params = params.replace(p2=r.belt.rigid_p2rho / params.rho, p3=r.belt.rigid_p3rho / params.rho)
@@ -1055,7 +1064,7 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
                         least_squares=plan.start.details, model=model, outputs=plan.outputs,
                         options=options.to_dict(plan.offset_given), train=train_fits, validation=val_fits,
                         warnings=_unique(msgs), rig=plan.rig, elapsed=elapsed, structures=fitted.structures,
-                        held_out_offset=val_off)
+                        held_out_zero=zero)
 
 
 #: the kinds of log that join ``iwp fit``'s training besides the free ones (``--clamped``, ``--wheel-locked``,
@@ -1344,9 +1353,9 @@ class _Fitting:
         """``logs`` simulated from their measured state with the fit ``r`` (the training logs' mean offset)."""
         model = options.model
         offs = [o.get("q1", (0.0, 0.0))[0] for o in r.offsets[:len(r.offsets) - len(self.others)]]
-        off = 0.0 if self.offset_given else float(np.mean(offs))
+        zero = EncoderZero.of(offs, self.offset_given)
         plant = self.plant(options, r.params, r.belt)
-        return thread_map(lambda d: _held_out(model_input(d, model, "validate"), plant, JUDGED, off, [],
+        return thread_map(lambda d: _held_out(model_input(d, model, "validate"), plant, JUDGED, zero, [],
                                               None), logs)
 
     def ladder(self, start: LumpedParameters) -> LadderResult:
@@ -1466,10 +1475,12 @@ def lowest_cost(fits: Sequence[RefineResult]) -> RefineResult:
     return min(fits, key=lambda f: f.cost if math.isfinite(f.cost) else math.inf)
 
 
-def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset: float, msgs: list[str],
+def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], zero: EncoderZero, msgs: list[str],
               uncertainty: ParameterUncertainty | None) -> LogFit:
-    """A held-out log simulated from its measured initial state (its angle less ``offset``), not fitted; with the
-    fit's uncertainty, the share of its samples inside the 95 % prediction band (the initial state's in it)."""
+    """A held-out log simulated from its measured initial state (its angle less ``zero``'s value), not fitted;
+    with the fit's uncertainty, the share of its samples inside the 95 % prediction band (the initial state's
+    uncertainty and its own zero's in it)."""
+    offset = zero.value
     dc = replace(d, q1=d.q1 - offset) if offset else d
     x0 = measured_initial_state(dc)
     model = OutputError(plant, [Experiment(dc, x0=x0, estimate_x0=False)], outputs, fitting=False)
@@ -1479,8 +1490,11 @@ def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], offset:
     fit = _log_fit(d, "validate", _Replayed(p.t, dict(p.y), simulated, dict(p.w), model.states(ev.values)[0]),
                    offset)
     if uncertainty is not None and not p.mean:
+        moving = not plant.pendulum_locked and "q1" in outputs
         band = band_as_measured(prediction_band(plant, uncertainty, input=p.input, x0=x0, t_eval=p.t,
-                                                signals=outputs, x0_covariance=measured_state_covariance(dc, 0)),
+                                                signals=outputs, start=StartUncertainty(
+                                                    measured_state_covariance(dc, 0),
+                                                    zero.variance(angle_quantum(dc.q1)) if moving else 0.0)),
                                 p.derived, simulated)
         fit.coverage = band.coverage(p.y, {o: p.w[o] > 0 for o in outputs})
     if ev.status[0] != 0 or not all(math.isfinite(x) for x in fit.fit.values()):

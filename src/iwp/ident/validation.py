@@ -39,11 +39,12 @@ from ..files import json_float
 from ..models.parameters import BeltParameters, LumpedParameters, PhysicalParameters
 from ..models.plant import MODELS, Plant
 from ..sim.inputs import Input
-from ..sim.uncertainty import ParameterUncertainty, PredictionBand, prediction_band
+from ..sim.uncertainty import ParameterUncertainty, PredictionBand, StartUncertainty, prediction_band
 from .metrics import fit_percent
 from .output_error import (
     Experiment,
     OutputError,
+    angle_quantum,
     band_as_measured,
     measured_initial_state,
     measured_signals,
@@ -493,22 +494,32 @@ class ValidationOptions:
     q1_offset : float
         A pendulum zero offset [rad] taken off the log's ``q1`` first (the
         one ``iwp fit`` took off its held-out logs: :func:`held_out_q1_offset`).
+    q1_zero_variance : float, optional
+        How far the log's own zero may lie from ``q1_offset`` [rad^2], which
+        the prediction band carries when the start is measured
+        (:meth:`iwp.models.EncoderZero.variance`); default one encoder count's
+        ``step^2 / 12``.
 
     Raises
     ------
     InputError
-        ``q1_offset`` not a finite number.
+        ``q1_offset`` not a finite number, ``q1_zero_variance`` not finite and >= 0.
     """
 
     window: tuple[float | None, float | None] = (None, None)
     restart_times: Sequence[float] = ()
     estimate_x0: bool = False
     q1_offset: float = 0.0
+    q1_zero_variance: float | None = None
 
     def __post_init__(self) -> None:
         q = self.q1_offset
         if isinstance(q, bool) or not isinstance(q, (int, float)) or not math.isfinite(q):
             raise InputError(f"q1_offset must be a finite number of radians, got {q!r}")
+        v = self.q1_zero_variance
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)
+                              or v < 0):
+            raise InputError(f"q1_zero_variance must be a finite number >= 0 [rad^2], got {v!r}")
 
 
 def validate(
@@ -598,6 +609,7 @@ class _ValidationPlan:
     x0_cov: list[np.ndarray]
     estimate_x0: bool
     closed_loop: bool
+    zero_variance: float  # of the logged angle's zero [rad^2], 0 with an estimated start
 
 
 @dataclass(frozen=True, eq=False)
@@ -648,8 +660,15 @@ def _plan_validation(experiment: ExperimentData, plant: Plant, signals: tuple[st
     if opts.estimate_x0:
         x0, x0_cov[0] = _estimated_x0(replace(exps[0], estimate_x0=True), plant, signals)
         exps[0] = replace(exps[0], x0=x0[:4])
+    # a measured start: the log's zero (known to within an encoder count, or as the fit's logs spread) moves it
+    # and every sample alike
+    step = angle_quantum(experiment.q1)
+    zero = step * step / 12.0 if opts.q1_zero_variance is None else float(opts.q1_zero_variance)
+    if opts.estimate_x0 or plant.pendulum_locked:
+        zero = 0.0
     return _ValidationPlan(plant=plant, signals=signals, t=t, starts=starts, experiments=exps, x0_cov=x0_cov,
-                           estimate_x0=bool(opts.estimate_x0), closed_loop=controller is not None)
+                           estimate_x0=bool(opts.estimate_x0), closed_loop=controller is not None,
+                           zero_variance=zero)
 
 
 def _simulate_segments(plan: _ValidationPlan, uncertainty: ParameterUncertainty | None) -> _ValidationRun:
@@ -667,7 +686,7 @@ def _simulate_segments(plan: _ValidationPlan, uncertainty: ParameterUncertainty 
     used = {s: w if w.any() else np.ones_like(w) for s, w in weighed.items()}
     band = coverage = None
     if uncertainty is not None:
-        band = _band(model_, x0s, plan.x0_cov, uncertainty, signals, pred)
+        band = _band(model_, x0s, plan.x0_cov, uncertainty, signals, pred, plan.zero_variance)
         coverage = band.coverage(measured, weighed)
     return _ValidationRun(measured=measured, simulated=simulated, x0s=x0s, weighed=weighed, used=used,
                           status=list(ev.status), band=band, coverage=coverage)
@@ -723,11 +742,13 @@ def _moving(plant: Plant, C: np.ndarray) -> np.ndarray:
 
 
 def _band(model: OutputError, x0s: list[np.ndarray], x0_cov: list[np.ndarray], uncertainty: ParameterUncertainty,
-          signals: tuple[str, ...], simulated: list[dict[str, np.ndarray]]) -> PredictionBand:
-    """The linearised bands of every segment of a validation (the initial state's uncertainty in), about the
-    model's outputs as each segment measures them (``simulated``), joined."""
+          signals: tuple[str, ...], simulated: list[dict[str, np.ndarray]], zero: float) -> PredictionBand:
+    """The linearised bands of every segment of a validation (the initial state's uncertainty and the variance
+    ``zero`` of the angle's zero in), about the model's outputs as each segment measures them (``simulated``),
+    joined."""
     parts = [band_as_measured(prediction_band(p.plant, uncertainty, input=p.input, x0=x0, t_eval=p.t,
-                                              signals=signals, x0_covariance=_moving(p.plant, c)), p.derived, q)
+                                              signals=signals, start=StartUncertainty(_moving(p.plant, c), zero)),
+                              p.derived, q)
              for p, x0, c, q in zip(model.prepared, x0s, x0_cov, simulated)]
 
     def join(attr):

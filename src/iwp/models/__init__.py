@@ -10,7 +10,7 @@ module                    what
 :mod:`.friction`          friction of the pendulum joint (3.1), Coulomb term of the disk (3.2)
 :mod:`.actuator`          dead zone (5), break-away, feedforward (7)-(8), saturation
 :mod:`.laws`              the Hopf feedback law of section 5.3
-:mod:`.encoder`           encoder quantisation (section 5)
+:mod:`.encoder`           encoder quantisation (section 5) and a log's zero
 :mod:`.plant`             :class:`Plant`: model, parameters and options, packed for the compiled code
 :mod:`.analysis`          energy (2), linearisation of (9)
 :mod:`.terms`             the optional terms (Coulomb, widths, offset, dead zone, belt, Stribeck), one object each
@@ -34,7 +34,7 @@ _EXPORTS: dict[str, str] = {
     "PhysicalParameters": "iwp.models.parameters", "Plant": "iwp.models.plant", "SINCOS_MAX": "iwp.models.mathfn",
     "StartupFriction": "iwp.models.actuator", "TERMS": "iwp.models.terms", "Term": "iwp.models.terms",
     "dead_zone": "iwp.models.actuator", "dead_zone_output": "iwp.models.actuator",
-    "encoder_step": "iwp.models.encoder", "energy": "iwp.models.analysis", "feedforward": "iwp.models.actuator",
+    "EncoderZero": "iwp.models.encoder", "encoder_step": "iwp.models.encoder", "energy": "iwp.models.analysis", "feedforward": "iwp.models.actuator",
     "linearize": "iwp.models.analysis", "load_params": "iwp.models.parameters", "model_info": "iwp.models.plant",
     "named_params": "iwp.models.parameters", "paper_belt": "iwp.models.parameters",
     "pendulum_energy": "iwp.models.analysis", "quantize": "iwp.models.encoder", "save_params": "iwp.models.parameters",

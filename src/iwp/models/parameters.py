@@ -33,6 +33,7 @@ from typing import Any
 
 from ..errors import InputError
 from ..files import prepare_output_file, read_json
+from .encoder import EncoderZero
 from .belt_parameters import BELT_INFO, BeltParameters
 from .parameter_info import ParameterInfo, check_fields, info_table, names_with_sign
 from .terms import term_parameters
@@ -530,6 +531,36 @@ def stored_model(path_or_name: str | Path) -> str | None:
     if m is None and isinstance(ref, dict):  # written by iwp identify --refine --out
         m = ref.get("model")
     return m if isinstance(m, str) else None
+
+
+def stored_q1_zero(path_or_name: str | Path) -> EncoderZero:
+    """The pendulum zero a parameter file of ``iwp fit`` holds for held-out logs: its ``"q1_offset"``
+    (:func:`stored_q1_offset`) with the training offsets' ``"q1_offset_spread"`` [rad^2] and ``"q1_offset_logs"``
+    (absent: 0, a held-out zero then known to within its encoder's count).
+
+    Parameters
+    ----------
+    path_or_name : str or path-like
+        Path of a parameter file (JSON), or the name of a built-in set (which gives ``EncoderZero()``).
+
+    Returns
+    -------
+    EncoderZero
+
+    Raises
+    ------
+    InputError
+        An entry of the wrong type or sign (naming the file and the field).
+    """
+    value = stored_q1_offset(path_or_name)
+    doc = _parameter_file(path_or_name) or {}
+    spread, n = doc.get("q1_offset_spread", 0.0), doc.get("q1_offset_logs", 0)
+    if isinstance(spread, bool) or not isinstance(spread, (int, float)) or not (math.isfinite(spread)
+                                                                                and spread >= 0):
+        raise InputError(f"{path_or_name}: 'q1_offset_spread' must be a finite number >= 0 [rad^2], got {spread!r}")
+    if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+        raise InputError(f"{path_or_name}: 'q1_offset_logs' must be a whole number >= 0, got {n!r}")
+    return EncoderZero(value, float(spread), n)
 
 
 def stored_q1_offset(path_or_name: str | Path) -> float:

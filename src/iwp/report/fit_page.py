@@ -217,8 +217,9 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         save_params(result.params, tmp / "parameters.json", force=True,
                     extra={"model": result.model, "source": "iwp fit",
                            **({"belt": result.belt.to_dict()} if result.belt is not None else {}),
-                           # what iwp validate takes off a log whose offset is to be estimated, as fit did
-                           **({"q1_offset": result.held_out_offset} if result.held_out_offset else {}),
+                           # what iwp validate takes off a log whose offset is to be estimated, as fit did, and
+                           # how far a run's own zero strays from it (its bands)
+                           **(result.held_out_zero.to_dict() if result.held_out_offset else {}),
                            **({"reads_v_as_u": True} if result.model in READS_V_AS_U else {}),
                            "stderr": {n: r.parameters[n].stderr for n in r.free},
                            "covariance": uncertainty_record(r)})

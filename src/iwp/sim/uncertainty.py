@@ -42,9 +42,9 @@ from .options import BatchOptions, SimOptions, Tolerances
 from .sensitivity import simulate_sensitivities
 from .simulate import output_times, simulate_batch
 
-__all__ = ["BandOptions", "ParameterUncertainty", "PredictionBand", "identified_names", "undetermined",
-           "prediction_band", "uncertainty_record", "load_uncertainty", "DrawTails", "BAND_METHODS", "BAND_CHUNK",
-           "BAND_QUANTILES", "SIGNAL_INDEX"]
+__all__ = ["BandOptions", "ParameterUncertainty", "PredictionBand", "StartUncertainty", "identified_names",
+           "undetermined", "prediction_band", "uncertainty_record", "load_uncertainty", "DrawTails", "BAND_METHODS",
+           "BAND_CHUNK", "BAND_QUANTILES", "SIGNAL_INDEX"]
 
 #: How a band is computed: linearised with the sensitivities, or by Monte Carlo draws.
 BAND_METHODS = ("linear", "monte-carlo")
@@ -585,6 +585,48 @@ class BandOptions:
             raise InputError(f"seed must be a non-negative integer, got {self.seed!r}", argument="seed")
 
 
+@dataclass(frozen=True, eq=False)
+class StartUncertainty:
+    """What is uncertain about where a simulated log starts: its measured state, and its angle's zero.
+
+    Parameters
+    ----------
+    covariance : array_like, shape (4, 4), optional
+        The covariance of the measured initial state ``[q1, q2, q3, q4]``
+        (:func:`iwp.ident.output_error.measured_state_covariance`) [rad, rad/s squared]; None: exact.
+    zero_variance : float
+        The variance of the zero of the logged pendulum angle [rad^2]: the
+        log's ``q1`` is the model's plus an unknown constant ``d`` (where the
+        run zeroed its encoder, known to within a count:
+        :class:`iwp.models.EncoderZero`), which moves the measured initial
+        angle and every sample alike. A band about a simulation started from
+        ``x0 = q1(0) + d`` then spreads by ``(1 - dq1(t)/dq1(0)) d`` in ``q1``
+        and ``dq(t)/dq1(0) d`` in the other signals (a hanging pendulum's
+        misplaced start swings about the true rest, while the log sits ``d``
+        off it). Default 0 (a known zero).
+
+    Raises
+    ------
+    InputError
+        ``covariance`` not a finite 4 x 4 matrix, ``zero_variance`` not finite and >= 0.
+    """
+
+    covariance: np.ndarray | None = None
+    zero_variance: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.covariance is not None:
+            C0 = np.asarray(self.covariance, dtype=float)
+            if C0.ndim != 2 or C0.shape[0] < 4 or C0.shape[1] < 4 or not np.all(np.isfinite(C0[:4, :4])):
+                raise InputError("start.covariance must be a finite 4 x 4 matrix", argument="covariance")
+            object.__setattr__(self, "covariance", C0[:4, :4].copy())
+        v = self.zero_variance
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v >= 0.0):
+            raise InputError(f"zero_variance must be a finite number >= 0 [rad^2], got {v!r}",
+                             argument="zero_variance")
+        object.__setattr__(self, "zero_variance", float(v))
+
+
 def prediction_band(
     plant: Plant,
     uncertainty: ParameterUncertainty,
@@ -593,7 +635,7 @@ def prediction_band(
     x0=None,
     t_eval=None,
     signals: Sequence[str] = ("q1", "q4"),
-    x0_covariance=None,
+    start: StartUncertainty | None = None,
     options: BandOptions | None = None,
 ) -> PredictionBand:
     """The 95 % parameter and prediction bands of a simulation of ``plant`` with the fit's ``uncertainty``.
@@ -612,10 +654,10 @@ def prediction_band(
         Output times [s] (starting at the initial time).
     signals : sequence of str
         Among ``q1, q2, q3, q4``.
-    x0_covariance : array_like, shape (4, 4), optional
-        The uncertainty of the initial state (a measured one,
-        :func:`iwp.ident.output_error.measured_state_covariance`), carried
-        into the parameter band as well [rad, rad/s squared].
+    start : StartUncertainty, optional
+        The uncertainty of a measured initial state and of the logged
+        angle's zero, carried into the parameter band as well (default none:
+        a known start).
     options : BandOptions, optional
         How the band is computed: linearised (default) or by Monte Carlo, with its draws and seed.
 
@@ -645,10 +687,12 @@ def prediction_band(
                      float(np.asarray(t_eval, dtype=float).ravel()[-1]), 0.005, t_eval)
     base = plant.with_params(uncertainty.params)
     z = float(stats.norm.ppf(0.975))
-    C0 = None if x0_covariance is None else np.asarray(x0_covariance, dtype=float)[:4, :4]
-    if C0 is not None and (C0.shape != (4, 4) or not np.all(np.isfinite(C0))):
-        raise InputError("x0_covariance must be a finite 4 x 4 matrix")
-    run = _BandRun(base, uncertainty, input, x0, t, signals, C0)
+    if start is None:
+        start = StartUncertainty()
+    if not isinstance(start, StartUncertainty):
+        raise InputError(f"start must be an iwp.sim.uncertainty.StartUncertainty, got {type(start).__name__}",
+                         argument="start")
+    run = _BandRun(base, uncertainty, input, x0, t, signals, start.covariance, start.zero_variance)
     if options.method == "linear":
         nominal, lower, upper, half = _linear_band(run, z)
         n_draws = 0
@@ -674,24 +718,33 @@ class _BandRun(NamedTuple):
     t: np.ndarray  # output times [s]
     signals: tuple[str, ...]
     C0: np.ndarray | None  # covariance of the initial state, 4 x 4
+    zero_variance: float  # variance of the logged angle's zero [rad^2]
 
 
 def _linear_band(run: _BandRun, z: float) -> tuple[dict, dict, dict, dict]:
     """The nominal outputs, the linearised band's lower and upper edges and half-widths, per signal."""
     C0, t, signals = run.C0, run.t, run.signals
     states = () if C0 is None else tuple(i for i in range(4) if C0[i, i] > 0)
+    zero = run.zero_variance > 0.0
+    if zero and 0 not in states:
+        states = (0, *states)
     r = simulate_sensitivities(run.plant, t_eval=t, t0=float(t[0]), x0=run.x0, input=run.input,
                                wrt=run.uncertainty.free, wrt_x0=states)
-    C = run.uncertainty.covariance
-    if states:
-        k = len(run.uncertainty.free)
-        C = np.zeros((k + len(states), k + len(states)))
-        C[:k, :k] = run.uncertainty.covariance
-        C[k:, k:] = C0[np.ix_(states, states)]
+    k = len(run.uncertainty.free)
+    m = k + len(states) + (1 if zero else 0)
+    C = np.zeros((m, m))
+    C[:k, :k] = run.uncertainty.covariance
+    if C0 is not None and states:
+        C[k:k + len(states), k:k + len(states)] = C0[np.ix_(states, states)]
+    if zero:
+        C[-1, -1] = run.zero_variance
     nominal = {s: r.x[:, SIGNAL_INDEX[s]] for s in signals}
     half = {}
     for s in signals:
         S = r.S[:, SIGNAL_INDEX[s], :]
+        if zero:  # the zero d: the start moved by -d, the logged angle by +d
+            dz = -S[:, k + states.index(0)] + (1.0 if s == "q1" else 0.0)
+            S = np.concatenate([S, dz[:, None]], axis=1)
         half[s] = z * np.sqrt(np.clip(np.einsum("ij,jk,ik->i", S, C, S), 0.0, None))
     lower = {s: nominal[s] - half[s] for s in signals}
     upper = {s: nominal[s] + half[s] for s in signals}
@@ -705,9 +758,16 @@ def _monte_carlo_band(run: _BandRun, options: BandOptions) -> tuple[dict, dict, 
     draws, seed = options.draws, options.seed
     plants = [base.with_params(p) for p in run.uncertainty.draws(draws, seed)]
     x0s = x0
-    if C0 is not None:
+    moved = C0 is not None or run.zero_variance > 0.0
+    zeros = np.zeros(draws)
+    if moved:
         mean = np.zeros(base.n_states) if x0 is None else np.asarray(x0, dtype=float)
-        dx = np.random.default_rng(seed + 1).multivariate_normal(np.zeros(4), C0, size=draws, method="eigh")
+        rng = np.random.default_rng(seed + 1)
+        dx = (np.zeros((draws, 4)) if C0 is None
+              else rng.multivariate_normal(np.zeros(4), C0, size=draws, method="eigh"))
+        if run.zero_variance > 0.0:  # the zero d: the start moved by -d, the logged angle by +d
+            zeros = rng.normal(0.0, math.sqrt(run.zero_variance), draws)
+            dx[:, 0] -= zeros
         x0s = [np.concatenate([mean[:4] + d, mean[4:]]) for d in dx]
     tails = {s: DrawTails(draws, BAND_QUANTILES) for s in signals}
     n_ok = 0
@@ -715,7 +775,7 @@ def _monte_carlo_band(run: _BandRun, options: BandOptions) -> tuple[dict, dict, 
     # all cores otherwise), in chunks: memory for one chunk's samples, not all
     for a in range(0, draws, BAND_CHUNK):
         m = min(BAND_CHUNK, draws - a)
-        b = simulate_batch(plants[a:a + m], x0=x0s[a:a + m] if C0 is not None else x0, t0=float(t[0]),
+        b = simulate_batch(plants[a:a + m], x0=x0s[a:a + m] if moved else x0, t0=float(t[0]),
                            t_end=float(t[-1]), t_eval=t, input=run.input,
                            options=BatchOptions(tolerances=DRAW_TOLERANCES, inputs=False))
         good = np.flatnonzero(b.success)
@@ -724,7 +784,10 @@ def _monte_carlo_band(run: _BandRun, options: BandOptions) -> tuple[dict, dict, 
             continue
         for s in signals:
             Yt = b.x[:, :, SIGNAL_INDEX[s]].T  # (times, draws): a view, merged without a copy
-            tails[s].add_time_major(Yt if good.size == m else Yt[:, good])
+            Yt = Yt if good.size == m else Yt[:, good]
+            if s == "q1" and run.zero_variance > 0.0:
+                Yt = Yt + zeros[a:a + m][good]
+            tails[s].add_time_major(Yt)
     if n_ok < max(10, draws // 2):
         raise InputError(f"{draws - n_ok} of {draws} draws failed to simulate; the band is not defined")
     X = simulate_sensitivities(base, t_eval=t, t0=float(t[0]), x0=x0, input=run.input,
