@@ -409,3 +409,28 @@ def test_a_held_out_logs_zero_varies_as_the_training_logs_zeros_do_and_at_least_
     assert EncoderZero.of([1e-3]).variance(STEP) == pytest.approx(floor * 2)
     given = EncoderZero.of([1e-3, 2e-3], given=True)  # the rig's offset is taken off every log already
     assert given.value == 0.0 and given.variance(STEP) == pytest.approx(floor)
+
+
+def test_a_friction_held_at_its_prior_widens_the_band_by_its_spread_and_is_stored():
+    """A held prior is a guess: with_priors appends it with its spread, and the band of a free swing widens by
+    |dq1/dsigma_v1| times that spread (central differences of whole simulations); the stored record round-trips
+    and a robust design still holds it (its interval reaches 0: not identified)."""
+    p = table1()
+    u = ParameterUncertainty(p, ("p1",), np.array([[1e-16]])).with_priors({"sigma_v1": 0.01})
+    assert u.free == ("p1", "sigma_v1") and u.stderr["sigma_v1"] == pytest.approx(0.01)
+    assert u.notes[-1].startswith("held at a prior") and "sigma_v1 0.01 +- 0.01" in u.notes[-1]
+    assert u.identified() == ("p1",)
+    t = np.arange(0.0, 10.0 + 1e-9, 0.01)
+    x0 = [1.0, 0.0, 0.0, 0.0]
+    band = prediction_band(Plant(p), u, x0=x0, t_eval=t, signals=("q1",))
+    tight = SimOptions(tolerances=Tolerances(rtol=1e-11, atol=1e-12))
+    h = 1e-5
+    hi = simulate(Plant(p.replace(sigma_v1=p.sigma_v1 + h)), x0=x0, t_eval=t, t_end=t[-1], options=tight)
+    lo = simulate(Plant(p.replace(sigma_v1=p.sigma_v1 - h)), x0=x0, t_eval=t, t_end=t[-1], options=tight)
+    expected = stats.norm.ppf(0.975) * 0.01 * np.abs((hi.q1 - lo.q1) / (2 * h))
+    np.testing.assert_allclose(0.5 * (band.upper["q1"] - band.lower["q1"]), expected, rtol=1e-4, atol=1e-6)
+    assert expected.max() > 0.01  # a swing's decay over 10 s: the held damping matters
+    with pytest.raises(InputError, match="free in the fit already"):
+        u.with_priors({"p1": 1.0})
+    with pytest.raises(InputError, match="finite number > 0"):
+        ParameterUncertainty(p, ("p1",), np.array([[1e-4]])).with_priors({"sigma_a1": 0.0})

@@ -175,6 +175,9 @@ class LogFitResult:
         logs' mean offset when the offset is estimated per log, 0 when the rig
         description gives it (its logs are corrected when read), with the
         spread of a run's own zero about it, which the held-out bands carry.
+    held_priors : dict of str to float
+        The friction coefficients held at their prior (:func:`hold_unidentified`) and the prior's spread
+        (:func:`held_prior_spreads`), which the held-out bands and the stored covariance carry.
 
     Notes
     -----
@@ -198,6 +201,7 @@ class LogFitResult:
     elapsed: float = 0.0
     structures: LadderResult | None = None
     held_out_zero: EncoderZero = field(default_factory=EncoderZero)
+    held_priors: dict[str, float] = field(default_factory=dict)
 
     @property
     def held_out_offset(self) -> float:
@@ -956,6 +960,17 @@ def friction_prior(name: str) -> float:
     return float(getattr(table1(), name))
 
 
+#: the spread of a held friction's prior, as a share of its value (an assumption): Table 1's value stands for
+#: another rig's, which is not Table 1's (the calibrated twin's own sigma_a1 is 1.7 times it, sigma_v1 0.76 times)
+PRIOR_SPREAD = 1.0
+
+
+def held_prior_spreads(held) -> dict[str, float]:
+    """The standard deviation of each held friction's prior [its unit]: :data:`PRIOR_SPREAD` of
+    :func:`friction_prior` (a held value is a guess; the held-out bands and the stored covariance carry it)."""
+    return {n: PRIOR_SPREAD * friction_prior(n) for n in held}
+
+
 #: an undetermined friction coefficient is held only when the fit drove it to its bound 0 (below this share of its
 #: typical value): one left inside with a huge interval (the Stribeck fit's sigma_v1) is kept, for its refit from a
 #: prior that is not the rig's sent sigma_c2 16 % low and v_s2 to 3e7
@@ -1040,8 +1055,9 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
         msgs.append(f"held-out logs: the pendulum zero offset is taken as the training logs' mean, "
                     f"{val_off:+.4g} rad (offsets of the training logs: "
                     + ", ".join(f"{o:+.4g}" for o in offs) + ")")
-    uncertainty = (ParameterUncertainty.from_refinement(r) if r.belt is None and np.all(np.isfinite(r.covariance))
-                   else None)
+    priors = held_prior_spreads(fitted.held)
+    uncertainty = (ParameterUncertainty.from_refinement(r).with_priors(priors)
+                   if r.belt is None and np.all(np.isfinite(r.covariance)) else None)
     if val_logs and r.belt is not None:
         msgs.append("held-out logs: no prediction band for the belt model (15): the bands draw lumped parameters "
                     "and simulate them in the batch engine, which has no belt")
@@ -1064,7 +1080,7 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
                         least_squares=plan.start.details, model=model, outputs=plan.outputs,
                         options=options.to_dict(plan.offset_given), train=train_fits, validation=val_fits,
                         warnings=_unique(msgs), rig=plan.rig, elapsed=elapsed, structures=fitted.structures,
-                        held_out_zero=zero)
+                        held_out_zero=zero, held_priors=priors)
 
 
 #: the kinds of log that join ``iwp fit``'s training besides the free ones (``--clamped``, ``--wheel-locked``,

@@ -222,6 +222,6 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                            **(result.held_out_zero.to_dict() if result.held_out_offset else {}),
                            **({"reads_v_as_u": True} if result.model in READS_V_AS_U else {}),
                            "stderr": {n: r.parameters[n].stderr for n in r.free},
-                           "covariance": uncertainty_record(r)})
+                           "covariance": uncertainty_record(r, result.held_priors)})
     return {"folder": out, "report": out / "report.html", "json": out / "fit.json",
             "parameters": out / "parameters.json", "figures": fig_paths}

@@ -58,6 +58,8 @@ MIN_ACCEPTED = 0.05
 Z95 = 1.959963984540054
 #: how the note on the parameters :meth:`ParameterUncertainty.identified_only` held begins
 HELD_NOTE = "held at their estimates"
+#: the note of :meth:`ParameterUncertainty.with_priors`
+PRIOR_NOTE = "held at a prior the logs did not refine, uncertain by its spread"
 
 
 @dataclass(frozen=True, eq=False)
@@ -127,6 +129,57 @@ class ParameterUncertainty:
         signed parameter, on one side of 0). An interval that reaches past it (a friction estimated at
         ``1e-6 +- 2``, a term the logs barely excite) says the logs cannot tell the value from none."""
         return identified_names({n: getattr(self.params, n) for n in self.free}, self.stderr)
+
+    def with_priors(self, spreads: Mapping[str, float]) -> "ParameterUncertainty":
+        """This uncertainty with parameters a fit held at a prior taken in as uncertain by their prior's spread.
+
+        A friction the logs do not identify is held at a prior (Table 1's value on another rig); its
+        value is then a guess, and a prediction band that treats it as exact is too narrow where it
+        acts (the decay of a swing). Each is appended to :attr:`free` at its value in :attr:`params`,
+        with variance ``spread^2`` and no covariance with the others: the free parameters'
+        re-adjustment to another prior is left out (on the README's 20 s chirp, holding sigma_v1 at
+        0 or at twice Table 1's value moved p1, p2, p3, rho by a tenth of their standard errors).
+
+        Parameters
+        ----------
+        spreads : mapping of str to float
+            Held parameter -> the standard deviation of its prior [its unit] (> 0); one already free is refused.
+
+        Returns
+        -------
+        ParameterUncertainty
+
+        Raises
+        ------
+        InputError
+            A name that is free already, or a spread that is not finite and > 0.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from iwp.models import table1
+        >>> from iwp.sim.uncertainty import ParameterUncertainty
+        >>> u = ParameterUncertainty(table1(), ("p1",), np.array([[0.01]]))
+        >>> w = u.with_priors({"sigma_v1": 0.01})
+        >>> w.free, w.stderr["sigma_v1"]
+        (('p1', 'sigma_v1'), 0.01)
+        """
+        extra = tuple(spreads)
+        if not extra:
+            return self
+        for n in extra:
+            if n in self.free:
+                raise InputError(f"{n} is free in the fit already: its uncertainty is the fit's, not a prior's")
+            sd = spreads[n]
+            if isinstance(sd, bool) or not isinstance(sd, (int, float)) or not (math.isfinite(sd) and sd > 0):
+                raise InputError(f"the prior spread of {n} must be a finite number > 0, got {sd!r}")
+        k = len(self.free)
+        C = np.zeros((k + len(extra), k + len(extra)))
+        C[:k, :k] = self.covariance
+        C[k:, k:] = np.diag([float(spreads[n]) ** 2 for n in extra])
+        note = f"{PRIOR_NOTE}: " + ", ".join(f"{n} {getattr(self.params, n):.3g} +- {spreads[n]:.2g}"
+                                              for n in extra)
+        return dataclasses.replace(self, free=(*self.free, *extra), covariance=C, notes=(*self.notes, note))
 
     def identified_only(self) -> "ParameterUncertainty":
         """This uncertainty with the parameters the logs do not identify (:meth:`identified`) held at their
@@ -232,7 +285,7 @@ def undetermined(name: str, value: float, stderr: float) -> bool:
     return not (math.isfinite(stderr) and margin * UNDETERMINED_RATIO > Z95 * stderr)
 
 
-def uncertainty_record(r) -> dict[str, Any]:
+def uncertainty_record(r, priors: Mapping[str, float] | None = None) -> dict[str, Any]:
     """The JSON record of a fit's uncertainty (stored in ``parameters.json`` by ``iwp fit``).
 
     Parameters
@@ -240,6 +293,9 @@ def uncertainty_record(r) -> dict[str, Any]:
     r : RefineResult
         A simulation-error fit (:func:`iwp.ident.refinement.refine`, :func:`iwp.ident.logfit.fit_logs`'s
         refinement): its free parameters, covariance, residual standard deviations and reliability.
+    priors : mapping of str to float, optional
+        Parameters the fit held at a prior, with the prior's spread (:meth:`ParameterUncertainty.with_priors`):
+        recorded as uncertain by it.
 
     Returns
     -------
@@ -249,16 +305,21 @@ def uncertainty_record(r) -> dict[str, Any]:
         :func:`load_uncertainty` reads it back.
     """
     finite = bool(np.all(np.isfinite(r.covariance)))
+    free, matrix = list(r.free), np.asarray(r.covariance)
+    notes = [] if r.reliability is None else list(r.reliability.notes)
     if r.belt is not None:  # the belt's parameters are not lumped ones: the fit's own verdict
         reliable = finite and r.reliability is not None and bool(r.reliability.reliable)
     else:
         u = ParameterUncertainty.from_refinement(r) if finite else None
         reliable = bool(u.reliable) if u is not None else False
-    return {"free": list(r.free), "matrix": [[json_float(v) for v in row] for row in np.asarray(r.covariance)],
+        if u is not None and priors:
+            u = u.with_priors(priors)
+            free, matrix, notes = list(u.free), u.covariance, list(u.notes)
+    return {"free": free, "matrix": [[json_float(v) for v in row] for row in matrix],
             "noise": {k: json_float(v) for k, v in r.residual_std.items()},
             "method": "" if r.reliability is None else r.reliability.method,
             "reliable": reliable,
-            "notes": [] if r.reliability is None else list(r.reliability.notes)}
+            "notes": notes}
 
 
 def load_uncertainty(path, *, argument: str = "params") -> ParameterUncertainty:
