@@ -89,6 +89,10 @@ def test_readme_sequence_runs_in_order(tmp_path, monkeypatch, capsys):
     assert {"sigma_a1", "sigma_v1"} <= set(held)
     for name in ("sigma_a1", "sigma_v1", "sigma_b1"):
         assert ident["parameters"][name]["value"] >= 0.0
+        # admissible or held: no 95 % interval reaching into negative friction (sigma_b1 = 0.066 [-0.158, 0.291]
+        # was printed before it was held)
+        lo = ident["parameters"][name]["ci95"][0]
+        assert (name in held and lo is None) or lo >= 0.0, name
     assert ident["parameters"]["p1"]["value"] == pytest.approx(truth.p1, rel=0.01)
     assert "held at its prior" in printed["identify chirp.csv"]
     # ... which predicts the held-out chirp's pendulum angle and wheel speed above 80 % (88.5 %, 92.2 % when written)

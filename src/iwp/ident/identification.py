@@ -132,7 +132,7 @@ from ..models.encoder import quantize
 from ..models.parameters import load_params, table1
 from ..sim import simulate
 from ..sim.inputs import Sampled
-from ..sim.uncertainty import undetermined
+from ..sim.uncertainty import Z95, undetermined
 from .differentiate import Differentiator
 from .fit_parameters import Parameter
 from .lsq import LeastSquaresOptions, LeastSquaresResult, lstsq_projection, solve_least_squares
@@ -718,6 +718,10 @@ def _own_model_ratios(plan: _IdentPlan, opts: IdentifyOptions, res: LeastSquares
     return None if nc is None else _noise_ratios(nc.noise_std)
 
 
+#: the spread of a held friction's prior, as a share of its value (an assumption): Table 1's value stands for
+#: another rig's, which is not Table 1's (the calibrated twin's own sigma_a1 is 1.7 times it, sigma_v1 0.76 times)
+PRIOR_SPREAD = 1.0
+
 #: the columns a set-up may hold at their prior when the logs do not identify them (friction coefficients: the
 #: gains and inertias p1, p2, p3 are what every set-up is for, and a set-up that cannot find them fails), with the
 #: experiment that identifies each
@@ -745,8 +749,8 @@ def _prior(name: str, base: Any) -> float:
 
 
 def _unidentified(plan: _IdentPlan, solved: _Solved) -> tuple[str, float, float] | None:
-    """The holdable column the logs identify least (negative, or undetermined: its 95 % interval a hundred times
-    wider than its value, :func:`~iwp.sim.uncertainty.undetermined`), or None.
+    """The holdable column the logs identify least (negative, its 95 % interval reaching 0, or undetermined,
+    :func:`~iwp.sim.uncertainty.undetermined`), or None.
 
     Returns its name, estimate and standard error; the one with the smallest ``value / stderr`` goes first.
     """
@@ -757,7 +761,7 @@ def _unidentified(plan: _IdentPlan, solved: _Solved) -> tuple[str, float, float]
     for name, p in params.items():
         if name not in HOLDABLE or not math.isfinite(p.stderr):
             continue
-        if p.value < 0.0 or undetermined(name.removesuffix("_1rho"), p.value, p.stderr):
+        if p.value < 0.0 or p.value < Z95 * p.stderr or undetermined(name.removesuffix("_1rho"), p.value, p.stderr):
             t = p.value / p.stderr if p.stderr > 0 else -math.inf
             if worst is None or t < worst[0]:
                 worst = (t, name, p.value, p.stderr)
@@ -765,23 +769,35 @@ def _unidentified(plan: _IdentPlan, solved: _Solved) -> tuple[str, float, float]
 
 
 def _held_regression(plan: _IdentPlan, name: str, value: float) -> Regression:
-    """The regression with column ``name`` held at ``value``: its term moved to the target, its column removed."""
+    """The regression with column ``name`` held at ``value``: its term moved to the target, its column removed,
+    and the prior's spread (:data:`PRIOR_SPREAD` of ``value``) carried as a known parameter's in the target
+    (:func:`_with_known_uncertainty`): the columns correlated with it take in the uncertainty of the guess."""
     reg = plan.reg
     j = plan.names.index(name)
     keep = [k for k in range(reg.Phi.shape[1]) if k != j]
     held = {**reg.details.get("held", {}), name: value}
+    column = -reg.Phi[:, j:j + 1]  # d phi / d value
+    var = (PRIOR_SPREAD * value) ** 2
+    if reg.known_sensitivity is None:
+        sens, cov = column, np.array([[var]])
+    else:
+        k = reg.known_sensitivity.reshape(reg.Phi.shape[0], -1)
+        sens = np.hstack([k, column])
+        cov = np.zeros((sens.shape[1], sens.shape[1]))
+        cov[:-1, :-1] = reg.known_covariance
+        cov[-1, -1] = var
     return replace(reg, Phi=np.ascontiguousarray(reg.Phi[:, keep]), phi=reg.phi - reg.Phi[:, j] * value,
-                   details={**reg.details, "held": held})
+                   known_sensitivity=sens, known_covariance=cov, details={**reg.details, "held": held})
 
 
 def _hold_unidentified(plan: _IdentPlan, opts: IdentifyOptions, solved: _Solved) -> tuple[_IdentPlan, _Solved]:
     """Hold the friction coefficients the logs do not identify at their prior, one at a time, and solve again.
 
     Each round holds the least identified holdable column (:func:`_unidentified`) and re-solves (13) without it,
-    until every holdable column left is positive and determined (its 95 % interval less than a hundred times its
-    value, :func:`~iwp.sim.uncertainty.undetermined`). A column whose interval merely reaches 0 keeps its estimate
-    and its interval (with the warning that the data do not determine it): holding a prior for it biased its
-    correlated partner out of its own interval (tests/test_identify.py).
+    until every holdable column left is positive with a 95 % interval clear of 0 (an estimate that is there). The
+    prior is a guess: its spread (:data:`PRIOR_SPREAD` of its value) enters the others' covariance as a known
+    parameter's (:func:`_held_regression`); without it, a prior held for a friction whose interval merely reached
+    0 biased its correlated partner out of its own interval (tests/test_identify.py).
     A warning names each column held, its unconstrained estimate and the experiment that would identify it.
     """
     notes = []
@@ -789,7 +805,7 @@ def _hold_unidentified(plan: _IdentPlan, opts: IdentifyOptions, solved: _Solved)
         name, value, se = worst
         prior = _prior(name, plan.known.base)
         notes.append(f"{name} is not identified by these logs (estimate {value:.4g} +- {se:.2g}"
-                     f"{', negative' if value < 0 else ', an interval a hundred times wider than the value'}); held "
+                     f"{', negative' if value < 0 else ', its 95 % interval reaching 0'}); held "
                      f"at its prior "
                      f"{prior:.4g} ({'Table 1' if plan.known.base is None else 'the base parameters'}); "
                      f"identify it with {HOLDABLE[name]}")
@@ -1074,7 +1090,7 @@ def load_pendulum(path: str | os.PathLike) -> Any:
     >>> _ = Path("free.json").write_text(res.to_json())
     >>> pendulum = load_pendulum("free.json")
     >>> round(pendulum.value("p1"), 3), round(pendulum.stderr("p1"), 5)
-    (26.361, 0.00035)
+    (26.361, 0.0009)
     >>> load_pendulum("table1").p1  # a built-in set: values only
     26.095
     """

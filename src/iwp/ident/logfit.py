@@ -73,7 +73,7 @@ from ..sim.inputs import HopfController, Input
 from ..sim.uncertainty import ParameterUncertainty, StartUncertainty, prediction_band, undetermined
 from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
-from .identification import HOLDABLE
+from .identification import HOLDABLE, PRIOR_SPREAD
 from .metrics import JUDGED, fit_percent, judged_fits, poor_fits
 from .output_error import (EXPERIMENT_KINDS, Experiment, OutputError, angle_quantum, band_as_measured,
                            measured_initial_state, measured_state_covariance)
@@ -958,11 +958,6 @@ def friction_prior(name: str) -> float:
     """The prior of a pendulum friction coefficient a fit holds: Table 1's value [its unit] (the paper's rig; a
     rig's own value from elsewhere goes in with ``fixed``, ``iwp fit --fix``)."""
     return float(getattr(table1(), name))
-
-
-#: the spread of a held friction's prior, as a share of its value (an assumption): Table 1's value stands for
-#: another rig's, which is not Table 1's (the calibrated twin's own sigma_a1 is 1.7 times it, sigma_v1 0.76 times)
-PRIOR_SPREAD = 1.0
 
 
 def held_prior_spreads(held) -> dict[str, float]:

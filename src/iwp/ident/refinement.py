@@ -584,7 +584,7 @@ def refine(
     >>> round(ls.value("p1"), 2), round(res.value("p1"), 2)
     (26.36, 26.47)
     >>> round(res.fit_start[0]["q1"], 1), round(res.fit[0]["q1"], 1)  # fit of q1 [%]
-    (97.8, 99.9)
+    (98.3, 99.9)
     """
     plant = start if isinstance(start, Plant) else fit_plant(start)
     if plant.model not in REFINE_MODELS and plant.belt is None:
