@@ -546,8 +546,8 @@ def _zero_columns(reg: Regression, sig: Signals, spec: Setup) -> _ZeroColumns | 
     N = np.zeros((reg.Phi.shape[0], len(reg.labels) * n_logs))
     for b in range(len(reg.labels)):
         sign = 1.0 if float(reg.Phi[b * sig.n:(b + 1) * sig.n, j] @ sig.S) >= 0.0 else -1.0
-        for k, f in enumerate(sig.files):  # the file's rows of the stacked signals (as the noise covariance reads them)
-            rows = slice(f["start"], f["start"] + f["n_full"] - 2 * f["kk"])
+        for k in range(n_logs):  # the file's rows of the stacked signals (as the noise covariance reads them)
+            rows = sig.file_rows(k)
             N[b * sig.n + rows.start: b * sig.n + rows.stop, b * n_logs + k] = sign * sig.Z[rows]
     return _ZeroColumns(N=N, Phi=reg.Phi.copy(), phi=reg.phi.copy(), p1=j, n_logs=n_logs)
 

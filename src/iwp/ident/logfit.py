@@ -1501,11 +1501,10 @@ def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], zero: E
     fit = _log_fit(d, "validate", _Replayed(p.t, dict(p.y), simulated, dict(p.w), model.states(ev.values)[0]),
                    offset)
     if uncertainty is not None and not p.mean:
-        moving = not plant.pendulum_locked and "q1" in outputs
+        zero_variance = 0.0 if plant.pendulum_locked else zero.variance(angle_quantum(dc.q1))  # as validate's
         band = band_as_measured(prediction_band(plant, uncertainty, input=p.input, x0=x0, t_eval=p.t,
                                                 signals=outputs, start=StartUncertainty(
-                                                    measured_state_covariance(dc, 0),
-                                                    zero.variance(angle_quantum(dc.q1)) if moving else 0.0)),
+                                                    measured_state_covariance(dc, 0), zero_variance)),
                                 p.derived, simulated)
         fit.coverage = band.coverage(p.y, {o: p.w[o] > 0 for o in outputs})
     if ev.status[0] != 0 or not all(math.isfinite(x) for x in fit.fit.values()):

@@ -229,8 +229,8 @@ def noise_covariance(setup: Setup, sig: Signals, d: Differentiator, reg: Regress
     sig2 = _position_noise(sig)
     p = reg.Phi.shape[1]
     M = np.zeros((p, p))
-    for f in sig.files:
-        M += _file_moments(f, d, reg.Phi, factor, rows, sig2)
+    for k, f in enumerate(sig.files):
+        M += _file_moments(f, sig.file_rows(k), d, reg.Phi, factor, rows, sig2)
     cov = (factor.Rinv @ M @ factor.Rinv.T) / np.outer(factor.Dn, factor.Dn)
     resid_sd = _residual_noise(d, sig, res, factor.block_rows, betas)
     return NoiseCovariance(covariance=cov, noise_std={"q1": math.sqrt(sig2[1]), "q2": math.sqrt(sig2[2]),
@@ -281,12 +281,13 @@ def _residual_noise(d: Differentiator, sig: Signals, res: LeastSquaresResult, bl
     return out
 
 
-def _file_moments(f: Mapping[str, Any], d: Differentiator, Phi: np.ndarray, factor: _WeightedFactor,
+def _file_moments(f: Mapping[str, Any], span: slice, d: Differentiator, Phi: np.ndarray, factor: _WeightedFactor,
                   rows: _RowNoise, sig2: Mapping[int, float]) -> np.ndarray:
-    """``sum_c sigma_c^2 A_c^T A_c`` of one file: its rows of ``W^(1/2) Q`` through ``K`` and the adjoint maps."""
-    Ts, n_full, kk, start = f["Ts"], f["n_full"], f["kk"], f["start"]
+    """``sum_c sigma_c^2 A_c^T A_c`` of one file (its rows ``span`` of the stacked signals,
+    :meth:`Signals.file_rows`): its rows of ``W^(1/2) Q`` through ``K`` and the adjoint maps."""
+    Ts, n_full, kk = f["Ts"], f["n_full"], f["kk"]
+    start, nk = span.start, span.stop - span.start
     p = Phi.shape[1]
-    nk = n_full - 2 * kk
     q1, v1 = f["q1"], f["v1"]
     Qf = np.zeros((n_full, len(rows.labels) * p))
     for i, lab in enumerate(rows.labels):

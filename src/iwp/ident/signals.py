@@ -53,6 +53,11 @@ class Signals:
     def n(self) -> int:
         return int(self.q1.size)
 
+    def file_rows(self, k: int) -> slice:
+        """The rows of file ``k`` in the stacked signals: its samples less ``kk`` at each end."""
+        f = self.files[k]
+        return slice(f["start"], f["start"] + f["n_full"] - 2 * f["kk"])
+
 
 #: samples dropped at least at each end (reach of the central difference, point correction and _tri3)
 EDGE_MIN = 3

@@ -36,6 +36,7 @@ import numpy as np
 from ..data import ExperimentData
 from ..errors import InputError
 from ..files import json_float
+from ..models.encoder import EncoderZero
 from ..models.parameters import BeltParameters, LumpedParameters, PhysicalParameters
 from ..models.plant import MODELS, Plant
 from ..sim.inputs import Input
@@ -662,8 +663,8 @@ def _plan_validation(experiment: ExperimentData, plant: Plant, signals: tuple[st
         exps[0] = replace(exps[0], x0=x0[:4])
     # a measured start: the log's zero (known to within an encoder count, or as the fit's logs spread) moves it
     # and every sample alike
-    step = angle_quantum(experiment.q1)
-    zero = step * step / 12.0 if opts.q1_zero_variance is None else float(opts.q1_zero_variance)
+    zero = (EncoderZero().variance(angle_quantum(experiment.q1)) if opts.q1_zero_variance is None
+            else float(opts.q1_zero_variance))
     if opts.estimate_x0 or plant.pendulum_locked:
         zero = 0.0
     return _ValidationPlan(plant=plant, signals=signals, t=t, starts=starts, experiments=exps, x0_cov=x0_cov,

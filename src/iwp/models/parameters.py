@@ -33,8 +33,8 @@ from typing import Any
 
 from ..errors import InputError
 from ..files import prepare_output_file, read_json
-from .encoder import EncoderZero
 from .belt_parameters import BELT_INFO, BeltParameters
+from .encoder import EncoderZero
 from .parameter_info import ParameterInfo, check_fields, info_table, names_with_sign
 from .terms import term_parameters
 
@@ -552,8 +552,8 @@ def stored_q1_zero(path_or_name: str | Path) -> EncoderZero:
     InputError
         An entry of the wrong type or sign (naming the file and the field).
     """
-    value = stored_q1_offset(path_or_name)
     doc = _parameter_file(path_or_name) or {}
+    value = _q1_offset_of(doc, path_or_name)
     spread, n = doc.get("q1_offset_spread", 0.0), doc.get("q1_offset_logs", 0)
     if isinstance(spread, bool) or not isinstance(spread, (int, float)) or not (math.isfinite(spread)
                                                                                 and spread >= 0):
@@ -582,8 +582,13 @@ def stored_q1_offset(path_or_name: str | Path) -> float:
     InputError
         A ``"q1_offset"`` entry that is not a finite number (naming the file and the field).
     """
-    doc = _parameter_file(path_or_name)
-    entry = None if doc is None else doc.get("q1_offset")
+    return _q1_offset_of(_parameter_file(path_or_name) or {}, path_or_name)
+
+
+def _q1_offset_of(doc: dict, path_or_name: str | Path) -> float:
+    """The ``"q1_offset"`` of a parameter file's object [rad], 0 without one; one that is not a finite number is
+    refused, naming the file."""
+    entry = doc.get("q1_offset")
     if entry is None:
         return 0.0
     if isinstance(entry, bool) or not isinstance(entry, (int, float)) or not math.isfinite(entry):
