@@ -97,17 +97,23 @@ class DaskExecutor:
             n = self.workers or numba.config.NUMBA_NUM_THREADS
             # the workers leave an interrupt to this process, which stops them (iwp.sweep.dask_worker); their
             # logs below errors (a cancelled task's warning when interrupted) are not the user's business
+            # no dashboard, and its HTTP server (started all the same) on a free local port, not on 8787
             self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                                        scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
                                         preload=["iwp.sweep.dask_worker"], silence_logs=logging.ERROR)
             self.client = Client(self.cluster)
+        _TORNADO_LOG.addFilter(_INTERRUPT_RACE)
         return self
 
     def __exit__(self, *exc) -> None:
-        if self.client is not None:
-            self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
-        self.client = self.cluster = None
+        try:
+            if self.client is not None:
+                self.client.close()
+            if self.cluster is not None:
+                self.cluster.close()
+        finally:
+            self.client = self.cluster = None
+            _TORNADO_LOG.removeFilter(_INTERRUPT_RACE)
 
     def warm_up(self) -> None:
         """Import iwp and load the compiled engine on every worker (the first chunk then runs at full speed)."""
@@ -140,6 +146,33 @@ class DaskExecutor:
         finally:
             for fut in futures:
                 fut.cancel()
+
+
+class _InterruptRace(logging.Filter):
+    """Drops the traceback Dask's event loop logs when Ctrl-C lands before a blocking call has started.
+
+    ``distributed.utils.sync`` answers a ``KeyboardInterrupt`` by scheduling
+    a ``cancel`` of the call's future on the loop; when the interrupt came
+    before that future was made, ``cancel`` raises ``NameError`` (a free
+    variable not yet bound), which tornado logs as "Exception in callback"
+    with a traceback. The interrupt itself is reported by the command; only
+    this one record is dropped.
+    """
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        if not isinstance(exc, NameError):
+            return True
+        tb = exc.__traceback__
+        while tb is not None and tb.tb_next is not None:
+            tb = tb.tb_next
+        code = tb.tb_frame.f_code if tb is not None else None
+        return not (code is not None and code.co_name == "cancel"
+                    and code.co_filename.replace("\\", "/").endswith("distributed/utils.py"))
+
+
+_TORNADO_LOG = logging.getLogger("tornado.application")
+_INTERRUPT_RACE = _InterruptRace()
 
 
 def _connect(client_class, address: str):
