@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import base64
 import dataclasses
 import json
 import re
@@ -129,7 +130,10 @@ def test_report_page_self_contained(quick_run):
     assert text.startswith("<!DOCTYPE html>")
     imgs = re.findall(r"<img [^>]*src=\"([^\"]+)\"", text)
     assert len(imgs) == len(EXPECTED_FIGURES)
-    assert all(s.startswith("data:image/png;base64,") for s in imgs)
+    embedded = re.findall(r'<figure id="fig-([^"]+)">.*?<img [^>]*src="data:image/svg\+xml;base64,([^"]+)"', text)
+    assert len(embedded) == len(imgs)  # every image is an SVG, the very file written beside the page
+    for name, data in embedded:
+        assert base64.b64decode(data) == (quick_run["out"] / "figures" / f"{name}.svg").read_bytes(), name
     # nothing fetched from elsewhere
     assert not re.search(r"(src|href)=\"(https?:)?//", text)
     assert "<link" not in text
@@ -597,7 +601,7 @@ def _page_text(out) -> tuple[str, str]:
     """The page's HTML without the embedded images, and its visible text."""
     import html as _html
 
-    page = re.sub(r'src="data:image/png;base64,[^"]*"', 'src=""', (out / "report.html").read_text())
+    page = re.sub(r'src="data:image/svg\+xml;base64,[^"]*"', 'src=""', (out / "report.html").read_text())
     return page, _html.unescape(re.sub(r"<[^>]+>", " ", page))
 
 

@@ -115,11 +115,12 @@ def settle_legends(fig, *, fontsize: float = 7, rounds: int = 3):
     Returns
     -------
     int
-        The number of legends moved.
+        The number of legends moved. The figure is left laid out after its last change (its layout engine's
+        result current).
     """
     moved = 0
     for _ in range(rounds):
-        fig.draw_without_rendering()
+        _lay_out(fig)
         bad = [ax for ax in fig.axes if ax.get_legend() is not None and _inside(ax)
                and covers_data(ax.get_legend().get_window_extent(), [ax])]
         if not bad:
@@ -128,4 +129,16 @@ def settle_legends(fig, *, fontsize: float = 7, rounds: int = 3):
             handles, labels = ax.get_legend_handles_labels()
             _above(ax, handles, labels, fontsize)
             moved += 1
+    else:
+        _lay_out(fig)  # the last round moved a legend: its layout
     return moved
+
+
+def _lay_out(fig) -> None:
+    """The figure's layout engine run (where a drawing would put the axes, without drawing them), and every
+    axes' limits brought up to date (the data-to-display transforms read them)."""
+    engine = fig.get_layout_engine()
+    if engine is not None:
+        engine.execute(fig)
+    for ax in fig.axes:
+        ax.get_xlim(), ax.get_ylim()

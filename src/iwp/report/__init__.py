@@ -2,7 +2,7 @@
 
 :func:`render_html` turns a :class:`Report` (sections of text, tables,
 checked statements and figures) into one HTML page that needs nothing else:
-figures are embedded as base64 PNG, styles are inline, nothing is fetched
+figures are embedded as base64 SVG, styles are inline, nothing is fetched
 from the network. :mod:`iwp.reproduce` fills a :class:`Report` from its run;
 :func:`report_logs` (the command ``iwp report FILES... --params P.json
 --out DIR``) fills one from experiment logs and a parameter set: each log

@@ -11,7 +11,7 @@ so that a failure leaves no partial output):
 * ``report.html``: one self-contained page like ``iwp report``'s, with the
   parameter and fit tables, the warnings, the correlation matrix and, for
   every log, measured against simulated signals with the error below;
-* ``figures/*.svg`` (the page embeds the PNGs).
+* ``figures/*.svg`` (the page embeds them).
 
 The figures are drawn by :mod:`iwp.plotting` from series prepared here, at
 full resolution (long records are drawn as envelopes with a zoom); plotting
@@ -59,8 +59,8 @@ def _log_figure(f, out_dir: Path, name: str) -> tuple[bytes, list[Path]]:
         panels.append({"measured": (t, ym), "simulated": (t, ys, "model"), "error": (t, ym - ys, "error"), "signal": o,
                        "title": f"{Path(f.source).name} ({f.role}): {o}, fit {fmt(f.fit[o], 3)} %",
                        "measured_label": "measured"})
-    res = plot_comparisons(panels)
-    return save_figure(res["figure"], out_dir, name)
+    res = plot_comparisons(panels)  # laid out to settle its legends
+    return save_figure(res["figure"], out_dir, name, laid_out=True)
 
 
 def _sample_time(fits: list) -> float | None:
@@ -137,23 +137,23 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         shown = _shown(result.validation)
         for f in result.train + shown:
             name = _safe(f"{f.role}_{Path(f.source).stem}", used)
-            png, written = _log_figure(f, tmp, name)
+            svg, written = _log_figure(f, tmp, name)
             fig_paths += [out / w.relative_to(tmp) for w in written]
             cap = ("Measured (solid) and simulated (dashed) signals and their difference; "
                    + ("training log, at the joint optimum with its estimated initial state."
                       if f.role == "train" else "held-out log, simulated from its measured initial state "
                       "without re-fitting.")
                    + (f" Glitches: {'; '.join(f.glitches)}." if f.glitches else ""))
-            figures.append(FigureEntry(name, f"{Path(f.source).name} ({f.role})", cap, png,
+            figures.append(FigureEntry(name, f"{Path(f.source).name} ({f.role})", cap, svg,
                                        [str(w.relative_to(tmp)) for w in written]))
         corr_fig = []
         if len(r.free) > 1:
             cres = plot_correlation(list(r.free), np.nan_to_num(r.correlation, nan=np.nan))
-            png, written = save_figure(cres["figure"], tmp, "correlation")
+            svg, written = save_figure(cres["figure"], tmp, "correlation")
             fig_paths += [out / w.relative_to(tmp) for w in written]
             corr_fig.append(FigureEntry("correlation", "Correlation of the estimates",
                                         "Pairs above 0.95 in magnitude (bold) are not separated by these data.",
-                                        png, [str(w.relative_to(tmp)) for w in written]))
+                                        svg, [str(w.relative_to(tmp)) for w in written]))
         ptab = _parameter_table(result)
         frows = []
         sigs = result.predicted  # the outputs fitted, and the held-out logs' judged signals

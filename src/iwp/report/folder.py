@@ -10,10 +10,11 @@ from ..files import prepare_output_dir  # the one folder policy, re-exported her
 __all__ = ["prepare_output_dir", "save_figure"]
 
 
-def save_figure(fig, out_dir: str | os.PathLike, name: str, *, dpi: int = 110) -> tuple[bytes, list[Path]]:
-    """Save ``fig`` as ``out_dir/figures/NAME.svg``, close it, and return its PNG (for the page) and the path.
+def save_figure(fig, out_dir: str | os.PathLike, name: str, *, laid_out: bool = False) -> tuple[bytes, list[Path]]:
+    """Save ``fig`` as ``out_dir/figures/NAME.svg``, close it, and return the SVG (for the page) and the path.
 
-    The vector file is what a paper prints; the page embeds the PNG, so no PNG file duplicates it.
+    The vector file is what a paper prints, and the page embeds the same
+    bytes: one rendering per figure.
 
     Parameters
     ----------
@@ -23,13 +24,15 @@ def save_figure(fig, out_dir: str | os.PathLike, name: str, *, dpi: int = 110) -
         Report folder; ``figures/`` is created in it.
     name : str
         File name without extension.
-    dpi : int, default 110
-        Resolution of the PNG [dots per inch].
+    laid_out : bool, default False
+        The figure was laid out after its last change (as
+        :func:`~iwp.plotting.legends.settle_legends` leaves it): its layout
+        engine's result is kept instead of computed again.
 
     Returns
     -------
-    png : bytes
-        The figure as a PNG image.
+    svg : bytes
+        The figure as an SVG image (as written).
     paths : list of Path
         The SVG file.
 
@@ -41,9 +44,9 @@ def save_figure(fig, out_dir: str | os.PathLike, name: str, *, dpi: int = 110) -
     >>> res = simulate(Plant(table1(), model="free"), x0=[1.0, 0, 0, 0], t_end=5.0)
     >>> fig, ax = plt.subplots()
     >>> _ = ax.plot(res.t, res.q1)
-    >>> png, paths = save_figure(fig, "report", "free-swing")
-    >>> png[1:4], [p.as_posix() for p in paths]  # the PNG for the page, the SVG beside it
-    (b'PNG', ['report/figures/free-swing.svg'])
+    >>> svg, paths = save_figure(fig, "report", "free-swing")
+    >>> svg == paths[0].read_bytes(), [p.as_posix() for p in paths]  # the page's image is the file beside it
+    (True, ['report/figures/free-swing.svg'])
     >>> plt.fignum_exists(fig.number)  # closed
     False
     """
@@ -56,10 +59,11 @@ def save_figure(fig, out_dir: str | os.PathLike, name: str, *, dpi: int = 110) -
     svg = d / f"{name}.svg"
     buf = io.BytesIO()
     try:
-        fig.savefig(buf, format="png", dpi=dpi)
-        if fig.get_layout_engine() is not None:
-            fig.set_layout_engine("none")  # keep the layout just computed: the SVG is drawn identically, faster
-        fig.savefig(svg)
+        if laid_out and fig.get_layout_engine() is not None:
+            fig.set_layout_engine("none")  # keep the layout computed last
+        fig.savefig(buf, format="svg")
     finally:
         plt.close(fig)
-    return buf.getvalue(), [svg]
+    data = buf.getvalue()
+    svg.write_bytes(data)
+    return data, [svg]

@@ -126,10 +126,10 @@ def report_logs(
                 log = model_input(log, "compensated", str(p)) if reads_v_as_u else log
                 comp, fig, caption = _compare_series(p, log, params, plot_comparisons,
                                                      held_out_q1_offset(log, held_out_offset))
-            png, written = save_figure(fig, out_dir, stem)
+            svg, written = save_figure(fig, out_dir, stem)
             comp.figure = stem
             fig_paths += written
-            figures.append(FigureEntry(stem, f"{p.name}: {comp.kind}", caption, png,
+            figures.append(FigureEntry(stem, f"{p.name}: {comp.kind}", caption, svg,
                                        [str(w.relative_to(out_dir)) for w in written]))
             comparisons.append(comp)
             fits = ", ".join(f"{k} {fmt(v, 3)} %" for k, v in comp.fit.items())

@@ -1,7 +1,7 @@
 """The page: a self-contained HTML report of sections, tables, checked statements and figures.
 
 :func:`render_html` turns a :class:`Report` into one HTML page that needs
-nothing else: figures are embedded as base64 PNG, styles are inline, nothing
+nothing else: figures are embedded as base64 SVG (the files written beside it), styles are inline, nothing
 is fetched from the network. The page carries a small inline script that,
 once the page has loaded, marks every image with ``data-loaded="1"`` (or
 ``"0"`` if it failed) and the ``<body>`` with ``data-images-loaded="N/M"``;
@@ -115,12 +115,12 @@ class Table:
 
 @dataclass
 class FigureEntry:
-    """An embedded figure: the PNG bytes, and the names of the files written next to the page."""
+    """An embedded figure: the SVG bytes, and the names of the files written next to the page."""
 
     name: str
     title: str
     caption: str
-    png: bytes
+    svg: bytes
     files: Sequence[str] = ()
 
 
@@ -306,12 +306,12 @@ def _table_html(t: Table, errata=None) -> str:
 
 
 def _figure_html(f: FigureEntry, errata=None) -> str:
-    data = base64.b64encode(f.png).decode("ascii")
+    data = base64.b64encode(f.svg).decode("ascii")
     files = ""
     if f.files:
         files = " Files: " + ", ".join(f"<code>{_e(x)}</code>" for x in f.files) + "."
     return (f'<figure id="fig-{_e(f.name)}"><h3>{_e(f.title)}</h3>'
-            f'<img alt="{_e(f.title)}" src="data:image/png;base64,{data}">'
+            f'<img alt="{_e(f.title)}" src="data:image/svg+xml;base64,{data}">'
             f"<figcaption>{_linked(f.caption, errata)}{files}</figcaption></figure>")
 
 

@@ -10,7 +10,7 @@ rig (:mod:`iwp.rig`), identifies the model the way the paper does
   the parameters (virtual-rig truth, least squares, refined, the paper's
   Table 1), the fits, and the paper's statements checked one by one with
   the numbers found here;
-* ``DIR/figures/NAME.svg`` for every figure (the page embeds its PNG);
+* ``DIR/figures/NAME.svg`` for every figure (the page embeds the same file);
 * ``DIR/parameters.json`` -- the final parameter set in the format of
   :func:`iwp.models.parameters.load_params` (so ``--params DIR/parameters.json`` works
   in every command), with the other sets, the identification results and

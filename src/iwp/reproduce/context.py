@@ -108,7 +108,7 @@ class FigureRecord:
     title: str
     caption: str
     step: str
-    png: bytes
+    svg: bytes
     files: list[Path]
     section: str = ""
 
@@ -245,10 +245,10 @@ class ReproduceResult:
         return self.data[name]
 
     def figure(self, name: str, fig, *, title: str, caption: str, section: str = "") -> FigureRecord:
-        """Write ``fig`` as ``DIR/figures/NAME.svg`` and keep its PNG for the page."""
-        png, files = save_figure(fig, self.out, name)
+        """Write ``fig`` as ``DIR/figures/NAME.svg`` and keep it for the page."""
+        svg, files = save_figure(fig, self.out, name)
         self.files.extend(files)
-        rec = FigureRecord(name, title, caption, self._current, png, files, section or self._current)
+        rec = FigureRecord(name, title, caption, self._current, svg, files, section or self._current)
         self.figures = [f for f in self.figures if f.name != name] + [rec]
         return rec
 

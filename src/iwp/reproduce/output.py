@@ -188,7 +188,7 @@ def _write_report(ctx: ReproduceResult) -> Path:
     by_step: dict[str, list] = {}
     for f in ctx.figures:
         by_step.setdefault(f.step, []).append(FigureEntry(
-            f.name, f.title, f.caption, f.png, [str(p.relative_to(ctx.out)) for p in f.files]))
+            f.name, f.title, f.caption, f.svg, [str(p.relative_to(ctx.out)) for p in f.files]))
     sections = [_paper_numbers_section(ctx),
                 Section("Parameters and fits", tables=[_parameter_table(ctx), _identification_table(ctx),
                                                        _fits_table(ctx)], anchor="parameters")]
