@@ -144,8 +144,10 @@ def test_the_ladder_fits_the_belt_of_a_belt_drive_and_predicts_held_out_logs(tmp
     rungs = {r["name"]: r for r in doc["structures"]["rungs"]}
     assert doc["structures"]["chosen"] == "belt" and doc["model"] == "belt-full"
     # the belt predicts the held-out wheel speed far better than the best rigid structure
-    rigid_best = max(r["fit"]["q4"] for name, r in rungs.items() if name != "belt")
-    assert rungs["belt"]["fit"]["q4"] > 97.0 > rigid_best + 4.0 and rungs["belt"]["success"]
+    rigid_best = max(r["held_out_fit"]["q4"] for name, r in rungs.items() if name != "belt")
+    assert rungs["belt"]["held_out_fit"]["q4"] > 97.0 > rigid_best + 4.0 and rungs["belt"]["success"]
+    # three held out, two training logs: each training log predicted by a fit on the other joins the ranking
+    assert doc["structures"]["n_scored"] == 5 and len(rungs["belt"]["scores"]) == 5
     assert doc["validation_fit"]["q1"] > 90.0
     # the fitted belt is in fit.json and parameters.json; p2, p3 hold its rigid limit
     fitted = stored_belt(out / "parameters.json")

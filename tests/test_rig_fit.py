@@ -430,12 +430,14 @@ def test_iwp_fit_command_writes_the_report_and_refuses_bad_input(tmp_path, capsy
     assert status == 0
     doc = json.loads((out / "fit.json").read_text())
     assert doc["validation"][0]["fit"]["q1"] > 90 and doc["parameters"]["p1"]["stderr"] > 0
-    # by default the ladder of structures, ranked on the one held-out log, in the JSON and the report
+    # by default the ladder of structures, ranked on the one held-out log and the two training logs' folds (fewer
+    # than five held out), in the JSON and the report
     lad = doc["structures"]
     assert [r["name"] for r in lad["rungs"]] == ["9", "coulomb", "pendulum-coulomb", "widths", "offset", "dead-zone"]
-    assert lad["method"].startswith("one scoring log") and lad["n_scored"] == 1
+    assert lad["method"].startswith("paired scores, Student t") and lad["n_scored"] == 3
     assert lad["chosen"] == "9"  # the truth is model (9): richer structures predict no better
-    assert "Model structures, ranked on held-out logs" in (out / "report.html").read_text()
+    assert ("Model structures, ranked on held-out logs and leave-one-log-out cross-validation (3 logs)"
+            in (out / "report.html").read_text())
     assert (out / "report.html").read_text().count("<img") == 4  # correlation, 2 training logs, 1 held out
     assert json.loads((out / "parameters.json").read_text())["parameters"]["p1"] == pytest.approx(40, rel=0.01)
     err = capsys.readouterr().err

@@ -51,11 +51,11 @@ def test_equal_predictions_keep_the_simplest():
     outs = [outcome("9", base)] + [outcome(n, base * (1 + 1e-4 * rng.standard_normal(5)))
                                    for n in ("coulomb", "pendulum-coulomb", "widths")]
     sel = select(outs)
-    assert sel.chosen == 0 and sel.method == "paired held-out scores, Wilcoxon signed-rank test"
+    assert sel.chosen == 0 and sel.method == "paired scores, Wilcoxon signed-rank test"
     assert math.isnan(sel.critical)
     # with fewer than SIGNED_RANK_MIN logs the signed-rank test cannot reach 5 %: Student t decides
     sel = select([outcome(o.rung.name, o.scores[:4]) for o in outs])
-    assert sel.chosen == 0 and sel.method == f"paired held-out scores, Student t (fewer than {SIGNED_RANK_MIN} logs)"
+    assert sel.chosen == 0 and sel.method == f"paired scores, Student t (fewer than {SIGNED_RANK_MIN} logs)"
     assert sel.critical == pytest.approx(stats.t.ppf(0.95, 3))
 
 

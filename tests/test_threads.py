@@ -115,11 +115,21 @@ def test_the_ladder_side_by_side_is_the_ladder_one_after_another(tmp_path, monke
             warnings.simplefilter("ignore")
             r = fit_logs(load_logs(logs, rig.rig), warn=False, options=LogFitOptions(select=True))
         assert r.structures.scored_on == "leave-one-log-out cross-validation"
-        return [(o.rung.name, o.scores.tolist(), o.result.fit_result.cost) for o in r.structures.outcomes]
+        return [(o.rung.name, str(o.scores.tolist()), o.result.fit_result.cost) for o in r.structures.outcomes]  # nan == nan
 
     together = ladder()
     monkeypatch.setattr(threads, "fit_threads", lambda: 1)
     assert ladder() == together
+    # one held-out log (fewer than the signed-rank test needs): the folds join it, the same folds to the bit
+    held = write_rig_csv(rig.run(Chirp(0.3, 2.5, 6.0), duration=6.0), tmp_path / "held.csv")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = fit_logs(load_logs(logs, rig.rig), validate=load_logs([held], rig.rig), warn=False,
+                     options=LogFitOptions(select=True))
+    lad = r.structures
+    assert lad.scored_on == "held-out logs and leave-one-log-out cross-validation" and lad.n_scored == 3
+    assert [(o.rung.name, str(o.scores[1:].tolist()), o.result.fit_result.cost) for o in lad.outcomes] == together
+    assert all(0 < o.scores[0] < 1 for o in lad.outcomes if o.success)  # the held-out log's score, first
 
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])

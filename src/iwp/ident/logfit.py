@@ -80,7 +80,8 @@ from .output_error import (EXPERIMENT_KINDS, Experiment, OutputError, angle_quan
 from .problem import Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, refine
 from .regressors import columns, q3_row, row_sum
-from .structure import LadderResult, Rung, RungOutcome, information_criteria, ladder, select
+from .structure import (CROSS_VALIDATION, HELD_OUT_LOGS, SIGNED_RANK_MIN, LadderResult, Rung, RungOutcome,
+                        information_criteria, ladder, select)
 from .validation import model_input
 
 __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresStart", "least_squares_start",
@@ -1378,9 +1379,12 @@ class _Fitting:
         (:func:`iwp.threads.thread_map`).
         """
         raw = all(d.input_name == "v" for d in self.train + self.held_out)
-        folds = len(self.train) >= 2 and not self.held_out
+        # fewer held-out logs than the signed-rank test needs: the training logs each predicted by a fit on the
+        # others join them (a consistent gain then shows over more logs)
+        folds = len(self.train) >= 2 and len(self.held_out) < SIGNED_RANK_MIN
         rungs = ladder(raw, belt_drive=self.drive_ratio is not None, extra=self.options.try_terms)
         done: dict[str, RungOutcome] = {}
+        held: dict[str, list[LogFit]] = {}  # each structure's held-out logs' fits
         # entered once for the whole ladder: the fits side by side (thread_map enters it too) and the work between
         # the waves on one BLAS thread, the limit not set and restored at every wave
         with one_blas_thread():
@@ -1395,29 +1399,60 @@ class _Fitting:
                                                     [o.result.params for o in _parents(extended[rg.name])] or [start])]
                 tasks += [(rg, None) for rg in wave if drive_of(rg.terms) is None]
 
-                def run(task: tuple[Rung, LumpedParameters | None]) -> RefineResult | RungOutcome:
+                def run(task: tuple[Rung, LumpedParameters | None]) -> RefineResult | tuple[RungOutcome, list]:
                     rg, s = task
                     if s is None:
-                        return self._rung(rg, extended[rg.name], start, folds)
+                        return self._rung(rg, extended[rg.name], start)
                     return self.joint(self.options.with_rung(rg), s, max_nfev=LADDER_MAX_NFEV)
 
                 ran = thread_map(run, tasks)
                 for rg in wave:
                     if drive_of(rg.terms) is not None:
                         fit = lowest_cost([r for (t, s), r in zip(tasks, ran) if t is rg and s is not None])
-                        done[rg.name] = self._rung(rg, extended[rg.name], start, folds, fit=fit)
+                        done[rg.name], held[rg.name] = self._rung(rg, extended[rg.name], start, fit=fit)
                     else:
-                        done[rg.name] = next(r for (t, s), r in zip(tasks, ran) if t is rg)
-        outcomes = [done[rg.name] for rg in rungs]
-        scored_on = ("held-out logs" if self.held_out else
-                     "leave-one-log-out cross-validation" if folds else "training fit")
-        n = len(self.held_out) if self.held_out else (len(self.train) if folds else 0)
+                        done[rg.name], held[rg.name] = next(r for (t, s), r in zip(tasks, ran) if t is rg)
+            outcomes = [done[rg.name] for rg in rungs]
+            if folds:
+                outcomes = self._with_folds(outcomes, [held[rg.name] for rg in rungs])
+        scored_on = " and ".join(([HELD_OUT_LOGS] if self.held_out else []) + ([CROSS_VALIDATION] if folds else [])) \
+            or "training fit"
+        n = len(self.held_out) + (len(self.train) if folds else 0)
         return LadderResult(outcomes, select(outcomes), scored_on, n)
 
-    def _rung(self, rg: Rung, extended: list[RungOutcome], start: LumpedParameters, folds: bool,
-              fit: RefineResult | None = None) -> RungOutcome:
-        """One structure fitted, from the fit of the richest converged structure it extends, and scored;
-        ``fit``: its fit made beforehand (the belt's, from its starts side by side with the other structures)."""
+    def _with_folds(self, outcomes: list[RungOutcome], held: list[list[LogFit]]) -> list[RungOutcome]:
+        """``outcomes`` scored also on each training log predicted by a refit on the others (from the joint fit;
+        the folds of all structures side by side); ``held``: each one's held-out logs' fits. A structure
+        :func:`~iwp.ident.structure.select` cannot take (not converged, a term not identified, a held-out
+        simulation failed) gets no folds, and NaN for them, unless no structure can be taken."""
+        takeable = [o.success and not o.unidentified and bool(np.all(np.isfinite(o.scores))) for o in outcomes]
+        if not any(takeable):
+            takeable = [True] * len(outcomes)
+        tasks = [(i, k) for i in range(len(outcomes)) if takeable[i] for k in range(len(self.train))]
+
+        def fold(task: tuple[int, int]) -> LogFit:
+            i, k = task
+            opts, r = self.options.with_rung(outcomes[i].rung), outcomes[i].result
+            rest = self.train[:k] + self.train[k + 1:]
+            x0 = [x[:4] for j, x in enumerate(r.x0) if j != k]
+            refit = self.joint(opts, r.params, rest, x0=x0, belt=r.belt, max_nfev=LADDER_MAX_NFEV)
+            return self.score(refit, opts, [self.train[k].window(*opts.window)])[0]
+
+        fits = thread_map(fold, tasks)
+        out = []
+        for i, o in enumerate(outcomes):
+            if not takeable[i]:
+                out.append(replace(o, scores=np.concatenate([o.scores, np.full(len(self.train), np.nan)])))
+                continue
+            scored = held[i] + [f for (j, _), f in zip(tasks, fits) if j == i]
+            out.append(replace(o, scores=_scores(scored), fit=_mean_fit([f.fit for f in scored], JUDGED)))
+        return out
+
+    def _rung(self, rg: Rung, extended: list[RungOutcome], start: LumpedParameters,
+              fit: RefineResult | None = None) -> tuple[RungOutcome, list[LogFit]]:
+        """One structure fitted, from the fit of the richest converged structure it extends, and scored on the
+        held-out logs (and their fits); ``fit``: its fit made beforehand (the belt's, from its starts side by side
+        with the other structures)."""
         parents = _parents(extended)
         parent = parents[0].result if parents else None
         opts = self.options.with_rung(rg)
@@ -1446,23 +1481,18 @@ class _Fitting:
             else:
                 r = replace(r, success=False, message=f"{r.message}; not a minimum: its cost {r.cost:.6g} is above "
                                                       f"that of the structure it extends, {parent.cost:.6g}")
-        if self.held_out:
-            scored = self.score(r, opts, self.held_out)
-        elif folds:  # leave one training log out, refit from the joint fit, predict it
-            def fold(k: int) -> LogFit:
-                rest = self.train[:k] + self.train[k + 1:]
-                x0 = [x[:4] for j, x in enumerate(r.x0) if j != k]
-                return self.score(self.joint(opts, r.params, rest, x0=x0, belt=r.belt, max_nfev=LADDER_MAX_NFEV), opts,
-                                  [self.train[k].window(*opts.window)])[0]
-            scored = thread_map(fold, range(len(self.train)))
-        else:
-            scored = []
-        scores = np.array([float(np.mean([1.0 - f.fit[o] / 100.0 for o in JUDGED])) for f in scored])
+        scored = self.score(r, opts, self.held_out) if self.held_out else []
         fr = r.fit_result
         aic, bic = information_criteria(fr.cost, fr.dof + len(fr.free), len(fr.free))
-        return RungOutcome(rg, len(r.free), scores, _mean_fit([f.fit for f in scored], JUDGED),
-                           _mean_fit(r.fit, self.outputs), aic, bic, bool(r.success), r.message, r,
-                           unidentified=_unidentified_added(r, rg, extended))
+        fit = _mean_fit([f.fit for f in scored], JUDGED)
+        return RungOutcome(rg, len(r.free), _scores(scored), fit, _mean_fit(r.fit, self.outputs), aic, bic,
+                           bool(r.success), r.message, r, unidentified=_unidentified_added(r, rg, extended),
+                           held_out_fit=fit if scored else {}), scored
+
+
+def _scores(scored: Sequence[LogFit]) -> np.ndarray:
+    """Per scoring log, the mean over the judged signals of ``1 - fit/100`` (:attr:`RungOutcome.scores`)."""
+    return np.array([float(np.mean([1.0 - f.fit[o] / 100.0 for o in JUDGED])) for f in scored])
 
 
 def _unidentified_added(r: RefineResult, rg: Rung, extended: Sequence[RungOutcome]) -> tuple[str, ...]:

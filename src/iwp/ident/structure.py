@@ -33,6 +33,12 @@ locked; its ratio ``N`` is the rig description's ``drive.ratio``. Its fit
 starts from the ``widths`` fit and from the ``pendulum-coulomb`` one, and keeps
 the lower cost (:data:`iwp.models.terms.BELT_STARTS`).
 
+The scoring logs are the held-out logs. When fewer than
+:data:`SIGNED_RANK_MIN` are held out and two or more train, each training log
+predicted by a fit on the others (leave-one-log-out cross-validation) joins
+them: over three held-out logs one prediction that wandered off hides a
+consistent gain on the other two (``docs/fit.md``).
+
 The rule (:func:`select`): each rung's score per scoring log is its
 simulation error there, the mean over the outputs of ``1 - fit/100`` (the
 normalised RMS error of :func:`iwp.ident.metrics.fit_percent`). The best rung has
@@ -74,7 +80,8 @@ from scipy import stats
 from ..errors import InputError
 from ..models.terms import TERMS, ladder_order, term
 
-__all__ = ["Rung", "RUNGS", "MIN_GAIN", "ALPHA", "SIGNED_RANK_MIN", "NOTABLE_FIT_GAIN", "ladder", "rung",
+__all__ = ["Rung", "RUNGS", "MIN_GAIN", "ALPHA", "SIGNED_RANK_MIN", "NOTABLE_FIT_GAIN", "HELD_OUT_LOGS",
+           "CROSS_VALIDATION", "ladder", "rung",
            "RungOutcome", "LadderResult",
            "Selection", "select", "information_criteria"]
 
@@ -89,6 +96,11 @@ SIGNED_RANK_MIN = 5
 #: a best structure that predicts some signal of the scored logs better than the one kept by this many
 #: percentage points of fit is named in a warning (the rule keeps the simpler one when the gain is not consistent)
 NOTABLE_FIT_GAIN = 5.0
+#: what structures are scored on (:attr:`LadderResult.scored_on`, joined by " and " when both): logs held out of
+#: the fit, and each training log predicted by a fit on the others (when fewer than SIGNED_RANK_MIN logs are held
+#: out and at least two train)
+HELD_OUT_LOGS = "held-out logs"
+CROSS_VALIDATION = "leave-one-log-out cross-validation"
 
 
 @dataclass(frozen=True)
@@ -227,6 +239,8 @@ class RungOutcome:
         Per scoring log, the mean over outputs of ``1 - fit/100`` (NaN: its simulation failed).
     fit : dict of str to float
         Mean fit [%] per output over the scoring logs.
+    held_out_fit : dict of str to float
+        Mean fit [%] per output over the held-out logs alone (empty without them).
     training_fit : dict of str to float
         Mean fit [%] per output over the training logs (the joint fit).
     aic, bic : float
@@ -254,6 +268,7 @@ class RungOutcome:
     #: an interval a hundred times wider than the value, :func:`~iwp.sim.uncertainty.undetermined`): such a rung
     #: buys parameters the logs cannot tell from none, and :func:`select` does not take it
     unidentified: tuple[str, ...] = ()
+    held_out_fit: dict[str, float] = field(default_factory=dict)
 
     @property
     def score(self) -> float:
@@ -335,12 +350,12 @@ def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
     p_worse, shift = nan.copy(), nan.copy()
     if n >= SIGNED_RANK_MIN:
         crit = math.nan
-        method = "paired held-out scores, Wilcoxon signed-rank test"
+        method = "paired scores, Wilcoxon signed-rank test"
         for i in np.flatnonzero(usable):
             p_worse[i], shift[i] = _signed_rank(D[i])
     else:
         crit = float(stats.t.ppf(0.95, n - 1))
-        method = f"paired held-out scores, Student t (fewer than {SIGNED_RANK_MIN} logs)"
+        method = f"paired scores, Student t (fewer than {SIGNED_RANK_MIN} logs)"
         with np.errstate(divide="ignore", invalid="ignore"):
             p_worse = np.where(se > 0, stats.t.sf(diff / se, n - 1), np.where(diff > 0, 0.0, 1.0))
         shift = diff
@@ -373,10 +388,11 @@ class LadderResult:
         Simplest first.
     selection : Selection
     scored_on : str
-        ``"held-out logs"`` or ``"leave-one-log-out cross-validation"`` (no held-out logs given),
-        or ``"training fit"`` (one training log and none held out).
+        :data:`HELD_OUT_LOGS`, :data:`CROSS_VALIDATION` (no held-out logs given), both joined by " and "
+        (fewer than :data:`SIGNED_RANK_MIN` held out, two training logs or more), or ``"training fit"`` (one
+        training log and none held out).
     n_scored : int
-        Logs scored (held out, or folds).
+        Logs scored (held out, and folds).
     """
 
     outcomes: list[RungOutcome]
@@ -442,6 +458,7 @@ class LadderResult:
             "critical_t": sel.critical, "alpha": ALPHA,
             "rungs": [{"name": r.rung.name, "label": r.rung.label, "n_params": r.n_params,
                        "scores": [float(s) for s in r.scores], "score": r.score, "fit": r.fit,
+                       "held_out_fit": r.held_out_fit,
                        "training_fit": r.training_fit, "log_ratio_to_best": float(sel.difference[i]),
                        "stderr_of_log_ratio": float(sel.stderr[i]),
                        "p_worse_than_best": float(sel.p_worse[i]), "shift_to_best": float(sel.shift[i]),
