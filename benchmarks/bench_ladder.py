@@ -11,11 +11,17 @@ the issue's user has. Timed as whole commands (a new process each):
 (c) two of (b) at once on the same machine (their thread pools must not fight: issue 23);
 and, in this process, the writing of (b)'s report alone.
 
-Run: python benchmarks/bench_ladder.py
+``--against SRC`` adds the same-run baseline the machine's speed needs: (b) with the iwp of another source tree
+(``SRC``, the ``src`` folder of a checkout of an earlier commit: ``git worktree add /tmp/old <commit>``), run
+alternately with this one, three times each after a run of each that compiles their kernels; the ratio of the
+medians is what is compared across days.
+
+Run: python benchmarks/bench_ladder.py [--against SRC]
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -33,10 +39,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from ladder_study import RIG, TRUTHS, logs  # noqa: E402
 
 
-def fit(folder: Path, out: str, *extra: str, threads: int | None = None) -> subprocess.Popen:
+def fit(folder: Path, out: str, *extra: str, threads: int | None = None, src: str | None = None) -> subprocess.Popen:
     train = sorted(str(p) for p in folder.glob("chirp*.csv"))
     held = sorted(str(p) for p in folder.glob("prbs*.csv"))
-    env = dict(os.environ, **({"NUMBA_NUM_THREADS": str(threads)} if threads else {}))
+    env = dict(os.environ, **({"NUMBA_NUM_THREADS": str(threads)} if threads else {}),
+               **({"PYTHONPATH": src} if src else {}))
     return subprocess.Popen([sys.executable, "-m", "iwp", "fit", *train, "--rig", str(folder / "rig.json"),
                              "--validate", *held, "--out", str(folder / out), *extra],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
@@ -69,11 +76,30 @@ def timed(*procs: subprocess.Popen) -> list[float]:
     return out
 
 
-def main() -> int:
+def against(folder: Path, src: str) -> None:
+    """(b) with this iwp and with the one in ``src``, alternately: the medians and their ratio."""
+    here = str(Path(__file__).resolve().parents[1] / "src")
+    timed(fit(folder, "ab_here0", src=here))  # each tree's kernels compiled (their caches differ)
+    timed(fit(folder, "ab_there0", src=src))
+    t_here, t_there = [], []
+    for k in range(1, 4):
+        t_here += timed(fit(folder, f"ab_here{k}", src=here))
+        t_there += timed(fit(folder, f"ab_there{k}", src=src))
+    mh, mt = sorted(t_here)[1], sorted(t_there)[1]
+    print(f"\n(b) against {src}, alternately in this run: this tree {', '.join(f'{t:.1f}' for t in t_here)} s, "
+          f"that one {', '.join(f'{t:.1f}' for t in t_there)} s; medians {mh:.1f} s / {mt:.1f} s = {mh / mt:.2f}")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--against", metavar="SRC", help="the src folder of another checkout: (b) timed against it")
+    args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         logs(TRUTHS["pendulum-coulomb"], 5, folder, duration=40.0, n_train=3, n_held=19)
         (folder / "rig.json").write_text(json.dumps(RIG))
+        if args.against:
+            against(folder, args.against)
         timed(fit(folder, "warm", "--model", "9"))  # kernels compiled
         (one,) = timed(fit(folder, "one", "--model", "pendulum-coulomb"))
         (lad,) = timed(fit(folder, "ladder"))

@@ -104,6 +104,7 @@ def test_blas_stays_on_one_thread_until_the_last_fit_beside_it_leaves():
         assert _blas_threads() == before == [2] * len(before)
 
 
+@pytest.mark.no_deadline  # numbers compared, not times
 def test_the_ladder_side_by_side_is_the_ladder_one_after_another(tmp_path, monkeypatch):
     """The same costs and held-out scores to the last bit, cross-validation folds included."""
     rig = DescribedRig(rig_of(), TRUTH, noise_std=0.002, seed=4)
