@@ -1423,9 +1423,9 @@ class _Fitting:
     def _with_folds(self, outcomes: list[RungOutcome], held: list[list[LogFit]]) -> list[RungOutcome]:
         """``outcomes`` scored also on each training log predicted by a refit on the others (from the joint fit;
         the folds of all structures side by side); ``held``: each one's held-out logs' fits. A structure
-        :func:`~iwp.ident.structure.select` cannot take (not converged, a term not identified, a held-out
-        simulation failed) gets no folds, and NaN for them, unless no structure can be taken."""
-        takeable = [o.success and not o.unidentified and bool(np.all(np.isfinite(o.scores))) for o in outcomes]
+        :func:`~iwp.ident.structure.select` cannot take (:attr:`~iwp.ident.structure.RungOutcome.takeable`)
+        gets no folds, and NaN for them, unless no structure can be taken."""
+        takeable = [o.takeable for o in outcomes]
         if not any(takeable):
             takeable = [True] * len(outcomes)
         tasks = [(i, k) for i in range(len(outcomes)) if takeable[i] for k in range(len(self.train))]

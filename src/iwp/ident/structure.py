@@ -271,6 +271,12 @@ class RungOutcome:
     held_out_fit: dict[str, float] = field(default_factory=dict)
 
     @property
+    def takeable(self) -> bool:
+        """Whether :func:`select` may choose this rung: its fit converged, identifies what it adds, and every scoring
+        log's simulation succeeded."""
+        return bool(self.success and not self.unidentified and np.all(np.isfinite(self.scores)))
+
+    @property
     def score(self) -> float:
         """The geometric mean score over the scoring logs, the statistic :func:`select` ranks by (inf if any
         failed)."""
@@ -325,7 +331,7 @@ def select(outcomes: list[RungOutcome] | tuple[RungOutcome, ...]) -> Selection:
     S = np.array([o.scores for o in outcomes], dtype=float)
     R, n = S.shape
     nan = np.full(R, np.nan)  # a statistic no test gave (read only)
-    usable = np.array([o.success and not o.unidentified and np.all(np.isfinite(o.scores)) for o in outcomes])
+    usable = np.array([o.takeable for o in outcomes])
     if not usable.any():
         usable = np.array([np.all(np.isfinite(o.scores)) for o in outcomes])
     if not usable.any():
