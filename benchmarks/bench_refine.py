@@ -18,6 +18,12 @@ least-squares result of ``iwp.identify`` (set-up "free"): 4 parameters
     sensitivities. The issue measured it at 0.084 s against 0.239 s for the
     refinement of that day (compiled fixed-step RK4 with finite-difference
     sensitivities).
+(d) the outside anchor of issue 50: numbalsoda's compiled DOP853 (C++,
+    rtol = atol = 1e-8) on the same right-hand side written here as a numba
+    ``cfunc`` (the free pendulum, wheel held: ``q3' = -xi rho / (1 + rho)``),
+    inside ``least_squares`` with 2-point differences. Skipped without
+    ``pip install numbalsoda`` (it builds with a Fortran compiler: Debian's
+    gfortran).
 
 Both start from the same point; the script prints the wall times, their
 ratio, and how far apart the two answers are. BLAS runs on one thread (the
@@ -113,6 +119,31 @@ def compiled_q1(p, x0, t):
     return r.x[:, 0] if r.success else None
 
 
+def numbalsoda_q1_factory():
+    """q1 of the free pendulum by numbalsoda's DOP853, or None when numbalsoda is not installed."""
+    try:
+        import numba as nb
+        from numbalsoda import dop853, lsoda_sig
+    except ImportError:
+        return None
+
+    @nb.cfunc(lsoda_sig)
+    def rhs(t, x, dx, P):  # P = [p1, sigma_a1, sigma_v1, sigma_b1, rho]; x = [q1, q3]
+        q1, q3 = x[0], x[1]
+        xi = P[0] * math.sin(q1) + P[1] * abs(math.cos(q1)) * q3 + P[2] * q3 + P[3] * q3 * q3 * q3
+        dx[0] = q3
+        dx[1] = -xi * P[4] / (1.0 + P[4])
+
+    address = rhs.address
+
+    def q1(p, x0, t):
+        P = np.array([p.p1, p.sigma_a1, p.sigma_v1, p.sigma_b1, p.rho])
+        y, ok = dop853(address, np.array([x0[0], x0[2]]), np.asarray(t, dtype=float), data=P, rtol=1e-8, atol=1e-8)
+        return y[:, 0] if ok else None
+
+    return q1
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--duration", type=float, default=60.0, help="length of the free-decay log [s] (default 60)")
@@ -154,8 +185,24 @@ def main():
     t_c = min(anchor)
     print(f"(c) anchor, compiled DOP853 + 2-point differences: {t_c:8.3f} s (best of {len(anchor)}), {nsim_c} "
           f"simulations, cost {sol_c.cost:.6g}")
+    nbs = numbalsoda_q1_factory()
+    t_d = math.nan
+    if nbs is None:
+        print("(d) numbalsoda: not installed (pip install numbalsoda), skipped")
+    else:
+        finite_difference_refine(data, start, nbs)  # compiles the cfunc
+        outside = []
+        for _ in range(max(args.repeat, 1)):
+            t0 = time.perf_counter()
+            _theta_d, sol_d, nsim_d = finite_difference_refine(data, start, nbs)
+            outside.append(time.perf_counter() - t0)
+        t_d = min(outside)
+        print(f"(d) numbalsoda DOP853 + 2-point differences:      {t_d:8.3f} s (best of {len(outside)}), {nsim_d} "
+              f"simulations, cost {sol_d.cost:.6g}")
     print(f"speed-up (b)/(a): {t_sp / t_iwp:.1f}x; target for (a): <= 1 s -> {'met' if t_iwp <= 1.0 else 'NOT met'}")
     print(f"(c)/(a): {t_c / t_iwp:.2f}; issue 14's target (a) <= (c) -> {'met' if t_iwp <= t_c else 'NOT met'}")
+    if math.isfinite(t_d):
+        print(f"(d)/(a): {t_d / t_iwp:.2f}; issue 50's target (a) <= (d) -> {'met' if t_iwp <= t_d else 'NOT met'}")
     print(f"{'parameter':<10} {'truth':>12} {'start (LS)':>12} {'iwp':>12} {'scipy':>12} {'anchor':>12}")
     for n in FREE:
         print(f"{n:<10} {getattr(truth, n):>12.6g} {getattr(start, n):>12.6g} {getattr(r.params, n):>12.6g} "

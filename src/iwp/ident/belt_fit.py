@@ -38,8 +38,8 @@ from ..data import ExperimentData
 from ..errors import InputError
 from ..models.plant import MODELS, Plant
 from ..models.terms import BELT_FREE
-from .output_error import Experiment, OutputError
-from .problem import FitProblem, SolverOptions
+from .output_error import Experiment, OutputError, solve_output_error
+from .problem import SolverOptions
 from .refinement import BELT_OPTIONS, RefineResult, as_experiments, belt_difference_step, refine_report
 
 __all__ = ["refine_belt", "BELT_FREE", "BELT_PARAMETERS", "BELT_OPTIONS"]
@@ -146,8 +146,8 @@ def refine_belt(
                         differences=belt_difference_step(options.rtol))
     if options.max_nfev is None:
         options = replace(options, max_nfev=50 * (len(free) + 1))
-    problem = FitProblem(model.parameters(free, bounds, log=True), model)
-    res = refine_report(model, problem.solve(options), start)
+    res = refine_report(model, solve_output_error(model, model.parameters(free, bounds, log=True), options=options),
+                        start)
     if warn:
         for m in res.warnings:
             _warnings.warn(m, stacklevel=2)

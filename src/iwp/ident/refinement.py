@@ -64,8 +64,8 @@ from ..models.terms import BELT_RTOL
 from .covariance import Reliability
 from .fit_parameters import Parameter
 from .metrics import fit_percent
-from .output_error import Experiment, OutputError, offset_name, x0_name
-from .problem import FitProblem, FitResult, Loss, SolverOptions
+from .output_error import Experiment, OutputError, offset_name, solve_output_error, x0_name
+from .problem import FitResult, Loss, SolverOptions
 from .setups import get_setup
 
 __all__ = [
@@ -599,8 +599,7 @@ def refine(
         model = OutputError(plant, as_experiments(experiments), tuple(outputs), rtol=options.rtol, atol=options.atol,
                             differences=belt_difference_step(options.rtol))
         params = model.parameters(free, bounds, log=tuple(n for n in free if PARAMETER_INFO[n].owner == "belt"))
-    problem = FitProblem(params, model, loss)
-    res = refine_report(model, problem.solve(options), plant)
+    res = refine_report(model, solve_output_error(model, params, loss, options), plant)
     if plant.belt is not None and res.reliability is not None:
         res = dataclasses.replace(res, reliability=dataclasses.replace(
             res.reliability, notes=[*res.reliability.notes, belt_note(options.rtol)]))

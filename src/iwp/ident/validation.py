@@ -51,9 +51,10 @@ from .output_error import (
     measured_signals,
     measured_state_covariance,
     plant_state,
+    solve_output_error,
     x0_name,
 )
-from .problem import FitProblem, SolverOptions
+from .problem import SolverOptions
 from .refinement import REFINE_MODELS
 
 __all__ = ["validate", "ValidationOptions", "fit_percent", "ValidationResult", "auto_model", "choose_model",
@@ -470,7 +471,7 @@ def _estimated_x0(experiment: Experiment, plant: Plant, signals: tuple[str, ...]
     if not fit_out:
         raise InputError(f"estimate_x0: none of the signals {', '.join(signals)} varies in the window")
     model = OutputError(plant, [experiment], fit_out)
-    res = FitProblem(model.parameters(), model).solve()
+    res = solve_output_error(model, model.parameters())
     est = model.prepared[0].est
     C = np.zeros((4, 4))
     idx = [res.free.index(x0_name(s, 0)) for s in est]
