@@ -18,10 +18,10 @@ share of held-out samples inside the 95 % prediction band.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 import warnings
 from pathlib import Path
-import sys
 
 import numpy as np
 

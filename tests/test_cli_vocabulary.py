@@ -130,6 +130,8 @@ VOCABULARY: dict[str, tuple[str, object]] = {
     "--reset-params": ("restore the device's limits another client changed before arming", _store_true),
     "--live": ("serve a live view of the run beside the model's prediction", _store_true),
     "--live-port": ("the local port of the live view", _INT),
+    "--input-hold": ("how a log's input acted between samples: zoh, continuous, or auto (its metadata, else read "
+                     "from the log)", _choices({"auto", "zoh", "continuous"})),
 }
 
 #: (command, former name) -> the flag it names now; accepted, shown in --help as a second name

@@ -105,6 +105,14 @@ def add_force_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
 
 
+def add_input_hold_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--input-hold", choices=["auto", "zoh", "continuous"], default="auto",
+                   help="how the logged input acted between samples: held until the next (zoh, a rig's "
+                        "controller), continuous (a continuous simulation, an analog drive), or auto (default: the "
+                        "log's metadata input_hold, else read from the log: both readings fitted to the wheel's "
+                        "row, the one with the smaller residuals taken, held where the data cannot tell)")
+
+
 def add_accept_poor_arg(p: argparse.ArgumentParser) -> None:
     p.add_argument("--accept-poor", action="store_true",
                    help="exit with status 0 when the model predicts the held-out data poorly (a mean fit below "

@@ -20,7 +20,15 @@ import json
 import sys
 
 from ..models.terms import TERMS, rung_names
-from ._common import add_accept_poor_arg, add_controller_args, add_force_arg, controller_of, plain, poor_status
+from ._common import (
+    add_accept_poor_arg,
+    add_controller_args,
+    add_force_arg,
+    add_input_hold_arg,
+    controller_of,
+    plain,
+    poor_status,
+)
 
 
 def register(sub) -> None:
@@ -63,6 +71,7 @@ def register(sub) -> None:
                         "--fix rho=247.2: known from elsewhere, or not identified by these logs")
     p.add_argument("--loss", default="linear", choices=["linear", "soft_l1", "huber", "cauchy", "arctan"],
                    help="loss of the simulation-error fit (default linear)")
+    add_input_hold_arg(p)
     p.add_argument("--t-start", type=float, metavar="S", help="window start of every training log [s]")
     p.add_argument("--t-end", type=float, metavar="S", help="window end of every training log [s]")
     p.add_argument("--json", action="store_true", help="print fit.json's content instead of the summary")
@@ -96,7 +105,8 @@ def run(args) -> int:
         fixed[name.strip()] = value.strip()
     options = LogFitOptions(terms=terms, select=args.structure is None and not given,
                             try_terms=parse_terms(args.try_terms, argument="--try") if args.try_terms else (),
-                            fixed=fixed, loss=args.loss, window=(args.t_start, args.t_end))
+                            fixed=fixed, loss=args.loss, window=(args.t_start, args.t_end),
+                            input_hold=args.input_hold)
     kinds = {k: v for k, v in (("clamped", args.clamped), ("wheel-locked", args.wheel_locked),
                                 ("closed-loop", args.closed_loop)) if v}
     res = fit_logs(args.train, rig=args.rig, validate=args.validate, kinds=kinds, controller=controller_of(args),

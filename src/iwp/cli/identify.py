@@ -18,7 +18,7 @@ import argparse
 import sys
 
 from ..errors import InputError
-from ._common import LazyChoices, add_force_arg, json_text, plain
+from ._common import LazyChoices, add_force_arg, add_input_hold_arg, json_text, plain
 
 
 def register(sub) -> None:
@@ -47,10 +47,7 @@ def register(sub) -> None:
     p.add_argument("--order", type=int, metavar="N", help="butter: filter order")
     p.add_argument("--covariance", choices=["noise", "hac", "ols"], default="noise",
                    help="uncertainty: encoder noise through the differentiator (default), HAC, or OLS")
-    p.add_argument("--input-hold", choices=["auto", "zoh", "continuous"], default="auto",
-                   help="how the logged input acted between samples: held until the next (zoh, a rig's "
-                        "controller), continuous (a continuous simulation), or auto (default: the log's metadata "
-                        "input_hold, else zoh)")
+    add_input_hold_arg(p)
     p.add_argument("--angle-zero", choices=["estimate", "logged"], default="estimate",
                    help="the pendulum angle's zero in each log: estimate its offset from the hanging position "
                         "(default; a column cos q1 per log) or take the logged zero as exact (the paper's (10))")

@@ -9,6 +9,7 @@ from ._common import (
     add_accept_poor_arg,
     add_controller_args,
     add_force_arg,
+    add_input_hold_arg,
     controller_of,
     float_list,
     json_text,
@@ -43,6 +44,7 @@ def register(sub) -> None:
                         "without input (free-nowheel for an angle log), raw for a log of v, compensated otherwise)")
     p.add_argument("--estimate-x0", action="store_true",
                    help="estimate the initial state by a simulation-error fit instead of taking the measured one")
+    add_input_hold_arg(p)
     p.add_argument("--t-start", type=float, default=None, help="start of the window [s]")
     p.add_argument("--t-end", type=float, default=None, help="end of the window [s]")
     p.add_argument("--restart", type=float_list, default=None, metavar="T1,T2",
@@ -76,6 +78,7 @@ def run(args) -> int:
     from ..errors import DataFormatError, InputError
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
     from ..ident.metrics import judged_fits, poor_fits
+    from ..ident.output_error import angle_quantum
     from ..ident.validation import (
         ValidationOptions,
         choose_model,
@@ -84,7 +87,6 @@ def run(args) -> int:
         validate,
         validation_plant,
     )
-    from ..ident.output_error import angle_quantum
     from ..models.parameters import stored_belt, stored_model, stored_q1_zero, stored_reads_v_as_u
     from ..models.plant import MODELS
     from ..plotting import savefig
@@ -124,7 +126,7 @@ def run(args) -> int:
     v = validate(data, params, model=model, controller=controller, signals=shown,
                  options=ValidationOptions(window=(args.t_start, args.t_end), restart_times=args.restart or (),
                                            estimate_x0=args.estimate_x0, q1_offset=offset,
-                                           q1_zero_variance=zero_variance))
+                                           q1_zero_variance=zero_variance, input_hold=args.input_hold))
     if args.plot is not None:
         fig = v.plot()["figure"]
         write_all([(args.plot, lambda tmp: savefig(fig, tmp))])

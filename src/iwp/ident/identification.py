@@ -135,6 +135,7 @@ from ..sim.inputs import Sampled
 from ..sim.uncertainty import Z95, undetermined
 from .differentiate import Differentiator
 from .fit_parameters import Parameter
+from .input_hold import INPUT_HOLDS, InputHoldReading, with_input_hold
 from .lsq import LeastSquaresOptions, LeastSquaresResult, lstsq_projection, solve_least_squares
 from .noise import NoiseCovariance, noise_covariance, row_weights
 from .output_error import measured_initial_state
@@ -243,8 +244,6 @@ _POSITIVE = ("p1", "p3", "rho", "p3_1rho")
 _NONNEG = ("p2", "p2_1rho", "sigma_a1", "sigma_v1", "sigma_b1", "sigma_c2_1rho", "v_dz_pos", "v_dz_neg")
 
 
-#: how a log's input acted between its samples (:class:`IdentifyOptions`)
-INPUT_HOLDS = ("auto", "zoh", "continuous")
 #: what :class:`IdentifyOptions` ``angle_zero`` may say of each log's pendulum angle zero
 ANGLE_ZEROS = ("estimate", "logged")
 
@@ -297,7 +296,11 @@ class IdentifyOptions:
         is the value at ``t[k]`` of an input that varies continuously (the
         virtual rig's chirps and sines, a continuous simulation; the paper's
         procedure, :data:`AS_PRINTED`). ``"auto"`` (default): each log's
-        metadata ``input_hold`` (the virtual rig writes it), else ``"zoh"``.
+        metadata ``input_hold`` (the virtual rig writes it), else read from
+        the log itself (:func:`iwp.ident.input_hold.read_input_hold`: both
+        readings fitted to the wheel's row, the one with the smaller
+        residuals taken, held where the data cannot tell); the result's
+        ``details["input_hold"]`` and its summary say which and why.
         Taken as continuous, a held input lags half a sample: on a 60 s chirp
         at 5 ms, ``p2`` and ``p3`` come out 1.1 % and 0.6 % low (25 and 15
         standard errors) and the residuals of the ``dq4/dt`` row 170 times
@@ -482,6 +485,8 @@ class _IdentPlan:
     logs: tuple = ()
     #: each log's angle-zero column, projected out of the regression (``angle_zero="estimate"``), or None
     zero: _ZeroColumns | None = None
+    #: how each log's input acted between its samples, and why (set-ups with an input)
+    holds: tuple[InputHoldReading, ...] = ()
 
     @property
     def names(self) -> list[str]:
@@ -558,8 +563,11 @@ def _plan_identification(data: Any, spec: Setup, window: _Window, known: _Known,
     check_distinct(datas, "data")
     d = _differentiator_for(opts.differentiator, datas)
     pend_vals = pendulum_values(known.pendulum)[0] if spec.takes_pendulum else None
-    sig = prepare_signals(spec, datas, d, window.t_start, window.t_end, nonlinear=opts.nonlinear,
-                          input_hold=opts.input_hold)
+    holds: tuple[InputHoldReading, ...] = ()
+    if spec.needs_input:
+        datas, readings = with_input_hold(datas, opts.input_hold)  # each log's metadata says its reading
+        holds = tuple(readings)
+    sig = prepare_signals(spec, datas, d, window.t_start, window.t_end, nonlinear=opts.nonlinear)
     reg = spec.regression(sig, pendulum=known.pendulum, p2=known.p2)
     zero = _zero_columns(reg, sig, spec) if opts.angle_zero == "estimate" else None
     if zero is not None:
@@ -575,7 +583,7 @@ def _plan_identification(data: Any, spec: Setup, window: _Window, known: _Known,
             f"uncertainty are unreliable below ~{int(_MIN_EFF_PER_PARAM * n_par * sig.corr_len)} samples")
     return _IdentPlan(spec=spec, window=window, known=known, differentiator=d, nonlinear=opts.nonlinear, sig=sig,
                       reg=reg, sources=sources, pend_vals=pend_vals, warnings=tuple(warnings), logs=tuple(datas),
-                      zero=zero)
+                      zero=zero, holds=holds)
 
 
 def _solve_lsq(plan: _IdentPlan, opts: IdentifyOptions, covariance: str) -> LeastSquaresResult:
@@ -880,7 +888,7 @@ def _zero_offsets_report(plan: _IdentPlan, theta: np.ndarray) -> tuple[list[str]
     large = [(k, v) for k, v in enumerate(d) if abs(v) > ZERO_OFFSET_WARN]
     if not large:
         return [], details
-    return [f"the pendulum angle's zero is off the hanging position by "
+    return ["the pendulum angle's zero is off the hanging position by "
             + ", ".join(f"{v:+.3g} rad in {plan.sources[k]} (log {k + 1})" for k, v in large)
             + "; the estimates allow for it, but p1 comes out p1 cos d and the rolling friction's |cos q1| is "
               "taken at the logged angle: zero the encoder with the pendulum hanging still, or subtract the "
@@ -909,6 +917,9 @@ def _report_identification(plan: _IdentPlan, solved: _Solved) -> IdentificationR
     extra_w, extra_d = spec.extra_warnings(reg, sig, res, params, _reference(plan.known.base), plan.known.p2)
     warnings.extend(extra_w)
     details.update(extra_d)
+    if plan.holds:
+        details["input_hold"] = [r.to_dict() for r in plan.holds]
+        details["input_hold_note"] = [r.describe() for r in plan.holds]
     if plan.zero is not None and res.success:
         zero_w, zero_d = _zero_offsets_report(plan, np.asarray(res.values, dtype=float))
         warnings.extend(zero_w)

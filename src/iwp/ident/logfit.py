@@ -74,14 +74,31 @@ from ..sim.uncertainty import ParameterUncertainty, StartUncertainty, prediction
 from ..threads import one_blas_thread, thread_map
 from .differentiate import Differentiator
 from .identification import HOLDABLE, PRIOR_SPREAD
+from .input_hold import INPUT_HOLDS, InputHoldReading, describe_readings, with_input_hold
 from .metrics import JUDGED, fit_percent, judged_fits, poor_fits
-from .output_error import (EXPERIMENT_KINDS, Experiment, OutputError, angle_quantum, band_as_measured,
-                           measured_initial_state, measured_state_covariance)
+from .output_error import (
+    EXPERIMENT_KINDS,
+    Experiment,
+    OutputError,
+    angle_quantum,
+    band_as_measured,
+    measured_initial_state,
+    measured_state_covariance,
+)
 from .problem import Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, refine
 from .regressors import columns, q3_row, row_sum
-from .structure import (CROSS_VALIDATION, HELD_OUT_LOGS, SIGNED_RANK_MIN, LadderResult, Rung, RungOutcome,
-                        information_criteria, ladder, select)
+from .structure import (
+    CROSS_VALIDATION,
+    HELD_OUT_LOGS,
+    SIGNED_RANK_MIN,
+    LadderResult,
+    Rung,
+    RungOutcome,
+    information_criteria,
+    ladder,
+    select,
+)
 from .validation import model_input
 
 __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresStart", "least_squares_start",
@@ -179,6 +196,8 @@ class LogFitResult:
     held_priors : dict of str to float
         The friction coefficients held at their prior (:func:`hold_unidentified`) and the prior's spread
         (:func:`held_prior_spreads`), which the held-out bands and the stored covariance carry.
+    input_holds : dict of str to InputHoldReading
+        How each log's input acted between its samples, by source, and why (:mod:`iwp.ident.input_hold`).
 
     Notes
     -----
@@ -203,6 +222,7 @@ class LogFitResult:
     structures: LadderResult | None = None
     held_out_zero: EncoderZero = field(default_factory=EncoderZero)
     held_priors: dict[str, float] = field(default_factory=dict)
+    input_holds: dict[str, InputHoldReading] = field(default_factory=dict)
 
     @property
     def held_out_offset(self) -> float:
@@ -281,6 +301,7 @@ class LogFitResult:
             "elapsed_s": json_float(self.elapsed),
             "lumped": self.params.to_dict(),
             "belt": None if self.belt is None else self.belt.to_dict(),
+            "input_hold": {src: r.to_dict() for src, r in self.input_holds.items()},
         }
 
     def summary(self, warnings: bool = True) -> str:
@@ -294,6 +315,8 @@ class LogFitResult:
             lines.append(f"  {n:<9} {pe.value:>12.6g} +- {pe.stderr:.2g}  [{pe.ci95_low:.6g}, {pe.ci95_high:.6g}]")
         if self.refinement.reliability is not None:
             lines.append(self.refinement.reliability.describe())
+        if self.input_holds:
+            lines.append(describe_readings(self.input_holds))
         for f in self.train + self.validation:
             fits = ", ".join(f"{k} {v:.2f} %" + (" (not judged)" if k not in JUDGED else "") for k, v in f.fit.items())
             band = (", in the 95 % prediction band: " + ", ".join(f"{k} {100 * v:.0f} %" for k, v in f.coverage.items())
@@ -572,6 +595,10 @@ class LogFitOptions:
         Start of the refinement instead of the least squares.
     window : (float or None, float or None)
         Window of every training log [s].
+    input_hold : {"auto", "zoh", "continuous"}
+        How each log's input acted between its samples (:mod:`iwp.ident.input_hold`), for the least squares and
+        the replay of the input in every simulation: ``"auto"`` (default) as its metadata says, else read from
+        the log itself; ``"zoh"`` or ``"continuous"`` for every log.
 
     Examples
     --------
@@ -586,9 +613,13 @@ class LogFitOptions:
     loss: str = "linear"
     start: LumpedParameters | None = None
     window: tuple[float | None, float | None] = (None, None)
+    input_hold: str = "auto"
 
     def __post_init__(self) -> None:
         Loss(self.loss)
+        if self.input_hold not in INPUT_HOLDS:
+            raise InputError(f"input_hold must be one of {', '.join(INPUT_HOLDS)}, got {self.input_hold!r}",
+                             argument="input_hold")
         if isinstance(self.terms, str) or isinstance(self.try_terms, str):
             raise InputError("terms: give a set of term names, e.g. {'coulomb', 'widths'}", argument="terms")
         object.__setattr__(self, "terms", closure(self.terms))
@@ -740,6 +771,8 @@ class FitPlan:
         Where the fits start.
     messages : list of str
         What was found on the way (warnings).
+    holds : dict of str to InputHoldReading
+        How each log's input acted between its samples, by source (:mod:`iwp.ident.input_hold`).
     """
 
     options: LogFitOptions
@@ -753,6 +786,7 @@ class FitPlan:
     umax: float
     start: LeastSquaresStart
     messages: list[str]
+    holds: dict[str, InputHoldReading] = field(default_factory=dict)
 
     @property
     def Ts(self) -> float:
@@ -782,6 +816,7 @@ def plan_fit(train, *, rig=None, validate=(), kinds=None, controller: Input | No
         raise InputError("train: no training logs given", argument="train")
     _check_held_out_distinct(train_logs, others, val_logs)
     train_logs, others = _sort_by_kind(train_logs, others, rig_d, msgs)
+    train_logs, val_logs, others, holds = _read_holds(train_logs, val_logs, others, options.input_hold)
     msgs.extend(_held_out_kind_notes(val_logs, rig_d))
     msgs.extend(disagreeing_logs(train_logs, window=options.window))
     msgs.extend(kind_mismatches(train_logs, [(o.kind, o.data) for o in others]))
@@ -798,7 +833,24 @@ def plan_fit(train, *, rig=None, validate=(), kinds=None, controller: Input | No
     start = _start(wtrain, options)
     msgs.extend(start.notes)
     return FitPlan(options, rig_d, train_logs, val_logs, others, outputs, offset_given, ratio,
-                   max(float(np.max(np.abs(d.input))) for d in wtrain), start, msgs)
+                   max(float(np.max(np.abs(d.input))) for d in wtrain), start, msgs, holds)
+
+
+def _read_holds(train_logs, val_logs, others, input_hold: str):
+    """Every log with its input's hold in its metadata (:func:`~iwp.ident.input_hold.with_input_hold`; a
+    closed-loop log's input is the law's, not replayed), and the readings by source."""
+    train_logs, tr = with_input_hold(train_logs, input_hold)
+    val_logs, vr = with_input_hold(val_logs, input_hold)
+    holds = {d.source: r for d, r in zip(train_logs + val_logs, tr + vr)}
+    joined = []
+    for o in others:
+        if o.kind == "closed-loop":
+            joined.append(o)
+            continue
+        (d,), (r,) = with_input_hold([o.data], input_hold)
+        holds[d.source] = r
+        joined.append(replace(o, data=d))
+    return train_logs, val_logs, joined, holds
 
 
 def _check_controller(controller: Input | None, others: list["JoinedLog"]) -> None:
@@ -1076,7 +1128,7 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
                         least_squares=plan.start.details, model=model, outputs=plan.outputs,
                         options=options.to_dict(plan.offset_given), train=train_fits, validation=val_fits,
                         warnings=_unique(msgs), rig=plan.rig, elapsed=elapsed, structures=fitted.structures,
-                        held_out_zero=zero, held_priors=priors)
+                        held_out_zero=zero, held_priors=priors, input_holds=dict(plan.holds))
 
 
 #: the kinds of log that join ``iwp fit``'s training besides the free ones (``--clamped``, ``--wheel-locked``,

@@ -18,7 +18,7 @@ from ..jit import jit
 from .differentiate import Differentiator
 from .lsq import LeastSquaresResult, tsqr_augmented
 from .setups import Regression, Setup
-from .signals import Signals, apply_K
+from .signals import Signals, acceleration_noise_gain, apply_K
 
 __all__ = ["NoiseCovariance", "noise_covariance", "block_weights", "row_weights", "TERMS"]
 
@@ -31,17 +31,6 @@ __all__ = ["NoiseCovariance", "noise_covariance", "block_weights", "row_weights"
 TERMS = ("T1", "T2", "T3", "T4", "T5")
 #: rows per block of the tall matrix products in the noise covariance
 _MATMUL_CHUNK = 512
-
-
-def _acc_kernel_norm2(d: Differentiator, Ts: float) -> float:
-    """``||f||^2`` of the acceleration operator ``f = K D2 / Ts^2`` (white noise -> target noise)."""
-    half = max(d.edge_samples_at(Ts), 3)
-    imp = np.zeros(4 * half + 9)
-    imp[imp.size // 2] = 1.0
-    k = apply_K(d, Ts, imp[:, None])[:, 0]
-    f = np.zeros_like(k)
-    f[1:-1] = (k[2:] - 2.0 * k[1:-1] + k[:-2]) / (Ts * Ts)
-    return float(f @ f)
 
 
 @jit(exact=True)
@@ -272,7 +261,7 @@ def _residual_noise(d: Differentiator, sig: Signals, res: LeastSquaresResult, bl
                     betas: Mapping[str, Any]) -> dict[int, float]:
     """The position noise [rad] per encoder the residuals of the row that measures it would imply."""
     n_rows, p = res.residuals.shape[0], len(res.names)
-    nf = _acc_kernel_norm2(d, sig.files[0]["Ts"])
+    nf = acceleration_noise_gain(d, sig.files[0]["Ts"])
     out: dict[int, float] = {}
     for lab, (chan, _) in betas.items():
         r = res.residuals[block_rows[lab]]

@@ -273,6 +273,11 @@ class IdentificationResult:
                  + (f", window [{self.t_start}, {self.t_end}] s" if window else "")]
         if self.differentiator:
             lines.append("differentiator: " + ", ".join(f"{k}={v}" for k, v in self.differentiator.items()))
+        notes = self.details.get("input_hold_note") or []
+        if notes and len(set(notes)) == 1:
+            lines.append(notes[0] + ("" if len(notes) == 1 else f" (all {len(notes)} files)"))
+        else:
+            lines += [f"{src}: {note}" for src, note in zip(self.sources, notes)]
         lines += parameter_table(self.parameters.values(), units=PARAMETER_UNITS)
         if self.rho is not None:
             lines.append("rho: " + ", ".join(f"{k} = {v:.6g}" for k, v in self.rho.items()))

@@ -23,7 +23,8 @@ from ..data import ExperimentData, StaticCurve
 from ..errors import InputError
 from .differentiate import Differentiator, central_first
 
-__all__ = ["Signals", "prepare_signals", "fast_derivatives", "apply_K", "apply_KS", "corr_len", "EDGE_MIN", "PD1_GAIN"]
+__all__ = ["Signals", "prepare_signals", "fast_derivatives", "apply_K", "apply_KS", "corr_len", "EDGE_MIN", "PD1_GAIN",
+           "point_velocity", "position_noise", "acceleration_noise_gain", "held_input", "hold_of"]
 
 @dataclass
 class Signals:
@@ -63,7 +64,7 @@ class Signals:
 EDGE_MIN = 3
 
 
-def _point_velocity(v_cd: np.ndarray) -> np.ndarray:
+def point_velocity(v_cd: np.ndarray) -> np.ndarray:
     """Point values of the velocity from central differences: ``(-v[k-1] + 8 v[k] - v[k+1]) / 6``.
 
     The central difference is the mean of the velocity over two samples,
@@ -80,7 +81,7 @@ def _point_velocity(v_cd: np.ndarray) -> np.ndarray:
 PD1_GAIN = 130.0 / 144.0
 
 
-def _position_noise(q: np.ndarray) -> np.ndarray:
+def position_noise(q: np.ndarray) -> np.ndarray:
     """White-equivalent position noise [rad] per column from the fourth difference.
 
     ``D4 q = q[k-2] - 4 q[k-1] + 6 q[k] - 4 q[k+1] + q[k+2]`` removes any
@@ -408,7 +409,7 @@ def _filtered_terms(w: ExperimentData, d: Differentiator, coulomb: bool, noise_s
     """
     Ts = w.Ts
     q = np.column_stack([w.q1, w.q2])
-    v_pt = _point_velocity(central_first(q, Ts))
+    v_pt = point_velocity(central_first(q, Ts))
     q1r = w.q1
     u_raw = np.asarray(w.input, dtype=float)
     # errors in variables: E[(v + n)^3] = v^3 + 3 var(n) v, removed with the noise of the
@@ -444,7 +445,7 @@ def _file_signals(setup, w: ExperimentData, d: Differentiator, nonlinear: str, i
     Ts = w.Ts
     q = np.column_stack([w.q1, w.q2])
     pos, vel, acc = fast_derivatives(d, Ts, q)
-    noise_sd = _position_noise(q)
+    noise_sd = position_noise(q)
     if nonlinear == "filter-terms":
         tm = _filtered_terms(w, d, coulomb, noise_sd, vel, input_hold)
     else:
@@ -507,3 +508,28 @@ def apply_KS(d: Differentiator, Ts: float, X: np.ndarray) -> np.ndarray:
         return _convolve_same(X, KS)
     return apply_K(d, Ts, _tri3(X))
 
+
+
+def acceleration_noise_gain(d: Differentiator, Ts: float) -> float:
+    """``||f||^2`` of the acceleration operator ``f = K D2 / Ts^2`` [1/s^4]: white position noise of variance
+    ``s^2`` [rad^2] becomes target noise of variance ``s^2 ||f||^2`` [rad^2/s^4].
+
+    Parameters
+    ----------
+    d : Differentiator
+        The differentiator (its common low-pass ``K``).
+    Ts : float
+        Sample time [s].
+
+    Returns
+    -------
+    float
+        The squared norm of the operator's taps [1/s^4].
+    """
+    half = max(d.edge_samples_at(Ts), 3)
+    imp = np.zeros(4 * half + 9)
+    imp[imp.size // 2] = 1.0
+    k = apply_K(d, Ts, imp[:, None])[:, 0]
+    f = np.zeros_like(k)
+    f[1:-1] = (k[2:] - 2.0 * k[1:-1] + k[:-2]) / (Ts * Ts)
+    return float(f @ f)

@@ -41,6 +41,7 @@ from ..models.parameters import BeltParameters, LumpedParameters, PhysicalParame
 from ..models.plant import MODELS, Plant
 from ..sim.inputs import Input
 from ..sim.uncertainty import ParameterUncertainty, PredictionBand, StartUncertainty, prediction_band
+from .input_hold import INPUT_HOLDS, InputHoldReading, with_input_hold
 from .metrics import fit_percent
 from .output_error import (
     Experiment,
@@ -117,6 +118,8 @@ class ValidationResult:
     #: why the simulation did not reach the end of the window (it diverged, or took too many steps), or None; its
     #: samples after that are NaN and the fits are not defined
     failed: str | None = None
+    #: how the replayed input acted between the samples, and why (None in closed loop)
+    input_hold: InputHoldReading | None = None
 
     def _compared(self, k: str) -> np.ndarray:
         e = self.error[k]
@@ -153,6 +156,7 @@ class ValidationResult:
                 "coverage": {k: json_float(v) for k, v in (self.coverage or {}).items()}},
             "source": self.source,
             "params": self.params.to_dict(),
+            "input_hold": None if self.input_hold is None else self.input_hold.to_dict(),
         }
 
     def summary(self) -> str:
@@ -161,6 +165,8 @@ class ValidationResult:
                 f"{self.t.size} samples" + (f", restarts at {', '.join(f'{r:g}' for r in self.restart_times)} s"
                                              if self.restart_times else ""))
         lines = [head]
+        if self.input_hold is not None and self.input_hold.residual:
+            lines.append("  " + self.input_hold.describe())
         for k in self.fit:
             cov = ""
             if self.coverage is not None and k in self.coverage and math.isfinite(self.coverage[k]):
@@ -501,11 +507,15 @@ class ValidationOptions:
         the prediction band carries when the start is measured
         (:meth:`iwp.models.EncoderZero.variance`); default one encoder count's
         ``step^2 / 12``.
+    input_hold : {"auto", "zoh", "continuous"}
+        How the log's input acted between its samples, for its replay
+        (:mod:`iwp.ident.input_hold`): ``"auto"`` (default) as its metadata
+        says, else read from the log itself.
 
     Raises
     ------
     InputError
-        ``q1_offset`` not a finite number, ``q1_zero_variance`` not finite and >= 0.
+        ``q1_offset`` not a finite number, ``q1_zero_variance`` not finite and >= 0, an unknown ``input_hold``.
     """
 
     window: tuple[float | None, float | None] = (None, None)
@@ -513,8 +523,12 @@ class ValidationOptions:
     estimate_x0: bool = False
     q1_offset: float = 0.0
     q1_zero_variance: float | None = None
+    input_hold: str = "auto"
 
     def __post_init__(self) -> None:
+        if self.input_hold not in INPUT_HOLDS:
+            raise InputError(f"input_hold must be one of {', '.join(INPUT_HOLDS)}, got {self.input_hold!r}",
+                             argument="input_hold")
         q = self.q1_offset
         if isinstance(q, bool) or not isinstance(q, (int, float)) or not math.isfinite(q):
             raise InputError(f"q1_offset must be a finite number of radians, got {q!r}")
@@ -588,6 +602,9 @@ def validate(
         raise InputError(f"options must be a ValidationOptions, got {type(opts).__name__}")
     if opts.q1_offset:
         experiment = replace(experiment, q1=experiment.q1 - opts.q1_offset)
+    hold = None
+    if controller is None:  # the logged input is replayed: as it acted between the samples
+        (experiment,), (hold,) = with_input_hold([experiment], opts.input_hold)
     uncertainty = params if isinstance(params, ParameterUncertainty) else None
     plant = validation_plant(params.params if uncertainty is not None else params, experiment, model)
     signals = _compared_signals(experiment, signals)
@@ -596,7 +613,7 @@ def validate(
                          f"{plant.input_name or 'no input'}")
     plan = _plan_validation(experiment, plant, signals, controller, opts)
     run = _simulate_segments(plan, uncertainty)
-    return _report_validation(plan, run, experiment.source)
+    return replace(_report_validation(plan, run, experiment.source), input_hold=hold)
 
 
 @dataclass(frozen=True, eq=False)
