@@ -33,49 +33,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import independent as ind  # noqa: E402 (the simulator that shares nothing with iwp)
-from iwp.data import ExperimentData  # noqa: E402
 from iwp.ident.identification import identify  # noqa: E402
 from iwp.ident.logfit import LogFitOptions, fit_logs  # noqa: E402
 
 FREE = ("p1", "p2", "p3", "rho")
 FULL = ("p1", "p2", "p3", "rho")  # what identify's full set-up is checked on
-
-
-@dataclass
-class Logs:
-    train: list[ExperimentData]
-    held: list[ExperimentData]
-
-
-def make_logs(truth: ind.Truth, seed: int, *, noise: float, corr: float, train_s: float = 30.0,
-              held_s: float = 20.0, hold: str = "zoh") -> Logs:
-    """Three training and three held-out logs of one seed (inputs and noise drawn from ``seed``)."""
-    rng = np.random.default_rng(1000 + seed)
-    A = truth.amplitude
-    w = math.sqrt(truth.p1)
-    levels = tuple(A * x for x in (-1.0, -0.6, -0.3, 0.3, 0.6, 1.0))
-    if hold == "zoh":
-        tr_in = [ind.Steps(levels, (0.3, 1.5), int(rng.integers(1 << 30))),
-                 ind.Multisine.random(A, 0.3 * w, 3 * w, 10, rng),
-                 ind.Steps(levels, (0.1, 0.8), int(rng.integers(1 << 30)))]
-        ho_in = [ind.Multisine.random(A, 0.3 * w, 3 * w, 10, rng),
-                 ind.Steps(levels, (0.2, 1.0), int(rng.integers(1 << 30))),
-                 ind.Chirp(0.8 * A, 0.3 * w, w / 20.0)]
-    else:
-        tr_in = [ind.Multisine.random(A, 0.3 * w, 3 * w, 10, rng), ind.Chirp(A, 0.3 * w, w / 30.0),
-                 ind.Multisine.random(A, 0.2 * w, 2 * w, 8, rng)]
-        ho_in = [ind.Multisine.random(A, 0.3 * w, 3 * w, 10, rng), ind.Chirp(0.8 * A, 0.3 * w, w / 20.0),
-                 ind.Multisine.random(0.7 * A, 0.5 * w, 2 * w, 6, rng)]
-    out = []
-    for inputs, dur, role in ((tr_in, train_s, "train"), (ho_in, held_s, "held")):
-        runs = ind.simulate(truth, inputs, dur, hold=hold)
-        logs = []
-        for j, r in enumerate(runs):
-            q1 = ind.encode(r.X[:, 0], rng, noise=noise, corr_time=corr)
-            q2 = ind.encode(r.X[:, 1], rng, noise=noise, corr_time=corr)
-            logs.append(ExperimentData(t=r.t, q1=q1, q2=q2, u=r.u, source=f"s{seed}_{role}{j}.csv"))
-        out.append(logs)
-    return Logs(*out)
 
 
 @dataclass
@@ -100,7 +62,7 @@ class Tally:
 def fit_study(truth: ind.Truth, seeds, noise: float, corr: float, hold: str = "zoh") -> Tally:
     t = Tally()
     for s in seeds:
-        logs = make_logs(truth, s, noise=noise, corr=corr, hold=hold)
+        logs = ind.study_logs(truth, s, noise=noise, corr=corr, hold=hold)
         t0 = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -121,7 +83,7 @@ def identify_study(truth: ind.Truth, seeds, noise: float, corr: float) -> tuple[
     t = Tally()
     misfit = []
     for s in seeds:
-        logs = make_logs(truth, s, noise=noise, corr=corr)
+        logs = ind.study_logs(truth, s, noise=noise, corr=corr)
         for d in logs.train:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")

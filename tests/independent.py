@@ -3,7 +3,8 @@
 iwp's own studies run on its own twin, whose engine, encoders and inputs are
 iwp's: a defect shared by the twin and the tools cancels there. This module
 makes logs the way a user's simulator or rig would, with numpy and scipy only
-(it imports nothing from iwp):
+(nothing of iwp's engine, models, inputs or sensors; :func:`study_logs` hands its logs over in iwp's
+container, ``ExperimentData``):
 
 * the equations of the paper written out here again: model (9) (the
   compensated system), optionally with the wheel's Coulomb friction that (9)
@@ -34,7 +35,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 __all__ = ["Truth", "TRUTHS", "Chirp", "Multisine", "Steps", "Run", "simulate", "encode", "write_csv",
-           "COULOMB_WIDTH", "TOL"]
+           "COULOMB_WIDTH", "TOL", "Logs", "study_logs"]
 
 #: the tolerances of every integration (rtol = atol)
 TOL = 1e-10
@@ -72,7 +73,7 @@ class Truth:
 TRUTHS = {
     "table1": Truth(26.095, 0.0106, 0.0286, 247.24, 0.003, 0.01, 0.0005, amplitude=50.0),
     "direct": Truth(40.0, 0.06, 12.0, 30.0, 0.02, 0.01, 0.0002, amplitude=0.6),
-    "long": Truth(9.0, 0.03, 0.4, 80.0, 0.004, 0.02, 0.0, amplitude=8.0),
+    "long": Truth(9.0, 0.03, 0.4, 80.0, 0.004, 0.02, 0.0, amplitude=5.0),
 }
 
 
@@ -252,3 +253,55 @@ def write_csv(path: str | Path, t, q1, q2, u, *, comments: Sequence[str] = (), d
         for row in zip(t, q1, q2, u):
             fh.write(",".join(f"{v:.{digits}g}" for v in row) + "\n")
     return path
+
+
+# ------------------------------------------------------------------------------------------------------ the study
+@dataclass
+class Logs:
+    """The training and the held-out logs of one seed (``iwp.data.ExperimentData``)."""
+
+    train: list
+    held: list
+
+
+def study_logs(truth: Truth, seed: int, *, noise: float, corr: float, train_s: float = 30.0,
+              held_s: float = 20.0, hold: str = "zoh") -> Logs:
+    """Three training and three held-out logs of one seed (inputs and noise drawn from ``seed``), as
+    :class:`iwp.data.ExperimentData` (the one import of iwp here: the container, for the tools that read it).
+
+    Held inputs: random multilevel steps, a multisine and quicker steps at half the levels (30 s each) to train;
+    a multisine, steps and a chirp (20 s each) held out, all from rest. Continuous inputs: multisines and chirps.
+    """
+    rng = np.random.default_rng(1000 + seed)
+    A = truth.amplitude
+    w = math.sqrt(truth.p1)
+    levels = tuple(A * x for x in (-1.0, -0.6, -0.3, 0.3, 0.6, 1.0))
+    quick = tuple(0.5 * x for x in levels)  # quick steps pump the swing: half the levels keep it below the top
+    if hold == "zoh":
+        tr_in = [Steps(levels, (0.3, 1.5), int(rng.integers(1 << 30))),
+                 Multisine.random(A, 0.3 * w, 3 * w, 10, rng),
+                 Steps(quick, (0.1, 0.8), int(rng.integers(1 << 30)))]
+        ho_in = [Multisine.random(A, 0.3 * w, 3 * w, 10, rng),
+                 Steps(levels, (0.2, 1.0), int(rng.integers(1 << 30))),
+                 Chirp(0.8 * A, 0.3 * w, w / 20.0)]
+    else:
+        tr_in = [Multisine.random(A, 0.3 * w, 3 * w, 10, rng), Chirp(A, 0.3 * w, w / 30.0),
+                 Multisine.random(A, 0.2 * w, 2 * w, 8, rng)]
+        ho_in = [Multisine.random(A, 0.3 * w, 3 * w, 10, rng), Chirp(0.8 * A, 0.3 * w, w / 20.0),
+                 Multisine.random(0.7 * A, 0.5 * w, 2 * w, 6, rng)]
+    out = []
+    for inputs, dur, role in ((tr_in, train_s, "train"), (ho_in, held_s, "held")):
+        runs = simulate(truth, inputs, dur, hold=hold)
+        logs = []
+        for j, r in enumerate(runs):
+            q1 = encode(r.X[:, 0], rng, noise=noise, corr_time=corr)
+            q2 = encode(r.X[:, 1], rng, noise=noise, corr_time=corr)
+            logs.append(_experiment(t=r.t, q1=q1, q2=q2, u=r.u, source=f"s{seed}_{role}{j}.csv"))
+        out.append(logs)
+    return Logs(*out)
+
+
+def _experiment(**kw):
+    from iwp.data import ExperimentData  # the container only: nothing of iwp's simulation or sensors
+
+    return ExperimentData(**kw)

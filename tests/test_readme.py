@@ -104,3 +104,16 @@ def test_readme_sequence_runs_in_order(tmp_path, monkeypatch, capsys):
     assert fit["outputs"] == ["q1", "q4"]
     assert fit["parameters"]["p1"]["value"] == pytest.approx(truth.p1, rel=0.005)
     assert min(fit["validation_fit"].values()) > 85.0
+    # its 95 % prediction band either holds (80 % of each judged signal inside) or the fit says it does not: the twin's
+    # belt and dead zone, which model (9) lacks, leave the held-out q1 outside (60 % inside when written), and one
+    # training log cannot check the structure
+    (held_out,) = fit["validation"]
+    inside = {o: held_out["band_coverage"][o] for o in ("q1", "q4")}
+    if min(inside.values()) >= 0.8:
+        assert fit["band_holds"] is True and held_out["band_holds"] is True
+    else:
+        assert fit["band_holds"] is False and held_out["band_holds"] is False
+        assert any("lie inside the 95 % prediction band" in w and "the band does not hold on this log" in w
+                   for w in fit["warnings"])
+        assert "(the band does not hold for q" in printed["fit chirp.csv"]
+    assert inside["q1"] < 0.8 and fit["band_holds"] is False  # what the sequence shows today (q1 60 %)

@@ -137,6 +137,7 @@ from .differentiate import Differentiator
 from .fit_parameters import Parameter
 from .input_hold import INPUT_HOLDS, InputHoldReading, with_input_hold
 from .lsq import LeastSquaresOptions, LeastSquaresResult, lstsq_projection, solve_least_squares
+from .misfit import correlated_note, residual_structure
 from .noise import NoiseCovariance, noise_covariance, row_weights
 from .output_error import measured_initial_state
 from .result import IdentificationResult
@@ -220,8 +221,13 @@ def default_differentiator(Ts: float) -> Differentiator:
 _MIN_EFF_PER_PARAM = 20
 #: |correlation| above which a pair is explained as not separable
 _CORR_EXPLAIN = 0.99
-#: residuals this many times larger than the measurement noise explains -> model misfit (HAC covariance)
+#: residuals this many times larger than the measurement noise explains -> model misfit (HAC covariance), unless
+#: nothing in them follows the state (:mod:`iwp.ident.misfit`: noise correlated in time)
 _MISFIT_RATIO = 2.0
+#: ... up to this many times: AR(1) sensor noise of 1 mrad and 20 ms on a 2000-count encoder stands 2.1-3.3 times
+#: above its white level in the residuals (tests/independent.py), one of 100 ms about 6 times; residuals beyond it
+#: are no encoder's noise, and are a misfit whatever the library of iwp.ident.misfit finds in them
+_NOISE_LIKE_MAX = 10.0
 #: Least fraction of the regressand's mean square the model must explain, in every row of (10):
 #: below it the estimates describe noise or a signal the set-up does not model, not the rig.
 MIN_EXPLAINED = 0.5
@@ -644,8 +650,12 @@ def _noise_or_misfit(plan: _IdentPlan, opts: IdentifyOptions, res: LeastSquaresR
     hac = _solve_lsq(plan, opts, "hac")
     details.update(covariance="hac", regressor_terms=opts.nonlinear)
     row = {"q1": "first (dq3/dt)", "q2": "second (dq4/dt)"}[worst]
+    label = {"q1": "q3", "q2": "q4"}[worst]
+    structure = residual_structure(plan.sig, plan.reg, np.asarray(res.values, dtype=float))
+    details["residual_structure"] = {"explained": structure.explained, "leading": structure.leading}
     if own is not None:
         details["own_model_ratios"] = own
+    warnings: tuple[str, ...] = ()
     if own is not None and worst in own and ratios[worst] <= _MISFIT_RATIO * own[worst]:
         # no more than the set-up's own model leaves (quantisation, the differentiator): no missing term to warn of
         details["residuals_note"] = (
@@ -654,17 +664,19 @@ def _noise_or_misfit(plan: _IdentPlan, opts: IdentifyOptions, res: LeastSquaresR
             f"logged like these logs, leaves {own[worst]:.3g} times: the excess is what the regression leaves on the "
             "set-up's own model (the encoders' quantisation, the differentiator's error), not a term the model "
             "lacks. Standard errors from the model-free HAC covariance")
-        warnings: tuple[str, ...] = ()
+    elif not structure.holds_a_term(label) and ratios[worst] < _NOISE_LIKE_MAX:
+        # above the white level, but nothing in the residuals follows the state: noise correlated in time
+        details["residuals_note"] = correlated_note(ratios[worst], row, worst, structure, label)
     else:
         against = ("" if own is None or worst not in own else
                    f", and {ratios[worst] / own[worst]:.3g} times what the set-up's own model leaves when simulated "
                    f"with these estimates on the same inputs and logged like these logs ({own[worst]:.3g} times)")
         warnings = (
             f"model misfit: the residuals of the {row} row of (10) are {ratios[worst]:.3g} times larger than "
-            f"the measurement noise of encoder {worst} ({noise_sd[worst]:.2g} rad) explains{against}; the model "
-            "does not describe these data exactly (unmodelled friction, belt, dead-zone residue, wrong known "
-            "parameters), so the estimates carry a bias that no standard error shows. Standard errors from "
-            "the model-free HAC covariance",)
+            f"the measurement noise of encoder {worst} ({noise_sd[worst]:.2g} rad) explains{against}, and "
+            f"{structure.describe(label)}; the model does not describe these data exactly (unmodelled friction, "
+            "belt, dead-zone residue, an input read with the wrong hold, wrong known parameters), so the estimates "
+            "carry a bias that no standard error shows. Standard errors from the model-free HAC covariance",)
     return _Solved(res=hac, cov=np.array(hac.covariance, dtype=float), critical=hac.critical_value,
                    warnings=warnings, details=details)
 

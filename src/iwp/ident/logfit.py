@@ -82,8 +82,7 @@ from .output_error import (
     OutputError,
     angle_quantum,
     band_as_measured,
-    measured_initial_state,
-    measured_state_covariance,
+    start_state,
 )
 from .problem import Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, refine
@@ -102,8 +101,15 @@ from .structure import (
 from .validation import model_input
 
 __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresStart", "least_squares_start",
-           "load_logs", "MIN_SAMPLES_PER_PERIOD", "kind_mismatches", "inferred_kind"]
+           "BAND_HOLDS", "load_logs", "MIN_SAMPLES_PER_PERIOD", "kind_mismatches", "inferred_kind"]
 
+#: A held-out log's 95 % prediction band holds when at least this share of its samples of each judged signal lies
+#: inside; below, the fit says that it does not hold on that log. A right band held 80-100 % of each set of three
+#: held-out logs (mean 93-96 %) on tests/independent.py's logs with AR(1) noise (benchmarks/independent_study.py),
+#: one log of a set 64 % where the estimates lay two standard errors off (a 95 % band fails so, now and then); the
+#: twin's held-out chirp fitted with model (9), which lacks the twin's belt and dead zone, held 60 % of q1 (the
+#: README's sequence).
+BAND_HOLDS = 0.8
 #: Least squares on differentiated data needs at least this many samples per pendulum period.
 MIN_SAMPLES_PER_PERIOD = 8
 #: length of the Savitzky-Golay filters of the least-squares start [s] (at least 7 samples)
@@ -151,9 +157,16 @@ class LogFit:
     #: the set-up (:data:`~iwp.ident.output_error.EXPERIMENT_KINDS`)
     kind: str = "free"
 
+    @property
+    def band_misses(self) -> tuple[str, ...]:
+        """The judged signals of a held-out log of which less than :data:`BAND_HOLDS` lies inside its 95 % band."""
+        return tuple(o for o in JUDGED if o in self.coverage and math.isfinite(self.coverage[o])
+                     and self.coverage[o] < BAND_HOLDS)
+
     def to_dict(self) -> dict[str, Any]:
         return {"source": self.source, "role": self.role,
                 "fit": {k: json_float(v) for k, v in self.fit.items()},
+                "band_holds": None if not self.coverage else not self.band_misses,
                 "rms": {k: json_float(v) for k, v in self.rms.items()},
                 "max_abs_error": {k: json_float(v) for k, v in self.max_abs_error.items()},
                 "samples": int(self.t.size), "t_start": float(self.t[0]), "t_end": float(self.t[-1]),
@@ -249,6 +262,13 @@ class LogFitResult:
         return f"the model predicts the held-out logs poorly (mean fit {', '.join(bad)})" if bad else None
 
     @property
+    def band_holds(self) -> bool | None:
+        """Whether the held-out logs' 95 % prediction bands hold for this model (None: no band): each judged signal
+        of each held-out log at least :data:`BAND_HOLDS` inside (:attr:`LogFit.band_misses`)."""
+        banded = [f for f in self.validation if f.coverage]
+        return None if not banded else not any(f.band_misses for f in banded)
+
+    @property
     def validation_fit(self) -> dict[str, float]:
         """Mean fit [%] over the held-out logs of each signal they are judged on (:data:`JUDGED`: ``q1``, ``q4``;
         NaN without held-out logs)."""
@@ -302,6 +322,7 @@ class LogFitResult:
             "lumped": self.params.to_dict(),
             "belt": None if self.belt is None else self.belt.to_dict(),
             "input_hold": {src: r.to_dict() for src, r in self.input_holds.items()},
+            "band_holds": self.band_holds,
         }
 
     def summary(self, warnings: bool = True) -> str:
@@ -320,6 +341,7 @@ class LogFitResult:
         for f in self.train + self.validation:
             fits = ", ".join(f"{k} {v:.2f} %" + (" (not judged)" if k not in JUDGED else "") for k, v in f.fit.items())
             band = (", in the 95 % prediction band: " + ", ".join(f"{k} {100 * v:.0f} %" for k, v in f.coverage.items())
+                    + (f" (the band does not hold for {', '.join(f.band_misses)})" if f.band_misses else "")
                     if f.coverage else "")
             kind = "" if f.kind == "free" else f" ({f.kind})"
             lines.append(f"{f.role:>8} {f.source}{kind}: fit {fits}{band}")
@@ -1113,6 +1135,7 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
         msgs.append("held-out logs: no prediction band, for the fit did not determine every free parameter")
     plant = _Fitting(plan).plant(options, r.params, r.belt)
     val_fits = [_held_out(d, plant, predicted_signals(d), zero, msgs, uncertainty) for d in val_logs]
+    msgs.extend(_band_misses(val_fits, r))
     params = r.params
     if r.belt is not None:  # p2 and p3 do not enter the belt model: its rigid limit stands for them
         params = params.replace(p2=r.belt.rigid_p2rho / params.rho, p3=r.belt.rigid_p3rho / params.rho)
@@ -1575,7 +1598,8 @@ def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], zero: E
     uncertainty and its own zero's in it)."""
     offset = zero.value
     dc = replace(d, q1=d.q1 - offset) if offset else d
-    x0 = measured_initial_state(dc)
+    start = start_state(dc, plant)
+    x0 = start.x0
     model = OutputError(plant, [Experiment(dc, x0=x0, estimate_x0=False)], outputs, fitting=False)
     ev = model.evaluate(model.parameters().values())
     p = model.prepared[0]
@@ -1586,12 +1610,33 @@ def _held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], zero: E
         zero_variance = 0.0 if plant.pendulum_locked else zero.variance(angle_quantum(dc.q1))  # as validate's
         band = band_as_measured(prediction_band(plant, uncertainty, input=p.input, x0=x0, t_eval=p.t,
                                                 signals=outputs, start=StartUncertainty(
-                                                    measured_state_covariance(dc, 0), zero_variance)),
+                                                    start.covariance, zero_variance)),
                                 p.derived, simulated)
         fit.coverage = band.coverage(p.y, {o: p.w[o] > 0 for o in outputs})
     if ev.status[0] != 0 or not all(math.isfinite(x) for x in fit.fit.values()):
         msgs.append(f"{d.source}: the validation simulation failed or diverged")
     return fit
+
+
+def _band_misses(val_fits: Sequence[LogFit], r: RefineResult) -> list[str]:
+    """A warning for each held-out log outside its 95 % prediction band (:attr:`LogFit.band_misses`): the band
+    carries the parameters', the start's and the residuals' uncertainty, and does not hold when the model misses
+    what the log shows."""
+    out = []
+    for f in val_fits:
+        if not f.band_misses:
+            continue
+        inside = " and ".join(f"{100 * f.coverage[o]:.0f} % of {o}'s" for o in f.band_misses)
+        rel = r.reliability
+        why = ("; the training experiments disagree beyond their noise (model-structure error)" if rel is not None
+               and rel.structure_error else "; one training experiment cannot check the model's structure"
+               if rel is not None and rel.experiments < 2 else "")
+        out.append(f"{f.source}: only {inside} samples lie inside the 95 % prediction band (below "
+                   f"{100 * BAND_HOLDS:.0f} %): the band does not hold on this log. It carries the uncertainty of the "
+                   "parameters, the start and the residuals, not what the model misses: the model misses what this "
+                   f"log shows, or its parameters lie beyond their 95 % intervals{why}; try richer structures (iwp "
+                   "fit without --structure) and more training logs")
+    return out
 
 
 def _unique(msgs: list[str]) -> list[str]:

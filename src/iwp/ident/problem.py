@@ -38,11 +38,13 @@ from scipy import optimize
 from ..errors import InputError
 from ..threads import one_blas_thread
 from .covariance import (
+    MIN_HAC_BLOCKS,
     Reliability,
     across_and_within,
     block_sigmas,
     cluster_covariance,
     correlation_messages,
+    experiments_agree,
     hac_sandwich,
     loss_weights,
     reliability,
@@ -435,25 +437,33 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     kinds = [i for i, n in enumerate(free) if params[n].kind == "model"]
     groups = model.row_experiments() if timed else np.zeros(rw.size, dtype=np.int64)
     n_exp = int(np.unique(groups).size)
+    n_out = int(np.max(blocks)) + 1 if blocks.size else 1
     method = problem.covariance
-    if method == "auto":
+    auto = method == "auto"
+    if auto:
         method = ("experiments" if n_exp >= 2 else "hac") if timed else "white"
     within = None
     if timed and (method in ("experiments", "hac") or method.startswith("hac:")):
         b = float(method.split(":")[1]) if method.startswith("hac:") else None
         within = hac_sandwich(Jw, rw, groups, model.row_times(), free, dof, b)
-    across = None
+    across = agreement = None
     if method == "experiments" and n_exp >= 2:
         across = cluster_covariance(Jw, rw, groups, free)
-        cov_z = across_and_within(across, within) if within is not None else across
+        if within is not None:
+            agreement = experiments_agree(Jw, rw, groups, model.row_times(), kinds, int(within.bandwidth or 0), dof)
+        if auto and agreement is not None and agreement.agree and _hac_blocks(groups, within, n_out) >= MIN_HAC_BLOCKS:
+            # the experiments agree within their noise and each holds many blocks of the HAC lags: the noise within
+            # them sets the intervals; Student t over G experiments is kept for a disagreement or few blocks
+            cov_z = within
+        else:
+            cov_z = across_and_within(across, within) if within is not None else across
     elif within is not None:
         cov_z = within
     else:
         cov_z = white_covariance(Jw, sig[blocks] * w, free, dof)
     length = int(min(np.count_nonzero(groups == g) for g in np.unique(groups))) if rw.size else 0
-    n_out = int(np.max(blocks)) + 1 if blocks.size else 1
-    verdict = reliability(across if across is not None else cov_z, within if across is not None else None, n_exp,
-                          kinds, length // n_out)
+    verdict = reliability(cov_z, n_exp, kinds, length // n_out, within=within, across=across, agreement=agreement,
+                          blocks=_hac_blocks(groups, within, n_out) if within is not None else None)
     estimates = params.with_estimates(z, cov_z.matrix, cov_z.critical_of)
     D = params.value_derivatives(z, free)
     cov = D @ cov_z.matrix @ D.T if free else np.zeros((0, 0))
@@ -467,6 +477,13 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     return dict(parameters=estimates, free=free, covariance=cov, correlation=corr, dof=dof, critical=cov_z.critical,
                 block_sigma=sig, warnings=msgs, covariance_method=cov_z.method, bandwidth=cov_z.bandwidth,
                 inflation=dict(zip(free, (float(x) for x in cov_z.inflation))), reliability=verdict)
+
+
+def _hac_blocks(groups: np.ndarray, within: Any, n_out: int) -> int:
+    """Blocks of the HAC lags in the shortest experiment (its samples over the lags + 1; ``n_out`` rows a sample)."""
+    lags = int(within.bandwidth or 0) if within is not None else 0
+    rows = [int(np.count_nonzero(groups == g)) for g in np.unique(groups)]
+    return min(rows) // n_out // (lags + 1) if rows else 0
 
 
 def _no_statistics(params: Parameters, z: np.ndarray) -> dict[str, Any]:

@@ -48,11 +48,10 @@ from .output_error import (
     OutputError,
     angle_quantum,
     band_as_measured,
-    measured_initial_state,
     measured_signals,
     measured_state_covariance,
-    plant_state,
     solve_output_error,
+    start_state,
     x0_name,
 )
 from .problem import SolverOptions
@@ -673,9 +672,11 @@ def _plan_validation(experiment: ExperimentData, plant: Plant, signals: tuple[st
     x0_cov = [measured_state_covariance(experiment, int(np.searchsorted(experiment.t, e.window[0])))
               for e in exps]
     if not opts.estimate_x0 and t[0] <= experiment.t[0]:
-        # at the log's first sample, the one-sided estimate iwp fit takes for its held-out logs (a smoothing
-        # filter is biased there: on a 50 ms log, q3 -0.34 rad/s for a pendulum at rest)
-        exps[0] = replace(exps[0], x0=plant_state(measured_initial_state(experiment), plant))
+        # at the log's first sample, the estimate iwp fit takes for its held-out logs (a smoothing filter is biased
+        # there: on a 50 ms log, q3 -0.34 rad/s for a pendulum at rest; a quadratic where the input drives the rig)
+        start = start_state(experiment, plant, controller)
+        exps[0] = replace(exps[0], x0=start.x0)
+        x0_cov[0] = start.covariance
     if opts.estimate_x0:
         x0, x0_cov[0] = _estimated_x0(replace(exps[0], estimate_x0=True), plant, signals)
         exps[0] = replace(exps[0], x0=x0[:4])

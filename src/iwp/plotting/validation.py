@@ -55,7 +55,7 @@ def plot_validation(t, measured, simulated, *, signals=None, fit=None, restart_t
     >>> from iwp.plotting import plot_validation
     >>> out = plot_validation(v.t, v.measured, v.simulated, fit=v.fit)
     >>> len(out["axes"]), out["axes"][0].get_title()  # the signal, and its error below
-    (2, 'q4: fit 90.4 %')
+    (2, 'q4: fit 90.6 %')
     >>> plt.close(out["figure"])
     """
     sig = list(signals) if signals is not None else list(measured)

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from ..files import jsonable, staged_dir
-from ..ident.logfit import JUDGED, MODEL_LABELS
+from ..ident.logfit import BAND_HOLDS, JUDGED, MODEL_LABELS
 from ..ident.validation import READS_V_AS_U
 from ..models.parameters import save_params
 from ..plotting.report import plot_comparisons
@@ -161,7 +161,8 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
             role = f.role if f.kind == "free" else f"{f.role} ({f.kind})"
             frows.append([Path(f.source).name, role] + [fmt(f.fit.get(o), 4) for o in sigs]
                          + [fmt(f.rms.get(o), 3) for o in sigs] + [fmt(f.q1_offset, 3)]
-                         + [fmt(100 * f.coverage[o], 3) if o in f.coverage else "-" for o in sigs])
+                         + [fmt(100 * f.coverage[o], 3) + (" (does not hold)" if o in f.band_misses else "")
+                            if o in f.coverage else "-" for o in sigs])
         ftab = Table("Fits per log and signal",
                      ["log", "role"] + [f"fit {o} [%]" for o in sigs]
                      + [f"RMS {o}" for o in sigs] + ["q1 offset [rad]"]
@@ -170,7 +171,9 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                           f"log is judged on {' and '.join(JUDGED)}, the pendulum's angle and the wheel's speed (the "
                           "wheel's angle enters no equation: its error is the integral of the speed's); in band: the "
                           "share of a held-out log's samples inside the fit's 95 % prediction band (parameters, "
-                          "measured initial state and the residuals' spread)")
+                          "measured initial state and the residuals' spread); a judged signal below "
+                          f"{100 * BAND_HOLDS:.0f} % inside: the band does not hold for this model (it misses what "
+                          "the log shows)")
         tables = [ptab, ftab]
         if result.structures is not None:
             lad = result.structures
