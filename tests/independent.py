@@ -48,7 +48,8 @@ class Truth:
     """The lumped parameters of model (9) (the paper's names, its units) and the terms (9) lacks.
 
     ``sigma_c2``: the wheel's Coulomb friction ``sigma~_c2 sgn q4`` of section 5.1 [rad/s^2] (not in (9));
-    ``drag``: a quadratic air drag ``drag q3 |q3|`` of the pendulum [1/rad] (not in (9), none of its laws).
+    ``drag``: a quadratic air drag ``drag q3 |q3|`` of the pendulum [1/rad] (not in (9), none of its laws);
+    ``sigma_c1``: the pendulum's Coulomb friction [rad/s^2] (not in (9)).
     """
 
     p1: float
@@ -60,6 +61,8 @@ class Truth:
     sigma_b1: float = 0.0
     sigma_c2: float = 0.0
     drag: float = 0.0
+    #: the pendulum's Coulomb friction ``sigma_c1 tanh(q3 / COULOMB_WIDTH)`` [rad/s^2] (not in (9))
+    sigma_c1: float = 0.0
     #: a typical input amplitude for this rig [input units]: the wheel then turns at tens of rad/s
     amplitude: float = 1.0
 
@@ -143,7 +146,7 @@ def _rhs(truth: Truth, locked: bool, wheel: bool):
             z = np.zeros_like(q1)
             return np.concatenate([z, q4, z, (1.0 + rho) * (-p2 * q4 + p3 * u - coul)])
         xi = (p1 * np.sin(q1) + truth.sigma_a1 * np.abs(np.cos(q1)) * q3 + truth.sigma_v1 * q3
-              + truth.sigma_b1 * q3 ** 3 + truth.drag * q3 * np.abs(q3))
+              + truth.sigma_b1 * q3 ** 3 + truth.drag * q3 * np.abs(q3) + truth.sigma_c1 * np.tanh(q3 / COULOMB_WIDTH))
         if not wheel:  # a pendulum without a wheel: dq3/dt = -xi
             z = np.zeros_like(q1)
             return np.concatenate([q3, z, -xi, z])
