@@ -144,6 +144,17 @@ def numbalsoda_q1_factory():
     return q1
 
 
+def _best_of(repeat: int, run):
+    """``run()`` once to compile or load its kernels, then ``repeat`` times: the best time [s] and the last result."""
+    run()
+    best, out = math.inf, None
+    for _ in range(max(repeat, 1)):
+        t0 = time.perf_counter()
+        out = run()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--duration", type=float, default=60.0, help="length of the free-decay log [s] (default 60)")
@@ -176,29 +187,17 @@ def main():
     t_sp = time.perf_counter() - t0
     print(f"(b) scipy reference: {t_sp:8.3f} s, {nsim} solve_ivp simulations ({sol.nfev} residual evaluations "
           f"+ finite differences), cost {sol.cost:.6g}")
-    finite_difference_refine(data, start, compiled_q1)  # loads the compiled kernel
-    anchor = []
-    for _ in range(max(args.repeat, 1)):
-        t0 = time.perf_counter()
-        theta_c, sol_c, nsim_c = finite_difference_refine(data, start, compiled_q1)
-        anchor.append(time.perf_counter() - t0)
-    t_c = min(anchor)
-    print(f"(c) anchor, compiled DOP853 + 2-point differences: {t_c:8.3f} s (best of {len(anchor)}), {nsim_c} "
-          f"simulations, cost {sol_c.cost:.6g}")
+    t_c, (theta_c, sol_c, nsim_c) = _best_of(args.repeat, lambda: finite_difference_refine(data, start, compiled_q1))
+    print(f"(c) anchor, compiled DOP853 + 2-point differences: {t_c:8.3f} s (best of {max(args.repeat, 1)}), "
+          f"{nsim_c} simulations, cost {sol_c.cost:.6g}")
     nbs = numbalsoda_q1_factory()
     t_d = math.nan
     if nbs is None:
         print("(d) numbalsoda: not installed (pip install numbalsoda), skipped")
     else:
-        finite_difference_refine(data, start, nbs)  # compiles the cfunc
-        outside = []
-        for _ in range(max(args.repeat, 1)):
-            t0 = time.perf_counter()
-            _theta_d, sol_d, nsim_d = finite_difference_refine(data, start, nbs)
-            outside.append(time.perf_counter() - t0)
-        t_d = min(outside)
-        print(f"(d) numbalsoda DOP853 + 2-point differences:      {t_d:8.3f} s (best of {len(outside)}), {nsim_d} "
-              f"simulations, cost {sol_d.cost:.6g}")
+        t_d, (_theta_d, sol_d, nsim_d) = _best_of(args.repeat, lambda: finite_difference_refine(data, start, nbs))
+        print(f"(d) numbalsoda DOP853 + 2-point differences:      {t_d:8.3f} s (best of {max(args.repeat, 1)}), "
+              f"{nsim_d} simulations, cost {sol_d.cost:.6g}")
     print(f"speed-up (b)/(a): {t_sp / t_iwp:.1f}x; target for (a): <= 1 s -> {'met' if t_iwp <= 1.0 else 'NOT met'}")
     print(f"(c)/(a): {t_c / t_iwp:.2f}; issue 14's target (a) <= (c) -> {'met' if t_iwp <= t_c else 'NOT met'}")
     if math.isfinite(t_d):

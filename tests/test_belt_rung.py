@@ -164,10 +164,9 @@ def test_the_ladder_fits_the_belt_of_a_belt_drive_and_predicts_held_out_logs(tmp
     truth = {**TRUTH.to_dict(), **BELT.to_dict()}
     rows = {n: doc["parameters"][n] for n in doc["free"]}
     outside = [n for n, row in rows.items() if not row["ci95"][0] <= truth[n] <= row["ci95"][1]]
-    # a pendulum friction coefficient the fit says nothing of is held at its prior (Table 1's, not this rig's), out
-    # of the free list; the other pendulum friction coefficients' intervals are then conditional on that prior and
-    # may miss this rig's values (here sigma_v1 held at 0.01 against 0.05 moves sigma_a1 and sigma_b1): every
-    # other parameter's interval holds its truth
+    # a pendulum friction coefficient the fit says nothing of is held at 0, where the fit drove it, out of the free
+    # list; the other pendulum friction coefficients then carry its share of the damping and their intervals may
+    # miss this rig's values: every other parameter's interval holds its truth
     held = set(doc["options"].get("fixed", {}))
     friction = {"sigma_a1", "sigma_v1", "sigma_b1"}
     assert held <= friction and len(rows) + len(held) == 14

@@ -17,7 +17,7 @@ from iwp.data import ExperimentData, read_experiment
 from iwp.ident.identification import IdentifyOptions, identify
 from iwp.ident.input_hold import HOLD_CLEAR, read_input_hold, with_input_hold
 from iwp.ident.logfit import LogFitOptions, plan_fit
-from iwp.ident.output_error import replay
+from iwp.ident.output_error import interval_means, replay
 from iwp.ident.validation import ValidationOptions, validate
 from iwp.models import LumpedParameters
 
@@ -118,9 +118,9 @@ def test_iwp_fit_and_validate_replay_the_input_as_read():
     plan = plan_fit(train[:1], validate=train[1:], options=LogFitOptions())
     assert all(d.metadata["input_hold"] == "continuous" for d in plan.train + plan.held_out)
     assert {r.how for r in plan.holds.values()} == {"data"}
-    # the replay holds the mean of each interval's ends: the continuous input's average over it
+    # the replay holds each interval's mean of the continuous input (interval_means), the log as given its samples
     u = plan.train[0].u
-    np.testing.assert_allclose(replay(plan.train[0], "u").values[:-1], 0.5 * (u[:-1] + u[1:]))
+    np.testing.assert_allclose(replay(plan.train[0], "u").values, interval_means(u))
     np.testing.assert_allclose(replay(train[0], "u").values, u)  # the log as given says nothing: held
     params = LumpedParameters(p1=truth.p1, p2=truth.p2, p3=truth.p3, rho=truth.rho, sigma_a1=truth.sigma_a1,
                               sigma_v1=truth.sigma_v1, sigma_b1=truth.sigma_b1)
@@ -131,3 +131,20 @@ def test_iwp_fit_and_validate_replay_the_input_as_read():
     rms = lambda res: math.sqrt(np.mean(res.error["q4"] ** 2))  # noqa: E731
     assert rms(v) < 0.3 * rms(forced)  # measured 0.21: the rest is the encoder's, differentiated
     assert "input read as continuous from the data" in v.summary()
+
+
+def test_interval_means_are_the_continuous_inputs_average_to_fourth_order():
+    """A sine sampled at 5 ms: the mean over each interval within 1.3e-6 of its amplitude at 19 rad/s, where the mean
+    of the two ends is off by Ts^2 u''/12 (7.5e-4 of it); halving Ts divides the error by 16."""
+    def errors(Ts, w=19.0):
+        t = np.arange(0.0, 2.0, Ts)
+        u = np.sin(w * t + 0.3)
+        exact = (np.cos(w * t[:-1] + 0.3) - np.cos(w * t[1:] + 0.3)) / (w * Ts)
+        inner = slice(1, -2)
+        four = np.max(np.abs(interval_means(u)[:-1][inner] - exact[inner]))
+        two = np.max(np.abs(0.5 * (u[:-1] + u[1:])[inner] - exact[inner]))
+        return four, two
+    four, two = errors(0.005)
+    assert two == pytest.approx((19.0 * 0.005) ** 2 / 12, rel=0.05)
+    assert four < 2e-6 and four < two / 300
+    assert errors(0.0025)[0] == pytest.approx(four / 16, rel=0.1)

@@ -1029,16 +1029,22 @@ def fit_plan(plan: FitPlan) -> Fitted:
 HOLDABLE_FRICTION: dict[str, str] = {n: HOLDABLE[n] for n in ("sigma_a1", "sigma_v1", "sigma_b1")}
 
 
-def friction_prior(name: str) -> float:
-    """The prior of a pendulum friction coefficient a fit holds: Table 1's value [its unit] (the paper's rig; a
-    rig's own value from elsewhere goes in with ``fixed``, ``iwp fit --fix``)."""
-    return float(getattr(table1(), name))
+def friction_prior(name: str, params: LumpedParameters) -> float:
+    """The spread of a pendulum friction coefficient a fit holds [its unit]: Table 1's share of the pendulum's
+    damping ``sigma_a1 + sigma_v1`` times this fit's damping (Table 1's value where the fit has none). The
+    paper's rig sets the proportions, not the size: a rig whose damping is four times Table 1's has friction
+    coefficients four times as large (``iwp fit --fix`` gives a rig's own value)."""
+    t1 = table1()
+    damping = float(params.sigma_a1 + params.sigma_v1)
+    share = float(getattr(t1, name)) / float(t1.sigma_a1 + t1.sigma_v1)
+    return share * damping if damping > 0 else float(getattr(t1, name))
 
 
-def held_prior_spreads(held) -> dict[str, float]:
-    """The standard deviation of each held friction's prior [its unit]: :data:`PRIOR_SPREAD` of
-    :func:`friction_prior` (a held value is a guess; the held-out bands and the stored covariance carry it)."""
-    return {n: PRIOR_SPREAD * friction_prior(n) for n in held}
+def held_prior_spreads(held: Mapping[str, float], params: LumpedParameters) -> dict[str, float]:
+    """The standard deviation about its held value of each friction coefficient a fit holds [its unit]:
+    :data:`PRIOR_SPREAD` of :func:`friction_prior` (a held value is a guess; the held-out bands and the stored
+    covariance carry it)."""
+    return {n: PRIOR_SPREAD * friction_prior(n, params) for n in held}
 
 
 #: an undetermined friction coefficient is held only when the fit drove it to its bound 0 (below this share of its
@@ -1053,18 +1059,19 @@ HOLD_SLACK = 0.01
 
 
 def hold_unidentified(fitting: "_Fitting", fitted: Fitted) -> Fitted:
-    """The fit again with the pendulum's friction coefficients its logs do not identify held at their prior.
+    """The fit with the pendulum's friction coefficients its logs do not identify held where the fit put them.
 
     The coefficient of :data:`HOLDABLE_FRICTION` the estimate says least of, driven to its bound 0
     (:func:`~iwp.sim.uncertainty.undetermined` and below :data:`AT_BOUND` of its typical value: ``1e-18 +- 230``
-    where two of them cannot be told apart; the largest interval relative to its value first) is held at
-    :func:`friction_prior` and the structure fitted again from the fit's values, one at a time until what is left is
-    determined: of a pair the logs cannot tell apart one is held and the other carries their sum (holding both at
-    Table 1's values would impose Table 1's damping on another rig). A refit whose cost ends more than
-    :data:`HOLD_SLACK` above the free fit's is not kept (the coefficient mattered). The held ones are listed in
-    ``fitted.held``. One whose interval
-    merely reaches 0 keeps its estimate: held at a prior that is not the rig's, it would bias those it is
-    correlated with.
+    where two of them cannot be told apart; the largest interval relative to its value first) is held at 0, the
+    bound the fit drove it to, and the others' covariance taken again without it (a solve from the optimum: one
+    or two evaluations), one at a time until what is left is determined: of a pair the logs cannot tell apart one
+    is held and the other carries their sum. It used to be held at Table 1's value and the structure fitted again:
+    on a rig whose damping is not Table 1's that moved the optimum (sigma_v1 held at 0.01 where the rig's is 0.05:
+    rho and sigma_a1 then 8 and 877 standard errors off, the ladder study of issue 50) and cost a second fit. The
+    held value's spread (:func:`held_prior_spreads`, scaled to this rig's damping) goes into the bands. A solve
+    whose cost ends more than :data:`HOLD_SLACK` above the free fit's is not kept. The held ones are listed in
+    ``fitted.held``. One whose interval merely reaches 0 keeps its estimate.
     """
     held: dict[str, float] = {}
     while True:
@@ -1080,7 +1087,7 @@ def hold_unidentified(fitting: "_Fitting", fitted: Fitted) -> Fitted:
             return p.stderr / p.value if p.value > 0 and math.isfinite(p.stderr) else math.inf
 
         name = max(names, key=spread)
-        held[name] = friction_prior(name)
+        held[name] = 0.0  # the bound the fit drove it to: the same optimum, the others' covariance without it
         options = replace(fitted.options, fixed={**fitted.options.fixed, name: held[name]})
         start = r.params.replace(**{name: held[name]})
         result = fitting.joint(options, start, x0=[x[:4] for x in r.x0], belt=r.belt if options.drive else None)
@@ -1125,7 +1132,7 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
         msgs.append(f"held-out logs: the pendulum zero offset is taken as the training logs' mean, "
                     f"{val_off:+.4g} rad (offsets of the training logs: "
                     + ", ".join(f"{o:+.4g}" for o in offs) + ")")
-    priors = held_prior_spreads(fitted.held)
+    priors = held_prior_spreads(fitted.held, r.params)
     uncertainty = (ParameterUncertainty.from_refinement(r).with_priors(priors)
                    if r.belt is None and np.all(np.isfinite(r.covariance)) else None)
     if val_logs and r.belt is not None:
@@ -1140,10 +1147,10 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
     if r.belt is not None:  # p2 and p3 do not enter the belt model: its rigid limit stands for them
         params = params.replace(p2=r.belt.rigid_p2rho / params.rho, p3=r.belt.rigid_p3rho / params.rho)
     for n in fitted.held:
-        msgs.append(f"{n} is not identified by these logs (estimated at its bound 0, or with an interval a hundred "
-                    f"times wider than its value): held at its prior "
-                    f"{friction_prior(n):.4g} (Table 1; --fix {n}=VALUE for your rig's) and the structure fitted "
-                    f"again; {HOLDABLE_FRICTION[n]} identifies it")
+        msgs.append(f"{n} is not identified by these logs (the fit drove it to its bound 0, with an interval a "
+                    f"hundred times wider than any value): held there, its partners carrying the damping, with a "
+                    f"spread of {priors[n]:.3g} in the bands (Table 1's share of this fit's damping; --fix "
+                    f"{n}=VALUE for your rig's); {HOLDABLE_FRICTION[n]} identifies it")
     msgs.extend(poor_prediction_advice(val_fits, JUDGED, chose=fitted.structures is not None))
     if fitted.structures is not None:
         msgs.extend(fitted.structures.kept_simpler_advice())
@@ -1556,6 +1563,14 @@ class _Fitting:
             else:
                 r = replace(r, success=False, message=f"{r.message}; not a minimum: its cost {r.cost:.6g} is above "
                                                       f"that of the structure it extends, {parent.cost:.6g}")
+        if parent is not None and fit is None and _at_bound(r):
+            # a pendulum friction the fit drove to its bound from the simpler structure's values: the pair
+            # sigma_a1, sigma_v1 trades one for the other, and a start where one is 0 may end in the minimum where it
+            # stays 0; the least-squares start too, the lower cost kept (the ladder study's wheel Coulomb rung: cost
+            # 0.01968 from (9)'s fit with sigma_v1 0, rho 9.7 standard errors off; 0.01932 from the least squares)
+            fresh = self.joint(opts, opts.starting_values(start, self.umax), max_nfev=LADDER_MAX_NFEV)
+            if fresh.cost < r.cost and (not nested or fresh.cost <= bound):
+                r = fresh
         scored = self.score(r, opts, self.held_out) if self.held_out else []
         fr = r.fit_result
         aic, bic = information_criteria(fr.cost, fr.dof + len(fr.free), len(fr.free))
@@ -1563,6 +1578,12 @@ class _Fitting:
         return RungOutcome(rg, len(r.free), _scores(scored), fit, _mean_fit(r.fit, self.outputs), aic, bic,
                            bool(r.success), r.message, r, unidentified=_unidentified_added(r, rg, extended),
                            held_out_fit=fit if scored else {}), scored
+
+
+def _at_bound(r: RefineResult) -> bool:
+    """A pendulum friction coefficient of the fit at its bound 0 (below :data:`AT_BOUND` of its typical value)."""
+    return any(n in r.free and r.parameters[n].value <= AT_BOUND * PARAMETER_INFO[n].typical
+               for n in HOLDABLE_FRICTION)
 
 
 def _scores(scored: Sequence[LogFit]) -> np.ndarray:

@@ -166,9 +166,34 @@ def replay(data: ExperimentData, input_name: str | None) -> Sampled | None:
         return None
     values = np.asarray(getattr(data, input_name), dtype=float)
     if hold_of(data, "auto") == "continuous":
-        values = values.copy()
-        values[:-1] = 0.5 * (values[:-1] + values[1:])
+        values = interval_means(values)
     return Sampled(values, data.Ts, float(data.t[0]))
+
+
+def interval_means(u: np.ndarray) -> np.ndarray:
+    """Each sample interval's mean of an input that moved continuously between its samples ``u`` [input units]:
+    the mean of the cubic (Catmull-Rom) through the four samples around it, ``(-u[k-1] + 13 u[k] + 13 u[k+1] -
+    u[k+2]) / 24``, exact to fourth order (the mean of the two ends, ``(u[k] + u[k+1]) / 2``, is off by
+    ``Ts^2 u'' / 12``: 7.5e-4 of a multisine's amplitude at 19 rad/s and 5 ms, tens of the standard errors of
+    ``p3`` on 30 s logs); the ends' intervals the mean of their two ends, the last value held.
+
+    Parameters
+    ----------
+    u : ndarray, shape (n,)
+        The input at the samples.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        The mean over ``[t[k], t[k+1]]`` at ``k`` (the last sample's value at ``n - 1``).
+    """
+    u = np.asarray(u, dtype=float)
+    out = u.copy()
+    if u.size >= 2:
+        out[:-1] = 0.5 * (u[:-1] + u[1:])
+    if u.size >= 4:
+        out[1:-2] = (-u[:-3] + 13.0 * u[1:-2] + 13.0 * u[2:-1] - u[3:]) / 24.0
+    return out
 
 
 def measured_signals(data: ExperimentData, names: Sequence[str], differentiator: Differentiator | None = None
