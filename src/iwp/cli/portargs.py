@@ -9,6 +9,9 @@ import argparse
 import contextlib
 import sys
 
+#: the highest baud rate iwp passes to a serial port (USB-serial adapters reach 12 Mbaud; the driver takes a C int)
+MAX_BAUD = 12_000_000
+
 
 def add_port_args(p: argparse.ArgumentParser) -> None:
     """``--port``, ``--baud``, ``--fast``, ``--yes``, ``--quiet``, ``--clear-fault``, ``--reset-params``."""
@@ -34,8 +37,8 @@ def open_port_rig(args, truth=None):
     from ..device.twin import open_rig
     from ..errors import InputError
 
-    if args.baud is not None and args.baud <= 0:
-        raise InputError(f"--baud must be a positive integer, got {args.baud}")
+    if args.baud is not None and not 0 < args.baud <= MAX_BAUD:
+        raise InputError(f"--baud must be a baud rate from 1 to {MAX_BAUD} (a serial port's), got {args.baud}")
     return open_rig(args.port, baudrate=args.baud, truth=truth, fast=args.fast)
 
 

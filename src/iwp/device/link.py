@@ -13,6 +13,7 @@ telemetry's sequence are counted as lost frames.
 
 from __future__ import annotations
 
+import re
 import time
 from dataclasses import asdict, dataclass
 
@@ -179,4 +180,9 @@ def _reason(exc: BaseException) -> str:
         return "permission denied (is your user in the dialout group?)"
     if "Device or resource busy" in text:
         return "busy (another program has it open)"
+    if "Inappropriate ioctl" in text or "Could not configure port" in text:
+        return "not a serial device (a regular file, or a device of another kind): give the rig's, e.g. /dev/ttyACM0"
+    if "Is a directory" in text:
+        return "is a folder, not a serial device"
+    text = re.sub(r"\(\d+, '([^']*)'\)", r"\1", text)  # pyserial's (errno, 'message') tuple, as the message
     return text.split("] ")[-1] if "] " in text else text

@@ -324,8 +324,10 @@ def encode(name: str, **values: Any) -> bytes:
         raise ProtocolError(f"message {name} takes the fields {names}, got {sorted(values)}")
     try:
         return m.struct.pack(m.id, *(values[n] for n in names))
-    except struct.error as exc:
-        raise ProtocolError(f"message {name}: {exc}") from None
+    except (struct.error, OverflowError) as exc:
+        big = [f"{f.name} = {values[f.name]!r}" for f in m.fields if f.code in ("f", "d")
+               and isinstance(values[f.name], (int, float)) and abs(float(values[f.name])) > 3.4028234663852886e38]
+        raise ProtocolError(f"message {name}: {', '.join(big) or exc} does not fit its field") from None
 
 
 def decode(payload: bytes) -> Decoded:

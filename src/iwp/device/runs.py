@@ -181,6 +181,14 @@ def run_on_rig(rig: Rig, name: str, *, fast: bool = False,
         raise InputError(f"unknown experiment or input {name!r}; valid: {', '.join(RUN_NAMES)}", argument="name")
     kind = run_kind(name)
     s = _settings(name, kind, options)
+    duration = check_positive("duration", s["duration"])
+    Ts = rig.info.params["period_us"] * 1e-6
+    # every setting checked before the motor moves: the law's values over the whole run, the gains as the wire
+    # carries them (a float32)
+    inp = checked_law(kind.law, s, Ts, duration) if kind.run is RunKind.OPEN_LOOP else None
+    if kind.run is RunKind.CLOSED_LOOP:
+        for key in ("k1", "k2", "filter_tau"):
+            wire_float(key, s[key])
     operator = operator or default_operator
     if fast:
         if not rig.has("HOST_CLOCK"):
@@ -229,15 +237,50 @@ def run_on_rig(rig: Rig, name: str, *, fast: bool = False,
         else:
             raise InputError(f"where must be 'device' or 'host', got {controller!r}", argument="where")
     else:
-        inp = law_input(kind.law, s, rig.info.params["period_us"] * 1e-6)
         command = OpenLoop(lambda t: inp.evaluate(t))
     if kind.run is not RunKind.CLOSED_LOOP:
         rig.mode("HOST")
-    res = run_loop(rig, duration=check_positive("duration", s["duration"]), command=command, arm=arm,
+    res = run_loop(rig, duration=duration, command=command, arm=arm,
                    limits=limits, progress=progress, on_start=on_start)
     log = loop_log(res, rig.info, rig.link.stats, input_name=input_name, metadata=meta,
                    source=f"{name} on {rig.port}")
     return RigRun(log, res.interrupted, res.reason, res.error, [res])
+
+
+#: the largest magnitude a float32 field of the wire protocol carries
+FLOAT32_MAX = float(np.finfo(np.float32).max)
+#: the settings of an input law (:func:`~iwp.rig.run_settings.law_input`), named when its values cannot be sent
+LAW_SETTINGS = ("amplitude", "omega", "w0", "tau", "hold_time", "levels", "step_time", "seed")
+
+
+def wire_float(name: str, value: Any) -> float:
+    """``value`` as a finite number the wire's float32 field carries, else :class:`InputError` naming ``name``."""
+    v = check_finite(name, value)
+    if abs(v) > FLOAT32_MAX:
+        raise InputError(f"{name} = {v:g} is beyond what the device's float32 carries (|x| <= {FLOAT32_MAX:.4g})",
+                         argument=name)
+    return v
+
+
+def checked_law(law, settings: dict, Ts: float, duration: float):
+    """The input law of an open-loop run (:func:`~iwp.rig.run_settings.law_input`), evaluated at every tick of the
+    run (and the loop's lead beyond it) before the motor moves: every value finite and within what the wire's
+    float32 carries, else :class:`InputError` naming the law's settings (an input that cannot be computed is bad
+    input, refused before arming, not a run that stops at its first NaN)."""
+    inp = law_input(law, settings, Ts)
+    t = np.arange(int(math.ceil(duration / Ts)) + 16) * Ts
+    with np.errstate(all="ignore"):
+        u = np.array([inp.evaluate(float(x)) for x in t], dtype=float)
+    bad = ~np.isfinite(u) | (np.abs(u) > FLOAT32_MAX)
+    if bad.any():
+        k = int(np.argmax(bad))
+        given = [key for key in LAW_SETTINGS if key in settings]
+        said = ", ".join(f"{key} = {settings[key]}" for key in given)
+        why = ("not a number" if not np.isfinite(u[k])
+               else f"beyond what the device's float32 carries ({FLOAT32_MAX:.4g})")
+        raise InputError(f"the input of {said} is {u[k]:g} at t = {t[k]:g} s, {why}: nothing was sent to the "
+                         "device", argument=tuple(given))
+    return inp
 
 
 def json_list(x) -> str:
