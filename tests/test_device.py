@@ -557,14 +557,22 @@ def test_samples_the_link_lost_are_a_warning_on_screen(tmp_path, capsys):
     from iwp.device.runs import RigRun
 
     log = ExperimentData(t=0.005 * np.arange(10), q1=np.zeros(10), q2=np.zeros(10),
-                         metadata={"link": json.dumps({"lost": 223, "corrupt": 237, "frames": 4000})})
+                         metadata={"link": json.dumps({"lost": 223, "corrupt": 237, "frames": 4000}),
+                                   "filled_samples": "223"})
     written = []
-    args = argparse.Namespace(quiet=True, name="sine-20", port="prx")
+    args = argparse.Namespace(quiet=True, name="sine-20", port="prx", force=False)
     status = finish_port_run(RigRun(log, False, "complete", None, []), tmp_path / "x.csv", args,
                              lambda lg, out, force: written.append(out))
     err = capsys.readouterr().err
     assert status == 0 and written == [tmp_path / "x.csv"]
-    assert "the link lost 223 telemetry samples (237 corrupt frames)" in err
+    assert "223 samples of the log were lost on the link or carried a value that is not a number" in err
+    assert "(223 lost, 237 corrupt frames)" in err and "left out of every fit" in err
+    # a corrupt frame refused while a fault was cleared: said, but no gap is claimed (issue 51)
+    log = ExperimentData(t=0.005 * np.arange(10), q1=np.zeros(10), q2=np.zeros(10),
+                         metadata={"link": json.dumps({"lost": 0, "corrupt": 1, "frames": 4000})})
+    finish_port_run(RigRun(log, False, "complete", None, []), tmp_path / "y.csv", args, lambda lg, out, force: None)
+    err = capsys.readouterr().err
+    assert "refused 1 corrupt frames outside the run" in err and "has gaps" not in err
 
 
 # --------------------------------------------------------------------------

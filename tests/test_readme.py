@@ -55,8 +55,38 @@ def test_blocks_are_found():
     assert argv_of("iwp fit c*.csv --out f/  # a comment", Path(".")) == ["fit", "c*.csv", "--out", "f/"]
 
 
+#: the packages of the optional extras (pyproject.toml), by import name: the sequence must run without them (pillow,
+#: in the anim extra, comes with matplotlib)
+EXTRAS_ONLY = ("control", "gymnasium", "dask", "distributed", "bokeh", "websocket", "hypothesis", "xdist")
+
+
+class _ExtrasBlocked:
+    """A meta-path finder that refuses the extras' packages, as a plain ``pip install .`` lacks them."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] in EXTRAS_ONLY:
+            raise ModuleNotFoundError(f"No module named {name!r} (an extra, not in a plain pip install .)", name=name)
+        return None
+
+
+@pytest.fixture
+def base_install_only(monkeypatch):
+    """The extras' packages unimportable for the test (those imported before are taken out of sys.modules and put
+    back afterwards), so that the README's sequence runs as after ``pip install .`` alone (issue 51)."""
+    import sys
+
+    for mod in [m for m in sys.modules if m.split(".")[0] in EXTRAS_ONLY]:
+        monkeypatch.delitem(sys.modules, mod)
+    monkeypatch.setattr(sys, "meta_path", [_ExtrasBlocked(), *sys.meta_path])
+
+
+def test_the_extras_are_blocked(base_install_only):
+    with pytest.raises(ModuleNotFoundError, match="an extra"):
+        import control  # noqa: F401
+
+
 @pytest.mark.slow
-def test_readme_sequence_runs_in_order(tmp_path, monkeypatch, capsys):
+def test_readme_sequence_runs_in_order(tmp_path, monkeypatch, capsys, base_install_only):
     monkeypatch.chdir(tmp_path)
     printed = {}
     for line in sequence_blocks(README.read_text())[0]:

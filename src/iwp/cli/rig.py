@@ -237,6 +237,11 @@ def finish_port_run(run, out, args, write) -> int:
     if not args.quiet and sys.stderr.isatty():
         print(file=sys.stderr)  # end the progress line
     if run.log is not None:
+        if not args.force and out.exists():  # another program wrote --out while the rig ran: keep both
+            taken = out
+            out = free_sibling(out)
+            print(f"iwp: warning: {taken} appeared during the run (another program wrote it): not overwritten; "
+                  f"the run's log is {out}", file=sys.stderr)
         # an interrupted run's log is written whatever interrupts follow (a second Ctrl-C, timeout's group signal)
         with interrupts_ignored() if run.interrupted else contextlib.nullcontext():
             write(run.log, out, force=True)
@@ -247,10 +252,16 @@ def finish_port_run(run, out, args, write) -> int:
     if run.log is not None and "link" in getattr(run.log, "metadata", {}):
         with contextlib.suppress(ValueError):
             link = json.loads(run.log.metadata["link"])
-    if link.get("lost", 0) or link.get("corrupt", 0):
-        print(f"iwp: warning: the link lost {link.get('lost', 0)} telemetry samples ({link.get('corrupt', 0)} corrupt "
-              "frames): the log has gaps there (see its 'link' metadata); check the cable and the baud rate",
-              file=sys.stderr)
+    meta = getattr(run.log, "metadata", {}) if run.log is not None else {}
+    filled = int(meta.get("filled_samples", 0) or 0)
+    if filled:
+        print(f"iwp: warning: {filled} samples of the log were lost on the link or carried a value that is not a "
+              f"number ({link.get('lost', 0)} lost, {link.get('corrupt', 0)} corrupt frames): they are filled in "
+              "between their neighbours, marked in its 'filled' column and 'gaps' metadata, and left out of every "
+              "fit; check the cable and the baud rate", file=sys.stderr)
+    elif link.get("corrupt", 0) or link.get("lost", 0):
+        print(f"iwp: note: the link lost {link.get('lost', 0)} telemetry samples and refused {link.get('corrupt', 0)} "
+              "corrupt frames outside the run (connecting, clearing a fault): the log has no gap", file=sys.stderr)
     if run.log is not None and "timing" in getattr(run.log, "metadata", {}):
         from ..device.loop import jitter_warning
 
@@ -268,13 +279,37 @@ def finish_port_run(run, out, args, write) -> int:
     from ..device.errors import DeviceError
     from ..device.loop import Terminated
 
+    stopped = (f"the motor was stopped: {run.reason}" if run.stop_confirmed is not False else
+               f"{run.reason}; the device did not answer the stop, so nothing confirms it: its watchdog stops the "
+               f"motor within {watchdog_ms(run)} ms of the last command if it still runs (check the rig)")
     if isinstance(run.error, Terminated):
-        print(f"iwp: the motor was stopped: {run.reason}", file=sys.stderr)
+        print(f"iwp: {stopped}", file=sys.stderr)
         return 143
     if run.error is not None and not isinstance(run.error, DeviceError):
         raise run.error
-    print(f"iwp: the motor was stopped: {run.reason}", file=sys.stderr)
-    return 1
+    print(f"iwp: {stopped}", file=sys.stderr)
+    return 1 if run.stop_confirmed is not False else UNCONFIRMED_STOP
+
+
+#: exit status of a run whose device did not answer its stop (the watchdog's stop not confirmed)
+UNCONFIRMED_STOP = 4
+
+
+def watchdog_ms(run) -> str:
+    """The device's watchdog [ms] as its log's metadata records it (``?`` where it does not)."""
+    with contextlib.suppress(Exception):
+        return f"{json.loads(run.log.metadata['device'])['params']['watchdog_ms']:g}"
+    return "?"
+
+
+def free_sibling(path):
+    """``path`` with ``.1``, ``.2``, ... before its extension: the first name not taken."""
+    k = 1
+    while True:
+        p = path.with_name(f"{path.stem}.{k}{path.suffix}")
+        if not p.exists():
+            return p
+        k += 1
 
 
 def run_emulate(args) -> int:

@@ -133,6 +133,9 @@ class LoopResult:
         Ran by the host's clock (faster than real time).
     counters0 : tuple of int
         The device's ``(overruns, late, rx_errors, dropped)`` before the run.
+    stop_confirmed : bool or None
+        The device acknowledged the stop (DISARM or ESTOP); False: it did not answer (its watchdog stops the
+        motor); None: the motor was not armed.
     """
 
     samples: list[Sample] = field(default_factory=list)
@@ -144,6 +147,8 @@ class LoopResult:
     counters0: tuple[int, int, int, int] = (0, 0, 0, 0)
     wall: float = 0.0
     scheduling: str = "normal"
+    #: whether the device answered the stop (its DISARM or ESTOP acknowledged); None: the motor was never armed
+    stop_confirmed: bool | None = None
 
     @property
     def seq0(self) -> int | None:
@@ -445,9 +450,10 @@ def _stop_despite_interrupts(rig: Rig, res: "LoopResult") -> None:
     """Stop the motor (:func:`_stop_motor`); an interrupt that arrives meanwhile (a second Ctrl-C, ``timeout``'s
     signal to the process group after the one to the process) is noted and the emergency stop sent again, up to
     three times, so that the run so far is returned, not lost (the device's watchdog is the last line)."""
+    res.stop_confirmed = False
     for _ in range(3):
         try:
-            _stop_motor(rig, res.interrupted)
+            res.stop_confirmed = _stop_motor(rig, res.interrupted)
             return
         except (KeyboardInterrupt, Terminated) as exc:
             if not res.interrupted:
@@ -455,12 +461,13 @@ def _stop_despite_interrupts(rig: Rig, res: "LoopResult") -> None:
                 res.reason = "SIGTERM" if isinstance(exc, (InterruptTerminated, Terminated)) else "Ctrl-C"
 
 
-def _stop_motor(rig: Rig, abnormal: bool) -> None:
-    """Disarm at the normal end; emergency stop otherwise (and if the disarm fails)."""
+def _stop_motor(rig: Rig, abnormal: bool) -> bool:
+    """Disarm at the normal end; emergency stop otherwise (and if the disarm fails). Whether the device
+    acknowledged it."""
     if not abnormal:
         try:
             rig.disarm()
-            return
+            return True
         except BaseException:  # noqa: BLE001 (fall through to the emergency stop)
             pass
-    rig.estop()
+    return bool(rig.estop())

@@ -19,10 +19,12 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..data import ExperimentData
+from ..data.glitches import Glitch
 from ..files import jsonable
 from .connection import DeviceInfo
 from .link import LinkStats
@@ -76,18 +78,19 @@ def loop_log(res: LoopResult, info: DeviceInfo, link: LinkStats, *, input_name: 
     S = res.samples
     if len(S) < 2:
         return None
-    seq = np.array([s.seq for s in S], dtype=float)
-    t = (seq - seq[0]) * res.Ts
-    q1 = np.array([s.q1 for s in S])
-    q2 = np.array([s.q2 for s in S])
-    u = np.array([s.u for s in S])
-    v = np.array([s.v for s in S])
-    extra = {"v_command": v, "q4_device": np.array([s.q4 for s in S]),
-             "t_device": np.array([s.t_device for s in S]) - S[0].t_device,
-             "t_host": np.array([s.t_host for s in S]) - S[0].t_host,
-             "flags": np.array([sum(FLAGS[f] for f in s.flags) for s in S], dtype=float)}
-    cur = np.array([s.current for s in S])
-    if np.all(np.isfinite(cur)):
+    grid = _on_grid(S)
+    if grid is None:
+        return None
+    t = (grid.seq - grid.seq[0]) * res.Ts
+    q1, q2, u, v = grid.values["q1"], grid.values["q2"], grid.values["u"], grid.values["v"]
+    extra = {"v_command": v, "q4_device": grid.values["q4"],
+             "t_device": grid.values["t_device"] - grid.values["t_device"][0],
+             "t_host": grid.values["t_host"] - grid.values["t_host"][0],
+             "flags": grid.values["flags"]}
+    if grid.filled.any():
+        extra["filled"] = grid.filled.astype(float)
+    cur = grid.values["current"]
+    if grid.current_measured:
         extra["current"] = cur
     inputs = {} if input_name is None else {input_name: u if input_name == "u" else v}
     p = info.params
@@ -111,5 +114,68 @@ def loop_log(res: LoopResult, info: DeviceInfo, link: LinkStats, *, input_name: 
     })
     if input_name == "u":
         meta.update(v_dz_pos=repr(p.get("v_dz_pos")), v_dz_neg=repr(p.get("v_dz_neg")))
+    glitches = ()
+    if grid.filled.any():
+        meta["gaps"] = json.dumps(grid.gaps(res.Ts))
+        meta["filled_samples"] = str(int(grid.filled.sum()))
+        meta["bad_samples"] = str(grid.bad)
+        meta["columns"] += ("; filled: 1 where the sample was lost on the link or carried a value that is not a "
+                            "number, its values interpolated between its neighbours (left out of every fit)")
+        glitches = tuple(Glitch(c, int(k), float(t[k]), "dropout", math.nan, float(grid.values[c][k]))
+                         for c in ("q1", "q2") for k in np.flatnonzero(grid.filled))
     return ExperimentData(t=t, q1=q1, q2=q2, extra=extra, metadata=meta, source=source or f"rig {info.port}",
-                          **inputs)
+                          glitches=glitches, **inputs)
+
+
+@dataclass(frozen=True, eq=False)
+class _Grid:
+    """A run's samples on the device's tick grid: the ticks, each field's values, which ticks were filled in."""
+
+    seq: np.ndarray
+    values: dict[str, np.ndarray]
+    filled: np.ndarray
+    bad: int
+    current_measured: bool
+
+    def gaps(self, Ts: float) -> list[list[float]]:
+        """``[t_first, t_last, samples]`` of each run of filled ticks [s]."""
+        out, k = [], 0
+        f = self.filled
+        while k < f.size:
+            if f[k]:
+                j = k
+                while j + 1 < f.size and f[j + 1]:
+                    j += 1
+                out.append([float((self.seq[k] - self.seq[0]) * Ts), float((self.seq[j] - self.seq[0]) * Ts),
+                            j - k + 1])
+                k = j + 1
+            else:
+                k += 1
+        return out
+
+
+_FIELDS = ("q1", "q2", "u", "v", "q4", "t_device", "t_host", "current")
+
+
+def _on_grid(S: list) -> _Grid | None:
+    """The samples on every tick from the first to the last: a tick the link lost, or a sample carrying a value
+    that is not a number (a lying device), filled in by interpolating its neighbours and marked, so that nothing
+    recorded is lost and the log stays regular (readable by every iwp reader). None with fewer than two good
+    samples."""
+    raw = {f: np.array([getattr(s, f) for s in S], dtype=float) for f in _FIELDS}
+    flags = np.array([sum(FLAGS[f] for f in s.flags) for s in S], dtype=float)
+    current_measured = bool(np.all(np.isfinite(raw["current"])))
+    checked = [f for f in _FIELDS if f != "current" or current_measured]
+    good = np.all([np.isfinite(raw[f]) for f in checked], axis=0)
+    seq_all = np.array([s.seq for s in S], dtype=np.int64)
+    good &= np.concatenate([[True], np.diff(seq_all) > 0])  # a tick seen twice, or out of order, counts once
+    if good.sum() < 2:
+        return None
+    seq = seq_all[good]
+    ticks = np.arange(seq[0], seq[-1] + 1)
+    filled = ~np.isin(ticks, seq)
+    values = {f: np.interp(ticks, seq, raw[f][good]) for f in _FIELDS if f != "current" or current_measured}
+    if not current_measured:
+        values["current"] = np.full(ticks.size, np.nan)
+    values["flags"] = np.where(filled, 0.0, np.interp(ticks, seq, flags[good]))
+    return _Grid(ticks.astype(float), values, filled, int((~good).sum()), current_measured)

@@ -91,6 +91,12 @@ class RigRun:
     error: BaseException | None = None
     loops: list[LoopResult] = field(default_factory=list)
 
+    @property
+    def stop_confirmed(self) -> bool | None:
+        """Whether the device acknowledged every stop of the run's loops (None: no loop armed the motor)."""
+        said = [lp.stop_confirmed for lp in self.loops if lp.stop_confirmed is not None]
+        return None if not said else all(said)
+
 
 def default_operator(message: str) -> None:
     """No operator: a rig without emulated hands cannot be arranged.

@@ -1030,14 +1030,14 @@ HOLDABLE_FRICTION: dict[str, str] = {n: HOLDABLE[n] for n in ("sigma_a1", "sigma
 
 
 def friction_prior(name: str, params: LumpedParameters) -> float:
-    """The spread of a pendulum friction coefficient a fit holds [its unit]: Table 1's share of the pendulum's
-    damping ``sigma_a1 + sigma_v1`` times this fit's damping (Table 1's value where the fit has none). The
+    """The scale of a pendulum friction coefficient a fit holds [its unit]: Table 1's share of the pendulum's
+    damping ``sigma_a1 + sigma_v1`` times this fit's damping, or where the fit sees none :func:`rig_prior`. The
     paper's rig sets the proportions, not the size: a rig whose damping is four times Table 1's has friction
     coefficients four times as large (``iwp fit --fix`` gives a rig's own value)."""
     t1 = table1()
-    damping = float(params.sigma_a1 + params.sigma_v1)
+    damping = _damping(params)
     share = float(getattr(t1, name)) / float(t1.sigma_a1 + t1.sigma_v1)
-    return share * damping if damping > 0 else float(getattr(t1, name))
+    return share * damping if damping > 0 else rig_prior(name, params)
 
 
 def held_prior_spreads(held: Mapping[str, float], params: LumpedParameters) -> dict[str, float]:
@@ -1086,16 +1086,37 @@ def hold_unidentified(fitting: "_Fitting", fitted: Fitted) -> Fitted:
             p = r.parameters[n]
             return p.stderr / p.value if p.value > 0 and math.isfinite(p.stderr) else math.inf
 
-        name = max(names, key=spread)
-        held[name] = 0.0  # the bound the fit drove it to: the same optimum, the others' covariance without it
-        options = replace(fitted.options, fixed={**fitted.options.fixed, name: held[name]})
-        start = r.params.replace(**{name: held[name]})
+        if _damping(r.params) > 0.0:
+            # the fit sees the pendulum's damping: the one it says least of held at 0, where it drove it, the others
+            # carrying the damping (the same optimum: the others' covariance taken again without it)
+            now = {max(names, key=spread): 0.0}
+        else:
+            # no damping seen at all (a short chirp's swing): the paper's damping ratio on this rig's frequency
+            now = {n: rig_prior(n, r.params) for n in names}
+        before = dict(held)
+        held.update(now)
+        options = replace(fitted.options, fixed={**fitted.options.fixed, **now})
+        start = r.params.replace(**now)
         result = fitting.joint(options, start, x0=[x[:4] for x in r.x0], belt=r.belt if options.drive else None)
         if not result.cost <= r.cost * (1.0 + HOLD_SLACK):  # the data did say something, or the refit went astray
-            del held[name]
+            held = before
             break
         fitted = replace(fitted, options=options, result=result, held=tuple(held))
     return fitted
+
+
+def _damping(params: LumpedParameters) -> float:
+    """The pendulum's damping of a fit, ``sigma_a1 + sigma_v1`` [1/s], 0 below :data:`AT_BOUND` of its typical."""
+    d = float(params.sigma_a1 + params.sigma_v1)
+    return d if d > AT_BOUND * PARAMETER_INFO["sigma_v1"].typical else 0.0
+
+
+def rig_prior(name: str, params: LumpedParameters) -> float:
+    """Table 1's value of a pendulum friction coefficient on a rig of frequency ``sqrt(p1)`` [its unit]: the paper's
+    rig's damping ratio, ``sigma / sqrt(p1)`` (``sigma_b1 / sqrt(p1)`` per rad^2), kept (a rig five times stiffer
+    than the paper's damps its faster swing with sqrt(5) times the coefficient, not with the paper's)."""
+    t1 = table1()
+    return float(getattr(t1, name)) * math.sqrt(max(float(params.p1), 0.0) / float(t1.p1))
 
 
 def rigid_structures(on: frozenset[str]) -> list[frozenset[str]]:
@@ -1147,10 +1168,12 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
     if r.belt is not None:  # p2 and p3 do not enter the belt model: its rigid limit stands for them
         params = params.replace(p2=r.belt.rigid_p2rho / params.rho, p3=r.belt.rigid_p3rho / params.rho)
     for n in fitted.held:
+        where = ("held there, its partners carrying the damping" if getattr(r.params, n) == 0.0 else
+                 f"held at {getattr(r.params, n):.3g}, Table 1's damping ratio on this rig's frequency (the fit "
+                 "sees no pendulum damping)")
         msgs.append(f"{n} is not identified by these logs (the fit drove it to its bound 0, with an interval a "
-                    f"hundred times wider than any value): held there, its partners carrying the damping, with a "
-                    f"spread of {priors[n]:.3g} in the bands (Table 1's share of this fit's damping; --fix "
-                    f"{n}=VALUE for your rig's); {HOLDABLE_FRICTION[n]} identifies it")
+                    f"hundred times wider than any value): {where}, with a spread of {priors[n]:.3g} in the bands "
+                    f"(--fix {n}=VALUE for your rig's); {HOLDABLE_FRICTION[n]} identifies it")
     msgs.extend(poor_prediction_advice(val_fits, JUDGED, chose=fitted.structures is not None))
     if fitted.structures is not None:
         msgs.extend(fitted.structures.kept_simpler_advice())
