@@ -131,3 +131,52 @@ def test_a_sample_that_is_not_a_number_and_samples_the_link_lost_keep_the_run(tm
     assert back.n_samples == 401 and int(back.glitch_mask("q2").sum()) == 61
     assert float(back.extra["filled"].sum()) == 61.0
     assert np.all(np.isfinite(back.extra["q4_device"]))
+
+
+def test_the_documented_defaults_are_the_devices_own_as_it_stores_them():
+    """docs/protocol.md printed q1_max as 12.5664 while the firmware holds 4 pi: a client that restored the documented
+    value was refused as 'changed: q1_max = 12.5664 (default 12.5664)'. Each default is now printed as the shortest
+    decimal that reads back as the device's float32."""
+    from pathlib import Path
+
+    from iwp.device.protocol import PARAMS, float32_text
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "protocol.md").read_text()
+    for p in PARAMS.values():
+        text = float32_text(p.default)
+        assert f"| `{p.name}` | {text} |" in doc
+        assert np.float32(float(text)) == np.float32(p.default), p.name
+    assert float32_text(PARAMS["q1_max"].default) == "12.566371"
+
+
+def test_the_emulator_refuses_a_rig_it_cannot_run_and_a_link_it_cannot_make(tmp_path, capsys):
+    """A 50 ms rig was emulated at 5 ms 'as rig50.json describes'; --link in a missing folder named the pty; a
+    dangling link was said to exist."""
+    rig = tmp_path / "rig50.json"
+    rig.write_text(json.dumps({
+        "kind": "iwp-rig", "name": "r50", "sample_period": 0.05, "time": {"column": "t", "unit": "s"},
+        "pendulum": {"column": "theta", "unit": "counts", "counts_per_rev": 20000},
+        "wheel": {"column": "w", "quantity": "speed", "unit": "rad/s", "counts_per_rev": 4096},
+        "input": {"column": "u", "kind": "duty", "limits": [-1, 1]}, "drive": {"kind": "direct"}}))
+    dangling = tmp_path / "dangling"
+    dangling.symlink_to(tmp_path / "nowhere")
+    for argv, words in ((["--rig", str(rig)], "sample period 50 ms is beyond what the emulated board runs"),
+                        (["--link", str(tmp_path / "nodir" / "link")], "its folder"),
+                        (["--link", str(dangling)], "which does not exist (not an emulator's port)")):
+        assert main(["rig", "emulate", *argv]) == 2
+        (line,) = capsys.readouterr().err.strip().splitlines()
+        assert words in line and line.startswith("iwp: error: --")
+
+
+def test_sweep_threads_and_workers_are_capped_by_what_the_process_may_use():
+    """--threads 100000 was reported as 100,000 threads and recorded as 100,000 cores; --workers 1000 started a
+    cluster that gave no answer in 60 s."""
+    from iwp.sweep.executors import DaskExecutor, LocalExecutor
+    from iwp.threads import usable_cores
+
+    ex = LocalExecutor(100000)
+    assert ex.threads == ex.cores == usable_cores()
+    assert ex.note.startswith("threads 100000: capped at") and "cgroup" in ex.note
+    assert LocalExecutor(1).note == "" and LocalExecutor(1).threads == 1
+    dask = DaskExecutor(workers=1000)  # nothing started yet
+    assert dask.workers <= usable_cores() and dask.note.startswith("workers 1000: capped at")

@@ -29,6 +29,8 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import math
+import os
 import signal
 import threading
 from collections.abc import Callable, Hashable, Iterable
@@ -39,7 +41,7 @@ from typing import TypeVar
 import numba
 from threadpoolctl import threadpool_limits
 
-__all__ = ["one_blas_thread", "fit_threads", "thread_map", "once_per_argument"]
+__all__ = ["one_blas_thread", "fit_threads", "thread_map", "once_per_argument", "usable_cores", "usable_memory"]
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -232,3 +234,52 @@ def _on_pool(func: Callable[[T], R], items: list[T], k: int) -> list[R]:
         except BaseException:  # noqa: BLE001, S110 - a second interrupt while waiting: stop waiting
             pass
         raise
+
+
+def _cgroup_file(name: str) -> str | None:
+    """The text of this process's cgroup v2 file ``name`` (``cpu.max``, ``memory.max``), or None."""
+    with contextlib.suppress(OSError, ValueError, IndexError):
+        with open("/proc/self/cgroup") as fh:
+            rel = next(line.split(":", 2)[2].strip() for line in fh if line.startswith("0::"))
+        with open(os.path.join("/sys/fs/cgroup", rel.lstrip("/"), name)) as fh:
+            return fh.read().strip()
+    return None
+
+
+def usable_cores() -> int:
+    """The cores this process may use: its CPU affinity, within its cgroup's CPU quota (``cpu.max``), at least 1.
+
+    Returns
+    -------
+    int
+        The number of cores.
+    """
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    quota = _cgroup_file("cpu.max")
+    if quota:
+        parts = quota.split()
+        if parts[0] != "max" and len(parts) == 2:
+            with contextlib.suppress(ValueError, ZeroDivisionError):
+                n = min(n, max(1, math.ceil(int(parts[0]) / int(parts[1]))))
+    return max(1, n)
+
+
+def usable_memory() -> float:
+    """The memory this process may use [bytes]: the machine's, within its cgroup's limit (``memory.max``).
+
+    Returns
+    -------
+    float
+        Bytes (``inf`` where neither is known).
+    """
+    total = math.inf
+    with contextlib.suppress(ValueError, OSError, AttributeError):
+        total = float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    limit = _cgroup_file("memory.max")
+    if limit and limit != "max":
+        with contextlib.suppress(ValueError):
+            total = min(total, float(limit))
+    return total

@@ -340,6 +340,14 @@ def run_emulate(args) -> int:
         wcpr = getattr(rig.wheel, "counts_per_rev", None)
         if wcpr:
             setup["counts2"] = float(wcpr)
+        from ..device.protocol import PARAMS
+
+        for name, value in setup.items():  # what the emulated board runs, or a clear refusal (never dropped)
+            p = PARAMS[name]
+            if not p.lo <= value <= p.hi:
+                shown = (f"sample period {value * 1e-3:g} ms" if name == "period_us" else f"{value:g} counts a turn")
+                raise InputError(f"--rig {args.rig}: its {shown} is beyond what the emulated board runs ({name} "
+                                 f"{p.lo:g} .. {p.hi:g} {p.unit})")
         what += f", sampled as {args.rig} describes"
     if args.link is not None and check_link(args.link):
         print(f"iwp: removed --link {args.link}: a stale link to a port that no longer exists (an emulator "

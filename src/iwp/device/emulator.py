@@ -389,11 +389,16 @@ def check_link(link: str | os.PathLike) -> bool:
         ``link`` exists (a file, or a link to a port that exists: another emulator may serve it).
     """
     p = os.fspath(link)
+    folder = os.path.dirname(os.path.abspath(p))
+    if not os.path.isdir(folder):
+        raise InputError(f"--link {p}: its folder {os.path.dirname(p) or '.'} does not exist", argument="--link")
     if os.path.islink(p) and not os.path.exists(p):
         target = os.readlink(p)
         if target.startswith("/dev/pts/"):
             os.unlink(p)
             return True
+        raise InputError(f"--link {p}: a link to {target}, which does not exist (not an emulator's port); remove it "
+                         "or pick another path", argument="--link")
     if os.path.lexists(p):
         what = (f"a link to {os.readlink(p)}, which exists: another emulator may serve it" if os.path.islink(p)
                 else "exists")

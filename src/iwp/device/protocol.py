@@ -24,6 +24,8 @@ import struct
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+import numpy as np
+
 from ..errors import IwpError
 
 __all__ = [
@@ -391,11 +393,20 @@ def markdown_table() -> str:
     return "\n".join(out) + "\n"
 
 
+def float32_text(value: float) -> str:
+    """The shortest decimal that reads back as ``value``'s float32 (what the device stores): ``4 pi`` is
+    ``12.566371``."""
+    return np.format_float_positional(np.float32(value), unique=True, trim="-")
+
+
 def params_table() -> str:
     """The parameter table of ``docs/protocol.md`` (Markdown)."""
-    out = ["| id | parameter | default | range | unit | what |", "|---|---|---|---|---|---|"]
+    out = ["| id | parameter | default (as the device stores it, float32) | range | unit | what |",
+           "|---|---|---|---|---|---|"]
     for p in PARAMS.values():
-        out.append(f"| {p.id} | `{p.name}` | {p.default:g} | {p.lo:g} .. {p.hi:g} | {p.unit} | {p.doc} |")
+        # the shortest decimal that reads back as the device's float32: a client that restores it restores the
+        # default exactly (printed as 12.5664, 4 pi was refused as changed)
+        out.append(f"| {p.id} | `{p.name}` | {float32_text(p.default)} | {p.lo:g} .. {p.hi:g} | {p.unit} | {p.doc} |")
     return "\n".join(out) + "\n"
 
 

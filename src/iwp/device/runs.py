@@ -42,7 +42,7 @@ from ..rig.virtual import STATIC_WINDOW
 from .connection import Rig
 from .errors import DeviceError, LinkLost
 from .loop import DeviceLaw, HostLaw, HostLimits, LoopCommand, LoopResult, OpenLoop, run_loop
-from .protocol import PARAMS
+from .protocol import PARAMS, float32_text
 from .record import loop_log
 
 __all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "USER_INPUT_KINDS", "RUN_NAMES", "PAPER_SERIES", "run_kind",
@@ -425,7 +425,8 @@ def prepare(rig: Rig, fast: bool, clearing: Clearing | None = None) -> None:
         raise DeviceError(f"{rig.port}: the device is in {fault}, latched by an earlier run or another client; "
                           "check the rig, then run again with clear_fault", argument="clear_fault")
     if changed and not clearing.reset_params:
-        what = ", ".join(f"{k} = {v:g} (default {PARAMS[k].default:g})" for k, v in changed.items())
+        what = ", ".join(f"{k} = {float32_text(v)} (default {float32_text(PARAMS[k].default)})"
+                         for k, v in changed.items())
         raise DeviceError(f"{rig.port}: the device's limits were changed by an earlier run or another client: "
                           f"{what}; run again with reset_params to restore the defaults", argument="reset_params")
     if fault is not None:

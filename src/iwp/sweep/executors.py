@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib.util
 import logging
+import math
 import threading
 from collections.abc import Iterator, Sequence
 
@@ -17,6 +18,7 @@ import numba
 
 from ..errors import InputError
 from ..models.parameters import table1
+from ..threads import usable_cores, usable_memory
 from .chunk import ChunkResult, run_chunk
 from .spec import Grid, SweepSpec
 
@@ -34,10 +36,21 @@ def warm_up_worker() -> None:
     run_chunk(spec, 0, threads=1)
 
 
+#: the memory a Dask worker process of a sweep takes beside its chunk [bytes] (numba, the compiled kernels, Dask)
+WORKER_MEMORY = 400e6
+
+
 class LocalExecutor:
-    """The chunks one after another in this process, each on all cores (or ``threads``)."""
+    """The chunks one after another in this process, each on all cores (or ``threads``, at most the cores this
+    process may use: :func:`iwp.threads.usable_cores`; :attr:`note` says when it was capped)."""
 
     def __init__(self, threads: int | None = None):
+        cores = usable_cores()
+        self.note = ""
+        if threads is not None and threads > cores:
+            self.note = (f"threads {threads}: capped at the {cores} core{'s' if cores != 1 else ''} this process "
+                         "may use (its CPU affinity and cgroup quota)")
+            threads = cores
         self.threads = threads
 
     def __enter__(self):
@@ -80,6 +93,18 @@ class DaskExecutor:
         if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
             raise InputError(f"scheduler must be an address such as tcp://host:8786, got {scheduler!r}",
                              argument="scheduler")
+        self.note = ""
+        if scheduler is None and workers is not None:
+            # a local cluster of more processes than cores or memory allow only waits (1,000 workers on 2 cores
+            # gave no answer in 60 s): capped, and said
+            cores = usable_cores()
+            by_memory = max(1, int(usable_memory() // WORKER_MEMORY)) if math.isfinite(usable_memory()) else workers
+            cap = min(cores, by_memory)
+            if workers > cap:
+                self.note = (f"workers {workers}: capped at {cap}, the {cores} core{'s' if cores != 1 else ''} and "
+                             f"{usable_memory() / 1e9:.3g} GB this process may use (a worker takes about "
+                             f"{WORKER_MEMORY / 1e6:.0f} MB)")
+                workers = cap
         self.scheduler = scheduler
         self.workers = workers
         self.client = None
@@ -94,7 +119,7 @@ class DaskExecutor:
         if self.scheduler is not None:
             self.client = _connect(Client, self.scheduler)
         else:
-            n = self.workers or numba.config.NUMBA_NUM_THREADS
+            n = self.workers or min(numba.config.NUMBA_NUM_THREADS, usable_cores())
             # the workers leave an interrupt to this process, which stops them (iwp.sweep.dask_worker); their
             # logs below errors (a cancelled task's warning when interrupted) are not the user's business
             # no dashboard, and its HTTP server (started all the same) on a free local port, not on 8787

@@ -86,6 +86,8 @@ class SweepResult:
     executor: str
     cores: int
     cpu_seconds: float = float("nan")
+    #: what the run changed of what was asked (a thread or worker count capped by the cores and memory), one line each
+    notes: list = field(default_factory=list)
 
     @property
     def resumed(self) -> list[int]:
@@ -123,7 +125,7 @@ class SweepResult:
                     + (f", {len(self.resumed)} resumed from disk" if self.resumed else ""))
         else:
             head += "all were done already (nothing computed)"
-        lines = [head]
+        lines = [head, *self.notes]
         if self.computed:
             lines.append(f"throughput: {self.throughput_per_core:.3g} closed loops per second per core")
         if s.uncertainty is not None:
@@ -253,4 +255,5 @@ def run_sweep(
         store.write_results(format)
     store.write_manifest(results=results.name)
     return SweepResult(spec=spec, out=Path(out), results=results, table=store.read_results(format), computed=computed,
-                       seconds=seconds, executor=describe, cores=cores, cpu_seconds=cpu_seconds)
+                       seconds=seconds, executor=describe, cores=cores, cpu_seconds=cpu_seconds,
+                       notes=[ex.note] if getattr(ex, "note", "") else [])
