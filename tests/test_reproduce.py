@@ -357,11 +357,13 @@ def test_step_times_leave_compiling_apart(tmp_path, monkeypatch):
 
     def compiles(ctx):
         @numba.njit(cache=False)
-        def fresh(n):  # a new function: numba compiles it on this first call
-            s = 0.0
+        def fresh(n):  # a new function: numba compiles it on this first call (a few branches and arrays, so that
+            s = 0.0    # compiling it takes well over the page's 0.05 s threshold even on a fast machine)
+            a = np.zeros(n)
             for i in range(n):
-                s += i ** 0.5
-            return s
+                a[i] = i ** 0.5 if i % 3 else np.sin(i) * np.cos(i)
+                s += a[i] if a[i] > 0.1 else -a[i]
+            return s + a[n // 2]
 
         return f"sum {fresh(1000):.1f}"
 

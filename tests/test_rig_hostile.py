@@ -180,3 +180,54 @@ def test_sweep_threads_and_workers_are_capped_by_what_the_process_may_use():
     assert LocalExecutor(1).note == "" and LocalExecutor(1).threads == 1
     dask = DaskExecutor(workers=1000)  # nothing started yet
     assert dask.workers <= usable_cores() and dask.note.startswith("workers 1000: capped at")
+
+
+def test_fits_and_designs_refuse_what_they_cannot_do_in_one_line(tmp_path, capsys):
+    """iwp fit on logs with zero input ended in an internal error; an --out that is a dangling link named a hidden
+    temporary folder; design hopf --k2 -1e308 printed a raw overflow warning and exited 1."""
+    t = np.arange(0.0, 10.0, 0.005)
+    log = tmp_path / "zero.csv"
+    log.write_text("t,q1,q2,u\n" + "".join(f"{a:.3f},{0.3 * np.cos(5 * a):.6f},0,0\n" for a in t))
+    link = tmp_path / "dl"
+    link.symlink_to(tmp_path / "nowhere" / "dir")
+    cases = [(["fit", str(log), "--out", str(tmp_path / "f")], "no training log drives the wheel"),
+             (["fit", str(log), "--structure", "9", "--out", str(link)], "which does not exist; remove the link"),
+             (["design", "hopf", "--orbit-amplitude", "1.5", "--k2", "-1e308"], "--k2 = -1e+308: the loop's cubic")]
+    for argv, words in cases:
+        assert main(argv) == 2, argv
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0] and "partial" not in err[0], err
+    assert not (tmp_path / "f").exists()
+
+
+def test_a_memory_error_names_the_argument_to_lower(monkeypatch, capsys):
+    """'not enough memory for this run (shorten it or lengthen the sample time)' answered --draws 100000 without
+    naming --draws."""
+    import iwp.control as control
+
+    def exhausted(*a, **kw):
+        raise MemoryError
+
+    monkeypatch.setattr(control, "design_hopf", exhausted)
+    assert main(["design", "hopf", "--orbit-amplitude", "1.5"]) == 2
+    assert capsys.readouterr().err.strip() == ("iwp: error: not enough memory for this run: lower --t-end 60.0 (or "
+                                               "lengthen the sample time)")  # design hopf's check simulation
+    from iwp.cli import _size_hint
+
+    assert _size_hint(argparse.Namespace(draws=100000)) == "lower --draws 100000 (or lengthen the sample time)"
+    assert "the points or draws of spec.json" in _size_hint(argparse.Namespace(spec="spec.json"))
+
+
+@pytest.mark.parametrize("extra, words", [
+    ({"controller_Ts": 1e-9}, "controller_Ts = 1e-09 s: the law would be sampled 3e+11 times"),
+    ({"rtol": 1e-300, "atol": 1e-300}, "rtol = 1e-300: below 1e-14"),
+])
+def test_a_sweep_with_runaway_settings_is_refused_by_its_key(tmp_path, capsys, extra, words):
+    """rtol = atol = 1e-300 or controller_Ts = 1e-9 ran a compiled kernel that ignored SIGTERM for over 15 s."""
+    spec = {"law": "hopf", "params": "table1", "k1": -10, "k2": 0.1, "x0": [0.1, 0, 0, 0], "t_end": 300,
+            "sample_time": 0.05, "window": 20, "vary": {"k1": {"linspace": [-12, -6, 4]}}, "chunk_size": 4, **extra}
+    path = tmp_path / "spec.json"
+    path.write_text(json.dumps(spec))
+    assert main(["sweep", str(path), "--out", str(tmp_path / "st")]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert words in line and not (tmp_path / "st").exists()

@@ -31,6 +31,9 @@ FIGURE_SUFFIXES = (".png", ".svg", ".pdf", ".eps", ".ps", ".jpg", ".jpeg", ".tif
 def _check_writable_place(p: Path, argument: str) -> None:
     """The folder ``p`` goes into (``p`` itself if it is a folder) must exist and be writable: iwp creates what the
     user names, never the folders above it (a typo in a path would otherwise leave folders anywhere)."""
+    if p.is_symlink() and not p.exists():  # a link to nothing: writing through it would land elsewhere, or fail
+        raise InputError(f"{argument} {p}: a link to {os.readlink(p)}, which does not exist; remove the link or give "
+                         "another path", argument=argument)
     anc = p if p.is_dir() else p.parent
     if not anc.exists():
         raise InputError(f"{argument} {p}: folder {anc} does not exist; create it first, or give a path in an "

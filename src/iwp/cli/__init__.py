@@ -183,6 +183,20 @@ def user_message(exc: BaseException, parser: argparse.ArgumentParser | None) -> 
     return _one_line(text)
 
 
+#: the arguments that set how much a command computes, and how a memory error names them (what to lower)
+_SIZE_ARGUMENTS = (("draws", "--draws {}"), ("t_end", "--t-end {}"), ("duration", "--duration {}"),
+                   ("spec", "the points or draws of {}"))
+
+
+def _size_hint(args) -> str:
+    """What to lower after a memory error: the size-setting arguments the command was given, with their values."""
+    given = [text.format(getattr(args, dest)) for dest, text in _SIZE_ARGUMENTS
+             if getattr(args, dest, None) is not None]
+    if not given:
+        return "shorten it or lengthen the sample time"
+    return "lower " + " or ".join(given) + " (or lengthen the sample time)"
+
+
 def _os_message(exc: OSError) -> str:
     what = exc.strerror or type(exc).__name__
     name = exc.filename
@@ -259,7 +273,7 @@ def _run(argv: list[str] | None) -> int:
         print(f"iwp: error: {_one_line(_os_message(exc))}", file=sys.stderr)
         return 2
     except MemoryError:
-        print("iwp: error: not enough memory for this run (shorten it or lengthen the sample time)", file=sys.stderr)
+        print(f"iwp: error: not enough memory for this run: {_size_hint(args)}", file=sys.stderr)
         return 2
     except RecursionError:
         print("iwp: error: the input is nested too deeply to read", file=sys.stderr)

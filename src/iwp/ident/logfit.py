@@ -845,6 +845,11 @@ def plan_fit(train, *, rig=None, validate=(), kinds=None, controller: Input | No
     for d in train_logs + val_logs:
         if d.q2 is None and d.q4 is None:
             raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
+    if not any(d.input_name is not None and np.ptp(np.asarray(d.input, dtype=float)) > 0 for d in train_logs) \
+            and not any(o.kind in ("clamped", "closed-loop") for o in others):
+        raise InputError("train: no training log drives the wheel (every input is zero or absent): iwp fit identifies "
+                         "the drive from its input; a free swing identifies the pendulum alone (iwp identify LOG "
+                         "--setup free)", argument="train")
     # fitted on the pendulum's angle and the wheel's speed (differentiated where the log holds the wheel's angle):
     # the wheel's angle enters no equation, and its error, the integral of the speed's, grows over a log; fitted on
     # it, model (9) predicted the README's held-out chirp at 77 % (q1) and 74 % (q4), on the speed at 88 % and 93 %

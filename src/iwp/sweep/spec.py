@@ -241,6 +241,18 @@ class SweepSpec:
             object.__setattr__(self, name, val)
         if self.controller_Ts is not None:
             object.__setattr__(self, "controller_Ts", check_positive("controller_Ts", self.controller_Ts))
+        # runaway settings: a lane that would take longer than any sweep waits for, in a compiled kernel that no
+        # signal interrupts (controller_Ts = 1e-9 s ignored SIGTERM for over 15 s), is refused here, by its key
+        for name in ("rtol", "atol"):
+            if getattr(self, name) < MIN_TOLERANCE:
+                raise InputError(f"{name} = {getattr(self, name):g}: below {MIN_TOLERANCE:g}, beyond what double "
+                                 "precision resolves (the step size would shrink without end)", argument=name)
+        for name in ("controller_Ts", "lqr_Ts"):
+            period = getattr(self, name)
+            if period is not None and self.t_end / period > MAX_CONTROL_STEPS:
+                raise InputError(f"{name} = {period:g} s: the law would be sampled {self.t_end / period:.3g} times "
+                                 f"over t_end = {self.t_end:g} s, at most {MAX_CONTROL_STEPS:.0e} (lengthen {name})",
+                                 argument=name)
         q = tuple(check_finite("lqr_Q", v) for v in np.ravel(np.asarray(self.lqr_Q, dtype=object)))
         if len(q) != 3 or min(q) < 0:
             raise InputError(f"lqr_Q must be 3 weights >= 0 on (q1 - pi, q3, q4), got {list(q)}", argument="lqr_Q")
@@ -413,6 +425,11 @@ def lanes_of_chunk(spec: SweepSpec, index: int) -> LaneSet:
 
 
 # ---------------------------------------------------------------------- JSON
+#: the smallest rtol and atol a sweep takes (double precision resolves about 2.2e-16 of a value)
+MIN_TOLERANCE = 1e-14
+#: the most samples of a sampled law a lane may take over t_end (controller_Ts, lqr_Ts): 1e7 is 300 s at 30 us
+MAX_CONTROL_STEPS = 1e7
+
 _KEYS = {"law", "params", "uncertainty", "vary", "samples", "k1", "k2", "controller_Ts", "lqr", "x0", "t_end",
          "sample_time", "window", "rtol", "atol", "seed", "chunk_size"}
 _LQR_KEYS = {"Q": "lqr_Q", "R": "lqr_R", "u_max": "lqr_u_max", "Ts": "lqr_Ts"}
