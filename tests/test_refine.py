@@ -433,8 +433,10 @@ def test_a_misfit_swing_is_refined_to_its_least_cost_not_held_at_its_first_sampl
     log = _coulomb_swing()
     start = identify(log, "free", t_start=0.8).to_params()
     free = refine_identification("free", log, start, window=(0.8, None), warn=False)
-    bounded_solve = lambda model, params, loss=None, options=None: FitProblem(params, model, loss or Loss()).solve(
-        options)  # noqa: E731
+
+    def bounded_solve(model, params, loss=None, options=None):  # the initial states' bounds in force throughout
+        return FitProblem(params, model, loss or Loss()).solve(options)
+
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(R, "solve_output_error", bounded_solve)
         bounded = refine_identification("free", log, start, window=(0.8, None), warn=False)

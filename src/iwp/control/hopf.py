@@ -346,8 +346,8 @@ def hopf_point(params: LumpedParameters, k2: float = 0.1) -> HopfPoint:
         slope = first_lyapunov_coefficient(params, k1s, k2 + 1.0, omega).l1 - l1
     if not (math.isfinite(l1) and math.isfinite(slope)):
         raise InputError(f"k2 = {k2:g}: the loop's cubic term overflows (its first Lyapunov coefficient is not a "
-                         "number); a cubic gain that large drives no rig (its command, cubic in the speed, beyond any input)",
-                         argument="k2")
+                         "number); a cubic gain that large drives no rig (its command, cubic in the speed, beyond "
+                         "any input)", argument="k2")
     k2c = k2 - l1 / slope if slope != 0 else float("nan")
     tol = 1e-9 * max(1.0, abs(slope))
     crit = "degenerate" if abs(l1) < tol else ("supercritical" if l1 < 0 else "subcritical")
