@@ -217,10 +217,12 @@ def test_a_noisy_link_through_the_emulator_applies_only_what_the_host_sent(monke
     stats = rig.link.stats
     assert stats.corrupt + stats.truncated + stats.refused > 0  # errors were injected on the way back ...
     sent_values = set(sent.values()) | {0.0}
-    assert set(log.u.tolist()) <= sent_values  # ... and none was applied on the way out
+    # the samples whose frames arrived whole (the lost ones are filled in between them, marked: issue 51)
+    whole = log.extra.get("filled", np.zeros(log.n_samples)) == 0
+    assert set(log.u[whole].tolist()) <= sent_values  # ... and none was applied on the way out
     # the run completes (no injected error stops the motor) and keeps the samples whose frames arrived whole
     assert not run.interrupted, run.reason
-    assert log.n_samples >= 0.9 * 801
+    assert int(whole.sum()) >= 0.9 * 801 and log.n_samples >= 801  # every tick from the first to the last
 
 
 class _Dropper(_Wire):
@@ -464,7 +466,10 @@ def test_ctrl_c_of_the_emulator_under_a_running_host_stops_the_motor_and_the_hos
     last = err.read_text().strip().splitlines()[-1]
     assert last.startswith("iwp: emulator stopped after") and last.endswith(
         "a host was driving the motor: stopped (device ESTOP)"), last
-    assert host.returncode == 1 and stderr.strip().splitlines()[-1].startswith("iwp: the motor was stopped: port")
+    # the emulator stopped its motor, but the host cannot know it: its stop went unanswered (issue 51)
+    last_host = stderr.strip().splitlines()[-1]
+    assert host.returncode == 4 and last_host.startswith("iwp: port"), last_host
+    assert "the device did not answer the stop, so nothing confirms it: its watchdog stops the motor" in last_host
     assert read_experiment(out).t[-1] > 0.3  # the rows up to the port's loss are kept
 
 
@@ -724,7 +729,7 @@ def test_the_command_line_refuses_a_latched_fault_with_exit_2_until_clear_fault(
         assert r.returncode == 2 and r.stderr.count("\n") == 1 and not out.exists(), r.stderr
         assert "the device is in ESTOP" in r.stderr and "--clear-fault" in r.stderr
         r = _iwp(*args, "--clear-fault", timeout=60)
-        assert r.returncode == 2 and "q1_max = 3 (default 12.5664)" in r.stderr and "--reset-params" in r.stderr
+        assert r.returncode == 2 and "q1_max = 3 (default 12.566371)" in r.stderr and "--reset-params" in r.stderr
         assert not out.exists()
         r = _iwp("control", "run", "hopf", "--port", port, "--fast", "--duration", "0.5", "--out", str(out),
                  "--clear-fault", "--reset-params", timeout=60)

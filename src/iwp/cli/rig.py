@@ -237,7 +237,7 @@ def finish_port_run(run, out, args, write) -> int:
     if not args.quiet and sys.stderr.isatty():
         print(file=sys.stderr)  # end the progress line
     if run.log is not None:
-        if not args.force and out.exists():  # another program wrote --out while the rig ran: keep both
+        if not getattr(args, "force", False) and out.exists():  # another program wrote --out meanwhile
             taken = out
             out = free_sibling(out)
             print(f"iwp: warning: {taken} appeared during the run (another program wrote it): not overwritten; "
