@@ -231,3 +231,13 @@ def test_a_sweep_with_runaway_settings_is_refused_by_its_key(tmp_path, capsys, e
     assert main(["sweep", str(path), "--out", str(tmp_path / "st")]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert words in line and not (tmp_path / "st").exists()
+
+
+def test_report_on_a_sweeps_folder_says_what_it_is(tmp_path, capsys):
+    """iwp report on a sweep's folder said 'study: no such file'."""
+    study = tmp_path / "study"
+    (study / "chunks").mkdir(parents=True)
+    (study / "manifest.json").write_text("{}")
+    assert main(["report", str(study), "--out", str(tmp_path / "r")]) == 2
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert "a sweep's folder (iwp sweep)" in line and not (tmp_path / "r").exists()

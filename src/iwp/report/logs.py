@@ -104,6 +104,11 @@ def report_logs(
         raise InputError(f"params must be LumpedParameters, got {type(params).__name__}")
     paths = [Path(f) for f in files]
     for p in paths:
+        if p.is_dir() and (p / "manifest.json").is_file() and (p / "chunks").is_dir():
+            raise InputError(f"{p}: a sweep's folder (iwp sweep): iwp report compares logs with a model; the sweep's "
+                             "own summary is what iwp sweep printed, its table results.csv or .parquet in it")
+        if p.is_dir():
+            raise InputError(f"{p}: is a folder; give log files in it (.csv, .parquet, .mat)")
         if not p.is_file():
             raise InputError(f"{p}: no such file")
     # read everything first: a bad file is reported before anything is written
