@@ -241,3 +241,24 @@ def test_report_on_a_sweeps_folder_says_what_it_is(tmp_path, capsys):
     assert main(["report", str(study), "--out", str(tmp_path / "r")]) == 2
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert "a sweep's folder (iwp sweep)" in line and not (tmp_path / "r").exists()
+
+
+def test_a_chunk_whose_numbers_were_edited_is_computed_again(tmp_path, capsys):
+    """A chunk file whose numbers were edited was taken as done: each chunk's SHA-256 is kept in the manifest."""
+    spec = {"law": "hopf", "params": "table1", "k1": -10, "k2": 0.1, "x0": [0.1, 0, 0, 0], "t_end": 20,
+            "sample_time": 0.05, "window": 5, "vary": {"k1": {"linspace": [-12, -6, 4]}}, "chunk_size": 4}
+    path = tmp_path / "spec.json"
+    path.write_text(json.dumps(spec))
+    out = tmp_path / "st"
+    assert main(["sweep", str(path), "--out", str(out), "--quiet"]) == 0
+    chunk = out / "chunks" / "chunk-000000.csv"
+    first = chunk.read_text()
+    rows = first.split("\n")
+    cells = rows[1].split(",")
+    cells[8] = "9.999"  # the first lane's amplitude
+    chunk.write_text("\n".join([rows[0], ",".join(cells), *rows[2:]]))
+    capsys.readouterr()
+    assert main(["sweep", str(path), "--out", str(out), "--quiet"]) == 0
+    assert "its numbers differ from those this sweep wrote" in capsys.readouterr().err
+    assert chunk.read_text() == first  # computed again, the same numbers
+    assert (out / "chunks" / "chunk-000000.csv.damaged").is_file()

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import csv
 import datetime
+import hashlib
 import json
 import re
 import warnings
@@ -119,6 +120,11 @@ def _table_problem(read, names: list[str], lanes: range, what: str) -> str | Non
     return None
 
 
+def _sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes (hex)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
 class SweepStore:
     """The output folder of one sweep.
 
@@ -153,6 +159,10 @@ class SweepStore:
             check_output_dir(self.path, force=force, argument="out")
         self.resumable = resumable
         self.created = not self.path.exists()  # a failed fresh start removes what it made, not the user's folder
+        #: each chunk file's SHA-256 as this sweep wrote it (the manifest keeps them): a file edited since differs
+        self.hashes: dict[str, str] = {}
+        if resumable and isinstance(old.get("hashes"), dict):
+            self.hashes = {str(k): str(v) for k, v in old["hashes"].items()}
         #: chunk files found on disk that are not their chunk's table: index -> why (set aside by :meth:`open`)
         self.damaged: dict[int, str] = self._damaged_chunks() if resumable else {}
         self.runs: list = list(old.get("runs", [])) if resumable and isinstance(old.get("runs"), list) else []
@@ -195,8 +205,11 @@ class SweepStore:
         out = {}
         for i in sorted(self._chunk_files()):
             lanes = self.spec.chunk_range(i)
-            why = _table_problem(lambda: read_table(self.path / CHUNKS / _chunk_name(i)), names, lanes,
-                                 f"its lanes {lanes.start}..{lanes.stop - 1}")
+            path = self.path / CHUNKS / _chunk_name(i)
+            why = _table_problem(lambda: read_table(path), names, lanes, f"its lanes {lanes.start}..{lanes.stop - 1}")
+            recorded = self.hashes.get(str(i))
+            if why is None and recorded is not None and _sha256(path) != recorded:
+                why = "its numbers differ from those this sweep wrote (SHA-256 recorded in manifest.json)"
             if why is not None:
                 out[i] = why
         return out
@@ -235,8 +248,11 @@ class SweepStore:
         return [i for i in range(self.spec.n_chunks) if i not in have]
 
     def write_chunk(self, result: ChunkResult) -> Path:
-        """Write one chunk's rows (atomically)."""
-        return atomic_write(self.path / CHUNKS / _chunk_name(result.index), lambda tmp: _write_csv(tmp, result.columns))
+        """Write one chunk's rows (atomically), its SHA-256 kept for the manifest."""
+        path = atomic_write(self.path / CHUNKS / _chunk_name(result.index),
+                            lambda tmp: _write_csv(tmp, result.columns))
+        self.hashes[str(result.index)] = _sha256(path)
+        return path
 
     def read_chunk(self, index: int) -> dict[str, np.ndarray]:
         return read_table(self.path / CHUNKS / _chunk_name(index))
@@ -260,6 +276,7 @@ class SweepStore:
                       "uncertainty": "numpy.random.SeedSequence(seed, spawn_key=(chunk, 1)): the draws of the "
                                      "fit's covariance"},
             "done": done,
+            "hashes": {str(i): self.hashes[str(i)] for i in done if str(i) in self.hashes},
             "complete": len(done) == self.spec.n_chunks,
             "results": results,
             "updated": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
