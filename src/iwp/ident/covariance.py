@@ -870,11 +870,11 @@ def reliability(chosen: Covariance, experiments: int, model_columns: Sequence[in
                          "its error outlasts the log and these intervals are too narrow (fit several experiments)")
             reliable = False
     elif chosen.method == "experiments" and experiments < 4 and not structure:
-        few = ("" if blocks is None or within is None else
-               f"; each holds only {blocks} blocks of the residuals' correlation ({within.bandwidth} lags), too few "
-               "to estimate the noise within it")
+        short = ("" if blocks is None or within is None else
+                 f"; each holds only {blocks} blocks of the residuals' correlation ({within.bandwidth} lags), too few "
+                 "to estimate the noise within it")
         notes.append(f"only {experiments} experiments: wide intervals (Student t with at most {experiments - 1} dof)"
-                     + few)
+                     + short)
     return Reliability(method, experiments, spread, structure, reliable, notes)
 
 

@@ -446,12 +446,15 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     if timed and (method in ("experiments", "hac") or method.startswith("hac:")):
         b = float(method.split(":")[1]) if method.startswith("hac:") else None
         within = hac_sandwich(Jw, rw, groups, model.row_times(), free, dof, b)
+    length = int(min(np.count_nonzero(groups == g) for g in np.unique(groups))) if rw.size else 0
+    # blocks of the HAC lags in the shortest experiment (its samples over the lags + 1; n_out rows a sample)
+    hac_blocks = None if within is None else length // n_out // (int(within.bandwidth or 0) + 1)
     across = agreement = None
     if method == "experiments" and n_exp >= 2:
         across = cluster_covariance(Jw, rw, groups, free)
         if within is not None:
             agreement = experiments_agree(Jw, rw, groups, model.row_times(), kinds, int(within.bandwidth or 0), dof)
-        if auto and agreement is not None and agreement.agree and _hac_blocks(groups, within, n_out) >= MIN_HAC_BLOCKS:
+        if auto and agreement is not None and agreement.agree and hac_blocks >= MIN_HAC_BLOCKS:
             # the experiments agree within their noise and each holds many blocks of the HAC lags: the noise within
             # them sets the intervals; Student t over G experiments is kept for a disagreement or few blocks
             cov_z = within
@@ -461,9 +464,8 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
         cov_z = within
     else:
         cov_z = white_covariance(Jw, sig[blocks] * w, free, dof)
-    length = int(min(np.count_nonzero(groups == g) for g in np.unique(groups))) if rw.size else 0
     verdict = reliability(cov_z, n_exp, kinds, length // n_out, within=within, across=across, agreement=agreement,
-                          blocks=_hac_blocks(groups, within, n_out) if within is not None else None)
+                          blocks=hac_blocks)
     estimates = params.with_estimates(z, cov_z.matrix, cov_z.critical_of)
     D = params.value_derivatives(z, free)
     cov = D @ cov_z.matrix @ D.T if free else np.zeros((0, 0))
@@ -477,13 +479,6 @@ def _statistics(problem: "FitProblem", obj: _Objective, z: np.ndarray, J: np.nda
     return dict(parameters=estimates, free=free, covariance=cov, correlation=corr, dof=dof, critical=cov_z.critical,
                 block_sigma=sig, warnings=msgs, covariance_method=cov_z.method, bandwidth=cov_z.bandwidth,
                 inflation=dict(zip(free, (float(x) for x in cov_z.inflation))), reliability=verdict)
-
-
-def _hac_blocks(groups: np.ndarray, within: Any, n_out: int) -> int:
-    """Blocks of the HAC lags in the shortest experiment (its samples over the lags + 1; ``n_out`` rows a sample)."""
-    lags = int(within.bandwidth or 0) if within is not None else 0
-    rows = [int(np.count_nonzero(groups == g)) for g in np.unique(groups)]
-    return min(rows) // n_out // (lags + 1) if rows else 0
 
 
 def _no_statistics(params: Parameters, z: np.ndarray) -> dict[str, Any]:
