@@ -517,11 +517,7 @@ def start_state(data: ExperimentData, plant: Plant, controller: Input | None = N
     x0 = np.asarray(model.states(res.parameters.values())[0][:4], dtype=float)
     if not (res.success and np.all(np.isfinite(x0))):
         return quadratic
-    C = np.zeros((4, 4))
-    est = model.prepared[0].est
-    idx = [res.free.index(x0_name(s, 0)) for s in est]
-    C[np.ix_(est, est)] = np.nan_to_num(res.covariance[np.ix_(idx, idx)])
-    return StartEstimate(x0, C, "model")
+    return StartEstimate(x0, model.start_covariance(res), "model")
 
 
 def initial_state(data: ExperimentData, index: int, plant: Plant,
@@ -942,6 +938,15 @@ class OutputError:
                 x[s] = values[x0_name(s, p.index)]
             out.append(x)
         return out
+
+    def start_covariance(self, fit: FitResult, index: int = 0) -> np.ndarray:
+        """The 4 x 4 covariance of experiment ``index``'s initial state ``[q1, q2, q3, q4]`` in ``fit`` (zero rows
+        and columns for the components not estimated; a NaN of an undetermined one as 0)."""
+        est = self.prepared[index].est
+        C = np.zeros((4, 4))
+        idx = [fit.free.index(x0_name(s, index)) for s in est]
+        C[np.ix_(est, est)] = np.nan_to_num(fit.covariance[np.ix_(idx, idx)])
+        return C
 
     def offsets(self, values: Mapping[str, float]) -> list[dict[str, float]]:
         """Per experiment, ``{output: offset}`` for ``values``."""

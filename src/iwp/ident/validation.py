@@ -51,7 +51,6 @@ from .output_error import (
     measured_signals,
     solve_output_error,
     start_state,
-    x0_name,
 )
 from .problem import SolverOptions
 from .refinement import REFINE_MODELS
@@ -476,11 +475,7 @@ def _estimated_x0(experiment: Experiment, plant: Plant, signals: tuple[str, ...]
         raise InputError(f"estimate_x0: none of the signals {', '.join(signals)} varies in the window")
     model = OutputError(plant, [experiment], fit_out)
     res = solve_output_error(model, model.parameters())
-    est = model.prepared[0].est
-    C = np.zeros((4, 4))
-    idx = [res.free.index(x0_name(s, 0)) for s in est]
-    C[np.ix_(est, est)] = np.nan_to_num(res.covariance[np.ix_(idx, idx)])
-    return model.states(res.parameters.values())[0], C
+    return model.states(res.parameters.values())[0], model.start_covariance(res)
 
 
 @dataclass(frozen=True)
