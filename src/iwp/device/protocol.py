@@ -45,6 +45,7 @@ __all__ = [
     "ACK_CODES",
     "FIXTURE_ACTIONS",
     "MAX_PAYLOAD",
+    "FLOAT32_MAX",
     "DICTIONARY_HASH",
     "ProtocolError",
     "Decoded",
@@ -60,6 +61,8 @@ __all__ = [
 PROTOCOL_VERSION = 3
 #: Largest payload (type byte + fields) of a frame [bytes].
 MAX_PAYLOAD = 64
+#: The largest magnitude a float32 field of a frame carries.
+FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 class ProtocolError(IwpError):
@@ -328,7 +331,7 @@ def encode(name: str, **values: Any) -> bytes:
         return m.struct.pack(m.id, *(values[n] for n in names))
     except (struct.error, OverflowError) as exc:
         big = [f"{f.name} = {values[f.name]!r}" for f in m.fields if f.code in ("f", "d")
-               and isinstance(values[f.name], (int, float)) and abs(float(values[f.name])) > 3.4028234663852886e38]
+               and isinstance(values[f.name], (int, float)) and abs(float(values[f.name])) > FLOAT32_MAX]
         raise ProtocolError(f"message {name}: {', '.join(big) or exc} does not fit its field") from None
 
 

@@ -42,7 +42,7 @@ from ..rig.virtual import STATIC_WINDOW
 from .connection import Rig
 from .errors import DeviceError, LinkLost
 from .loop import DeviceLaw, HostLaw, HostLimits, LoopCommand, LoopResult, OpenLoop, run_loop
-from .protocol import PARAMS, float32_text
+from .protocol import FLOAT32_MAX, PARAMS, float32_text
 from .record import loop_log
 
 __all__ = ["run_on_rig", "RigRun", "USER_INPUTS", "USER_INPUT_KINDS", "RUN_NAMES", "PAPER_SERIES", "run_kind",
@@ -253,8 +253,6 @@ def run_on_rig(rig: Rig, name: str, *, fast: bool = False,
     return RigRun(log, res.interrupted, res.reason, res.error, [res])
 
 
-#: the largest magnitude a float32 field of the wire protocol carries
-FLOAT32_MAX = float(np.finfo(np.float32).max)
 #: the settings of an input law (:func:`~iwp.rig.run_settings.law_input`), named when its values cannot be sent
 LAW_SETTINGS = ("amplitude", "omega", "w0", "tau", "hold_time", "levels", "step_time", "seed")
 
