@@ -139,19 +139,10 @@ class _Grid:
 
     def gaps(self, Ts: float) -> list[list[float]]:
         """``[t_first, t_last, samples]`` of each run of filled ticks [s]."""
-        out, k = [], 0
-        f = self.filled
-        while k < f.size:
-            if f[k]:
-                j = k
-                while j + 1 < f.size and f[j + 1]:
-                    j += 1
-                out.append([float((self.seq[k] - self.seq[0]) * Ts), float((self.seq[j] - self.seq[0]) * Ts),
-                            j - k + 1])
-                k = j + 1
-            else:
-                k += 1
-        return out
+        edges = np.diff(np.concatenate([[0], self.filled.astype(np.int8), [0]]))
+        first, last = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+        t = (self.seq - self.seq[0]) * Ts
+        return [[float(t[a]), float(t[b]), int(b - a + 1)] for a, b in zip(first, last)]
 
 
 _FIELDS = ("q1", "q2", "u", "v", "q4", "t_device", "t_host", "current")
