@@ -97,12 +97,12 @@ class DaskExecutor:
         if scheduler is None and workers is not None:
             # a local cluster of more processes than cores or memory allow only waits (1,000 workers on 2 cores
             # gave no answer in 60 s): capped, and said
-            cores = usable_cores()
-            by_memory = max(1, int(usable_memory() // WORKER_MEMORY)) if math.isfinite(usable_memory()) else workers
+            cores, memory = usable_cores(), usable_memory()
+            by_memory = max(1, int(memory // WORKER_MEMORY)) if math.isfinite(memory) else workers
             cap = min(cores, by_memory)
             if workers > cap:
                 self.note = (f"workers {workers}: capped at {cap}, the {cores} core{'s' if cores != 1 else ''} and "
-                             f"{usable_memory() / 1e9:.3g} GB this process may use (a worker takes about "
+                             f"{memory / 1e9:.3g} GB this process may use (a worker takes about "
                              f"{WORKER_MEMORY / 1e6:.0f} MB)")
                 workers = cap
         self.scheduler = scheduler
