@@ -262,3 +262,38 @@ def test_a_chunk_whose_numbers_were_edited_is_computed_again(tmp_path, capsys):
     assert "its numbers differ from those this sweep wrote" in capsys.readouterr().err
     assert chunk.read_text() == first  # computed again, the same numbers
     assert (out / "chunks" / "chunk-000000.csv.damaged").is_file()
+
+
+def _truth_file(tmp_path, capsys, **fields):
+    assert main(["rig", "truth", "--out", str(tmp_path / "t.json")]) == 0
+    capsys.readouterr()
+    doc = json.loads((tmp_path / "t.json").read_text())
+    doc.update(fields)
+    return doc
+
+
+@pytest.mark.parametrize("field, value, words", [
+    ("coulomb_eps", 0, ["field 'coulomb_eps'", "at least 0.0001"]),
+    ("noise_std", 1e300, ["field 'noise_std'", "beyond 1 rad"]),
+    ("counts_per_rev", "9" * 401, ["key 'counts_per_rev'", "401 digits"]),
+])
+def test_a_truth_files_bad_field_is_named_by_its_key_before_anything_runs(tmp_path, capsys, field, value, words):
+    doc = _truth_file(tmp_path, capsys)
+    text = json.dumps({**doc, field: "@"}).replace('"@"', str(value))
+    (tmp_path / "bad.json").write_text(text)
+    status = main(["rig", "run", "free-pendulum", "--truth", str(tmp_path / "bad.json"), "--duration", "1",
+                   "--out", str(tmp_path / "x.csv")])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and "bad.json" in line and all(w in line for w in words), line
+    assert "--noise" not in line and "limit was reached" not in line
+
+
+def test_a_calibration_target_with_an_unknown_statistic_is_refused_at_reading(tmp_path, capsys):
+    from iwp.calibration.targets import TARGETS_FILE
+    doc = json.loads(TARGETS_FILE.read_text())
+    doc["targets"][3]["statistic"] = "motor-disk.nothing"
+    (tmp_path / "targets.json").write_text(json.dumps(doc))
+    status = main(["rig", "calibrate", "--targets", str(tmp_path / "targets.json"), "--out", str(tmp_path / "c.json")])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and "targets[3]: field 'statistic'" in line and "'nothing'" in line, line
+    assert not (tmp_path / "c.json").exists()

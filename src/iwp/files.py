@@ -6,6 +6,7 @@ import contextlib
 import json
 import math
 import os
+import re
 import secrets
 import shutil
 import signal
@@ -296,8 +297,19 @@ def _unique_keys(pairs: list) -> dict:
 def _json_int(text: str) -> int:
     digits = len(text.lstrip("-"))
     if digits > _MAX_INT_DIGITS:
-        raise _HugeInteger(digits)
+        raise _HugeInteger(digits, text)
     return int(text)
+
+
+def _place(text: str, token: str) -> str:
+    """Where ``token`` first stands in JSON ``text``: ``"key 'K' (line L, column C): "``, the key it is the value of."""
+    at = text.find(token)
+    if at < 0:
+        return ""
+    line = text.count("\n", 0, at) + 1
+    column = at - (text.rfind("\n", 0, at) + 1) + 1
+    key = re.search(r'"((?:[^"\\]|\\.)*)"\s*:\s*\[?\s*$', text[max(0, at - 400):at])
+    return (f"key {key.group(1)!r} " if key else "") + f"(line {line}, column {column}): "
 
 
 def read_json(path: str | Path, *, argument: str | None = None) -> Any:
@@ -323,8 +335,8 @@ def read_json(path: str | Path, *, argument: str | None = None) -> Any:
         raise InputError(f"{where}: key {exc.args[0]!r} is given twice in one object (only one would count); give it "
                          "once", argument=argument) from None
     except _HugeInteger as exc:
-        raise InputError(f"{where}: an integer of {exc.args[0]} digits is beyond any number iwp reads (at most "
-                         f"{_MAX_INT_DIGITS})", argument=argument) from None
+        raise InputError(f"{where}: {_place(text, exc.args[1])}an integer of {exc.args[0]} digits is beyond any "
+                         f"number iwp reads (at most {_MAX_INT_DIGITS})", argument=argument) from None
     except FileNotFoundError:
         raise InputError(f"{where}: no such file", argument=argument) from None
     except OSError as exc:

@@ -56,6 +56,7 @@ from ..data import ExperimentData, StaticCurve
 from ..errors import InputError
 from ..ident.identification import AS_PRINTED, identify
 from ..ident.result import IdentificationResult
+from ..ident.setups import SETUPS
 from ..ident.validation import UninformativeValidation, validate
 from ..models.parameters import LumpedParameters, table1
 from ..rig.truth import RigTruth
@@ -66,6 +67,8 @@ __all__ = [
     "PaperNumbers",
     "paper_numbers",
     "STATISTICS",
+    "IDENTIFICATIONS",
+    "check_statistic",
     "PAPER_EXPERIMENTS",
     "compensated_line",
     "oscillation_amplitude",
@@ -313,18 +316,38 @@ class PaperNumbers:
         return {s: self.value(s) for s in statistics}
 
 
-def _parameter_statistic(numbers: PaperNumbers, setup: str, names: str) -> float:
-    if setup not in numbers.identifications:
-        raise InputError(f"unknown statistic '{setup}.{names}': no set-up {setup!r} "
-                         f"(set-ups: {', '.join(numbers.identifications)})")
-    res = numbers.identifications[setup]
-    total = 0.0
+#: The identifications of :class:`PaperNumbers` by name, and the set-up of :mod:`iwp.ident.setups` each runs.
+IDENTIFICATIONS = {"dead-zone": "dead-zone", "motor-disk": "motor-disk", "motor-disk-coulomb": "motor-disk-coulomb",
+                   "free": "free", "full": "full", "two-step": "two-step", "full-13": "full"}
+
+
+def check_statistic(statistic: Any, name: str = "statistic") -> str:
+    """``statistic`` if it names a statistic of :func:`statistic_value`, before anything runs; else InputError.
+
+    ``name`` is what the caller calls it (a file's field), for the message.
+    """
+    if not isinstance(statistic, str):
+        raise InputError(f"{name}: a statistic is named by a string, got {statistic!r}")
+    if statistic in STATISTICS:
+        return statistic
+    setup, _, names = statistic.partition(".")
+    if not names:
+        raise InputError(f"{name}: unknown statistic {statistic!r}; use SETUP.PARAMETER[+PARAMETER] or one of "
+                         f"{', '.join(STATISTICS)}")
+    if setup not in IDENTIFICATIONS:
+        raise InputError(f"{name}: unknown statistic {statistic!r}: no set-up {setup!r} "
+                         f"(set-ups: {', '.join(IDENTIFICATIONS)})")
+    known = SETUPS[IDENTIFICATIONS[setup]].parameters
     for n in names.split("+"):
-        if n not in res.parameters:
-            raise InputError(f"unknown statistic '{setup}.{names}': set-up {setup!r} has no parameter {n!r} "
-                             f"(it has {', '.join(res.parameters)})")
-        total += res.value(n)
-    return float(total)
+        if n not in known:
+            raise InputError(f"{name}: unknown statistic {statistic!r}: set-up {setup!r} has no parameter {n!r} "
+                             f"(it has {', '.join(known)})")
+    return statistic
+
+
+def _parameter_statistic(numbers: PaperNumbers, setup: str, names: str) -> float:
+    res = numbers.identifications[setup]
+    return float(sum(res.value(n) for n in names.split("+")))
 
 
 def _ratio(numbers: PaperNumbers, num: str, den: str) -> float:
@@ -359,13 +382,10 @@ def chirp_fit(numbers: PaperNumbers) -> float:
 
 def statistic_value(numbers: PaperNumbers, statistic: str) -> float:
     """The value of ``statistic`` (see the module docstring) in ``numbers``."""
-    if not isinstance(statistic, str):
-        raise InputError(f"a statistic is named by a string, got {statistic!r}")
+    check_statistic(statistic)
     if statistic in STATISTICS:
         return STATISTICS[statistic](numbers)
     setup, _, names = statistic.partition(".")
-    if not names:
-        raise InputError(f"unknown statistic {statistic!r}; use SETUP.PARAMETER or one of {', '.join(STATISTICS)}")
     return _parameter_statistic(numbers, setup, names)
 
 

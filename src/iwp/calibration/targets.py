@@ -177,6 +177,8 @@ def _target(entry: Any, where: str) -> PaperTarget:
             raise InputError(f"{where}: field 'published_range' must be [low, high] with low < high, "
                              f"both of one sign, got {list(r)}")
         rng = (lo, hi)
+    from .statistics import check_statistic  # the procedures' module, imported only when a file is read
+    check_statistic(entry["statistic"], f"{where}: field 'statistic'")
     note = entry.get("note", "")
     if not isinstance(note, str):
         raise InputError(f"{where}: field 'note' must be a string")

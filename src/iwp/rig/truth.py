@@ -70,7 +70,38 @@ from ..models.friction import COULOMB_EPS
 from ..models.parameters import BeltParameters, LumpedParameters, table1
 from ..models.plant import Plant
 
-__all__ = ["RigTruth", "default_truth", "uncalibrated_truth", "truth_record", "DEFAULT_TRUTH_FILE", "SESSIONS"]
+__all__ = ["RigTruth", "MAX_NOISE", "MIN_COULOMB_EPS", "check_noise", "check_coulomb_eps", "default_truth",
+           "uncalibrated_truth", "truth_record", "DEFAULT_TRUTH_FILE", "SESSIONS"]
+
+
+#: Largest measurement noise of the virtual rig's angles [rad] (an encoder's is a few thousandths).
+MAX_NOISE = 1.0
+#: Narrowest smoothing of ``sgn(q4)`` the truth's Coulomb friction may have [rad/s]. Narrower makes the
+#: truth too stiff to integrate: a 60 s free swing of the default truth took 1.1 s at 1e-3, 3.5 s at 1e-4,
+#: 26 s at 1e-5, and stopped at the step limit after 39 s at 1e-6 (2026-12-07, 2-core machine).
+MIN_COULOMB_EPS = 1e-4
+
+
+def check_noise(noise_std: float, name: str = "noise_std") -> float:
+    """The standard deviation of the position noise [rad]: finite, from 0 to :data:`MAX_NOISE`.
+
+    ``name`` is the argument as the caller gave it (the key or flag an error names).
+    """
+    x = check_nonnegative(name, noise_std)
+    if x > MAX_NOISE:
+        raise InputError(f"{name} = {x:g} rad: a measurement noise beyond {MAX_NOISE:g} rad is no measurement "
+                         "of an angle", argument="noise_std")
+    return x
+
+
+def check_coulomb_eps(eps: float, name: str = "coulomb_eps") -> float:
+    """The smoothing width of the truth's Coulomb friction [rad/s]: at least :data:`MIN_COULOMB_EPS`."""
+    x = check_nonnegative(name, eps)
+    if x < MIN_COULOMB_EPS:
+        raise InputError(f"{name} = {x:g} rad/s: the virtual rig smooths sgn(q4) over at least {MIN_COULOMB_EPS:g} "
+                         "rad/s (narrower, a run of its truth is too stiff to integrate: a 60 s swing at 1e-6 ends at "
+                         "the integrator's step limit); the default is 0.01", argument="coulomb_eps")
+    return x
 
 
 def _default_lumped() -> LumpedParameters:
@@ -89,6 +120,10 @@ DEFAULT_STARTUP = StartupFriction(break_ratio=0.15, omega_s=2.0)
 #: The default belt's shape; its ``k_over_gamma`` and ``kTbeta_over_Rgamma`` follow from the lumped parameters.
 DEFAULT_BELT_SHAPE = {"k_over_I2": 250.0, "d": 2.0, "N": 13.5, "b2_over_I2": 0.5, "gain_neg": 1.0}
 _BELT_DERIVED = ("k_over_gamma", "kTbeta_over_Rgamma")
+
+
+#: The scalar fields whose range is checked beyond their sign (as the file names them).
+_CHECKS = {"noise_std": check_noise, "coulomb_eps": check_coulomb_eps}
 
 
 def _rigid_belt(lumped: LumpedParameters, *, k_over_I2: float, d: float, N: float, b2_over_I2: float,
@@ -165,7 +200,7 @@ class RigTruth:
             raise InputError(f"RigTruth.belt must be BeltParameters or None, got {type(self.belt).__name__}")
         if not isinstance(self.startup, StartupFriction):
             raise InputError(f"RigTruth.startup must be StartupFriction, got {type(self.startup).__name__}")
-        check_nonnegative("RigTruth.coulomb_eps", self.coulomb_eps)
+        check_coulomb_eps(self.coulomb_eps, "RigTruth.coulomb_eps")
         cpr = self.counts_per_rev
         if isinstance(cpr, bool) or not isinstance(cpr, (int, np.integer)) and not (
                 isinstance(cpr, float) and cpr.is_integer()):
@@ -174,7 +209,7 @@ class RigTruth:
             raise InputError(f"RigTruth.counts_per_rev must be a positive integer, got {cpr!r}")
         object.__setattr__(self, "counts_per_rev", int(cpr))
         object.__setattr__(self, "Ts", check_positive("RigTruth.Ts", self.Ts))
-        object.__setattr__(self, "noise_std", check_nonnegative("RigTruth.noise_std", self.noise_std))
+        object.__setattr__(self, "noise_std", check_noise(self.noise_std, "RigTruth.noise_std"))
         if self.saturation is not None:
             object.__setattr__(self, "saturation", check_positive("RigTruth.saturation", self.saturation))
         object.__setattr__(self, "coulomb_eps", float(self.coulomb_eps))
@@ -361,6 +396,8 @@ class RigTruth:
                 positive = key in ("Ts", "resistance_ratio")
                 if (positive and val <= 0) or val < 0:
                     raise InputError(f"{where}: field {key!r} must be {'> 0' if positive else '>= 0'}, got {val!r}")
+                if key in _CHECKS:
+                    _CHECKS[key](val, f"{where}: field {key!r}")
                 scalars[key] = val
         if "counts_per_rev" in doc:
             val = doc["counts_per_rev"]

@@ -64,7 +64,7 @@ from .experiments import (
     list_experiments,
 )
 from .run_settings import check_seed, compensation_thresholds, initial_state, law_input
-from .truth import RigTruth, default_truth
+from .truth import RigTruth, check_noise, default_truth
 
 __all__ = ["VirtualRig", "run_experiment", "RIG_RTOL", "RIG_ATOL", "STATIC_WINDOW"]
 
@@ -76,23 +76,12 @@ RIG_ATOL = 1e-8
 STATIC_WINDOW = 1.0
 
 
-#: Largest measurement noise of the virtual rig's angles [rad] (an encoder's is a few thousandths).
-MAX_NOISE = 1.0
-
-
 def _rig_options(pair: tuple[float, float] | None, saturation: float | None) -> SimOptions:
     """The truth plant's simulation options: the feedforward thresholds ``pair`` and the saturation [input units]."""
     return SimOptions(feedforward=None if pair is None else Feedforward(*pair), saturation=saturation,
                       tolerances=Tolerances(rtol=RIG_RTOL, atol=RIG_ATOL))
 
 
-def check_noise(noise_std: float) -> float:
-    """The standard deviation of the position noise [rad]: finite, from 0 to :data:`MAX_NOISE`."""
-    x = check_nonnegative("noise_std", noise_std)
-    if x > MAX_NOISE:
-        raise InputError(f"noise_std = {x:g} rad: a measurement noise beyond {MAX_NOISE:g} rad is no measurement "
-                         "of an angle", argument="noise_std")
-    return x
 
 
 class VirtualRig:
