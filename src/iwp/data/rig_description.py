@@ -52,7 +52,7 @@ __all__ = [
 ]
 
 #: Time units and their factor to seconds.
-TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0}
 #: Angle units and their factor to rad (``counts`` uses ``counts_per_rev``).
 ANGLE_UNITS = {"rad": 1.0, "deg": math.pi / 180.0, "counts": None}
 #: Speed units and their factor to rad/s.

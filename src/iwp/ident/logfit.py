@@ -49,7 +49,6 @@ from pathlib import Path
 from typing import Any, Mapping, NamedTuple, Sequence
 
 import numpy as np
-from scipy import optimize
 
 from ..data import ExperimentData, check_distinct, read_experiment
 from ..data.rig_description import ControllerSpec, RigDescription, load_rig
@@ -57,7 +56,7 @@ from ..data.rig_log import read_rig_log
 from ..errors import InputError
 from ..files import json_float
 from ..models.encoder import EncoderZero
-from ..models.parameters import PARAMETER_INFO, TYPICAL, BeltParameters, LumpedParameters, table1
+from ..models.parameters import PARAMETER_INFO, BeltParameters, LumpedParameters, table1
 from ..models.plant import Plant
 from ..models.terms import (
     TERMS,
@@ -72,7 +71,7 @@ from ..models.terms import (
 from ..sim.inputs import HopfController, Input
 from ..sim.uncertainty import ParameterUncertainty, StartUncertainty, prediction_band, undetermined
 from ..threads import one_blas_thread, thread_map
-from .differentiate import Differentiator
+from .fit_start import MIN_SAMPLES_PER_PERIOD, LeastSquaresStart, least_squares_start
 from .identification import HOLDABLE, PRIOR_SPREAD
 from .input_hold import INPUT_HOLDS, InputHoldReading, describe_readings, with_input_hold
 from .metrics import JUDGED, fit_percent, judged_fits, poor_fits
@@ -86,7 +85,6 @@ from .output_error import (
 )
 from .problem import Loss, SolverOptions
 from .refinement import RefineResult, as_experiments, refine
-from .regressors import columns, q3_row, row_sum
 from .structure import (
     CROSS_VALIDATION,
     HELD_OUT_LOGS,
@@ -110,10 +108,6 @@ __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresS
 #: twin's held-out chirp fitted with model (9), which lacks the twin's belt and dead zone, held 60 % of q1 (the
 #: README's sequence).
 BAND_HOLDS = 0.8
-#: Least squares on differentiated data needs at least this many samples per pendulum period.
-MIN_SAMPLES_PER_PERIOD = 8
-#: length of the Savitzky-Golay filters of the least-squares start [s] (at least 7 samples)
-SG_SECONDS = 0.15
 #: How each model of ``iwp fit`` is described in its summary and report.
 MODEL_LABELS = {"compensated": "(9)", "raw": "(6) with dead zone", "belt-full": "(4a) with the belt (15)"}
 
@@ -411,180 +405,6 @@ def load_logs(items, rig: RigDescription | None, *, argument: str = "logs") -> l
                              argument=argument)
         out.append(d.with_glitches_found())
     return out
-
-
-# --------------------------------------------------------------------------
-# least squares start
-# --------------------------------------------------------------------------
-def _differentiator(Ts: float, n: int) -> Differentiator:
-    """Savitzky-Golay (value, slope, curvature from one cubic) over about :data:`SG_SECONDS`, at least 5 samples."""
-    half = max(3, int(round(0.5 * SG_SECONDS / Ts)))
-    window = max(min(2 * half + 1, n - (1 - n % 2)), 5)
-    return Differentiator("savgol_direct", window=window, polyorder=min(3, window - 2))
-
-
-@dataclass
-class _Terms:
-    """The terms of the rows of (9) at the smoothed states of the logs (:mod:`iwp.ident.regressors`)."""
-
-    q1: np.ndarray
-    q3: np.ndarray
-    dq3: np.ndarray
-    q4: np.ndarray
-    dq4: np.ndarray
-    u: np.ndarray
-
-    @property
-    def S(self) -> np.ndarray:
-        return np.sin(self.q1)
-
-    @property
-    def C(self) -> np.ndarray:
-        return np.abs(np.cos(self.q1)) * self.q3
-
-    @property
-    def B(self) -> np.ndarray:
-        return self.q3 ** 3
-
-
-def _terms(d: ExperimentData) -> _Terms:
-    """Smoothed q1, q3, q3', q4, q4', u (held input moved to the instants) of one log, glitches and edges left out."""
-    if d.n_samples < 7:
-        raise InputError(f"{d.source}: {d.n_samples} samples are too few for the least-squares start")
-    diff = _differentiator(d.Ts, d.n_samples)
-    win = diff.window
-    if d.n_samples < win + 2:
-        raise InputError(f"{d.source}: {d.n_samples} samples are too few for the least-squares start")
-    q1, q3, dq3 = diff.derivatives(d.Ts, d.q1)
-    if d.q2 is not None and d.q4 is None:
-        _q2, q4, dq4 = diff.derivatives(d.Ts, d.q2)
-    else:
-        q4 = np.asarray(d.q4, dtype=float)
-        if d.q4_sampling == "mean":  # means over [t_k - Ts, t_k]: move to the instants
-            q4 = np.concatenate([0.5 * (q4[1:] + q4[:-1]), q4[-1:]])
-        q4, dq4, _ = diff.derivatives(d.Ts, q4)
-    u = np.asarray(d.input, dtype=float)
-    held = np.concatenate([u[:1], 0.5 * (u[1:] + u[:-1])])  # the mean input over [t_k - Ts/2, t_k + Ts/2]
-    u = diff.smooth(d.Ts, held)
-    edge = win // 2 + 1
-    mask = np.ones(d.n_samples, dtype=bool)
-    mask[:edge] = False
-    mask[-edge:] = False
-    for col in ("q1", "q4"):
-        src = "q4" if col == "q4" and d.q4 is not None else ("q2" if col == "q4" else "q1")
-        for k in np.flatnonzero(d.glitch_mask(src)):
-            mask[max(0, k - win // 2): k + win // 2 + 1] = False
-    return _Terms(*(np.asarray(x)[mask] for x in (q1, q3, dq3, q4, dq4, u)))
-
-
-@dataclass(frozen=True)
-class LeastSquaresStart:
-    """The start of ``iwp fit``'s refinement (:func:`least_squares_start`).
-
-    Attributes
-    ----------
-    params : LumpedParameters
-    method : str
-        ``"least squares"`` or ``"spectrum and wheel row"`` (the fallback).
-    details : dict
-        The least-squares values.
-    notes : list of str
-        Why a fallback was taken, what was replaced.
-    """
-
-    params: LumpedParameters
-    method: str
-    details: dict
-    notes: list[str]
-
-
-def least_squares_start(logs: Sequence[ExperimentData], *, base: LumpedParameters | None = None
-                        ) -> LeastSquaresStart:
-    """A start for the refinement by least squares of model (9) on differentiated logs.
-
-    The row sum ``q3' + q4' = -rho p2 q4 + rho p3 u`` gives ``rho p2`` and
-    ``rho p3`` free of the pendulum terms; the ``q3'`` row of (11)
-    (:mod:`iwp.ident.regressors`) with a column ``cos q1`` for the zero offset
-    ``d`` of the angle (``-p1 sin(q1 - d) = -p1 sin q1 + p1 d cos q1``) gives
-    ``p1``, the friction, ``p2``, ``p3``. Where the sampling does not allow it
-    (fewer than :data:`MIN_SAMPLES_PER_PERIOD` samples per pendulum period) or
-    the values are not physical, ``p1`` comes from the spectrum of ``q1``.
-
-    Parameters
-    ----------
-    logs : sequence of ExperimentData
-        Training logs, with the input ``u`` and the wheel velocity.
-    base : LumpedParameters, optional
-        Parameters whose other entries (dead zone, Coulomb friction, ...) the start keeps; None (default):
-        zero frictions and defaults.
-
-    Returns
-    -------
-    LeastSquaresStart
-        The start (``p1``, ``p2``, ``p3``, ``rho``, ``sigma_a1``, ``sigma_v1``, ``sigma_b1``), the method used,
-        the least-squares values and notes.
-    """
-    notes: list[str] = []
-    parts = [_terms(d) for d in logs]
-    sig = _Terms(*(np.concatenate([getattr(t, k) for t in parts]) for k in ("q1", "q3", "dq3", "q4", "dq4", "u")))
-    n = sig.q1.size
-    (rp2, rp3), *_ = np.linalg.lstsq(columns(row_sum(sig), ("rho_p2", "rho_p3"), n), sig.dq3 + sig.dq4, rcond=None)
-    names = ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "p2", "p3")
-    B = np.column_stack([columns(q3_row(sig), names, n), np.cos(sig.q1)])
-    scale = np.linalg.norm(B, axis=0)
-    scale[scale == 0] = 1.0
-    # the physical signs as bounds (p1, the frictions, p2 >= 0): the friction columns |cos q1| q3 and q3 are
-    # nearly collinear, and unbounded least squares trades a large positive one for a large negative one
-    lo = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -np.inf, -np.inf])
-    th = optimize.lsq_linear(B / scale, sig.dq3, bounds=(lo, np.full(7, np.inf)), method="bvls").x
-    p1, sa, sv, sb, p2b, p3b, c1 = (float(v) for v in th / scale)
-    details = {"rho_p2": float(rp2), "rho_p3": float(rp3), "p1": p1, "sigma_a1": sa, "sigma_v1": sv, "sigma_b1": sb,
-               "p2": p2b, "p3": p3b, "q1_offset": c1 / p1 if p1 else float("nan")}
-    Ts = max(d.Ts for d in logs)
-    ok = p1 > 0 and rp3 > 0 and p3b > 0 and rp2 >= 0 and math.isfinite(p1)
-    per_period = 2 * math.pi / math.sqrt(p1) / Ts if p1 > 0 else 0.0
-    if ok and per_period >= MIN_SAMPLES_PER_PERIOD:
-        rho = rp3 / p3b
-        method = "least squares"
-    else:
-        why = (f"{per_period:.1f} samples per pendulum period (< {MIN_SAMPLES_PER_PERIOD})" if ok
-               else "unphysical least-squares values (" + ", ".join(
-                   f"{k} = {v:.3g}" for k, v in details.items() if k != "q1_offset") + ")")
-        notes.append(f"the least-squares start is not usable ({why}); starting from the spectrum of q1 and the "
-                     "wheel row instead")
-        p1 = _spectral_p1(logs)
-        rho = (rp3 / p3b) if (rp3 > 0 and p3b > 0) else 10.0
-        rp3 = rp3 if rp3 > 0 else TYPICAL["p3"] * (1 + rho)
-        rp2 = max(rp2, 1e-3 * rp3)
-        method = "spectrum and wheel row"
-    rho = float(np.clip(rho, 0.5, 1e4))
-    damp = sa + sv
-    if not (damp > 0):
-        notes.append(f"least squares gave no positive pendulum damping (sigma_a1 + sigma_v1 = {damp:.3g}); "
-                     "starting from sigma_v1 = 0.01")
-        sa, sv = 0.0, 0.01
-    sa, sv = max(sa, 0.0), max(sv, 0.0)
-    if sa == 0 and sv == 0:
-        sv = 0.01
-    start = (base or LumpedParameters(p1=p1, p2=1.0, p3=1.0, rho=rho, sigma_a1=0.0, sigma_v1=0.0, sigma_b1=0.0))
-    start = start.replace(p1=p1, p2=max(rp2 / rho, 1e-9), p3=rp3 / rho, rho=rho, sigma_a1=sa, sigma_v1=sv,
-                          sigma_b1=max(sb, 0.0))
-    return LeastSquaresStart(start, method, details, notes)
-
-
-def _spectral_p1(logs) -> float:
-    """``p1`` from the strongest frequency of the pendulum angle (its resonance, for a chirp or a swing)."""
-    best = (0.0, 0.0)
-    for d in logs:
-        q = d.q1 - np.mean(d.q1)
-        f = np.fft.rfftfreq(q.size, d.Ts)
-        a = np.abs(np.fft.rfft(q * np.hanning(q.size)))
-        a[0] = 0.0
-        k = int(np.argmax(a))
-        if a[k] > best[0]:
-            best = (a[k], 2 * math.pi * f[k])
-    w = best[1]
-    return float(w * w) if w > 0 else TYPICAL["p1"]
 
 
 # --------------------------------------------------------------------------
