@@ -241,3 +241,46 @@ def test_a_runs_numbers_do_not_depend_on_the_runs_beside_it():
     finally:
         numba.set_num_threads(before)
     np.testing.assert_array_equal(back.x[::-1], whole.x)
+
+
+class _Alarm(Exception):
+    pass
+
+
+def test_a_signal_stops_the_lanes_at_their_next_step_not_at_the_end_of_the_batch():
+    """Python handles a signal in the main thread between bytecodes; a batch the main thread ran itself held
+    SIGTERM off for 16 s (a sweep's slice at rtol 1e-14). Its lanes now stop within steps of the signal."""
+    import signal
+    import threading
+    import time
+
+    plant = Plant(table1())
+    opts = BatchOptions(store="final", tolerances=Tolerances(rtol=1e-14, atol=1e-14))
+    x0 = [[0.1 + 1e-3 * i, 0, 0, 0] for i in range(64)]
+    inputs = [HopfController(-10.0, 0.1)] * 64
+    simulate_batch(plant, x0=x0[:2], input=inputs[:2], t_end=0.5, Ts=0.5, options=opts)  # compiled before
+    fired = []
+
+    def handler(signum, frame):
+        fired.append(time.perf_counter())
+        raise _Alarm()
+
+    old = signal.signal(signal.SIGALRM, handler)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.5)
+        with pytest.raises(_Alarm):
+            simulate_batch(plant, x0=x0, input=inputs, t_end=1e6, Ts=1e4, options=opts)  # minutes of work
+        stopped = time.perf_counter()
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+    assert fired and stopped - fired[0] < 5.0  # loose: a step of 64 lanes takes microseconds
+    assert not any(t.is_alive() for t in threading.enumerate() if t.name == "iwp-kernel")  # the kernel stopped
+    # a batch from another thread runs there, as before, and gives the same numbers as from the main thread
+    here = simulate_batch(plant, x0=x0[:4], input=inputs[:4], t_end=2.0, Ts=0.5, options=opts)
+    there = []
+    th = threading.Thread(target=lambda: there.append(
+        simulate_batch(plant, x0=x0[:4], input=inputs[:4], t_end=2.0, Ts=0.5, options=opts)))
+    th.start()
+    th.join()
+    assert np.array_equal(here.x_final, there[0].x_final) and np.all(here.status == 0)

@@ -297,3 +297,14 @@ def test_a_calibration_target_with_an_unknown_statistic_is_refused_at_reading(tm
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and "targets[3]: field 'statistic'" in line and "'nothing'" in line, line
     assert not (tmp_path / "c.json").exists()
+
+
+def test_a_long_hopf_sweep_is_not_refused_for_the_lqr_laws_sampling():
+    """A Hopf sweep over 1e5 s was refused for lqr_Ts, a setting of the other law, at its default."""
+    from iwp.models import table1
+    from iwp.sweep.spec import Grid, SweepSpec
+
+    spec = SweepSpec(params=table1(), t_end=1e5, window=5000.0, sample_time=10.0, vary=(Grid("k1", (-10.0,)),))
+    assert spec.lqr_Ts == 0.005 and spec.t_end / spec.lqr_Ts > 1e7
+    with pytest.raises(Exception, match="lqr_Ts"):
+        SweepSpec(params=table1(), law="lqr", t_end=1e5, window=5000.0, sample_time=10.0, vary=(Grid("x0.q1", (3.1,)),))

@@ -135,9 +135,10 @@ Batch = namedtuple("Batch", ["model", "P", "X0", "kind", "input_params", "comman
 #: What a batch keeps: output times, store mode (``engine.STORE_*``), states
 #: (n_runs, n_out, n), ideal input and command (n_runs, n_out), summaries
 #: (n_runs, N_SUMMARY, n), final states (n_runs, n) and per run the status,
-#: evaluations, accepted and rejected steps.
+#: evaluations, accepted and rejected steps; ``halt``, one int64 that stops every lane at its next step when set
+#: non-zero (from another thread: an interrupt, :func:`iwp.sim.simulate.simulate_batch`).
 BatchOutput = namedtuple(
-    "BatchOutput", ["t", "store", "X", "U", "W", "S", "x_final", "status", "nfev", "n_steps", "n_rejected"]
+    "BatchOutput", ["t", "store", "X", "U", "W", "S", "x_final", "status", "nfev", "n_steps", "n_rejected", "halt"]
 )
 
 #: Deferred dense outputs of accepted ordinary steps (model (9) plain, store="samples"),
@@ -442,7 +443,10 @@ def run_lanes(n, bt, tol, out, r0, r1):
     nd = 0
     nxt = r0
     n_active = 0
+    halt = out.halt
     while True:
+        if halt[0] != 0:  # asked to stop (an interrupt: the caller discards the batch)
+            return 1
         # ---- 1. lane by lane, where needed
         for l in range(L):
             mode = MODE[l]
@@ -824,14 +828,14 @@ def _make_kernel(n: int):
         model, P, X0, kind, ips, cps, seg, t0, t_end = bt
         mode, period, start, values, external = seg
         rtol, atol, h_max, max_steps, xmax, n_err = tol
-        t, store, X, U, W, S, x_final, status, nfev, n_steps, n_rejected = out
+        t, store, X, U, W, S, x_final, status, nfev, n_steps, n_rejected, halt = out
         nrun = X0.shape[0]
         for b in prange(nb):
             run_lanes(
                 n,
                 Batch(model, P, X0, kind, ips, cps, Segments(mode, period, start, values, external), t0, t_end),
                 Tolerances(rtol, atol, h_max, max_steps, xmax, n_err),
-                BatchOutput(t, store, X, U, W, S, x_final, status, nfev, n_steps, n_rejected),
+                BatchOutput(t, store, X, U, W, S, x_final, status, nfev, n_steps, n_rejected, halt),
                 b * nrun // nb,
                 (b + 1) * nrun // nb,
             )

@@ -16,6 +16,7 @@ absolute time.
 from __future__ import annotations
 
 import math
+import threading
 from typing import NamedTuple
 
 import numba
@@ -599,7 +600,8 @@ def simulate_batch(
     out = _batch_output(np.empty(0) if opts.store == "final" else t_out, opts, nrun, n)
     batch = lanes.Batch(first.code, Pm, X0m, kind, input_params_runs, command_params, seg, t0, t_end)
     if lanes.vectorised(first.code, kind, seg.mode, Pm, 0, nrun):
-        lanes.kernel(n)(batch, tol, out, min(numba.get_num_threads(), nrun))
+        nb = min(numba.get_num_threads(), nrun)
+        interruptible(lambda: lanes.kernel(n)(batch, tol, out, nb), out.halt)
     else:
         _single_runs(batch, tol, out, n)
     keep = opts.store == "samples"
@@ -655,6 +657,48 @@ def _batch_plants_states(p_list: list, x_list: list) -> tuple[Plant, np.ndarray,
     return first, Pm, X0m
 
 
+def interruptible(call, halt: np.ndarray) -> None:
+    """Run ``call`` (a compiled kernel that releases the GIL and stops when ``halt[0]`` is set) so that a signal
+    interrupts it.
+
+    Python runs a signal's handler in the main thread between bytecodes; a kernel the main thread runs holds
+    it off until the kernel returns (a sweep's slice of lanes ignored SIGTERM for 16 s). From the main thread the
+    kernel therefore runs in a thread of its own, with the caller's number of numba threads, while the main thread
+    waits for it where signals reach it; on an interrupt it sets ``halt[0]``, waits for the kernel to stop at its
+    next step, and raises the interrupt. From any other thread ``call`` runs there.
+
+    Parameters
+    ----------
+    call : callable
+        The kernel's call, no arguments.
+    halt : ndarray of int64, shape (1,)
+        The kernel's stop flag.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        call()
+        return
+    threads = numba.get_num_threads()  # numba's thread count is the calling thread's own
+    failed: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            numba.set_num_threads(threads)
+            call()
+        except BaseException as exc:  # noqa: BLE001 (handed to the caller)
+            failed.append(exc)
+
+    worker = threading.Thread(target=run, name="iwp-kernel", daemon=True)
+    worker.start()
+    try:
+        worker.join()
+    except BaseException:
+        halt[0] = 1
+        worker.join()
+        raise
+    if failed:
+        raise failed[0]
+
+
 def _batch_output(t_run: np.ndarray, opts: BatchOptions, nrun: int, n: int) -> lanes.BatchOutput:
     """The arrays the runs of a batch write into, as ``opts.store`` and ``opts.inputs`` ask."""
     n_keep = t_run.size if opts.store == "samples" else 0
@@ -670,7 +714,7 @@ def _batch_output(t_run: np.ndarray, opts: BatchOptions, nrun: int, n: int) -> l
     return lanes.BatchOutput(
         t_run, engine.STORE_SUMMARY if opts.store == "summary" else engine.STORE_SAMPLES, X, U, W, S,
         np.empty((nrun, n)), np.zeros(nrun, dtype=np.int64), np.zeros(nrun, dtype=np.int64),
-        np.zeros(nrun, dtype=np.int64), np.zeros(nrun, dtype=np.int64),
+        np.zeros(nrun, dtype=np.int64), np.zeros(nrun, dtype=np.int64), np.zeros(1, dtype=np.int64),
     )
 
 
