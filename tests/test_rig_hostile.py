@@ -308,3 +308,22 @@ def test_a_long_hopf_sweep_is_not_refused_for_the_lqr_laws_sampling():
     assert spec.lqr_Ts == 0.005 and spec.t_end / spec.lqr_Ts > 1e7
     with pytest.raises(Exception, match="lqr_Ts"):
         SweepSpec(params=table1(), law="lqr", t_end=1e5, window=5000.0, sample_time=10.0, vary=(Grid("x0.q1", (3.1,)),))
+
+
+def test_a_latched_stop_is_seen_also_when_the_live_view_turned_telemetry_off():
+    """The live view's prediction turns telemetry off; the latched ESTOP was then not seen, --clear-fault was
+    ignored and the device refused ARM (exit 1) where the documented refusal is exit 2."""
+    from iwp.device.errors import DeviceError
+    from iwp.device.runs import Clearing, prepare
+
+    rig = TwinRig(fast=True)
+    try:
+        rig.estop()
+        rig.stream(0)  # as LiveView.attach leaves it
+        with pytest.raises(DeviceError, match="ESTOP.*clear_fault"):
+            prepare(rig, True)
+        rig.stream(0)
+        prepare(rig, True, Clearing(clear_fault=True))
+        assert rig.device.core.status()[1] == 0  # cleared, disarmed
+    finally:
+        rig.close()

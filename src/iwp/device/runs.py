@@ -367,6 +367,7 @@ def latched(rig: Rig) -> tuple[str | None, dict[str, float]]:
         The parameters of :data:`GUARD_PARAMS` that differed from their defaults (as float32) when the rig was
         connected (:attr:`Rig.params_found`: this connection's own changes are its own), with their values.
     """
+    rig.stream(1)  # telemetry may be off (the live view's prediction turns it off while the model runs)
     seen, s = rig.last_seq, None  # the state of a tick after this call (not of telemetry queued before it)
     for _ in range(4):
         got = [x for x in rig.samples(0.25) if x.seq > seen]
