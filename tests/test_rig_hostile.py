@@ -327,3 +327,32 @@ def test_a_latched_stop_is_seen_also_when_the_live_view_turned_telemetry_off():
         assert rig.device.core.status()[1] == 0  # cleared, disarmed
     finally:
         rig.close()
+
+
+def test_a_runs_own_watchdog_is_set_for_the_run_recorded_and_put_back_on_close():
+    """--watchdog-ms: a host without real-time scheduling was held off 148 ms by a browser starting (the device's
+    100 ms watchdog ended the run); the run's own watchdog is the device's for the run, in its log, and put back
+    when the rig is closed, so that the next run does not find a changed limit."""
+    from iwp.device.runs import Clearing
+
+    rig = TwinRig(fast=True)
+    try:
+        run = run_on_rig(rig, "sine", fast=True, duration=0.5, clearing=Clearing(watchdog_ms=500))
+        assert rig.device.core.param("watchdog_ms") == 500.0
+    finally:
+        rig.close()
+    assert not run.interrupted and json.loads(run.log.metadata["device"])["params"]["watchdog_ms"] == 500.0
+    assert rig.device.core.param("watchdog_ms") == 100.0
+    with pytest.raises(Exception, match="watchdog_ms must be from 10 to 2000 ms"):
+        Clearing(watchdog_ms=5)
+
+
+def test_the_live_view_says_when_a_starting_program_can_stop_the_run(monkeypatch):
+    from iwp.device import realtime
+
+    monkeypatch.setattr(realtime, "realtime_allowed", lambda: False)
+    note = realtime.starving_note("/dev/ttyACM0", None)
+    assert "--watchdog-ms 500" in note and "148 ms" in note
+    assert realtime.starving_note("/dev/ttyACM0", 500.0) == "" and realtime.starving_note("twin", None) == ""
+    monkeypatch.setattr(realtime, "realtime_allowed", lambda: True)
+    assert realtime.starving_note("/dev/ttyACM0", None) == ""

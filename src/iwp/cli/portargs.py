@@ -14,7 +14,8 @@ MAX_BAUD = 12_000_000
 
 
 def add_port_args(p: argparse.ArgumentParser) -> None:
-    """``--port``, ``--baud``, ``--fast``, ``--yes``, ``--quiet``, ``--clear-fault``, ``--reset-params``."""
+    """``--port``, ``--baud``, ``--fast``, ``--yes``, ``--quiet``, ``--clear-fault``, ``--watchdog-ms``,
+    ``--reset-params``."""
     p.add_argument("--port", metavar="PORT",
                    help="a rig in the loop: a serial device (/dev/ttyACM0), the port iwp rig emulate printed, or "
                         "'twin' for the twin in this process")
@@ -27,6 +28,10 @@ def add_port_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--clear-fault", action="store_true",
                    help="clear a fault or emergency stop left on the device by an earlier run or another client "
                         "(without it such a run is refused, exit status 2)")
+    p.add_argument("--watchdog-ms", type=float, default=None, metavar="MS",
+                   help="the device's watchdog for this run (10-2000 ms; default the device's, 100 ms), put back "
+                        "after it: the motor stops when no command came for this long. A host without real-time "
+                        "scheduling can be held off longer by a program starting (docs/live.md)")
     p.add_argument("--reset-params", action="store_true",
                    help="put the device's limits (watchdog_ms, v_max, q1_max, q4_max, sat_ms_max) back to their "
                         "defaults when another client changed them (without it such a run is refused, exit 2)")
@@ -43,10 +48,10 @@ def open_port_rig(args, truth=None):
 
 
 def port_clearing(args):
-    """``--clear-fault`` and ``--reset-params`` as :class:`~iwp.device.runs.Clearing`."""
+    """``--clear-fault``, ``--reset-params`` and ``--watchdog-ms`` as :class:`~iwp.device.runs.Clearing`."""
     from ..device.runs import Clearing
 
-    return Clearing(clear_fault=args.clear_fault, reset_params=args.reset_params)
+    return Clearing(clear_fault=args.clear_fault, reset_params=args.reset_params, watchdog_ms=args.watchdog_ms)
 
 
 def port_operator(args):
@@ -116,7 +121,11 @@ def live_session(args, title: str, duration: float | None):
         yield None
         return
     from ..device.live import LiveFeed, LiveView
+    from ..device.realtime import starving_note
 
     with LiveView(LiveFeed(port_progress(args)), port=args.live_port, title=title, duration=duration) as view:
         print(f"live view: {view.url}", flush=True)
+        note = starving_note(args.port, args.watchdog_ms, args.fast)
+        if note:
+            print(f"iwp: note: {note}", file=sys.stderr)
         yield view

@@ -180,6 +180,8 @@ class Rig:
         self._req = 0
         self.info: DeviceInfo | None = None
         self.params_found: dict[str, float] = {}
+        #: parameters set for this connection only (:meth:`set_params_until_close`), with the values to put back
+        self._restore: dict[str, float] = {}
         try:
             self.link.discard_input()
             self.info = self.identify()
@@ -408,6 +410,16 @@ class Rig:
                               dropped=v["dropped"], t_host=now))
         return out
 
+    def set_params_until_close(self, **values: float) -> None:
+        """Set parameters for this connection only: :meth:`close` puts back the values they had before, after the
+        motor is stopped (if that fails, e.g. the link is gone, the next connection finds them changed and says
+        so: :func:`iwp.device.runs.latched`)."""
+        for name in values:
+            if name not in self._restore:
+                self._restore[name] = self.info.params[name] if self.info is not None and name in \
+                    self.info.params else self.get_param(name)
+        self.set_params(**values)
+
     def state_text(self) -> str:
         """The device's state from its latest telemetry (``ARMED``, ``FAULT (WATCHDOG)``, ...)."""
         got = self.samples(0.2)
@@ -435,6 +447,12 @@ class Rig:
                 pass
         if not stopped:
             self.estop()
+        for name, value in self._restore.items():
+            try:
+                self.set_params(**{name: value})
+            except Exception:  # noqa: BLE001 (the next connection sees the change: latched())
+                break
+        self._restore = {}
         self.link.close()
 
     def __enter__(self) -> "Rig":

@@ -14,7 +14,7 @@ from __future__ import annotations
 import contextlib
 import os
 
-__all__ = ["realtime_priority", "FIFO_PRIORITY"]
+__all__ = ["realtime_priority", "realtime_allowed", "starving_note", "FIFO_PRIORITY", "STALL_SEEN_MS"]
 
 #: The priority asked for (1-99; the kernel's own threads run at 50).
 FIFO_PRIORITY = 20
@@ -52,3 +52,31 @@ def realtime_priority(enabled: bool = True):
             os.sched_setscheduler(0, old_policy, old_param)
         except OSError:
             pass
+
+
+def realtime_allowed() -> bool:
+    """Whether this process may run a thread at ``SCHED_FIFO`` (tried on the calling thread, then put back)."""
+    with realtime_priority() as policy:
+        return policy != "normal"
+
+
+#: The longest a loop without real-time scheduling was held off by a browser starting beside it [ms] (Chromium
+#: started three times on the page of a 40 s run on the emulator, 2-core machine, 2026-12-07; with SCHED_FIFO the
+#: longest was 42 ms and the run went to its end).
+STALL_SEEN_MS = 148.0
+
+
+def starving_note(port: str | None, watchdog_ms: float | None, fast: bool = False) -> str:
+    """What to say before a real-time run with a live view whose loop cannot get real-time scheduling: a browser
+    starting beside it can hold the loop off past the device's watchdog. Empty when there is nothing to say
+    (real-time scheduling allowed, a run by the host's clock, the twin in this process, or a watchdog given
+    longer than :data:`STALL_SEEN_MS`).
+    """
+    if fast or port == "twin" or (watchdog_ms is not None and watchdog_ms > 2 * STALL_SEEN_MS):
+        return ""
+    if realtime_allowed():
+        return ""
+    return (f"this process may not use real-time scheduling, so a program starting during the run (a browser "
+            f"opening this page: {STALL_SEEN_MS:.0f} ms seen on a 2-core machine) can hold its loop off past the "
+            "device's watchdog, which then stops the run; open the page before the run starts, give --watchdog-ms "
+            "500, or allow real-time scheduling (docs/live.md)")

@@ -384,7 +384,8 @@ def latched(rig: Rig) -> tuple[str | None, dict[str, float]]:
 
 @dataclass(frozen=True)
 class Clearing:
-    """What a run may clear that an earlier run or another client left on the device (:func:`prepare`).
+    """What a run may clear that an earlier run or another client left on the device (:func:`prepare`), and the
+    watchdog it asks for.
 
     Attributes
     ----------
@@ -392,10 +393,25 @@ class Clearing:
         Clear a latched fault or emergency stop (``--clear-fault``).
     reset_params : bool
         Put changed limits (:data:`GUARD_PARAMS`) back to their defaults (``--reset-params``).
+    watchdog_ms : float, optional
+        The device's watchdog for this run [ms] (``--watchdog-ms``), put back when the rig is closed
+        (:meth:`~iwp.device.connection.Rig.set_params_until_close`); None: the device's own (100 ms by default).
+        A host without real-time scheduling can be held off longer than 100 ms by another program starting
+        (docs/live.md).
     """
 
     clear_fault: bool = False
     reset_params: bool = False
+    watchdog_ms: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.watchdog_ms is not None:
+            p = PARAMS["watchdog_ms"]
+            ms = check_finite("watchdog_ms", self.watchdog_ms)
+            if not p.lo <= ms <= p.hi:
+                raise InputError(f"watchdog_ms must be from {p.lo:g} to {p.hi:g} ms (the device's range), got "
+                                 f"{ms:g}", argument="watchdog_ms")
+            object.__setattr__(self, "watchdog_ms", ms)
 
 
 def prepare(rig: Rig, fast: bool, clearing: Clearing | None = None) -> None:
@@ -434,6 +450,8 @@ def prepare(rig: Rig, fast: bool, clearing: Clearing | None = None) -> None:
     if changed:
         rig.set_params(**{k: PARAMS[k].default for k in changed})
         rig.params_found.update({k: rig.info.params[k] for k in changed})
+    if clearing.watchdog_ms is not None:
+        rig.set_params_until_close(watchdog_ms=clearing.watchdog_ms)
     rig.stream(1)
     rig.set_params(host_clock=1.0 if fast else 0.0)
 
