@@ -87,3 +87,13 @@ def test_a_start_on_logs_of_the_wrong_sign_raises_in_python_too(direct_columns):
     logs = [ind._experiment(t=t, q1=q1, q2=-q2, u=u, source="x.csv") for t, q1, q2, u in direct_columns]
     with pytest.raises(InputError, match="wheel.sign"):
         least_squares_start(logs)
+
+
+def test_a_log_given_as_clamped_whose_pendulum_swings_is_refused_not_fitted(tmp_path, capsys, direct_columns):
+    """It ended in an internal bounds error (the wheel of a free swing stood still: bounds (0, 0)) or raw numpy
+    warnings; the data contradict the flag, which the line names."""
+    names = [str(ind.write_csv(tmp_path / f"log{j}.csv", *cols)) for j, cols in enumerate(direct_columns)]
+    status = main(["fit", names[0], "--clamped", names[1], "--out", str(tmp_path / "fit")])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and line.startswith("iwp: error: --clamped ") and "was not clamped" in line, line
+    assert not (tmp_path / "fit").exists()

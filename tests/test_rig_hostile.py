@@ -356,3 +356,32 @@ def test_the_live_view_says_when_a_starting_program_can_stop_the_run(monkeypatch
     assert realtime.starving_note("/dev/ttyACM0", 500.0) == "" and realtime.starving_note("twin", None) == ""
     monkeypatch.setattr(realtime, "realtime_allowed", lambda: True)
     assert realtime.starving_note("/dev/ttyACM0", None) == ""
+
+
+def test_a_port_opened_in_the_middle_of_a_frame_counts_no_corrupt_frame():
+    """Every run with --clear-fault said the link 'refused 1 corrupt frames': the tail of the frame the device was
+    sending when the port opened. It is skipped, not counted; a frame damaged later still is."""
+    from iwp.device.framing import FrameDecoder, encode_frame
+    from iwp.device.protocol import encode
+
+    stream = b"".join(encode_frame(encode("ARM", req=k)) for k in range(1, 11))
+    dec = FrameDecoder()
+    got = dec.feed(stream[5:])  # opened 5 bytes into the first frame
+    assert len(got) == 9 and dec.counts.bad == 0
+    damaged = bytearray(stream)
+    damaged[-4] ^= 0x55
+    got = dec.feed(bytes(damaged))
+    assert len(got) == 9 and dec.counts.corrupt == 1
+
+
+@pytest.mark.parametrize("name, value", [("counts1", 0.0), ("period_us", float("nan"))])
+def test_a_device_reporting_what_no_device_holds_is_refused_at_connect(monkeypatch, tmp_path, capsys, name, value):
+    """counts1 = 0 ended in a ZeroDivisionError, period_us = NaN in a ValueError (internal errors, exit 3)."""
+    from iwp.device.connection import Rig
+
+    real = Rig.get_param
+    monkeypatch.setattr(Rig, "get_param", lambda self, n: value if n == name else real(self, n))
+    status = main(["rig", "run", "sine", "--port", "twin", "--fast", "--duration", "1", "--out", str(tmp_path / "x.csv")])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and f"reports {name} = {value!r}" in line and "internal error" not in line, line
+    assert not (tmp_path / "x.csv").exists()

@@ -273,6 +273,12 @@ class Rig:
         self.link.expect_gap()
         self._telemetry = collections.deque(m for m in self._telemetry if m["seq"] >= ident["tick"])
         values = {p.name: self.get_param(p.name) for p in PARAMS.values()}
+        for p in PARAMS.values():  # a device that reports what no device holds (counts1 = 0, period_us = NaN)
+            v = values[p.name]
+            if not (math.isfinite(v) and p.lo <= v <= p.hi):
+                raise DeviceError(f"{self.port}: the device reports {p.name} = {v!r}, outside the range every iwp "
+                                  f"firmware holds ({p.lo:g} .. {p.hi:g} {p.unit}): its firmware or the link is "
+                                  "faulty; flash the firmware of this iwp (firmware/README.md)")
         caps = tuple(k for k, v in CAPS.items() if ident["caps"] & v)
         info = DeviceInfo(port=self.port, protocol=ident["protocol"],
                           firmware=f"{ident['fw_major']}.{ident['fw_minor']}.{ident['fw_patch']}",

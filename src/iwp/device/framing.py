@@ -91,7 +91,10 @@ class FrameDecoder:
 
     def __init__(self) -> None:
         self._buf = bytearray()
-        self._skipping = False
+        # the bytes before the first delimiter are the tail of a frame sent before this decoder listened (a port
+        # opened while the device streams): skipped, not counted as a corrupt frame (every frame of encode()
+        # starts with a delimiter, so none is lost)
+        self._skipping = True
         self.counts = FrameCounts()
 
     def feed(self, data: bytes) -> list[bytes]:

@@ -661,7 +661,12 @@ def plan_fit(train, *, rig=None, validate=(), kinds=None, controller: Input | No
     train_logs, val_logs, others, holds = _read_holds(train_logs, val_logs, others, options.input_hold)
     msgs.extend(_held_out_kind_notes(val_logs, rig_d))
     msgs.extend(disagreeing_logs(train_logs, window=options.window))
-    msgs.extend(kind_mismatches(train_logs, [(o.kind, o.data) for o in others]))
+    mismatched = kind_mismatches(train_logs, [(o.kind, o.data) for o in others])
+    contradicted = [m for m in mismatched if m.startswith(("--clamped ", "--wheel-locked "))]
+    if contradicted:  # a log given as clamped whose pendulum swings: the fit would compare only its wheel
+        flag = contradicted[0].split()[0]
+        raise InputError(contradicted[0], argument=flag[2:].replace("-", "_"))
+    msgs.extend(mismatched)
     for d in train_logs + val_logs:
         if d.q2 is None and d.q4 is None:
             raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")

@@ -355,6 +355,11 @@ X0_MISFIT_RMS = 2.0
 START_COVARIANCE = "hac"
 
 
+#: The step of the finest encoder a rig has (2^20 counts a turn) [rad]: the least an initial angle may move in a
+#: fit where its log never changed (a clamped log whose wheel stood still gave bounds (0, 0), an internal error).
+FINEST_STEP = 2 * np.pi / 2**20
+
+
 def angle_quantum(y: np.ndarray) -> float:
     """The smallest nonzero step between consecutive samples of an angle [rad] (its encoder's resolution), or 0."""
     diffs = np.abs(np.diff(np.asarray(y, dtype=float)))
@@ -391,7 +396,7 @@ def initial_state_bounds(data: ExperimentData) -> tuple[np.ndarray, np.ndarray]:
     for pos, vel, y in ((0, 2, data.q1), (1, 3, data.q2)):
         if y is None:
             continue
-        step = angle_quantum(y)
+        step = angle_quantum(y) or FINEST_STEP  # a signal that never changed: the finest encoder's step
         # the speeds the first samples show: a log that starts driven accelerates within them, and the quadratic's
         # slope at its first sample is then biased by more than its standard deviation says
         speeds = np.diff(np.asarray(y[:m], dtype=float)) / data.Ts
@@ -401,7 +406,8 @@ def initial_state_bounds(data: ExperimentData) -> tuple[np.ndarray, np.ndarray]:
         half[3] = np.inf
     elif data.q4 is not None:
         q4 = np.asarray(data.q4[:m], dtype=float)
-        half[3] = max(X0_BOUND_SD * sd[3], angle_quantum(data.q4), float(np.ptp(q4)) if q4.size else 0.0)
+        half[3] = max(X0_BOUND_SD * sd[3], angle_quantum(data.q4) or FINEST_STEP / data.Ts,
+                      float(np.ptp(q4)) if q4.size else 0.0)
     return centre - half, centre + half
 
 
