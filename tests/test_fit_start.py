@@ -97,3 +97,16 @@ def test_a_log_given_as_clamped_whose_pendulum_swings_is_refused_not_fitted(tmp_
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and line.startswith("iwp: error: --clamped ") and "was not clamped" in line, line
     assert not (tmp_path / "fit").exists()
+
+
+def test_a_clamped_log_alone_is_refused_with_the_set_up_that_takes_it(tmp_path, capsys):
+    """The independent simulator's clamped disk chirp given alone ended in "output q1 is constant in every
+    experiment (nothing to fit); choose other outputs"."""
+    truth = ind.TRUTHS["long"]
+    (run,) = ind.simulate(truth, [ind.Chirp(truth.amplitude, 1.0, 2.0)], 8.0, locked=True)
+    rng = np.random.default_rng(3)
+    path = ind.write_csv(tmp_path / "disk.csv", run.t, ind.encode(run.X[:, 0], rng), ind.encode(run.X[:, 1], rng),
+                         run.u)
+    status = main(["fit", str(path), "--out", str(tmp_path / "fit")])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert status == 2 and "no training log shows a free pendulum" in line and "--setup motor-disk" in line, line
