@@ -36,7 +36,7 @@ import numpy as np
 
 from ..data import ExperimentData
 from ..errors import InputError
-from ..models.plant import MODELS, Plant
+from ..models.plant import MODELS, Plant, model_info
 from ..models.terms import BELT_FREE
 from .output_error import Experiment, OutputError, solve_output_error
 from .problem import SolverOptions
@@ -125,7 +125,7 @@ def refine_belt(
     >>> round(res.belt.k_over_I2), round(res.belt.kTbeta_over_Rgamma, 1)
     (94, 32.6)
     """
-    if not isinstance(start, Plant) or start.model != "belt":
+    if not isinstance(start, Plant) or start.belt is None or not model_info(start.model).pendulum_locked:
         raise InputError("the belt model (15) is fitted from Plant(lumped, model='belt', belt=BeltParameters(...))")
     free = (free,) if isinstance(free, str) else tuple(free)
     if not free:

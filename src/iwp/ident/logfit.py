@@ -57,7 +57,7 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.encoder import EncoderZero
 from ..models.parameters import PARAMETER_INFO, BeltParameters, LumpedParameters, table1
-from ..models.plant import Plant
+from ..models.plant import Plant, model_info
 from ..models.terms import (
     TERMS,
     DriveModel,
@@ -108,8 +108,6 @@ __all__ = ["fit_logs", "LogFitOptions", "LogFitResult", "LogFit", "LeastSquaresS
 #: twin's held-out chirp fitted with model (9), which lacks the twin's belt and dead zone, held 60 % of q1 (the
 #: README's sequence).
 BAND_HOLDS = 0.8
-#: How each model of ``iwp fit`` is described in its summary and report.
-MODEL_LABELS = {"compensated": "(9)", "raw": "(6) with dead zone", "belt-full": "(4a) with the belt (15)"}
 
 
 @dataclass
@@ -322,7 +320,7 @@ class LogFitResult:
     def summary(self, warnings: bool = True) -> str:
         """Readable lines: parameters, fits per log and signal, (with ``warnings``) the warnings."""
         lines = [self.structures.table()] if self.structures is not None else []
-        lines.append(f"model {self.model} {MODEL_LABELS[self.model]}, free: "
+        lines.append(f"model {self.model} {model_info(self.model).equation}, free: "
                      f"{', '.join(self.refinement.free)}; outputs {', '.join(self.outputs)}, start: "
                      f"{self.start_method}")
         for n in self.refinement.free:

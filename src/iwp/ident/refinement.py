@@ -59,7 +59,7 @@ from ..data import ExperimentData, StaticCurve
 from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import PARAMETER_INFO, BeltParameters, LumpedParameters
-from ..models.plant import MODELS, Plant
+from ..models.plant import CLAMPABLE, MODELS, Plant, model_info
 from ..models.terms import BELT_RTOL
 from .covariance import Reliability
 from .fit_parameters import Parameter
@@ -157,8 +157,8 @@ def fit_plant(start, model: str = "compensated", *, locked: bool = False) -> Pla
         raise InputError(f"model must be one of {', '.join(REFINE_MODELS)}, got {model!r}{extra}")
     if not isinstance(start, LumpedParameters):
         raise InputError(f"start must be LumpedParameters, got {type(start).__name__}")
-    if locked and model not in ("compensated", "raw"):
-        raise InputError(f"locked=True applies to models 'compensated' and 'raw', not {model!r}")
+    if locked and not model_info(model).clampable:
+        raise InputError(f"locked=True applies to the models {', '.join(CLAMPABLE)}, not {model!r}")
     return Plant(start, model=model, locked=locked)
 
 

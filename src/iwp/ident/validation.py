@@ -38,7 +38,7 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.encoder import EncoderZero
 from ..models.parameters import BeltParameters, LumpedParameters, PhysicalParameters
-from ..models.plant import MODELS, Plant
+from ..models.plant import MODELS, Plant, model_info
 from ..sim.inputs import Input
 from ..sim.uncertainty import ParameterUncertainty, PredictionBand, StartUncertainty, prediction_band
 from .input_hold import INPUT_HOLDS, InputHoldReading, with_input_hold
@@ -295,7 +295,7 @@ def choose_model(data: ExperimentData, model: str = "auto", *, stored: str | Non
 
 
 #: The models that read a logged raw command ``v`` as their input ``u`` in ``iwp fit`` (no dead zone).
-READS_V_AS_U = ("compensated", "belt-full")
+READS_V_AS_U = tuple(name for name, info in MODELS.items() if info.reads_v_as_u)
 
 
 def model_input(d: ExperimentData, model: str, argument: str) -> ExperimentData:
@@ -340,9 +340,10 @@ def model_input(d: ExperimentData, model: str, argument: str) -> ExperimentData:
     """
     if model in READS_V_AS_U and d.input_name == "v":
         return replace(d, u=d.v, v=None)
-    if model == "raw" and d.input_name == "u":
+    if model_info(model).input == "v" and d.input_name == "u":
         raise InputError(f"{argument}: {d.source} logs the compensated input u (the rig compensates its dead "
-                         "zone); the dead-zone model (6) needs the raw command v", argument="dead_zone")
+                         f"zone); the dead-zone model {model_info(model).equation} needs the raw command v",
+                         argument="dead_zone")
     return d
 
 
@@ -446,7 +447,7 @@ def validation_plant(params, data: ExperimentData, model: str = "compensated", *
         model = auto_model(data)
     if model not in REFINE_MODELS:
         raise InputError(f"model must be one of auto, {', '.join(REFINE_MODELS)}, got {model!r}")
-    locked = data.metadata.get("pendulum") == "locked" and model in ("compensated", "raw")
+    locked = data.metadata.get("pendulum") == "locked" and model_info(model).clampable
     return Plant(params, model=model, locked=locked)
 
 

@@ -25,6 +25,8 @@ paper's (14); the clamp (``Plant(locked=True)``) is physical.
 
 from __future__ import annotations
 
+import math
+
 from numba import types
 from numba.extending import overload
 
@@ -186,8 +188,13 @@ def rhs(model, x, w, P, dx):
         rhs_free_pendulum(x, P, dx, True)
     elif model == M_FREE_NOWHEEL:
         rhs_free_pendulum(x, P, dx, False)
-    else:
+    elif model == M_RAW or model == M_COMP or model == M_PLAIN:
         rhs_state_space(x, w, P, dx, True)
+    else:  # a code no branch knows: NaN, which every caller reports (a model of MODELS missing here; tests)
+        dx[0] = math.nan
+        dx[1] = math.nan
+        dx[2] = math.nan
+        dx[3] = math.nan
 
 
 @jit(inline=True)

@@ -51,7 +51,7 @@ from .layout import (
 from .parameters import BELT_INFO, LUMPED_INFO, BeltParameters, LumpedParameters, PhysicalParameters
 from .terms import model_parameters
 
-__all__ = ["ModelInfo", "MODELS", "Plant", "model_info", "EXPERIMENT_KINDS", "plant_for_kind"]
+__all__ = ["ModelInfo", "MODELS", "CLAMPABLE", "Plant", "model_info", "EXPERIMENT_KINDS", "plant_for_kind"]
 
 
 @dataclass(frozen=True)
@@ -85,6 +85,8 @@ class ModelInfo:
         ``p1 rho/(1 + rho)`` enters its motion.
     pendulum_locked : bool
         The pendulum cannot swing (the motor-disk models (14), the locked belt (15)).
+    clampable : bool
+        Its pendulum can be clamped (``Plant(..., locked=True)``, the set-ups of section 5.1 on the full model).
     """
 
     name: str
@@ -98,6 +100,13 @@ class ModelInfo:
     description: str
     parameters: tuple[str, ...] = ()
     pendulum_locked: bool = False
+    clampable: bool = False
+
+    @property
+    def reads_v_as_u(self) -> bool:
+        """A logged raw command ``v`` is taken as its ideal input ``u`` (a free pendulum driven by ``u``: a rig
+        whose driver has no dead zone, or compensates it, logs the same number as either)."""
+        return self.input == "u" and not self.pendulum_locked
 
 
 _ALL4 = (0, 1, 2, 3)
@@ -112,10 +121,10 @@ MODELS: dict[str, ModelInfo] = {m.name: m for m in (
               "Euler-Lagrange equations with the dc motor, dead zone and friction, in SI parameters"),
     ModelInfo("raw", M_RAW, "(6) with (5)", "v", 4, _ALL4, (0, 2, 3), False,
               "state-space model driven by the raw command v through the dead zone",
-              model_parameters("raw", _LUMPED)),
+              model_parameters("raw", _LUMPED), clampable=True),
     ModelInfo("compensated", M_COMP, "(9)", "u", 4, _ALL4, (0, 2, 3), False,
               "the feedforward-compensated model, driven by the ideal input u",
-              model_parameters("compensated", _LUMPED)),
+              model_parameters("compensated", _LUMPED), clampable=True),
     ModelInfo("motor-disk", M_MD, "(14), exact compensation", "u", 4, (1, 3), (3,), False,
               "motor-disk subsystem with the pendulum locked, input u (Coulomb term when sigma_c2 > 0)",
               model_parameters("motor-disk", _MOTOR_DISK), True),
@@ -127,7 +136,7 @@ MODELS: dict[str, ModelInfo] = {m.name: m for m in (
               model_parameters("belt", _BELT), True),
     ModelInfo("belt-full", M_BELT_FULL, "(4a) with (15)", "u", 6, (0, 1, 2, 3, 4, 5), (0, 2, 3, 4, 5), False,
               "the belt with the pendulum free (the virtual rig's truth plant)",
-              model_parameters("belt-full", _PENDULUM + ("rho",) + _BELT)),
+              model_parameters("belt-full", _PENDULUM + ("rho",) + _BELT), clampable=True),
     ModelInfo("free", M_FREE_HELD, "section 5.2, wheel held", None, 4, (0, 2), (0, 2), False,
               "free pendulum, motor off, the wheel held to the arm: q3' = -xi rho/(1 + rho)",
               model_parameters("free", _PENDULUM)),
@@ -137,7 +146,7 @@ MODELS: dict[str, ModelInfo] = {m.name: m for m in (
 )}
 
 #: models that can have their pendulum clamped (``locked=True``)
-_CLAMPABLE = ("raw", "compensated", "belt-full")
+CLAMPABLE = tuple(name for name, info in MODELS.items() if info.clampable)
 
 
 def model_info(model: str) -> ModelInfo:
@@ -370,8 +379,8 @@ def _pack(plant: Plant, info: ModelInfo) -> np.ndarray:
         P[BRK], P[WS] = plant.startup.break_ratio, plant.startup.omega_s
     else:
         P[WS] = 1.0
-    if plant.locked and plant.model not in _CLAMPABLE and not info.pendulum_locked:
-        raise InputError(f"locked=True applies to the models {', '.join(_CLAMPABLE)}, not {plant.model!r}")
+    if plant.locked and not info.clampable and not info.pendulum_locked:
+        raise InputError(f"locked=True applies to the models {', '.join(CLAMPABLE)}, not {plant.model!r}")
     P[LOCK] = 1.0 if plant.locked else 0.0
     P[DZ] = 1.0 if plant.dead_zone_active else 0.0
     if info.code in BELT_CODES:

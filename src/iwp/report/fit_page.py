@@ -28,9 +28,9 @@ from pathlib import Path
 import numpy as np
 
 from ..files import jsonable, staged_dir
-from ..ident.logfit import BAND_HOLDS, JUDGED, MODEL_LABELS
-from ..ident.validation import READS_V_AS_U
+from ..ident.logfit import BAND_HOLDS, JUDGED
 from ..models.parameters import save_params
+from ..models.plant import model_info
 from ..plotting.report import plot_comparisons
 from ..plotting.validation import plot_correlation
 from ..sim.uncertainty import uncertainty_record
@@ -200,7 +200,7 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
         span = result.validation_range()
         rep = Report(
             title="Model fitted to a rig's logs and validated on held-out logs",
-            subtitle=f"model {result.model} {MODEL_LABELS[result.model]}, "
+            subtitle=f"model {result.model} {model_info(result.model).equation}, "
                      f"outputs {', '.join(result.outputs)}",
             summary=[("rig", result.rig.name or result.rig.source if result.rig is not None else "(iwp logs)"),
                      ("training logs", ", ".join(Path(f.source).name for f in result.train)),
@@ -223,7 +223,7 @@ def write_fit_report(result, out: str | os.PathLike, *, force: bool = False) -> 
                            # what iwp validate takes off a log whose offset is to be estimated, as fit did, and
                            # how far a run's own zero strays from it (its bands)
                            **(result.held_out_zero.to_dict() if result.held_out_offset else {}),
-                           **({"reads_v_as_u": True} if result.model in READS_V_AS_U else {}),
+                           **({"reads_v_as_u": True} if model_info(result.model).reads_v_as_u else {}),
                            "stderr": {n: r.parameters[n].stderr for n in r.free},
                            "covariance": uncertainty_record(r, result.held_priors)})
     return {"folder": out, "report": out / "report.html", "json": out / "fit.json",

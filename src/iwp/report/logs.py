@@ -21,7 +21,7 @@ from ..files import check_output_dir, jsonable, staged_dir
 from ..ident.metrics import fit_percent
 from ..ident.validation import ValidationOptions, auto_model, held_out_q1_offset, model_input, validate
 from ..models.parameters import LumpedParameters
-from ..models.plant import Plant
+from ..models.plant import Plant, model_info
 from ..plotting.report import plot_comparisons, plot_static_curve
 from ..sim.inputs import HopfController
 from .folder import save_figure
@@ -263,7 +263,7 @@ def _compare_series(p: Path, log, params, plot_comparisons, q1_offset: float):
 def _simulate_log(log, params, *, locked, controller, signals, q1_offset):
     """Simulate ``log`` with :func:`iwp.ident.validation.validate`, the model chosen by ``auto_model``."""
     model = auto_model(log)
-    plant = Plant(params, model=model, locked=locked and model in ("compensated", "raw"))
+    plant = Plant(params, model=model, locked=locked and model_info(model).clampable)
     r = validate(log, plant, controller=controller, signals=tuple(signals),
                  options=ValidationOptions(q1_offset=q1_offset))
     return model, {"t": np.asarray(r.t), "measured": {s: np.asarray(r.measured[s]) for s in signals},
