@@ -166,3 +166,17 @@ def test_every_public_function_has_examples_that_this_file_runs():
             if inspect.isfunction(obj) and ("\nExamples\n" not in (inspect.getdoc(obj) or "") or id(obj) not in listed):
                 missing.append(f"{sub}.{name}")
     assert missing == []
+
+
+def test_each_package_table_names_exactly_its_modules():
+    """ident/__init__.py's table named .parameters and .fit, which no longer existed, and left out structure.py."""
+    import re
+    from pathlib import Path
+
+    import iwp.ident
+
+    root = Path(iwp.ident.__file__).parent
+    named = set(re.findall(r":mod:`\.([a-z_]+)`", (root / "__init__.py").read_text()))
+    present = {p.stem for p in root.glob("*.py") if p.stem != "__init__"} | {
+        p.name for p in root.iterdir() if (p / "__init__.py").is_file()}
+    assert named == present

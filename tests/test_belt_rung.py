@@ -13,7 +13,7 @@ from iwp.cli import main
 from iwp.data import ExperimentData
 from iwp.data.rig_description import RigDescription
 from iwp.errors import InputError
-from iwp.ident import logfit
+from iwp.ident import fit_ladder as logfit  # where the ladder looks them up
 from iwp.ident.logfit import LogFitOptions, fit_logs
 from iwp.ident.structure import RUNGS, ladder
 from iwp.ident.validation import validation_plant

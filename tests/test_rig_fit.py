@@ -797,8 +797,8 @@ def test_the_rig_descriptions_experiments_give_each_log_its_set_up(tmp_path, cap
 def test_a_swing_released_from_rest_starts_its_fit_at_its_measured_state(tmp_path):
     """At 50 ms a swing of 1.3 rad: the edge of a 21-sample filter (a second) once gave 1.62 rad and -6.1 rad/s
     as the start, and a joint fit with a clamped log beside it stopped there (2,600 times the truth's cost)."""
-    from iwp.ident.logfit import model_input
     from iwp.ident.output_error import Experiment, OutputError
+    from iwp.ident.validation import model_input
 
     rig = rig_of(sample_period=0.05, pendulum={"counts_per_rev": 20000})
     truth = TRUTH.replace(sigma_c2=0.5, sigma_c1=0.4)
@@ -829,7 +829,7 @@ def test_a_ladder_fit_that_ends_above_the_structure_it_extends_is_fitted_again_o
     """The pendulum's Coulomb structure holds model (9) plus the disk's (its sigma_c1 at 0): its fit cannot end
     above that one's cost. Its first fit (``stalls`` 1) or every fit (99) is made to end there, as one did: it is
     fitted again next to that optimum, then from the simpler structure's below it (model (9)'s)."""
-    import iwp.ident.logfit as logfit
+    import iwp.ident.fit_ladder as logfit  # where the ladder looks them up
 
     vr = DescribedRig(rig_of(), TRUTH.replace(sigma_c2=0.5, sigma_c1=0.4), noise_std=0.002, seed=4)
     logs = [write_rig_csv(vr.run(Chirp(0.3, 1.0 + i, 6.0), duration=6.0, seed=i), tmp_path / f"c{i}.csv")
@@ -859,7 +859,7 @@ def test_a_ladder_fit_that_ends_above_the_structure_it_extends_is_fitted_again_o
 
 
 def test_logs_of_two_set_ups_are_named_before_the_joint_fit(tmp_path):
-    from iwp.ident.logfit import disagreeing_logs
+    from iwp.ident.fit_plan import disagreeing_logs
 
     rig = rig_of()
     a = DescribedRig(rig, TRUTH).run(Chirp(0.3, 2.0, 15.0), duration=20.0)
@@ -954,7 +954,8 @@ def test_a_coarsely_sampled_fast_swing_is_no_jump_but_a_step_in_it_is(tmp_path, 
 
 
 def test_a_poor_held_out_prediction_is_a_warning_with_what_to_try():
-    from iwp.ident.logfit import LogFit, poor_prediction_advice
+    from iwp.ident.fit_ladder import LogFit
+    from iwp.ident.fit_report import poor_prediction_advice
 
     def fit(q1, q4):
         moving = {"q1": np.array([0.0, 1.0]), "q4": np.array([0.0, 10.0])}  # both signals move: both judged

@@ -1,27 +1,34 @@
 """Identification: from logs to parameters with uncertainty, refined, validated.
 
-======================  ============================================================
-module                  what
-======================  ============================================================
-:mod:`.identification`  the least squares (13) of every set-up of section 5, with uncertainty
-:mod:`.setups`          the set-ups (10)-(12), theta^a..theta^d, the dead zone: one file each
-:mod:`.regressors`      the regressor (11) of the rows of (9), written once
-:mod:`.signals`         windowed, differentiated, filtered signals of the logs
-:mod:`.noise`           covariance from the encoder noise through the differentiator
-:mod:`.differentiate`   velocities and accelerations of quantised positions
-:mod:`.lsq`             stable least squares with honest uncertainty
-:mod:`.parameters`      a fit's parameters: value, bounds, free/fixed, expression, stderr
-:mod:`.problem`         one fit problem: prepare, solve, report (:class:`FitProblem`)
-:mod:`.output_error`    the simulation error of measured outputs (the residual model of fits)
-:mod:`.covariance`      the covariance of a fit from its Jacobian; what the data cannot tell
-:mod:`.jacobian`        the one forward-difference Jacobian
-:mod:`.refinement`      refinement by simulation error (output error, forward sensitivities)
-:mod:`.belt_fit`        the belt (15) from the disk velocity
-:mod:`.validation`      simulation against a log: fit, error, restart (figures 3-10)
-:mod:`.logfit`          ``iwp fit``: a rig's logs to a validated model
-:mod:`.fit`             the fit in percent (NRMSE)
-:mod:`.result`          :class:`IdentificationResult`
-======================  ============================================================
+========================  ==========================================================
+module                    what
+========================  ==========================================================
+:mod:`.identification`    the least squares (13) of every set-up of section 5, with uncertainty
+:mod:`.setups`            the set-ups (10)-(12), theta^a..theta^d, the dead zone: one file each
+:mod:`.regressors`        the regressor (11) of the rows of (9), written once
+:mod:`.signals`           windowed, differentiated, filtered signals of the logs
+:mod:`.noise`             covariance from the encoder noise through the differentiator
+:mod:`.differentiate`     velocities and accelerations of quantised positions
+:mod:`.input_hold`        how a log's input was held between samples, read from the data
+:mod:`.misfit`            what a misfit of the residuals follows: the terms a rig may add
+:mod:`.lsq`               stable least squares with honest uncertainty
+:mod:`.fit_parameters`    a fit's parameters: value, bounds, free/fixed, expression, stderr
+:mod:`.problem`           one fit problem: prepare, solve, report (:class:`FitProblem`)
+:mod:`.output_error`      the simulation error of measured outputs (the residual model of fits)
+:mod:`.covariance`        the covariance of a fit from its Jacobian; what the data cannot tell
+:mod:`.jacobian`          the one forward-difference Jacobian
+:mod:`.refinement`        refinement by simulation error (output error, forward sensitivities)
+:mod:`.belt_fit`          the belt (15) from the disk velocity
+:mod:`.validation`        simulation against a log: fit, error, restart (figures 3-10)
+:mod:`.logfit`            ``iwp fit``: a rig's logs to a validated model (:func:`fit_logs`), in the steps:
+:mod:`.fit_plan`          1. the logs read, sorted by set-up and checked; the fit's options
+:mod:`.fit_start`         2. the least-squares start; wrong signs and time units refused
+:mod:`.fit_ladder`        3. the fit: one structure or the ladder of them, the unidentified held
+:mod:`.structure`         the ladder's structures and the choice among them
+:mod:`.fit_report`        4. the result and its report
+:mod:`.metrics`           the fit in percent (NRMSE)
+:mod:`.result`            :class:`IdentificationResult`
+========================  ==========================================================
 """
 
 from __future__ import annotations

@@ -28,7 +28,8 @@ from pathlib import Path
 import numpy as np
 
 from ..files import jsonable, staged_dir
-from ..ident.logfit import BAND_HOLDS, JUDGED
+from ..ident.fit_ladder import BAND_HOLDS
+from ..ident.metrics import JUDGED
 from ..models.parameters import save_params
 from ..models.plant import model_info
 from ..plotting.report import plot_comparisons
