@@ -128,6 +128,7 @@ VOCABULARY: dict[str, tuple[str, object]] = {
     "--accept-poor": ("exit 0 although the model predicts the held-out data poorly (else 1)", _store_true),
     "--clear-fault": ("clear a fault or ESTOP latched on the device before arming", _store_true),
     "--reset-params": ("restore the device's limits another client changed before arming", _store_true),
+    "--watchdog-ms": ("the device's watchdog for this run [ms], put back after it", _FLOAT),
     "--live": ("serve a live view of the run beside the model's prediction", _store_true),
     "--live-port": ("the local port of the live view", _INT),
     "--input-hold": ("how a log's input acted between samples: zoh, continuous, or auto (its metadata, else read "

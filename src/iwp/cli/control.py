@@ -191,10 +191,7 @@ def run_lqr(args) -> int:
     else:
         params = load_lumped(args.params)
     L = lqr_balance(params, u_max=args.u_max, Ts=args.ts if args.ts > 0 else None)
-    d = {"K": L.K.tolist(), "poles": [[float(p.real), float(p.imag)] for p in L.poles], "Ts": L.Ts,
-         "u_max": L.u_max, "unstable_eigenvalue": L.unstable_eigenvalue,
-         "unstable_direction": L.unstable_direction.tolist(), "capture_bound": L.capture_bound,
-         "backend": L.backend}
+    d = L.to_dict()
     if args.draws is not None:
         from ..control.robust import robust_balance
 
@@ -232,19 +229,17 @@ def run_on_port(args) -> int:
     params = load_lumped(args.params)
     model = live_params(args.params) if args.live else None
     where = args.where or ("host" if args.what == "swingup" else "device")
-    duration = args.duration if args.duration is not None else {"hopf": 60.0, "balance": 10.0, "swingup": 20.0}[
-        args.what]
-    if duration <= 0:
-        raise InputError(f"--duration must be > 0, got {duration}")
-    spec = ControlRun(args.what, duration=duration, where=where, k1=args.k1, k2=args.k2,
+    spec = ControlRun(args.what, duration=args.duration, where=where, k1=args.k1, k2=args.k2,
                       x0=None if args.x0 is None else args.x0[0])
+    duration = spec.duration
+    clearing = port_clearing(args)  # checked before anything opens
     with live_session(args, f"control {args.what} ({where}) on {args.port}", duration) as view:
         with open_port_rig(args) as rig:
             if view is not None:
                 view.attach(rig, lambda Ts: predict_control_run(spec, model, **control_conditions(rig, spec)))
             run = run_control(rig, spec, params=params, fast=args.fast, operator=port_operator(args),
                               progress=port_progress(args) if view is None else view.feed,
-                              clearing=port_clearing(args))
+                              clearing=clearing)
         if view is not None:
             view.finish(run.reason)
     args.name = f"control {args.what}"

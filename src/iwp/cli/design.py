@@ -150,8 +150,6 @@ def run_hopf(args) -> int:
 
 
 def run_branch(args) -> int:
-    import numpy as np
-
     from ..checks import check_finite
     from ..control import continue_hopf, simulated_amplitude
     from ..files import FIGURE_SUFFIXES, check_output_file, write_all
@@ -165,23 +163,11 @@ def run_branch(args) -> int:
     if args.plot is not None:
         check_output_file(args.plot, force=args.force, argument="plot", suffixes=FIGURE_SUFFIXES)
     branch = continue_hopf(params, args.k2)
-    sims = []
-    if args.simulate > 0:
-        ks = np.linspace(branch.k1[0], branch.k1[-1], args.simulate + 2)[1:-1]
-        stable_k = [k for k in ks if np.interp(-k, -branch.k1, branch.stable.astype(float)) > 0.5]
-        sims = [simulated_amplitude(params, k, args.k2) for k in stable_k]
+    sims = [simulated_amplitude(params, float(k), args.k2) for k in branch.stable_gains(args.simulate)] \
+        if args.simulate > 0 else []
     writes = []
     if args.out is not None:
-        mult = np.abs(branch.floquet)
-        mult = np.sort(np.nan_to_num(mult, nan=np.nan), axis=1)
-        cols = np.column_stack([branch.k1, branch.amplitude, branch.period, branch.stable.astype(int),
-                                branch.u_max, branch.q4_max, mult])
-        header = (f"# source: iwp design branch\n# k2: {args.k2}\n# k1_star: {branch.hopf.k1}\n"
-                  f"# l1: {branch.hopf.l1}\n# criticality: {branch.hopf.criticality}\n"
-                  f"# stop_reason: {branch.stop_reason}\n"
-                  "k1,amplitude,period,stable,u_max,q4_max,floquet_abs_1,floquet_abs_2,floquet_abs_3")
-        writes.append((Path(args.out), lambda tmp: np.savetxt(tmp, cols, delimiter=",", header=header, comments="",
-                                                              fmt="%.10g")))
+        writes.append((Path(args.out), branch.write_csv))
     if args.plot is not None:
         from ..plotting import savefig
 
@@ -200,8 +186,7 @@ def run_branch(args) -> int:
     for b in branch.bifurcations:
         print(f"  stability change ({b['kind']}) at k1 = {b['k1']:.5g}, amplitude {b['amplitude']:.4g} rad")
     for s in sims:
-        a = np.interp(-s.k1, -branch.k1, branch.amplitude)
-        print(f"  simulation k1 = {s.k1:.4g}: amplitude {s.amplitude:.5g} rad (branch {a:.5g})")
+        print(f"  simulation k1 = {s.k1:.4g}: amplitude {s.amplitude:.5g} rad (branch {branch.amplitude_at(s.k1):.5g})")
     for path in (args.out, args.plot):
         if path is not None:
             print(f"  wrote {path}")

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import sys
 
 from ..errors import InputError
@@ -220,12 +219,13 @@ def run_port(args) -> int:
     params = live_params(args.params) if args.live else None
     settings = run_settings(args.name, options)
     static = run_kind(args.name).run.name == "STATIC_CURVE"
+    clearing = port_clearing(args)  # checked before anything opens
     with live_session(args, f"{args.name} on {args.port}", None if static else settings["duration"]) as view:
         with open_port_rig(args, _truth(args.truth) if args.truth else None) as rig:
             if view is not None:
                 view.attach(rig, lambda Ts: predict_rig_run(args.name, params, Ts=Ts, **options))
             run = run_on_rig(rig, args.name, fast=args.fast, operator=port_operator(args),
-                             progress=port_progress(args) if view is None else view.feed, clearing=port_clearing(args),
+                             progress=port_progress(args) if view is None else view.feed, clearing=clearing,
                              **options)
         if view is not None:
             view.finish(run.reason)
@@ -248,27 +248,8 @@ def finish_port_run(run, out, args, write) -> int:
     what = "nothing recorded" if run.log is None else (
         f"{run.log.n_samples} samples, t = 0..{run.log.t[-1]:g} s" if hasattr(run.log, "n_samples")
         else f"{run.log.n_points} points")
-    link = {}
-    if run.log is not None and "link" in getattr(run.log, "metadata", {}):
-        with contextlib.suppress(ValueError):
-            link = json.loads(run.log.metadata["link"])
-    meta = getattr(run.log, "metadata", {}) if run.log is not None else {}
-    filled = int(meta.get("filled_samples", 0) or 0)
-    if filled:
-        print(f"iwp: warning: {filled} samples of the log were lost on the link or carried a value that is not a "
-              f"number ({link.get('lost', 0)} lost, {link.get('corrupt', 0)} corrupt frames): they are filled in "
-              "between their neighbours, marked in its 'filled' column and 'gaps' metadata, and left out of every "
-              "fit; check the cable and the baud rate", file=sys.stderr)
-    elif link.get("corrupt", 0) or link.get("lost", 0):
-        print(f"iwp: note: the link lost {link.get('lost', 0)} telemetry samples and refused {link.get('corrupt', 0)} "
-              "corrupt frames outside the run (connecting, clearing a fault): the log has no gap", file=sys.stderr)
-    if run.log is not None and "timing" in getattr(run.log, "metadata", {}):
-        from ..device.loop import jitter_warning
-
-        with contextlib.suppress(ValueError):
-            warning = jitter_warning(json.loads(run.log.metadata["timing"]))
-            if warning:
-                print(f"iwp: warning: {warning}", file=sys.stderr)
+    for kind, text in run.link_notes():
+        print(f"iwp: {kind}: {text}", file=sys.stderr)
     if not run.interrupted:
         print(f"wrote {out} ({args.name} on {args.port}, {what})")
         return 0
@@ -296,10 +277,8 @@ UNCONFIRMED_STOP = 4
 
 
 def watchdog_ms(run) -> str:
-    """The device's watchdog [ms] as its log's metadata records it (``?`` where it does not)."""
-    with contextlib.suppress(Exception):
-        return f"{json.loads(run.log.metadata['device'])['params']['watchdog_ms']:g}"
-    return "?"
+    """The device's watchdog [ms] as its log records it (``?`` where it does not)."""
+    return "?" if run.watchdog_ms is None else f"{run.watchdog_ms:g}"
 
 
 def free_sibling(path):

@@ -108,6 +108,14 @@ class LQRBalance:
         """
         return BalanceController(float(self.K[0]), float(self.K[1]), float(self.K[2]), self.Ts)
 
+    def to_dict(self) -> dict:
+        """The design as JSON-ready values: ``K``, the closed-loop ``poles`` as ``[re, im]``, ``Ts``, ``u_max``,
+        the open-loop unstable eigenvalue and direction, the capture bound and the backend."""
+        return {"K": self.K.tolist(), "poles": [[float(p.real), float(p.imag)] for p in self.poles], "Ts": self.Ts,
+                "u_max": self.u_max, "unstable_eigenvalue": self.unstable_eigenvalue,
+                "unstable_direction": self.unstable_direction.tolist(), "capture_bound": self.capture_bound,
+                "backend": self.backend}
+
     def capture_ratio(self, x) -> float:
         """The unstable mode over the capture bound, ``abs(w @ x) / capture_bound``: below 1 the fall can be stopped."""
         return abs(float(self.unstable_direction @ self.error_state(x))) / self.capture_bound

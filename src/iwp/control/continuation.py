@@ -99,6 +99,34 @@ class HopfBranch:
                 "stable": self.stable.tolist(), "u_max": self.u_max.tolist(), "stop_reason": self.stop_reason,
                 "bifurcations": list(self.bifurcations)}
 
+    def amplitude_at(self, k1: float) -> float:
+        """The orbit amplitude [rad] at gain ``k1`` [input units s/rad], interpolated along the branch."""
+        return float(np.interp(-k1, -self.k1, self.amplitude))
+
+    def stable_at(self, k1: float) -> bool:
+        """Whether the orbit at ``k1`` is stable (interpolated between the branch's points: the nearer one's)."""
+        return bool(np.interp(-k1, -self.k1, self.stable.astype(float)) > 0.5)
+
+    def stable_gains(self, n: int) -> np.ndarray:
+        """``n`` gains ``k1`` evenly inside the branch's range whose orbit is stable (to check by simulation)."""
+        k = np.linspace(self.k1[0], self.k1[-1], n + 2)[1:-1]
+        return np.array([x for x in k if self.stable_at(x)])
+
+    #: the columns of :meth:`write_csv`
+    CSV_COLUMNS = ("k1", "amplitude", "period", "stable", "u_max", "q4_max", "floquet_abs_1", "floquet_abs_2",
+                   "floquet_abs_3")
+
+    def write_csv(self, path) -> None:
+        """Write the branch as CSV (:data:`CSV_COLUMNS`, a row per orbit; ``#`` lines: ``k2``, the Hopf point,
+        the stop reason): the nontrivial Floquet multipliers by modulus, ascending."""
+        mult = np.sort(np.abs(self.floquet), axis=1)
+        cols = np.column_stack([self.k1, self.amplitude, self.period, self.stable.astype(int), self.u_max,
+                                self.q4_max, mult])
+        header = (f"# source: iwp design branch\n# k2: {self.k2}\n# k1_star: {self.hopf.k1}\n"
+                  f"# l1: {self.hopf.l1}\n# criticality: {self.hopf.criticality}\n"
+                  f"# stop_reason: {self.stop_reason}\n" + ",".join(self.CSV_COLUMNS))
+        np.savetxt(path, cols, delimiter=",", header=header, comments="", fmt="%.10g")
+
     def prediction(self, n: int = 60) -> tuple[np.ndarray, np.ndarray]:
         """The normal-form amplitude over the branch's ``k1`` range: ``(k1, amplitude)`` arrays."""
         k = np.linspace(self.hopf.k1, self.k1[-1], n)

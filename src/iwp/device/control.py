@@ -36,8 +36,8 @@ from .loop import DeviceLaw, HostLaw, HostLimits, LoopCommand, run_loop
 from .record import loop_log
 from .runs import Clearing, RigRun, arrange, default_operator, hold_at, prepare, releaser, run_on_rig
 
-__all__ = ["run_control", "ControlRun", "CONTROLLERS", "balanced", "BALANCE_START", "V_DZ", "control_conditions",
-           "HOPF_START"]
+__all__ = ["run_control", "ControlRun", "CONTROLLERS", "DEFAULT_DURATIONS", "balanced", "BALANCE_START", "V_DZ",
+           "control_conditions", "HOPF_START"]
 
 #: The balance starts this far from the upright [rad] (the capture region of the LQR with |u| <= 69 is 0.05 rad).
 BALANCE_START = 0.02
@@ -48,6 +48,9 @@ V_DZ = 31.0
 
 #: The controllers and where each can run.
 CONTROLLERS = {"hopf": ("device", "host"), "balance": ("device", "host"), "swingup": ("host",)}
+#: How long a run of each controller lasts by default [s]: the Hopf orbit settles within tens of seconds; a
+#: balance is judged over 10 s; a swing-up needs about 10 s to reach the top, then balances.
+DEFAULT_DURATIONS = {"hopf": 60.0, "balance": 10.0, "swingup": 20.0}
 
 
 def balanced(q1, t, *, tolerance: float = 0.05, hold: float = 3.0) -> bool:
@@ -84,8 +87,8 @@ class ControlRun:
     ----------
     what : str
         A controller of :data:`CONTROLLERS`: ``"hopf"``, ``"balance"`` or ``"swingup"``.
-    duration : float
-        Length of the run [s].
+    duration : float, optional
+        Length of the run [s]; None: the controller's :data:`DEFAULT_DURATIONS`.
     where : str
         ``"device"`` (the firmware's law) or ``"host"`` (the law on the host, over the link).
     k1, k2 : float
@@ -95,11 +98,21 @@ class ControlRun:
     """
 
     what: str
-    duration: float
+    duration: float | None = None
     where: str = "device"
     k1: float = -10.0
     k2: float = 0.1
     x0: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.what not in CONTROLLERS:
+            raise InputError(f"the controller must be one of {', '.join(CONTROLLERS)}, got {self.what!r}",
+                             argument="what")
+        duration = DEFAULT_DURATIONS[self.what] if self.duration is None else self.duration
+        if not (isinstance(duration, (int, float)) and not isinstance(duration, bool) and math.isfinite(duration)
+                and duration > 0):
+            raise InputError(f"duration must be > 0 [s], got {duration!r}", argument="duration")
+        object.__setattr__(self, "duration", float(duration))
 
 
 def control_conditions(rig: Rig, run: ControlRun) -> dict:

@@ -20,6 +20,7 @@ does), and waits for the wheel to stop before the next input.
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -41,7 +42,7 @@ from ..rig.run_settings import compensation_thresholds, initial_state, law_input
 from ..rig.virtual import STATIC_WINDOW
 from .connection import Rig
 from .errors import DeviceError, LinkLost
-from .loop import DeviceLaw, HostLaw, HostLimits, LoopCommand, LoopResult, OpenLoop, run_loop
+from .loop import DeviceLaw, HostLaw, HostLimits, LoopCommand, LoopResult, OpenLoop, jitter_warning, run_loop
 from .protocol import FLOAT32_MAX, PARAMS, float32_text
 from .record import loop_log
 
@@ -96,6 +97,45 @@ class RigRun:
         """Whether the device acknowledged every stop of the run's loops (None: no loop armed the motor)."""
         said = [lp.stop_confirmed for lp in self.loops if lp.stop_confirmed is not None]
         return None if not said else all(said)
+
+    def _meta(self, key: str) -> dict:
+        """A JSON entry of the log's metadata (``link``, ``timing``, ``device``), or {}."""
+        meta = getattr(self.log, "metadata", {}) if self.log is not None else {}
+        try:
+            value = json.loads(meta[key]) if key in meta else {}
+        except ValueError:
+            return {}
+        return value if isinstance(value, dict) else {}
+
+    @property
+    def watchdog_ms(self) -> float | None:
+        """The device's watchdog during the run [ms], as its log records it (None where it does not)."""
+        value = self._meta("device").get("params", {}).get("watchdog_ms")
+        return float(value) if isinstance(value, (int, float)) else None
+
+    def link_notes(self) -> list[tuple[str, str]]:
+        """What the run's log says of the link and the loop's timing: ``(kind, text)`` lines, ``kind``
+        ``"warning"`` (samples filled in, ticks unevenly spaced) or ``"note"`` (frames refused outside the run)."""
+        meta = getattr(self.log, "metadata", {}) if self.log is not None else {}
+        link = self._meta("link")
+        out = []
+        filled = int(meta.get("filled_samples", 0) or 0)
+        if filled:
+            out.append(("warning", f"{filled} samples of the log were lost on the link or carried a value that is "
+                                   f"not a number ({link.get('lost', 0)} lost, {link.get('corrupt', 0)} corrupt "
+                                   "frames): they are filled in between their neighbours, marked in its 'filled' "
+                                   "column and 'gaps' metadata, and left out of every fit; check the cable and the "
+                                   "baud rate"))
+        elif link.get("corrupt", 0) or link.get("lost", 0):
+            out.append(("note", f"the link lost {link.get('lost', 0)} telemetry samples and refused "
+                                f"{link.get('corrupt', 0)} corrupt frames outside the run (connecting, clearing a "
+                                "fault): the log has no gap"))
+        timing = self._meta("timing")
+        if timing:
+            warning = jitter_warning(timing)
+            if warning:
+                out.append(("warning", warning))
+        return out
 
 
 def default_operator(message: str) -> None:

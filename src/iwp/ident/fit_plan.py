@@ -380,8 +380,9 @@ def _sort_by_kind(train_logs, others, rig_d, msgs: list[str]):
         msgs.extend(f"train {d.source}: {KIND_SHOWN[k]}: fitted as a {k} log (--{k})" for d, k in free
                     if k not in (None, "free"))
         free = [(d, k) for d, k in free if k in (None, "free")]
+    drives = any(d.input_name is not None and np.ptp(np.asarray(d.input, dtype=float)) > 0 for d, _ in free)
     if shown and "free" not in shown and not any(o.kind not in ("clamped", "wheel-locked") for o in others) \
-            and all(k is not None for _, k in free):
+            and all(k is not None for _, k in free) and drives:  # (without a drive: "no training log drives")
         listing = ", ".join(f"{Path(d.source).name}: {KIND_SHOWN[k]}" for d, k in free)
         raise InputError(f"train: no training log shows a free pendulum ({listing}); the joint fit needs one, with "
                          "these beside it (--clamped, --wheel-locked); a clamped log alone identifies the drive: "
