@@ -3,11 +3,14 @@
 A chirp runs in real time on the emulator (``iwp rig emulate``, its own
 process) with ``--live``; a page opened in Chromium must update at 10 Hz
 or more, draw the model's prediction of the same chirp (the same numbers as
-a simulation made here) with its 95 % band and the measurement the log
-holds; closing the page must not stop the logging; a page opened later
-gets the run so far, and its stop button stops the motor (the emulator
-reports the emergency stop, its command at 0) and ends the run with its log
-so far written, marked interrupted. Chromium comes from the system packages
+a simulation made here) with its 95 % band (drawn at least 8 px wide, its
+edges as lines), the distances of q1 and q2 from the model, the legends
+above the plots, and the measurement the log holds; closing the page must
+not stop the logging; a page opened later gets the run so far, and its
+stop button stops the motor (the emulator reports the emergency stop, its
+command at 0) and ends the run with its log so far written, marked
+interrupted, the page then showing the device's final state (ESTOP, u 0),
+not the last sample's ARMED. Chromium comes from the system packages
 as for ``tests/test_report_browser.py``; the DevTools client is
 ``websocket-client`` (the test extra).
 """
@@ -124,13 +127,15 @@ def _series(page: Page, name: str) -> tuple[np.ndarray, np.ndarray]:
     return np.array(got[0], dtype=float), np.array(got[1], dtype=float)
 
 
-def _drive(port: str, err: Path, browser_path: str, folder: Path) -> dict:
-    """The run with its live view, driven through the page (see the module's docstring)."""
+def _drive(port: str, err: Path, browser_path: str, folder: Path, clear_fault: bool = False) -> dict:
+    """The run with its live view, driven through the page (see the module's docstring); ``clear_fault``: the run
+    clears the device's latched fault first (the watchdog's of a first attempt)."""
     folder.mkdir()
     out = folder / "chirp.csv"
     params = _covariance_params(folder / "parameters.json")
     proc = subprocess.Popen([sys.executable, "-m", "iwp", "rig", "run", "chirp", "--port", port, "--duration",
-                             str(DURATION), "--live", "--params", str(params), "--out", str(out)],
+                             str(DURATION), "--live", "--params", str(params), "--out", str(out),
+                             *(["--clear-fault"] if clear_fault else [])],
                             env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     browser = Browser(browser_path, folder / "profile")
     try:
@@ -158,6 +163,21 @@ def _drive(port: str, err: Path, browser_path: str, folder: Path) -> dict:
         assert np.max(np.abs(q1_p - ref.q1)) < 1e-5
         (_, lo), (_, hi) = _series(a, "q1 band low"), _series(a, "q1 band high")
         assert np.all(lo <= q1_p + 1e-9) and np.all(q1_p <= hi + 1e-9) and np.max(hi - lo) > 0.01
+        # the band is drawn visible however narrow (its edges, and a line along the model at least 8 px wide)
+        names = ["q1 band", "q1 band min width", "q1 band edge_lo", "q1 band edge_hi", "q2 band min width"]
+        assert a.eval(f"{names}.map((n) => Bokeh.documents[0].get_model_by_name(n) !== null)") == [True] * 5
+        assert a.eval("Bokeh.documents[0].get_model_by_name('q1 band min width').glyph.line_width.value") >= 8
+        # the legends are outside the plots (above them), and the saturated samples' entry has its marker already
+        assert a.eval("window.iwpLive.figures().map((f) => f.above.some((r) => r.constructor.__name__ === 'Legend') && "
+                      "!f.center.some((r) => r.constructor.__name__ === 'Legend'))") == [True] * 3
+        assert a.eval("Bokeh.documents[0].get_model_by_name('saturated').data_source.get_length()") >= 1
+        # how far the measurement is from the model, in rad and in half-widths of the band; the warning's line
+        model = a.eval("window.iwpLive.model")
+        assert model["q1"]["hw"] > 0 and model["q1"]["dist"] >= 0 and model["q2"]["rel"] is not None
+        for s in ("q1", "q2"):
+            shown = a.eval(f"document.getElementById('{s}dist').textContent")
+            assert re.fullmatch(r"\S+ rad = \S+ half-widths \(band ±\S+\)", shown), shown
+        assert a.eval("document.getElementById('warning') !== null")
         t_a = a.eval("window.iwpLive.t")
         a.close()
         # the page is closed: the logging goes on
@@ -174,6 +194,11 @@ def _drive(port: str, err: Path, browser_path: str, folder: Path) -> dict:
         assert f"iwp: the motor was stopped: {STOP_REASON}" in stderr, stderr + err.read_text()[-800:]
         b.wait("window.iwpLive.ended !== null", 5)
         assert b.eval("window.iwpLive.ended") == STOP_REASON
+        # the page shows the device stopped, not the state of the last samples (recorded while it was armed)
+        shown = b.eval("[document.getElementById('state').textContent, document.getElementById('u').textContent, "
+                       "document.getElementById('final').textContent]")
+        assert shown[:2] == ["ESTOP", "0.0"] and "emergency stop acknowledged" in shown[2], shown
+        assert b.eval("window.iwpLive.final.confirmed") is True
     finally:
         if proc.poll() is None:
             proc.kill()
@@ -190,7 +215,8 @@ def test_live_view_streams_predicts_survives_closing_and_stops_the_motor(emulato
     for attempt in (1, 2):
         armed_before = err.read_text().count("device ARMED")
         try:
-            got = _drive(port, err, chromium, tmp_path / f"attempt{attempt}")
+            # the second after the watchdog's fault, which the device keeps until it is cleared
+            got = _drive(port, err, chromium, tmp_path / f"attempt{attempt}", clear_fault=attempt == 2)
             break
         except AssertionError:
             events = err.read_text()

@@ -241,7 +241,7 @@ def run_on_port(args) -> int:
                               progress=port_progress(args) if view is None else view.feed,
                               clearing=clearing)
         if view is not None:
-            view.finish(run.reason)
+            view.finish(run.reason, run=run)
     args.name = f"control {args.what}"
     status = finish_port_run(run, out, args, write_result)
     if status == 0 and args.what in ("balance", "swingup") and run.log is not None \

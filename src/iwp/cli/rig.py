@@ -228,7 +228,7 @@ def run_port(args) -> int:
                              progress=port_progress(args) if view is None else view.feed, clearing=clearing,
                              **options)
         if view is not None:
-            view.finish(run.reason)
+            view.finish(run.reason, run=run)
     return finish_port_run(run, out, args, write_result)
 
 
