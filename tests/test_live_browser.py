@@ -243,3 +243,11 @@ def test_live_view_streams_predicts_survives_closing_and_stops_the_motor(emulato
     # and the view is gone
     with pytest.raises(urllib.error.URLError):
         urllib.request.urlopen(url, timeout=2)
+    # the stop is latched on the device: a --live run refuses to arm without --clear-fault (exit 2, naming it), as
+    # a run without --live does, and runs with it (--live had ignored the latched stop and ARM was refused, exit 1)
+    argv = [sys.executable, "-m", "iwp", "rig", "run", "sine", "--port", port, "--duration", "1", "--live",
+            "--out", str(tmp_path / "after.csv")]
+    refused = subprocess.run(argv, capture_output=True, text=True, env=ENV, timeout=120)
+    assert refused.returncode == 2 and "--clear-fault" in refused.stderr.strip().splitlines()[-1], refused.stderr
+    cleared = subprocess.run(argv + ["--clear-fault"], capture_output=True, text=True, env=ENV, timeout=120)
+    assert cleared.returncode == 0 and read_experiment(tmp_path / "after.csv").n_samples == 201, cleared.stderr
