@@ -44,6 +44,7 @@ from typing import Any, Mapping, Sequence
 
 from ..errors import InputError
 from ..files import read_json
+from .statistics import check_statistic
 
 __all__ = ["PaperTarget", "TargetRow", "TARGETS_FILE", "load_targets", "compare_targets"]
 
@@ -177,7 +178,6 @@ def _target(entry: Any, where: str) -> PaperTarget:
             raise InputError(f"{where}: field 'published_range' must be [low, high] with low < high, "
                              f"both of one sign, got {list(r)}")
         rng = (lo, hi)
-    from .statistics import check_statistic  # the procedures' module, imported only when a file is read
     check_statistic(entry["statistic"], f"{where}: field 'statistic'")
     note = entry.get("note", "")
     if not isinstance(note, str):
