@@ -385,3 +385,20 @@ def test_a_device_reporting_what_no_device_holds_is_refused_at_connect(monkeypat
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and f"reports {name} = {value!r}" in line and "internal error" not in line, line
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_a_design_that_fails_on_a_parameter_file_names_the_file(monkeypatch, tmp_path, capsys):
+    """A fit's parameters.json whose orbit diverged (x0 of 3.9e7 rad/s) failed the design without naming it."""
+    import iwp.control
+    from iwp.errors import SimulationError
+    from iwp.models import save_params, table1
+
+    save_params(table1(), tmp_path / "fit.json")
+
+    def diverges(*a, **k):
+        raise SimulationError("the simulation diverged at t = 0.2 s (x0 = [0, 0, 0, 3.9e7])")
+
+    monkeypatch.setattr(iwp.control, "design_hopf", diverges)
+    status = main(["design", "hopf", "--orbit-amplitude", "2.58", "--params", str(tmp_path / "fit.json")])
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert status != 0 and f"--params {tmp_path / 'fit.json'}" in line and "3.9e7" in line, line
