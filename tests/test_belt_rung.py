@@ -14,11 +14,12 @@ from iwp.data import ExperimentData
 from iwp.data.rig_description import RigDescription
 from iwp.errors import InputError
 from iwp.ident import fit_ladder as logfit  # where the ladder looks them up
+from iwp.ident.drives import BELT_STARTS, belt_bounds, belt_start
 from iwp.ident.logfit import LogFitOptions, fit_logs
 from iwp.ident.structure import RUNGS, ladder
 from iwp.ident.validation import validation_plant
 from iwp.models.parameters import BeltParameters, LumpedParameters, stored_belt
-from iwp.models.terms import BELT_FREE, BELT_STARTS, belt_bounds, belt_start
+from iwp.models.terms import BELT_FREE
 from iwp.rig.described import DescribedRig, prbs, write_rig_csv
 from iwp.sim.inputs import Chirp
 

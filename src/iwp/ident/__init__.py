@@ -25,6 +25,7 @@ module                    what
 :mod:`.fit_start`         2. the least-squares start; wrong signs and time units refused
 :mod:`.fit_ladder`        3. the fit: one structure or the ladder of them, the unidentified held
 :mod:`.structure`         the ladder's structures and the choice among them
+:mod:`.drives`            how a drive model (the belt) is fitted: its start from rigid fits, its bounds
 :mod:`.fit_report`        4. the result and its report
 :mod:`.metrics`           the fit in percent (NRMSE)
 :mod:`.result`            :class:`IdentificationResult`

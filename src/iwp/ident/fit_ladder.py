@@ -32,6 +32,7 @@ from ..models.terms import (
 )
 from ..sim.uncertainty import ParameterUncertainty, StartUncertainty, prediction_band, undetermined
 from ..threads import one_blas_thread, thread_map
+from .drives import fit_policy
 from .fit_plan import FitPlan, LogFitOptions
 from .identification import HOLDABLE, PRIOR_SPREAD
 from .metrics import JUDGED, fit_percent
@@ -168,7 +169,7 @@ def fit_plan(plan: FitPlan) -> Fitted:
     if options.drive is None:
         return hold_unidentified(fitting, Fitted(options, fitting.joint(options, started), started))
     # a drive model starts from the fits of the rigid structures, as the ladder's rung does
-    rigid = [replace(options, terms=s) for s in rigid_structures(options.terms)][:options.drive.starts]
+    rigid = [replace(options, terms=s) for s in rigid_structures(options.terms)][:fit_policy(options.drive).starts]
     fits = thread_map(lambda o: fitting.joint(o, o.starting_values(started, plan.umax)), rigid)
     return hold_unidentified(fitting, Fitted(options, fitting.drive_fit(options, [f.params for f in fits]), started))
 
@@ -307,12 +308,12 @@ class Fitting:
 
     def plant(self, options: LogFitOptions, params: LumpedParameters, belt: BeltParameters | None = None) -> Plant:
         """The plant of ``options``' structure with ``params`` (and ``belt``; without it a structure with a drive
-        model starts from the drive's start, :attr:`iwp.models.terms.DriveModel.start`)."""
+        model starts from the drive's start, :attr:`iwp.ident.drives.DriveFit.start`)."""
         drive = options.drive
         if drive is None:
             return Plant(params, model=options.model)
         if belt is None:
-            belt = drive.start(params, ratio=self.drive_ratio, Ts=self.Ts)
+            belt = fit_policy(drive).start(params, ratio=self.drive_ratio, Ts=self.Ts)
         return Plant(params, model=options.model, belt=belt)
 
     def joint(self, options: LogFitOptions, start: LumpedParameters, logs=None, x0=None,
@@ -332,18 +333,18 @@ class Fitting:
                                    x0=g, offsets=("q1",) if moves_q1 and not self.offset_given else (),
                                    controller=o.controller))
         plant = self.plant(options, start, belt)
-        drive = options.drive
-        bounds = (drive.bounds(ratio=plant.belt.N, Ts=self.Ts, speed_per_input=plant.belt.kTbeta_over_Rgamma)
-                  if drive is not None else None)
-        solver = (SolverOptions(rtol=drive.rtol, atol=drive.rtol, scaling="start") if drive is not None
+        policy = fit_policy(options.drive) if options.drive is not None else None
+        bounds = (policy.bounds(ratio=plant.belt.N, Ts=self.Ts, speed_per_input=plant.belt.kTbeta_over_Rgamma)
+                  if policy is not None else None)
+        solver = (SolverOptions(rtol=policy.rtol, atol=policy.rtol, scaling="start") if policy is not None
                   else SolverOptions())
         return refine(exps, plant, free=options.free(), outputs=self.outputs, bounds=bounds, loss=options.loss,
                       options=replace(solver, max_nfev=max_nfev), warn=False)
 
     def drive_starts(self, options: LogFitOptions, rigid: Sequence[LumpedParameters]) -> list[LumpedParameters]:
         """The starts of ``options``' structure with a drive model: from each of the first
-        :attr:`~iwp.models.terms.DriveModel.starts` rigid fits ``rigid`` (richest first)."""
-        return [options.starting_values(p, self.umax) for p in rigid[:options.drive.starts]]
+        :attr:`~iwp.ident.drives.DriveFit.starts` rigid fits ``rigid`` (richest first)."""
+        return [options.starting_values(p, self.umax) for p in rigid[:fit_policy(options.drive).starts]]
 
     def drive_fit(self, options: LogFitOptions, rigid: Sequence[LumpedParameters]) -> RefineResult:
         """The fit of ``options``' structure with a drive model from each of :meth:`drive_starts`, side by side;
@@ -364,7 +365,7 @@ class Fitting:
 
         A structure starts once every structure it extends is fitted; structures that do not extend each
         other (the offset, the dead zone and the belt, all on the widths) are fitted side by side, as are a
-        drive model's starts (:attr:`~iwp.models.terms.DriveModel.starts`) and the cross-validation folds
+        drive model's starts (:attr:`~iwp.ident.drives.DriveFit.starts`) and the cross-validation folds
         (:func:`iwp.threads.thread_map`).
         """
         raw = all(d.input_name == "v" for d in self.train + self.held_out)

@@ -60,8 +60,8 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import PARAMETER_INFO, BeltParameters, LumpedParameters
 from ..models.plant import CLAMPABLE, MODELS, Plant, model_info
-from ..models.terms import BELT_RTOL
 from .covariance import Reliability
+from .drives import BELT_RTOL
 from .fit_parameters import Parameter
 from .metrics import fit_percent
 from .output_error import Experiment, OutputError, offset_name, solve_output_error, x0_name

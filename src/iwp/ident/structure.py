@@ -31,7 +31,7 @@ rung needs no motor angle: its simulation error compares the wheel's own
 signal, as :func:`iwp.ident.belt_fit.refine_belt` does with the pendulum
 locked; its ratio ``N`` is the rig description's ``drive.ratio``. Its fit
 starts from the ``widths`` fit and from the ``pendulum-coulomb`` one, and keeps
-the lower cost (:data:`iwp.models.terms.BELT_STARTS`).
+the lower cost (:data:`iwp.ident.drives.BELT_STARTS`).
 
 The scoring logs are the held-out logs. When fewer than
 :data:`SIGNED_RANK_MIN` are held out and two or more train, each training log

@@ -40,12 +40,10 @@ term                      parameters             what
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any, Callable
 
 from ..errors import InputError
-from .belt_parameters import BELT_INFO, BeltParameters
 from .parameter_info import ParameterInfo
 
 #: a :class:`~iwp.models.parameters.LumpedParameters` (that class builds its fields from this module, so this module
@@ -54,8 +52,7 @@ Lumped = Any
 
 __all__ = ["Term", "LadderPlace", "DriveModel", "TERMS", "SWITCHES", "term", "parse_terms", "closure",
            "term_parameters", "ladder_order", "rung_names", "free_parameters", "starting_values", "model_of",
-           "drive_of", "model_parameters", "BASE_FREE", "belt_start", "belt_bounds", "BELT_FREE", "BELT_STARTS",
-           "BELT_START_PLAY", "BELT_BAND", "BELT_SPEED_RANGE"]
+           "drive_of", "model_parameters", "BASE_FREE", "BELT_FREE"]
 
 #: the parameters of model (9) that every fit frees (section 4)
 BASE_FREE = ("p1", "p2", "p3", "rho", "sigma_a1", "sigma_v1", "sigma_b1")
@@ -92,26 +89,17 @@ class DriveModel:
 
     Attributes
     ----------
+    name : str
+        The drive's name (``"belt"``): how a fit of it starts and is bounded is :mod:`iwp.ident.drives`'.
     replaces : tuple of str
         The lumped parameters it takes the place of (not freed with it).
     free : tuple of str
         Its own parameters a fit frees.
-    starts : int
-        Its fit starts from the fits of this many of the richest rigid structures, and keeps the lowest cost.
-    rtol : float
-        Relative (and absolute) tolerance of its fits' simulations.
-    start : callable
-        ``start(params, ratio=N, Ts=Ts)``: its parameters from a rigid fit (:func:`belt_start`).
-    bounds : callable
-        ``bounds(ratio=N, Ts=Ts, speed_per_input=...)``: the bounds of its fit (:func:`belt_bounds`).
     """
 
+    name: str
     replaces: tuple[str, ...]
     free: tuple[str, ...]
-    starts: int
-    rtol: float
-    start: Callable[..., BeltParameters]
-    bounds: Callable[..., dict[str, tuple[float, float]]]
 
 
 @dataclass(frozen=True)
@@ -235,97 +223,12 @@ def _start_stribeck(p, umax, fraction):
 
 
 # --------------------------------------------------------------------------
-# the belt's start and bounds (a fit with the belt (15) starts from rigid fits)
+# the belt's parameters (its fit's start and bounds: iwp.ident.drives)
 # --------------------------------------------------------------------------
 #: What a fit with the belt frees: the five of the paper's eq. (15) besides the measured ratio N.
 BELT_FREE = ("k_over_I2", "d", "b2_over_I2", "k_over_gamma", "kTbeta_over_Rgamma")
-#: A belt's fit starts from the fits of this many of the richest rigid structures (``widths``, then
-#: ``pendulum-coulomb``) and keeps the lowest cost: its forward-difference fit stops where those differences find no
-#: descent, and where it stops depends on the start (``docs/fit.md``).
-BELT_STARTS = 2
-#: the play half-width a belt's fit starts from [rad]
-BELT_START_PLAY = 0.05
-#: a belt's fit keeps its resonance ``sqrt(k/I2)`` and its motor's relaxation rate ``(k/gamma)/N^2`` below this
-#: many times the logs' Nyquist frequency ``pi/Ts``
-BELT_BAND = 4.0
-#: a belt's fit keeps its motor's speed per input unit within this factor of its start's
-BELT_SPEED_RANGE = 1000.0
-#: the relative tolerance of a belt's fits: the play makes the simulation error non-smooth, and the forward
-#: differences of its Jacobian need simulations this exact (``docs/fit.md``: 132/140 true values inside their
-#: intervals at 1e-10, 42/140 at 1e-6)
-BELT_RTOL = 1e-10
 
 
-def belt_start(params: Lumped, *, ratio: float, Ts: float) -> BeltParameters:
-    """The belt (15) a fit with the belt starts from: its rigid limit is ``params``' disk.
-
-    Parameters
-    ----------
-    params : LumpedParameters
-        A rigid structure's fit: the rigid limit's damping and gain are its ``p2 rho`` and ``p3 rho``.
-    ratio : float
-        The drive's ratio ``N`` [-] (the rig description's ``drive.ratio``).
-    Ts : float
-        The logs' sample period [s].
-
-    Returns
-    -------
-    BeltParameters
-        ``k/I2`` puts ``sqrt(k/I2)`` at a quarter of the logs' Nyquist frequency
-        (``pi / (4 Ts)`` rad/s), or lower where the motor's relaxation rate
-        ``(k/gamma)/N^2 = (k/I2)/(p2 rho - b2/I2)`` would exceed the Nyquist
-        frequency: stiff enough to keep the slower motion the rigid fit found,
-        inside the band the logs resolve (:func:`belt_bounds`); the play
-        :data:`BELT_START_PLAY`; ``b2/I2`` a tenth of the rigid damping. A
-        rigid fit with so little damping that this belt would lie outside
-        :func:`belt_bounds` gives a start moved inside them (whose rigid limit
-        then differs from the fit's).
-    """
-    p2rho, p3rho = params.p2 * params.rho, params.p3 * params.rho
-    b2 = 0.1 * p2rho
-    nyquist = math.pi / Ts
-    top = BELT_BAND * nyquist
-    k = min(max(min((nyquist / 4.0) ** 2, (p2rho - b2) * nyquist), 2.0 * BELT_INFO["k_over_I2"].fit_range[0]),
-            0.5 * top ** 2)
-    # BeltParameters.from_rigid's relations; the motor's relaxation rate k / gamma / N^2 at most half its bound
-    gamma_over_I2 = max((p2rho - b2) / ratio ** 2, 2.0 * k / (top * ratio ** 2))
-    values = {"k_over_I2": k, "d": BELT_START_PLAY, "b2_over_I2": b2, "k_over_gamma": k / gamma_over_I2,
-              "kTbeta_over_Rgamma": p3rho / ratio / gamma_over_I2}
-    bounds = belt_bounds(ratio=ratio, Ts=Ts, speed_per_input=values["kTbeta_over_Rgamma"])
-    return BeltParameters(N=ratio, **{n: min(max(values[n], 2.0 * lo), 0.5 * hi) for n, (lo, hi) in bounds.items()})
-
-
-def belt_bounds(*, ratio: float, Ts: float, speed_per_input: float) -> dict[str, tuple[float, float]]:
-    """The bounds of a belt's fit on logs sampled every ``Ts`` [s] with the drive ratio ``ratio``.
-
-    Parameters
-    ----------
-    ratio : float
-        The drive's ratio ``N`` [-].
-    Ts : float
-        The logs' sample period [s].
-    speed_per_input : float
-        The start's ``kTbeta_over_Rgamma`` [rad/s per input unit] (its rigid limit's).
-
-    Returns
-    -------
-    dict of str to (float, float)
-        For each of :data:`BELT_FREE`: its fit range,
-        except that a belt whose resonance ``sqrt(k/I2)`` or whose motor's
-        relaxation rate ``(k/gamma)/N^2`` is far above the logs' Nyquist
-        frequency ``pi/Ts`` looks rigid in them, and the rigid rungs cover it;
-        there its stiffness is not determined, and the simulations' cost grows
-        with it (a fit that drifted there took minutes per evaluation): both are
-        kept below :data:`BELT_BAND` times ``pi/Ts``. The motor's speed per input
-        unit depends on the input's unit (duty, volts, DAC counts): it is kept
-        within a factor :data:`BELT_SPEED_RANGE` of the start's.
-    """
-    top = BELT_BAND * math.pi / Ts
-    out = {n: BELT_INFO[n].fit_range for n in BELT_FREE}
-    out["k_over_I2"] = (out["k_over_I2"][0], top ** 2)
-    out["k_over_gamma"] = (out["k_over_gamma"][0], top * ratio ** 2)
-    out["kTbeta_over_Rgamma"] = (speed_per_input / BELT_SPEED_RANGE, speed_per_input * BELT_SPEED_RANGE)
-    return out
 
 
 #: the smallest Stribeck speed a fit may give [rad/s]: below it the rise is narrower than any logged rig resolves
@@ -366,7 +269,7 @@ TERMS: dict[str, Term] = {t.name: t for t in (
     Term("belt", "the belt (15) between motor and wheel in place of p2, p3 (a rig whose drive is a belt)",
          LadderPlace("belt", "+ belt (15) in place of p2, p3 (5 terms)", "widths", 6),
          excludes=("dead_zone",), drive="belt", model="belt-full",
-         replacement=DriveModel(("p2", "p3"), BELT_FREE, BELT_STARTS, BELT_RTOL, belt_start, belt_bounds),
+         replacement=DriveModel("belt", ("p2", "p3"), BELT_FREE),
          start=_start_belt, label="the belt model (15)"),
     Term("stribeck", "the Stribeck rise of the wheel's friction at low speed (sigma_s2, v_s2)",
          LadderPlace("stribeck", "+ wheel Stribeck (sigma_s2, v_s2)", "coulomb", 7, default=False),
