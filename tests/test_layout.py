@@ -220,3 +220,13 @@ def test_the_parameter_count_counts_what_a_caller_can_pass():
     tree = ast.parse("def f(a, /, b, *c, d, e=1, **g): pass\nclass C:\n    def m(self, a, *, b): pass\n")
     f, m = tree.body[0], tree.body[1].body[0]
     assert (_parameters(f), _parameters(m)) == (6, 2)
+
+
+def test_the_integrators_know_the_models_switching_surfaces_from_guards_alone():
+    """The engine and the lanes imported the kinks' predictor and seven of its internals from models/pendulum.py;
+    the models' switching surfaces now have one home, models/guards.py."""
+    engines = {"iwp.sim.engine", "iwp.sim.lanes"}
+    seen = sorted({(mod, target) for mod, target, _n, _inside in _imports(top_level_only=False)
+                   if mod in engines and target.startswith("iwp.models.")})
+    assert seen and not any(t == "iwp.models.pendulum" for _m, t in seen), seen
+    assert ("iwp.sim.engine", "iwp.models.guards") in seen and ("iwp.sim.lanes", "iwp.models.guards") in seen

@@ -9,7 +9,7 @@ from scipy.optimize import brentq
 
 from iwp.errors import InputError, SimulationError
 from iwp.models import BeltParameters, LumpedParameters, PhysicalParameters, Plant, energy, table1
-from iwp.models.pendulum import kink_ahead
+from iwp.models.guards import kink_ahead
 from iwp.sim import BatchOptions, Feedforward, SimOptions, Tolerances, simulate, simulate_batch, simulate_scipy
 from iwp.sim.engine import BRIDGE, BRIDGE_FRAC, KINK_MARGIN, SHORT, kink_plan
 from iwp.sim.inputs import CallableController, Chirp, HopfController, Sampled, Sine, Step

@@ -77,12 +77,12 @@ from ..models.guards import (
     guard_needs_rate,
     has_branches,
     has_kink,
+    kink_ahead,
     kink_at,
     kink_coordinate,
     switch_ahead,
 )
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
-from ..models.pendulum import kink_ahead
 from ..threads import once_per_argument
 from .dop853 import N_STAGES, dense_coefficients, dense_eval, dense_eval_row, error_norm, stage_input
 from .dop853 import C as NODE_TUPLE

@@ -30,7 +30,7 @@ Each step of a block has four parts:
    ``N_SLOTS`` such steps at once (:func:`flush_dense`, also before a run ends);
    otherwise lane by lane (:func:`~iwp.sim.engine.dense_step`);
 4. all lanes at once: plan the next steps, those near a kink of ``|cos q1|``
-   included (:func:`~iwp.models.pendulum.kink_ahead`'s iterations side by side,
+   included (:func:`~iwp.models.guards.kink_ahead`'s iterations side by side,
    :func:`~iwp.sim.engine.kink_plan`: a step ends short of the kink, or an
    RK4 bridge of the planned size crosses it in part 1); a lane at the
    run's end or due an output is left to part 1. Its loops each write few
@@ -66,9 +66,17 @@ from numba import prange
 from ..jit import jit
 from ..models.actuator import command
 from ..models.equations import optional_terms_off, rhs_of
-from ..models.guards import has_kink
+from ..models.guards import (
+    KINK_ITERATIONS,
+    KINK_TINY,
+    has_kink,
+    kink_newton,
+    kink_possible,
+    kink_start,
+    may_cross,
+    switch_of,
+)
 from ..models.layout import M_PLAIN, N_COMMAND, N_PACK
-from ..models.pendulum import KINK_ITERATIONS, KINK_TINY, kink_newton, kink_possible, kink_start, may_cross, switch_of
 from ..threads import once_per_argument
 from .dop853 import (
     N_STAGES,
