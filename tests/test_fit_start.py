@@ -110,3 +110,15 @@ def test_a_clamped_log_alone_is_refused_with_the_set_up_that_takes_it(tmp_path, 
     status = main(["fit", str(path), "--out", str(tmp_path / "fit")])
     (line,) = capsys.readouterr().err.strip().splitlines()
     assert status == 2 and "no training log shows a free pendulum" in line and "--setup motor-disk" in line, line
+
+
+def test_a_closed_loops_input_is_no_sign_to_read():
+    """A feedback law's input (the twin's Hopf loop, u = k1 q3 + k2 q3^3 from the encoders) is nearly the
+    friction's columns again: the pendulum's row read p3 = -0.168, 24 standard errors below 0, and the start
+    refused a right log for a pendulum counted the other way."""
+    from iwp.ident.fit_start import _terms, sign_errors
+    from iwp.rig import VirtualRig
+
+    log = VirtualRig().run("closed-loop", duration=30.0)
+    assert sign_errors(_terms(log)) == []
+    assert least_squares_start([log]).params.p1 == pytest.approx(26.1, rel=0.1)
