@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..checks import check_finite
+from ..checks import check_finite, check_positive
 from ..control import RigConditions, SwingUpController, lqr_balance
 from ..control.balance import wrap_angle
 from ..errors import InputError
@@ -109,10 +109,7 @@ class ControlRun:
             raise InputError(f"the controller must be one of {', '.join(CONTROLLERS)}, got {self.what!r}",
                              argument="what")
         duration = DEFAULT_DURATIONS[self.what] if self.duration is None else self.duration
-        if not (isinstance(duration, (int, float)) and not isinstance(duration, bool) and math.isfinite(duration)
-                and duration > 0):
-            raise InputError(f"duration must be > 0 [s], got {duration!r}", argument="duration")
-        object.__setattr__(self, "duration", float(duration))
+        object.__setattr__(self, "duration", check_positive("duration", duration))
 
 
 def control_conditions(rig: Rig, run: ControlRun) -> dict:

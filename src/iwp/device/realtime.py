@@ -70,7 +70,7 @@ def starving_note(port: str | None, watchdog_ms: float | None, fast: bool = Fals
     """What to say before a real-time run with a live view whose loop cannot get real-time scheduling: a browser
     starting beside it can hold the loop off past the device's watchdog. Empty when there is nothing to say
     (real-time scheduling allowed, a run by the host's clock, the twin in this process, or a watchdog given
-    longer than :data:`STALL_SEEN_MS`).
+    longer than twice :data:`STALL_SEEN_MS`).
     """
     if fast or port == "twin" or (watchdog_ms is not None and watchdog_ms > 2 * STALL_SEEN_MS):
         return ""

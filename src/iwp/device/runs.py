@@ -98,9 +98,14 @@ class RigRun:
         said = [lp.stop_confirmed for lp in self.loops if lp.stop_confirmed is not None]
         return None if not said else all(said)
 
+    @property
+    def _metadata(self) -> dict:
+        """The log's metadata ({} without a log)."""
+        return getattr(self.log, "metadata", {}) if self.log is not None else {}
+
     def _meta(self, key: str) -> dict:
         """A JSON entry of the log's metadata (``link``, ``timing``, ``device``), or {}."""
-        meta = getattr(self.log, "metadata", {}) if self.log is not None else {}
+        meta = self._metadata
         try:
             value = json.loads(meta[key]) if key in meta else {}
         except ValueError:
@@ -116,10 +121,9 @@ class RigRun:
     def link_notes(self) -> list[tuple[str, str]]:
         """What the run's log says of the link and the loop's timing: ``(kind, text)`` lines, ``kind``
         ``"warning"`` (samples filled in, ticks unevenly spaced) or ``"note"`` (frames refused outside the run)."""
-        meta = getattr(self.log, "metadata", {}) if self.log is not None else {}
         link = self._meta("link")
         out = []
-        filled = int(meta.get("filled_samples", 0) or 0)
+        filled = int(self._metadata.get("filled_samples", 0) or 0)
         if filled:
             out.append(("warning", f"{filled} samples of the log were lost on the link or carried a value that is "
                                    f"not a number ({link.get('lost', 0)} lost, {link.get('corrupt', 0)} corrupt "

@@ -301,8 +301,7 @@ def plan_fit(train, *, rig=None, validate=(), kinds=None, controller: Input | No
     for d in train_logs + val_logs:
         if d.q2 is None and d.q4 is None:
             raise InputError(f"{d.source}: logs no wheel signal (q2 or q4)")
-    if not any(d.input_name is not None and np.ptp(np.asarray(d.input, dtype=float)) > 0 for d in train_logs) \
-            and not any(o.kind in ("clamped", "closed-loop") for o in others):
+    if not any(_drives_wheel(d) for d in train_logs) and not any(o.kind in ("clamped", "closed-loop") for o in others):
         raise InputError("train: no training log drives the wheel (every input is zero or absent): iwp fit identifies "
                          "the drive from its input; a free swing identifies the pendulum alone (iwp identify LOG "
                          "--setup free)", argument="train")
@@ -362,6 +361,11 @@ def _check_held_out_distinct(train_logs, others, val_logs) -> None:
                              "not seen, or its fit says nothing about prediction", argument="validate") from None
 
 
+def _drives_wheel(d: ExperimentData) -> bool:
+    """Whether log ``d`` has an input that varies (one that drives the wheel, which ``iwp fit`` identifies)."""
+    return d.input_name is not None and bool(np.ptp(np.asarray(d.input, dtype=float)) > 0)
+
+
 def _sort_by_kind(train_logs, others, rig_d, msgs: list[str]):
     """The free training logs and the logs of other set-ups: the rig description's ``experiments`` declare a
     log's set-up (the command line's kinds come first); an undeclared log whose motion shows another set-up joins
@@ -380,9 +384,9 @@ def _sort_by_kind(train_logs, others, rig_d, msgs: list[str]):
         msgs.extend(f"train {d.source}: {KIND_SHOWN[k]}: fitted as a {k} log (--{k})" for d, k in free
                     if k not in (None, "free"))
         free = [(d, k) for d, k in free if k in (None, "free")]
-    drives = any(d.input_name is not None and np.ptp(np.asarray(d.input, dtype=float)) > 0 for d, _ in free)
     if shown and "free" not in shown and not any(o.kind not in ("clamped", "wheel-locked") for o in others) \
-            and all(k is not None for _, k in free) and drives:  # (without a drive: "no training log drives")
+            and all(k is not None for _, k in free) \
+            and any(_drives_wheel(d) for d, _ in free):  # (without a drive: "no training log drives the wheel")
         listing = ", ".join(f"{Path(d.source).name}: {KIND_SHOWN[k]}" for d, k in free)
         raise InputError(f"train: no training log shows a free pendulum ({listing}); the joint fit needs one, with "
                          "these beside it (--clamped, --wheel-locked); a clamped log alone identifies the drive: "

@@ -159,20 +159,18 @@ def least_squares_start(logs: Sequence[ExperimentData], *, base: LumpedParameter
     check_period(logs)
     parts = [_terms(d) for d in logs]
     sig = _Terms(*(np.concatenate([getattr(t, k) for t in parts]) for k in ("q1", "q3", "dq3", "q4", "dq4", "u")))
-    n = sig.q1.size
-    (rp2, rp3), *_ = np.linalg.lstsq(columns(row_sum(sig), ("rho_p2", "rho_p3"), n), sig.dq3 + sig.dq4, rcond=None)
-    names = ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "p2", "p3")
-    B = np.column_stack([columns(q3_row(sig), names, n), np.cos(sig.q1)])
+    (A, y), (B, yp) = _rows(sig)
+    (rp2, rp3), *_ = np.linalg.lstsq(A, y, rcond=None)
     scale = np.linalg.norm(B, axis=0)
     scale[scale == 0] = 1.0
     # the physical signs as bounds (p1, the frictions, p2 >= 0): the friction columns |cos q1| q3 and q3 are
     # nearly collinear, and unbounded least squares trades a large positive one for a large negative one
     lo = np.array([0.0, 0.0, 0.0, 0.0, 0.0, -np.inf, -np.inf])
-    th = optimize.lsq_linear(B / scale, sig.dq3, bounds=(lo, np.full(7, np.inf)), method="bvls").x
+    th = optimize.lsq_linear(B / scale, yp, bounds=(lo, np.full(7, np.inf)), method="bvls").x
     p1, sa, sv, sb, p2b, p3b, c1 = (float(v) for v in th / scale)
     details = {"rho_p2": float(rp2), "rho_p3": float(rp3), "p1": p1, "sigma_a1": sa, "sigma_v1": sv, "sigma_b1": sb,
                "p2": p2b, "p3": p3b, "q1_offset": c1 / p1 if p1 else float("nan")}
-    errors = sign_errors(sig)
+    errors = sign_errors(sig, rows=((A, y), (B, yp)))
     if errors:
         raise InputError(errors[0], argument="rig")
     Ts = max(d.Ts for d in logs)
@@ -248,13 +246,27 @@ def _t_values(A: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return th, t
 
 
-def sign_errors(sig) -> list[str]:
+#: The columns of the ``q3'`` row the start regresses on (then ``cos q1``, the angle's zero offset).
+Q3_COLUMNS = ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "p2", "p3")
+
+
+def _rows(sig) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """The two regressions of the start: the row sum on ``(rho p2, rho p3)`` and the ``q3'`` row on
+    :data:`Q3_COLUMNS` and ``cos q1``, each as ``(columns, left-hand side)``."""
+    n = sig.q1.size
+    return ((columns(row_sum(sig), ("rho_p2", "rho_p3"), n), sig.dq3 + sig.dq4),
+            (np.column_stack([columns(q3_row(sig), Q3_COLUMNS, n), np.cos(sig.q1)]), sig.dq3))
+
+
+def sign_errors(sig, rows=None) -> list[str]:
     """What the signs of the input's effects in the logs say of the rig description: a line per wrong sign.
 
     Parameters
     ----------
     sig : _Terms
         The logs' smoothed states, derivatives and input (as :func:`least_squares_start` makes them).
+    rows : tuple, optional
+        Their regressions (:func:`_rows`), where the caller has them already.
 
     Returns
     -------
@@ -262,10 +274,9 @@ def sign_errors(sig) -> list[str]:
         Empty when ``rho p3`` (row sum) and ``p3`` (``q3'`` row) are positive or not determined; otherwise why the
         logs cannot be model (9) as described, and the key of the rig description that changes it.
     """
-    n = sig.q1.size
-    th_w, t_w = _t_values(columns(row_sum(sig), ("rho_p2", "rho_p3"), n), sig.dq3 + sig.dq4)
-    names = ("p1", "sigma_a1", "sigma_v1", "sigma_b1", "p2", "p3")
-    th_p, t_p = _t_values(np.column_stack([columns(q3_row(sig), names, n), np.cos(sig.q1)]), sig.dq3)
+    wheel, pendulum = _rows(sig) if rows is None else rows
+    th_w, t_w = _t_values(*wheel)
+    th_p, t_p = _t_values(*pendulum)
     wheel_wrong, pend_wrong = bool(t_w[1] < -SIGN_T), bool(t_p[5] < -SIGN_T)
     said = (f"rho p3 = {th_w[1]:.3g} in the row sum ({-t_w[1]:.0f} standard errors below 0)",
             f"p3 = {th_p[5]:.3g} in the pendulum's row ({-t_p[5]:.0f} standard errors below 0)")
