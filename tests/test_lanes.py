@@ -20,12 +20,13 @@ from iwp.sim import (
     Sampled,
     SimOptions,
     Tolerances,
+    engine,
     lanes,
     simulate,
     simulate_batch,
 )
 from iwp.sim.inputs import BalanceController, Constant, Sine, Step
-from iwp.sim.simulate import segments_of
+from iwp.sim.simulate import command_of, engine_tolerances, segments_of, system_of
 from iwp.sim.views import tuple_of
 
 
@@ -284,3 +285,25 @@ def test_a_signal_stops_the_lanes_at_their_next_step_not_at_the_end_of_the_batch
     th.start()
     th.join()
     assert np.array_equal(here.x_final, there[0].x_final) and np.all(here.status == 0)
+
+
+def test_a_run_that_keeps_no_input_columns_writes_none_past_their_end():
+    """A batch with ``inputs=False`` hands the engine input columns of no samples; a held input (a replayed log's,
+    as a Monte Carlo band has it) was written into them all the same, past their end, into the heap: the belt fit's
+    band crashed the interpreter (a segmentation fault, "malloc(): smallbin double linked list corrupted"). The
+    columns here are empty views at the start of rows of 7s, where such writes would show."""
+    plant = Plant(table1())
+    t = np.linspace(0.0, 1.0, 21)
+    u = Sampled(np.sin(np.arange(21.0)), Ts=0.05)
+    guard = np.full(3 * t.size, 7.0)
+    U, W = guard[:0], guard[t.size:t.size]  # no samples, their data where the 7s are
+    X = np.empty((t.size, 4))
+    x = np.array([0.1, 0.0, 0.0, 0.0])
+    tol = engine_tolerances(4, Tolerances())
+    cps = command_of(plant, None, None)
+    stats = engine.kernel(4)(system_of(plant, u, cps), segments_of(u, 0.0), tol, engine.Span(x, 0.0, 1.0, -1.0),
+                             engine.Output(t, X, U, W, False, engine.STORE_SAMPLES, np.zeros((engine.N_SUMMARY, 1))))
+    assert stats.status == engine.ST_OK and np.all(guard == 7.0)
+    # and the batch's states are the single run's to the last bit
+    b = simulate_batch(plant, x0=[x, x], input=u, t_end=1.0, t_eval=t, options=BatchOptions(inputs=False))
+    assert b.u is None and np.array_equal(b.x[1], simulate(plant, x0=x, input=u, t_end=1.0, t_eval=t).x)

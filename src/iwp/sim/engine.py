@@ -723,9 +723,12 @@ def put_sample(out, j, tj, yv, n, fld):
 
     A continuous input is recorded only with ``out.record_u``; otherwise the
     caller computes it afterwards from ``t`` and ``x`` (:func:`input_samples`).
+    Nothing is written to input columns of no samples (a batch that keeps no
+    input columns, ``BatchOptions(inputs=False)``: the held input of a
+    Monte Carlo band's replayed log had been written past their end, into the heap).
     """
     put_state(out, j, yv, n)
-    if out.store != STORE_SAMPLES:
+    if out.store != STORE_SAMPLES or out.U.size == 0:
         return
     if fld.held:
         out.U[j] = fld.uval
