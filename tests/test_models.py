@@ -231,19 +231,22 @@ def test_the_compiled_dispatch_knows_every_model_of_the_registry_and_nothing_els
     branch (finite derivatives at a generic state), a code that no model has gives NaN, not model (9)'s law."""
     from iwp.models import MODELS, BeltParameters
     from iwp.models.equations import rhs as compiled
-    from iwp.models.layout import N_PACK
+    from iwp.models.layout import BELT_CODES, N_PACK
 
     x6 = np.array([0.3, 0.1, -0.2, 1.5, 0.01, 0.2])
     lp = table1()
     for name, info in MODELS.items():
         params = physical() if info.physical else lp
         belt = BeltParameters.from_rigid(lp.p2 * lp.rho, lp.p3 * lp.rho, k_over_I2=250.0, d=2.0, N=13.5,
-                                         b2_over_I2=0.5) if info.n_states == 6 else None
+                                         b2_over_I2=0.5) if info.drive == "belt" else None
         plant = Plant(params, model=name, belt=belt)
         dx = plant.rhs(x6[:info.n_states], 20.0)
         assert np.all(np.isfinite(dx)) and np.any(dx != 0.0), name
         moving = set(info.moving)
         assert all(dx[i] == 0.0 for i in range(info.n_states) if i not in moving), name
+    # the compiled code's belt models (the play's guards, the belt's parameters packed) are those declaring the belt
+    assert set(BELT_CODES) == {info.code for info in MODELS.values() if info.drive == "belt"}
+    assert all(info.n_states == (6 if info.drive == "belt" else 4) for info in MODELS.values())
     unknown = max(m.code for m in MODELS.values()) + 100
     dx = np.zeros(4)
     compiled(unknown, x6[:4].copy(), 20.0, np.zeros(N_PACK), dx)

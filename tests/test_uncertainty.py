@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import stats
 
+from iwp import simulate_sensitivities
 from iwp.cli import main
 from iwp.data import ExperimentData, write_experiment
 from iwp.errors import GoalNotReached, InputError
@@ -20,7 +21,7 @@ from iwp.ident.output_error import OutputError
 from iwp.ident.problem import FitProblem, SolverOptions
 from iwp.ident.refinement import as_experiments, refine
 from iwp.ident.validation import ValidationOptions, validate
-from iwp.models import Plant, quantize, save_params, table1
+from iwp.models import BeltParameters, Plant, quantize, save_params, table1
 from iwp.rig.described import prbs
 from iwp.sim import BatchOptions, SimOptions, Tolerances, simulate, simulate_batch
 from iwp.sim.inputs import Chirp, Sampled
@@ -145,6 +146,50 @@ def test_linear_and_monte_carlo_bands_agree_for_a_small_uncertainty():
         # the widths agree to within the Monte Carlo error of 400 draws and the nonlinearity
         assert np.median(wm[late] / wl[late]) == pytest.approx(1.0, abs=0.15), s
         np.testing.assert_allclose(lin.nominal[s], mc.nominal[s], atol=1e-6 * np.max(np.abs(lin.nominal[s])))
+
+
+def test_a_belt_fits_bands_differentiate_whole_runs_and_agree_with_its_draws(tmp_path):
+    """The belt (15) switches its play's branch: its band's sensitivities are forward differences of whole runs
+    (side by side), which agree with central differences of single runs at another step, and its linear band with
+    the Monte Carlo band of plants drawn with their belts."""
+    p = table1()
+    belt = BeltParameters.from_rigid(p.p2 * (1 + p.rho), p.p3 * (1 + p.rho), k_over_I2=200.0, d=0.05, N=13.5,
+                                     b2_over_I2=0.5)
+    plant = Plant(p, model="belt-full", belt=belt)
+    inp = Chirp(0.4 * 60.0, 3.0, 100.0)
+    t = np.arange(0.0, 6.0 + 1e-9, 0.01)
+    x0 = [0.05, 0.0, 0.0, 0.0]
+    s = simulate_sensitivities(plant, input=inp, x0=x0, t_eval=t, wrt=("k_over_I2", "p1"), wrt_x0=(0,),
+                               options=SimOptions(tolerances=Tolerances(rtol=1e-10, atol=1e-10)))
+    assert s.S.shape == (t.size, 6, 3) and s.wrt == ("k_over_I2", "p1", "x0[0]")
+
+    def central(name, h):
+        runs = [simulate(plant.with_values({name: plant.value(name) + e}), input=inp, x0=x0, t_eval=t, t_end=6.0,
+                         options=SimOptions(tolerances=Tolerances(rtol=1e-11, atol=1e-11))).x for e in (h, -h)]
+        return (runs[0] - runs[1]) / (2 * h)
+
+    for k, (name, h) in enumerate((("k_over_I2", 0.02), ("p1", 0.003))):
+        ref = central(name, h)
+        for i in (0, 3):
+            scale = np.max(np.abs(ref[:, i]))
+            assert scale > 0 and np.max(np.abs(s.S[:, i, k] - ref[:, i])) < 0.02 * scale, (name, i)
+    C = np.diag([5.0, 0.005, 0.05]) ** 2  # k/I2 +- 5 s^-2, play +- 5 mrad, p1 +- 0.05 s^-2
+    u = ParameterUncertainty(p, ("k_over_I2", "d", "p1"), C, belt=belt)
+    lin = prediction_band(plant, u, input=inp, x0=x0, t_eval=t, options=BandOptions(method="linear"))
+    mc = prediction_band(plant, u, input=inp, x0=x0, t_eval=t, options=BandOptions(method="monte-carlo", draws=300,
+                                                                                     seed=1))
+    late = t > 1.0
+    for sig in ("q1", "q4"):
+        ratio = (mc.upper[sig] - mc.lower[sig])[late] / (lin.upper[sig] - lin.lower[sig])[late]
+        assert np.median(ratio) == pytest.approx(1.0, abs=0.15), sig
+    # a rigid model cannot carry the belt's uncertainty: refused, naming the model
+    with pytest.raises(InputError, match="model 'compensated' has none"):
+        prediction_band(Plant(p), u, input=inp, t_eval=t)
+    # lumped draws alone would drop the belt's: refused; plants carry them
+    with pytest.raises(InputError, match="draw plants"):
+        u.draws(3)
+    drawn = u.plants(plant, 3, seed=4)
+    assert len({d.belt.k_over_I2 for d in drawn}) == 3 and all(d.belt.N == 13.5 for d in drawn)
 
 
 @settings(max_examples=60, deadline=None)

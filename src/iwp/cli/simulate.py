@@ -10,9 +10,10 @@ def register(sub) -> None:
                        description="Simulate the inertia wheel pendulum and write t,q1,q2,q3,q4,u as CSV.")
     add_params_arg(p)
     p.add_argument("--model", default="compensated",
-                   choices=["compensated", "raw", "motor-disk", "motor-disk-raw"],
+                   choices=["compensated", "raw", "motor-disk", "motor-disk-raw", "belt-full"],
                    help="model: compensated (9, input u), raw (6, input v through the dead zone), "
-                        "motor-disk (14)")
+                        "motor-disk (14), belt-full ((4a) with the belt (15) of a fit with it: --params its "
+                        "parameters.json)")
     g = p.add_mutually_exclusive_group()
     g.add_argument("--controller", help="state feedback: hopf (u = k1 q3 + k2 q3^3)")
     g.add_argument("--input", help="open-loop input: zero, constant, sine, chirp, step")
@@ -59,7 +60,8 @@ _KIND = {"hopf": "--controller", "constant": "--input", "sine": "--input", "chir
 
 def run(args) -> int:
     from ..errors import InputError
-    from ..models.plant import Plant
+    from ..models.parameters import stored_belt
+    from ..models.plant import MODELS, Plant
     from ..sim.inputs import make_input
     from ..sim.options import CommandChain, Feedforward, Tolerances
     from ..sim.tasks import SimulationTask, write_simulation
@@ -88,7 +90,13 @@ def run(args) -> int:
             raise InputError(f"{flag} is for the draws of --band monte-carlo; without it, it would do nothing")
     uncertainty = load_uncertainty(args.params) if args.band is not None else None
     params = uncertainty.params if uncertainty is not None else load_lumped(args.params)
-    plant = Plant(params, model=args.model)
+    belt = None
+    if MODELS[args.model].drive is not None:  # the belt of a fit with it, from its parameters.json
+        belt = stored_belt(args.params)
+        if belt is None:
+            raise InputError(f"--params {args.params}: model {args.model!r} needs the belt's parameters (15), which "
+                             "it does not hold; give the parameters.json of a fit with the belt")
+    plant = Plant(params, model=args.model, belt=belt)
     chain = CommandChain(inp, Feedforward.of_plant(plant) if args.feedforward else None, args.saturation)
     task = SimulationTask(plant, chain, x0=args.x0, t0=args.t0, t_end=args.t_end, Ts=args.ts,
                           tolerances=Tolerances(rtol=args.rtol, atol=args.atol),

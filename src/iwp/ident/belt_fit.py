@@ -38,9 +38,10 @@ from ..data import ExperimentData
 from ..errors import InputError
 from ..models.plant import MODELS, Plant, model_info
 from ..models.terms import BELT_FREE
+from ..sim.sensitivity import difference_step
 from .output_error import Experiment, OutputError, solve_output_error
 from .problem import SolverOptions
-from .refinement import BELT_OPTIONS, RefineResult, as_experiments, belt_difference_step, refine_report
+from .refinement import BELT_OPTIONS, RefineResult, as_experiments, refine_report
 
 __all__ = ["refine_belt", "BELT_FREE", "BELT_PARAMETERS", "BELT_OPTIONS"]
 
@@ -143,7 +144,7 @@ def refine_belt(
     exps = as_experiments(experiments, windows=windows, estimate_x0=True, kind="clamped")
     _check_logs(exps)
     model = OutputError(start, exps, ("q4",), rtol=options.rtol, atol=options.atol,
-                        differences=belt_difference_step(options.rtol))
+                        differences=difference_step(options.rtol))
     if options.max_nfev is None:
         options = replace(options, max_nfev=50 * (len(free) + 1))
     res = refine_report(model, solve_output_error(model, model.parameters(free, bounds, log=True), options=options),

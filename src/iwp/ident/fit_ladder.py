@@ -535,12 +535,12 @@ def predict_held_out(d: ExperimentData, plant: Plant, outputs: tuple[str, ...], 
     simulated = model.predictions(ev)[0]
     fit = log_fit(d, "validate", Replayed(p.t, dict(p.y), simulated, dict(p.w), model.states(ev.values)[0]),
                    offset)
-    if uncertainty is not None and not p.mean:
+    if uncertainty is not None:
         zero_variance = 0.0 if plant.pendulum_locked else zero.variance(angle_quantum(dc.q1))  # as validate's
         band = band_as_measured(prediction_band(plant, uncertainty, input=p.input, x0=x0, t_eval=p.t,
                                                 signals=outputs, start=StartUncertainty(
                                                     start.covariance, zero_variance)),
-                                p.derived, simulated)
+                                p.not_instant, simulated)
         fit.coverage = band.coverage(p.y, {o: p.w[o] > 0 for o in outputs})
     if ev.status[0] != 0 or not all(math.isfinite(x) for x in fit.fit.values()):
         msgs.append(f"{d.source}: the validation simulation failed or diverged")

@@ -254,11 +254,8 @@ def report_fit(plan: FitPlan, fitted: Fitted, *, elapsed: float = 0.0) -> LogFit
                     + ", ".join(f"{o:+.4g}" for o in offs) + ")")
     priors = held_prior_spreads(fitted.held, r.params)
     uncertainty = (ParameterUncertainty.from_refinement(r).with_priors(priors)
-                   if r.belt is None and np.all(np.isfinite(r.covariance)) else None)
-    if val_logs and r.belt is not None:
-        msgs.append("held-out logs: no prediction band for the belt model (15): the bands draw lumped parameters "
-                    "and simulate them in the batch engine, which has no belt")
-    elif val_logs and uncertainty is None:
+                   if np.all(np.isfinite(r.covariance)) else None)
+    if val_logs and uncertainty is None:
         msgs.append("held-out logs: no prediction band, for the fit did not determine every free parameter")
     plant = Fitting(plan).plant(options, r.params, r.belt)
     val_fits = [predict_held_out(d, plant, predicted_signals(d), zero, msgs, uncertainty) for d in val_logs]

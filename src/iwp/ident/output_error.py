@@ -662,6 +662,12 @@ class PreparedExperiment:
     def window(self) -> tuple[float, float]:
         return float(self.t[0]), float(self.t[-1])
 
+    @property
+    def not_instant(self) -> tuple[str, ...]:
+        """The outputs the log does not measure at the sample instants (:attr:`derived` by a filter, :attr:`mean`
+        over the preceding period): a band about the point outputs is moved to them (:func:`band_as_measured`)."""
+        return self.derived + self.mean
+
     def predict(self, o: str, X: np.ndarray) -> np.ndarray:
         """The model's output ``o`` from states ``X`` (N, n) or sensitivities (N, n, k): the state; for a
         mean-sampled speed the difference of its angle over the preceding period over ``Ts``; for a speed the log
@@ -684,14 +690,17 @@ def band_as_measured(band: Any, derived: Collection[str], simulated: Mapping[str
     """A prediction band about the model's outputs as the log measures them.
 
     A speed the log derives from its angle (:attr:`PreparedExperiment.derived`) is the filter's derivative of the
-    model's angle, not its point speed: its band (computed about the point speed) is moved by the difference.
+    model's angle, and a speed logged as the mean over the preceding period (:attr:`PreparedExperiment.mean`) the
+    difference of its angle over that period, not its point speed: its band (computed about the point speed) is
+    moved by the difference. Its width is the point speed's: the parameters move the speed smoothly over a
+    sample period, so their share of the band is that of the mean too.
 
     Parameters
     ----------
     band : PredictionBand
         :func:`iwp.sim.uncertainty.prediction_band` of the point outputs.
     derived : collection of str
-        The outputs measured by the filter.
+        The outputs not measured at the sample instants (:attr:`PreparedExperiment.not_instant`).
     simulated : mapping of str to ndarray
         The model's outputs as measured (:meth:`PreparedExperiment.predict`), on the band's samples.
 

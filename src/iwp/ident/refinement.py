@@ -60,6 +60,7 @@ from ..errors import InputError
 from ..files import json_float
 from ..models.parameters import PARAMETER_INFO, BeltParameters, LumpedParameters
 from ..models.plant import CLAMPABLE, MODELS, Plant, model_info
+from ..sim.sensitivity import difference_step
 from .covariance import Reliability
 from .drives import BELT_RTOL
 from .fit_parameters import Parameter
@@ -79,7 +80,6 @@ __all__ = [
     "fit_plant",
     "refine_report",
     "BELT_OPTIONS",
-    "belt_difference_step",
     "simulation_equivalent",
 ]
 
@@ -102,9 +102,6 @@ FREE_PENDULUM = ("p1", "sigma_a1", "sigma_v1", "sigma_b1")
 #: in the log coordinates (2.12 against 0.131, ladder study, belt truth, seed 2, at 1e-6) and the ladder chose a
 #: rigid structure in 3 of 10 seeds.
 BELT_OPTIONS = SolverOptions(rtol=BELT_RTOL, atol=BELT_RTOL, scaling="start")
-#: forward-difference step on the log scale, per square root of the simulation's rtol (the step's
-#: truncation error against the simulation's error)
-STEP_PER_SQRT_RTOL = 3.0
 
 
 def belt_note(rtol: float) -> str:
@@ -113,11 +110,6 @@ def belt_note(rtol: float) -> str:
     return (f"the belt's play makes the fit non-smooth: its Jacobian is taken by forward differences of simulations "
             f"at rtol {rtol:g} (on the virtual belt rig of benchmarks/ladder_study.py, at rtol 1e-10, the true values "
             f"were inside these intervals for 132 of 140 parameters; at 1e-6, for 42)")
-
-
-def belt_difference_step(rtol: float) -> float:
-    """The forward-difference step of a fit with the belt's play (non-smooth) for simulations at ``rtol``."""
-    return max(STEP_PER_SQRT_RTOL * math.sqrt(rtol), 1e-6)
 
 
 def fit_plant(start, model: str = "compensated", *, locked: bool = False) -> Plant:
@@ -597,7 +589,7 @@ def refine(
     else:  # the belt's play is not smooth: forward differences of whole simulations, its parameters on a log scale
         options = options or BELT_OPTIONS
         model = OutputError(plant, as_experiments(experiments), tuple(outputs), rtol=options.rtol, atol=options.atol,
-                            differences=belt_difference_step(options.rtol))
+                            differences=difference_step(options.rtol))
         params = model.parameters(free, bounds, log=tuple(n for n in free if PARAMETER_INFO[n].owner == "belt"))
     res = refine_report(model, solve_output_error(model, params, loss, options), plant)
     if plant.belt is not None and res.reliability is not None:

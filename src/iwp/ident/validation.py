@@ -438,7 +438,7 @@ def validation_plant(params, data: ExperimentData, model: str = "compensated", *
         params = params.to_lumped()
     if not isinstance(params, LumpedParameters):
         raise InputError(f"params must be LumpedParameters, got {type(params).__name__}")
-    if model in MODELS and MODELS[model].n_states > 4:
+    if model in MODELS and MODELS[model].drive is not None:
         if belt is None:
             raise InputError(f"{source}: model {model!r} needs the belt's parameters (15), which it does not hold; "
                              "give the parameters.json of a fit with the belt")
@@ -600,7 +600,8 @@ def validate(
     if controller is None:  # the logged input is replayed: as it acted between the samples
         (experiment,), (hold,) = with_input_hold([experiment], opts.input_hold)
     uncertainty = params if isinstance(params, ParameterUncertainty) else None
-    plant = validation_plant(params.params if uncertainty is not None else params, experiment, model)
+    plant = (validation_plant(params, experiment, model) if uncertainty is None
+             else validation_plant(uncertainty.params, experiment, model, belt=uncertainty.belt))
     signals = _compared_signals(experiment, signals)
     if controller is not None and plant.input_name != "u":
         raise InputError(f"a controller drives the input u; model {plant.model!r} takes "
@@ -762,7 +763,7 @@ def _band(model: OutputError, x0s: list[np.ndarray], x0_cov: list[np.ndarray], u
     joined."""
     parts = [band_as_measured(prediction_band(p.plant, uncertainty, input=p.input, x0=x0, t_eval=p.t,
                                               signals=signals, start=StartUncertainty(_moving(p.plant, c), zero)),
-                              p.derived, q)
+                              p.not_instant, q)
              for p, x0, c, q in zip(model.prepared, x0s, x0_cov, simulated)]
 
     def join(attr):

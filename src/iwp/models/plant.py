@@ -26,7 +26,6 @@ from .actuator import StartupFriction
 from .equations import rhs
 from .friction import COULOMB_EPS
 from .layout import (
-    BELT_CODES,
     BELT_INDEX,
     BRK,
     DZ,
@@ -87,6 +86,9 @@ class ModelInfo:
         The pendulum cannot swing (the motor-disk models (14), the locked belt (15)).
     clampable : bool
         Its pendulum can be clamped (``Plant(..., locked=True)``, the set-ups of section 5.1 on the full model).
+    drive : str or None
+        The drive model between motor and wheel in place of the rigid one, by name: ``"belt"`` (15), whose
+        parameters a :class:`~iwp.models.parameters.BeltParameters` holds (``Plant(..., belt=...)``); None: rigid.
     """
 
     name: str
@@ -101,6 +103,7 @@ class ModelInfo:
     parameters: tuple[str, ...] = ()
     pendulum_locked: bool = False
     clampable: bool = False
+    drive: str | None = None
 
     @property
     def reads_v_as_u(self) -> bool:
@@ -133,10 +136,10 @@ MODELS: dict[str, ModelInfo] = {m.name: m for m in (
               model_parameters("motor-disk-raw", _MOTOR_DISK), True),
     ModelInfo("belt", M_BELT, "(15), pendulum locked", "u", 6, (1, 3, 4, 5), (3, 4, 5), False,
               "flexible belt with the play hysteresis of figure 5, motor inertia neglected",
-              model_parameters("belt", _BELT), True),
+              model_parameters("belt", _BELT), True, drive="belt"),
     ModelInfo("belt-full", M_BELT_FULL, "(4a) with (15)", "u", 6, (0, 1, 2, 3, 4, 5), (0, 2, 3, 4, 5), False,
               "the belt with the pendulum free (the virtual rig's truth plant)",
-              model_parameters("belt-full", _PENDULUM + ("rho",) + _BELT), clampable=True),
+              model_parameters("belt-full", _PENDULUM + ("rho",) + _BELT), clampable=True, drive="belt"),
     ModelInfo("free", M_FREE_HELD, "section 5.2, wheel held", None, 4, (0, 2), (0, 2), False,
               "free pendulum, motor off, the wheel held to the arm: q3' = -xi rho/(1 + rho)",
               model_parameters("free", _PENDULUM)),
@@ -225,7 +228,7 @@ class Plant:
             object.__setattr__(self, "params", p.to_lumped())
         elif not isinstance(p, LumpedParameters):
             raise InputError(f"model {self.model!r} needs LumpedParameters; got {type(p).__name__}")
-        if info.code in BELT_CODES:
+        if info.drive == "belt":
             if self.belt is None:
                 raise InputError(f"model {self.model!r} needs belt=BeltParameters(...)")
             if not isinstance(self.belt, BeltParameters):
@@ -383,7 +386,7 @@ def _pack(plant: Plant, info: ModelInfo) -> np.ndarray:
         raise InputError(f"locked=True applies to the models {', '.join(CLAMPABLE)}, not {plant.model!r}")
     P[LOCK] = 1.0 if plant.locked else 0.0
     P[DZ] = 1.0 if plant.dead_zone_active else 0.0
-    if info.code in BELT_CODES:
+    if info.drive == "belt":
         for name, index in BELT_INDEX.items():
             P[index] = getattr(plant.belt, name)
     return P

@@ -8,10 +8,19 @@ variational equations ``S' = (df/dx) S + df/dtheta`` ride along on the
 steps that the error control chooses for the states. This is what the
 simulation-error fits (:mod:`iwp.ident.refinement`) and the shooting of periodic
 orbits (:mod:`iwp.control.continuation`) differentiate.
+
+A plant with the belt (15) is not differentiated along its steps: its play
+switches a discrete mode, where the variational equations would miss the jump of
+the sensitivities, and the belt's parameters are not the lumped ones the
+variational equations hold. Its sensitivities are forward differences of whole
+simulations, run side by side (:func:`~iwp.sim.simulate.simulate_batch`), with
+the step :func:`difference_step` of the simulations' tolerance, as the belt's
+fits take their Jacobian.
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -19,19 +28,36 @@ import numpy as np
 
 from ..errors import InputError, SimulationError
 from ..models.layout import LUMPED_INDEX, N_PACK
-from ..models.parameters import TYPICAL
+from ..models.parameters import PARAMETER_INFO, TYPICAL
 from ..models.plant import Plant
 from . import engine
 from .engine import ST_OK, STATUS_TEXT, Span, samples_output, sensitivity
 from .inputs import Input
-from .options import SimOptions, Tolerances, as_options
-from .simulate import command_of, engine_tolerances, initial_state, output_times, segments_of, system_of
+from .options import BatchOptions, SimOptions, Tolerances, as_options
+from .simulate import (
+    command_of,
+    engine_tolerances,
+    initial_state,
+    output_times,
+    segments_of,
+    simulate_batch,
+    system_of,
+)
 
-__all__ = ["SensitivityResult", "simulate_sensitivities", "FD_RELATIVE"]
+__all__ = ["SensitivityResult", "simulate_sensitivities", "difference_step", "FD_RELATIVE", "STEP_PER_SQRT_RTOL"]
 
 #: Relative forward-difference step of the parameter derivatives (the models
 #: are linear in most parameters, so truncation errors are small).
 FD_RELATIVE = 1e-7
+#: The forward-difference step of whole simulations (relative, or on the log scale) per square root of the
+#: simulations' rtol: the step's truncation error against the simulation's error.
+STEP_PER_SQRT_RTOL = 3.0
+
+
+def difference_step(rtol: float) -> float:
+    """The relative forward-difference step of whole simulations at ``rtol`` (a model with the belt's play, which is
+    not smooth): ``max(3 sqrt(rtol), 1e-6)``."""
+    return max(STEP_PER_SQRT_RTOL * math.sqrt(rtol), 1e-6)
 
 #: :func:`simulate_sensitivities`'s default tolerances (of the states).
 SENSITIVITY_TOLERANCES = Tolerances(rtol=1e-9, atol=1e-9)
@@ -116,7 +142,8 @@ def simulate_sensitivities(
         Initial time [s].
     wrt : sequence of str
         Parameters: lumped parameter names (``"p1"``, ``"sigma_a1"``, ...)
-        or names of the input's parameters (``"k1"``, ``"k2"`` of a Hopf law).
+        or names of the input's parameters (``"k1"``, ``"k2"`` of a Hopf law); for a plant with the belt (15),
+        lumped and belt parameters (forward differences of whole simulations, see the module's notes).
     wrt_x0 : sequence of int
         Initial states (indices into the state).
     options : SimOptions, optional
@@ -154,6 +181,8 @@ def simulate_sensitivities(
     n = plant.n_states
     x0a = initial_state(x0, plant)
     t_out = output_times(float(t0), t_end, 0.005, t_eval)  # (the grid step unused with t_eval)
+    if plant.belt is not None:
+        return _difference_sensitivities(plant, input, x0a, t_out, float(t0), (tuple(wrt), tuple(wrt_x0)), opts)
     pidx, psteps = [], []
     for name in wrt:
         i, d = _parameter_index(name, plant, input)
@@ -193,3 +222,48 @@ def simulate_sensitivities(
     names = tuple(wrt) + tuple(f"x0[{c}]" for c in cols)
     return SensitivityResult(t=t_out, x=X[:, :n], S=np.ascontiguousarray(S), wrt=names, success=status == ST_OK,
                              status=status, message=message, nfev=int(stats.nfev))
+
+
+def _difference_sensitivities(plant: Plant, input, x0: np.ndarray, t_out: np.ndarray, t0: float, wrt: tuple,
+                              opts: SimOptions) -> SensitivityResult:
+    """:func:`simulate_sensitivities` of a plant with the belt (15): forward differences of whole simulations, the
+    nominal run and one per column side by side. ``wrt`` is ``(parameter names, initial-state indices)``."""
+    names, cols = wrt
+    n = plant.n_states
+    tol = opts.tolerances or SENSITIVITY_TOLERANCES
+    rel = difference_step(tol.rtol)
+    plants, states, steps = [plant], [x0], []
+    for name in names:
+        if name not in PARAMETER_INFO:
+            raise InputError(f"unknown parameter {name!r} for sensitivities of a plant with the belt (15); choose "
+                             f"among {', '.join(PARAMETER_INFO)}")
+        v = plant.value(name)
+        h = rel * max(abs(v), TYPICAL[name])
+        plants.append(plant.with_values({name: v + h}))
+        states.append(x0)
+        steps.append(h)
+    for c in cols:
+        c = int(c)
+        if not 0 <= c < n:
+            raise InputError(f"wrt_x0 entries must be state indices 0..{n - 1}, got {c}")
+        h = rel * max(abs(float(x0[c])), 1.0)
+        xc = x0.copy()
+        xc[c] += h
+        plants.append(plant)
+        states.append(xc)
+        steps.append(h)
+    runs = simulate_batch(plants, x0=states, input=input, t0=t0, t_end=float(t_out[-1]), t_eval=t_out,
+                          options=BatchOptions(feedforward=opts.feedforward, saturation=opts.saturation,
+                                               tolerances=tol, inputs=False))
+    failed = np.flatnonzero(runs.status != ST_OK)
+    status = int(runs.status[failed[0]]) if failed.size else ST_OK
+    message = STATUS_TEXT.get(status, "failed")
+    if failed.size and opts.check:
+        raise SimulationError(f"{message} (run {int(failed[0])} of the forward differences)")
+    X = runs.x
+    S = np.stack([(X[1 + j] - X[0]) / h for j, h in enumerate(steps)], axis=2) if steps \
+        else np.zeros((t_out.size, n, 0))
+    cols_named = tuple(f"x0[{int(c)}]" for c in cols)
+    return SensitivityResult(t=t_out, x=np.ascontiguousarray(X[0]), S=np.ascontiguousarray(S),
+                             wrt=tuple(names) + cols_named, success=status == ST_OK, status=status, message=message,
+                             nfev=int(np.sum(runs.nfev)))

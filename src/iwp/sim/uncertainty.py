@@ -34,7 +34,7 @@ from scipy import stats
 from ..errors import GoalNotReached, InputError
 from ..files import json_float, read_json
 from ..jit import jit
-from ..models.parameters import PARAMETER_INFO, LumpedParameters, load_params
+from ..models.parameters import PARAMETER_INFO, BeltParameters, LumpedParameters, load_params, stored_belt
 from ..models.plant import Plant
 from ..threads import fit_threads, thread_map
 from .inputs import Input
@@ -71,7 +71,7 @@ class ParameterUncertainty:
     params : LumpedParameters
         The estimates (and the fixed values).
     free : tuple of str
-        The free parameters, in the order of ``covariance``.
+        The free parameters, in the order of ``covariance``: lumped ones, and the belt's (15) when ``belt`` is given.
     covariance : ndarray, shape (len(free), len(free))
         Their covariance [units of the parameters squared].
     noise : dict of str to float
@@ -82,6 +82,8 @@ class ParameterUncertainty:
         False where the fit said its intervals cannot be read as they are.
     notes : list of str
         The fit's verdict on its intervals.
+    belt : BeltParameters, optional
+        The belt (15) of a fit with it (its estimates; ``iwp fit --belt``), whose parameters may be among ``free``.
     """
 
     params: LumpedParameters
@@ -91,13 +93,19 @@ class ParameterUncertainty:
     method: str = ""
     reliable: bool = True
     notes: Sequence[str] = ()
+    belt: BeltParameters | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, LumpedParameters):
             raise InputError(f"params must be LumpedParameters, got {type(self.params).__name__}")
+        if self.belt is not None and not isinstance(self.belt, BeltParameters):
+            raise InputError(f"belt must be BeltParameters, got {type(self.belt).__name__}")
         free = tuple(self.free)
         for n in free:
-            if n not in PARAMETER_INFO or PARAMETER_INFO[n].owner != "lumped":
+            owner = PARAMETER_INFO[n].owner if n in PARAMETER_INFO else None
+            if owner == "belt" and self.belt is None:
+                raise InputError(f"belt parameter {n!r} in the covariance of a fit without the belt (15)")
+            if owner not in ("lumped", "belt"):
                 raise InputError(f"unknown lumped parameter {n!r} in the covariance")
         C = np.asarray(self.covariance, dtype=float)
         if C.shape != (len(free), len(free)):
@@ -116,7 +124,34 @@ class ParameterUncertainty:
         rel = r.reliability
         return cls(r.params, tuple(r.free), np.asarray(r.covariance, dtype=float), dict(r.residual_std),
                    "" if rel is None else rel.method, True if rel is None else rel.reliable,
-                   () if rel is None else tuple(rel.notes))
+                   () if rel is None else tuple(rel.notes), r.belt)
+
+    def value(self, name: str) -> float:
+        """The estimate of parameter ``name`` (lumped, or the belt's) [its unit]."""
+        owner = self.belt if PARAMETER_INFO[name].owner == "belt" else self.params
+        return float(getattr(owner, name))
+
+    @property
+    def values(self) -> dict[str, float]:
+        """The free parameters' estimates, by name."""
+        return {n: self.value(n) for n in self.free}
+
+    def plant(self, plant: Plant) -> Plant:
+        """``plant`` with these estimates: its lumped parameters, and its belt for a fit with the belt (15).
+
+        Raises
+        ------
+        InputError
+            The belt's parameters are uncertain and ``plant``'s model has no belt (a rigid model would drop them).
+        """
+        base = plant.with_params(self.params)
+        if base.belt is None:
+            belt = [n for n in self.free if PARAMETER_INFO[n].owner == "belt"]
+            if belt:
+                raise InputError(f"the fit's belt (15) is uncertain ({', '.join(belt)}) and model {plant.model!r} "
+                                 "has none: simulate a model with the belt (belt-full) for its band")
+            return base
+        return base if self.belt is None else base.replace(belt=self.belt)
 
     @property
     def stderr(self) -> dict[str, float]:
@@ -128,7 +163,7 @@ class ParameterUncertainty:
         lies inside the physical range (:meth:`~iwp.models.parameter_info.ParameterInfo.default_bounds`; for a
         signed parameter, on one side of 0). An interval that reaches past it (a friction estimated at
         ``1e-6 +- 2``, a term the logs barely excite) says the logs cannot tell the value from none."""
-        return identified_names({n: getattr(self.params, n) for n in self.free}, self.stderr)
+        return identified_names(self.values, self.stderr)
 
     def with_priors(self, spreads: Mapping[str, float]) -> "ParameterUncertainty":
         """This uncertainty with parameters a fit held at a prior taken in as uncertain by their prior's spread.
@@ -177,7 +212,7 @@ class ParameterUncertainty:
         C = np.zeros((k + len(extra), k + len(extra)))
         C[:k, :k] = self.covariance
         C[k:, k:] = np.diag([float(spreads[n]) ** 2 for n in extra])
-        note = f"{PRIOR_NOTE}: " + ", ".join(f"{n} {getattr(self.params, n):.3g} +- {spreads[n]:.2g}"
+        note = f"{PRIOR_NOTE}: " + ", ".join(f"{n} {self.value(n):.3g} +- {spreads[n]:.2g}"
                                               for n in extra)
         return dataclasses.replace(self, free=(*self.free, *extra), covariance=C, notes=(*self.notes, note))
 
@@ -203,12 +238,40 @@ class ParameterUncertainty:
         (a negative friction, a non-positive inertia ratio) is drawn again (the
         normal distribution truncated to the physical range, correlations kept);
         when fewer than :data:`MIN_ACCEPTED` of the draws are physical, the
-        estimate is too uncertain to draw from and an error says so.
+        estimate is too uncertain to draw from and an error says so. The lumped
+        parameters only: a fit whose belt (15) is uncertain draws whole plants (:meth:`plants`).
         """
+        belt = [k for k in self.free if PARAMETER_INFO[k].owner == "belt"]
+        if belt:
+            raise InputError(f"the belt's {', '.join(belt)} are uncertain too: draw plants (ParameterUncertainty.plants"
+                             "), not lumped parameter sets")
+        return [self.params.replace(**row) for row in self.draw_values(n, seed)]
+
+    def plants(self, plant: Plant, n: int, seed: int = 0) -> list[Plant]:
+        """``n`` plants like ``plant`` with parameters drawn as :meth:`draws` has them, the belt's (15) included.
+
+        Parameters
+        ----------
+        plant : Plant
+            The model and options; its parameters (and belt) are this uncertainty's, then the draws'.
+        n : int
+            Number of draws, 1 to :data:`MAX_DRAWS`.
+        seed : int
+            Of the random draws.
+
+        Returns
+        -------
+        list of Plant
+        """
+        base = self.plant(plant)
+        return [base.with_values(row) for row in self.draw_values(n, seed)]
+
+    def draw_values(self, n: int, seed: int = 0) -> list[dict[str, float]]:
+        """``n`` draws of the free parameters' values (:meth:`draws`), by name."""
         if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_DRAWS:
             raise InputError(f"draws must be an integer from 1 to {MAX_DRAWS}, got {n!r}")
         rng = np.random.default_rng(seed)
-        mean = np.array([getattr(self.params, k) for k in self.free])
+        mean = np.array([self.value(k) for k in self.free])
         lo = np.array([PARAMETER_INFO[k].default_bounds()[0] for k in self.free])
         out: list[np.ndarray] = []
         tries = accepted = 0
@@ -229,7 +292,7 @@ class ParameterUncertainty:
                                      f"(outside the physical range: {worst}): the estimates are too uncertain to draw "
                                      "from; hold the parameters the logs do not determine (iwp fit --fix NAME=VALUE) "
                                      "and fit again")
-        return [self.params.replace(**dict(zip(self.free, (float(v) for v in row)))) for row in out]
+        return [dict(zip(self.free, (float(v) for v in row))) for row in out]
 
 
 def identified_names(values: Mapping[str, float], stderr: Mapping[str, float]) -> tuple[str, ...]:
@@ -307,14 +370,11 @@ def uncertainty_record(r, priors: Mapping[str, float] | None = None) -> dict[str
     finite = bool(np.all(np.isfinite(r.covariance)))
     free, matrix = list(r.free), np.asarray(r.covariance)
     notes = [] if r.reliability is None else list(r.reliability.notes)
-    if r.belt is not None:  # the belt's parameters are not lumped ones: the fit's own verdict
-        reliable = finite and r.reliability is not None and bool(r.reliability.reliable)
-    else:
-        u = ParameterUncertainty.from_refinement(r) if finite else None
-        reliable = bool(u.reliable) if u is not None else False
-        if u is not None and priors:
-            u = u.with_priors(priors)
-            free, matrix, notes = list(u.free), u.covariance, list(u.notes)
+    u = ParameterUncertainty.from_refinement(r) if finite else None
+    reliable = bool(u.reliable) if u is not None else False
+    if u is not None and priors:
+        u = u.with_priors(priors)
+        free, matrix, notes = list(u.free), u.covariance, list(u.notes)
     return {"free": free, "matrix": [[json_float(v) for v in row] for row in matrix],
             "noise": {k: json_float(v) for k, v in r.residual_std.items()},
             "method": "" if r.reliability is None else r.reliability.method,
@@ -335,7 +395,7 @@ def load_uncertainty(path, *, argument: str = "params") -> ParameterUncertainty:
     Returns
     -------
     ParameterUncertainty
-        The parameters (Table 1's units) and their covariance.
+        The parameters (Table 1's units), the belt (15) of a fit with it, and their covariance.
 
     Raises
     ------
@@ -347,9 +407,7 @@ def load_uncertainty(path, *, argument: str = "params") -> ParameterUncertainty:
     if not isinstance(params, LumpedParameters):
         raise InputError(f"{path}: a band needs lumped parameters", argument=argument)
     doc = read_json(path) if not str(path) == "table1" else {}
-    if isinstance(doc, dict) and doc.get("belt") is not None:
-        raise InputError(f"{path}: a fit with the belt (15); bands and parameter draws are for the rigid models' "
-                         "lumped parameters (fit the rig with another --model for them)", argument=argument)
+    belt = stored_belt(path)
     rec = doc.get("covariance") if isinstance(doc, dict) else None
     if not isinstance(rec, dict):
         raise InputError(f"{path}: holds no covariance of its parameters; bands and parameter draws need the "
@@ -363,7 +421,7 @@ def load_uncertainty(path, *, argument: str = "params") -> ParameterUncertainty:
                          argument=argument) from None
     try:
         return ParameterUncertainty(params, free, C, noise, str(rec.get("method", "")), bool(rec.get("reliable", True)),
-                                    tuple(rec.get("notes") or ()))
+                                    tuple(rec.get("notes") or ()), belt)
     except InputError as exc:
         raise InputError(f"{path}: {exc}", argument=argument) from None
 
@@ -713,7 +771,7 @@ def prediction_band(
     Parameters
     ----------
     plant : Plant
-        The model; its parameters are replaced by ``uncertainty.params``.
+        The model; its parameters are replaced by ``uncertainty.params`` (and its belt by ``uncertainty.belt``).
     uncertainty : ParameterUncertainty
         The fit's estimates, their covariance and the measurement noise per output.
     input : Input, optional
@@ -755,7 +813,7 @@ def prediction_band(
         raise InputError("give t_eval, the output times of the band")
     t = output_times(float(np.asarray(t_eval, dtype=float).ravel()[0]),
                      float(np.asarray(t_eval, dtype=float).ravel()[-1]), 0.005, t_eval)
-    base = plant.with_params(uncertainty.params)
+    base = uncertainty.plant(plant)
     z = float(stats.norm.ppf(0.975))
     if start is None:
         start = StartUncertainty()
@@ -826,7 +884,7 @@ def _monte_carlo_band(run: _BandRun, options: BandOptions) -> tuple[dict, dict, 
     that simulated."""
     base, x0, t, signals, C0 = run.plant, run.x0, run.t, run.signals, run.C0
     draws, seed = options.draws, options.seed
-    plants = [base.with_params(p) for p in run.uncertainty.draws(draws, seed)]
+    plants = run.uncertainty.plants(base, draws, seed)
     x0s = x0
     moved = C0 is not None or run.zero_variance > 0.0
     zeros = np.zeros(draws)
