@@ -4,6 +4,7 @@ resuming after an interruption, the same numbers on a real Dask LocalCluster, an
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import logging
 import math
@@ -23,7 +24,7 @@ import pytest
 from iwp.cli import main
 from iwp.control import lqr_balance, simulated_amplitude
 from iwp.errors import InputError, OutputExistsError
-from iwp.models import table1
+from iwp.models import BeltParameters, Plant, table1
 from iwp.sim import HopfController, SimOptions, Tolerances, simulate
 from iwp.sim.uncertainty import ParameterUncertainty
 from iwp.sweep import Grid, Normal, SweepSpec, Uniform, lanes_of_chunk, load_spec, read_table, run_chunk, run_sweep
@@ -113,6 +114,42 @@ def test_metrics_are_those_of_the_simulator(tmp_path):
         assert abs(tab["max_abs_q1"][i] - np.max(np.abs(fine.result.q1))) < 2e-4
     # the table on disk is the one returned, to the last digit
     _same_table(read_table(res.results), tab)
+
+
+def test_a_sweep_of_the_belt_runs_each_lane_as_its_plant_alone_and_draws_the_belts_uncertainty(tmp_path, capsys):
+    """A sweep of the pendulum with the belt (15) (a belt fit's parameters): each lane's final state is that of a
+    single run of its belt plant, to the last bit (the batch runs the belt's lanes with the single-run kernel);
+    the belt's parameters are varied and drawn from the fit's covariance jointly with the lumped ones."""
+    p = table1()
+    belt = BeltParameters.from_rigid(p.p2 * (1 + p.rho), p.p3 * (1 + p.rho), k_over_I2=150.0, d=0.05, N=13.5,
+                                     b2_over_I2=0.5)
+    spec = SweepSpec(params=p, model="belt-full", belt=belt, vary=(Grid("k_over_I2", (80.0, 150.0)),
+                                                                   Grid("k1", (-12.0, -8.0))),
+                     t_end=20.0, window=5.0, chunk_size=3)
+    tab = run_sweep(spec, tmp_path / "s").table
+    assert tab["lane"].size == 4 and np.all(tab["status"] == 0)
+    for i in range(4):
+        plant = Plant(p, model="belt-full", belt=dataclasses.replace(belt, k_over_I2=float(tab["k_over_I2"][i])))
+        alone = simulate(plant, x0=[0.1, 0, 0, 0], input=HopfController(float(tab["k1"][i]), 0.1), t_end=20.0,
+                         Ts=0.05, options=SimOptions(tolerances=Tolerances(rtol=1e-8, atol=1e-8)))
+        assert [tab[f"q{j}_end"][i] for j in (1, 2, 3, 4)] == alone.x[-1, :4].tolist()
+    # a softer belt lets the wheel lag: the lanes differ by the belt, not only by the gain
+    assert tab["q4_end"][0] != tab["q4_end"][1]
+    C = np.diag([10.0, 0.01, 0.1]) ** 2
+    u = ParameterUncertainty(p, ("k_over_I2", "d", "p1"), C, belt=belt)
+    drawn = SweepSpec(params=p, model="belt-full", belt=belt, uncertainty=u, samples=200, t_end=20.0, window=5.0,
+                      chunk_size=200)
+    ls = lanes_of_chunk(drawn, 0)
+    assert np.all(ls.physical)
+    got = np.array([[b.k_over_I2, b.d, q.p1] for b, q in zip(ls.belts, ls.params)])
+    assert np.all(np.abs(np.mean(got, axis=0) - [150.0, 0.05, p.p1]) < 3 * np.sqrt(np.diag(C) / 200))
+    np.testing.assert_allclose(np.std(got, axis=0), np.sqrt(np.diag(C)), rtol=0.15)
+    np.testing.assert_array_equal(ls.values["k_over_I2"], got[:, 0])
+    # a rigid model has no belt to vary or draw: refused by name
+    with pytest.raises(InputError, match="vary 'k_over_I2': a parameter of the belt"):
+        SweepSpec(params=p, vary=(Grid("k_over_I2", (80.0,)),))
+    with pytest.raises(InputError, match="model 'compensated' has none"):
+        SweepSpec(params=p, uncertainty=u, samples=2)
 
 
 def test_hopf_captured_means_a_steady_orbit_and_the_rest_is_not():

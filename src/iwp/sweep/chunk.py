@@ -14,7 +14,7 @@ import numba
 import numpy as np
 
 from ..control import lqr_balance
-from ..models.plant import Plant
+from ..models.parameters import PARAMETER_INFO
 from ..sim import BatchResult, CallableController, HopfController, simulate, simulate_batch
 from ..sim.options import BatchOptions, SimOptions, Tolerances
 from ..sim.simulate import output_times
@@ -55,8 +55,8 @@ class ChunkResult:
 
 
 def _hopf(spec: SweepSpec, ls: LaneSet, sel: np.ndarray) -> BatchResult:
-    shared = not any(n in ls.values for n in spec.params.to_dict())
-    plant = Plant(spec.params) if shared else [Plant(ls.params[i]) for i in sel]
+    shared = not any(n in ls.values for n in PARAMETER_INFO)
+    plant = spec.plant(spec.params) if shared else [spec.plant(ls.params[i], ls.belts[i]) for i in sel]
     inputs = [HopfController(float(ls.k1[i]), float(ls.k2[i]), spec.controller_Ts) for i in sel]
     x0 = [ls.x0[i].tolist() for i in sel]
     return simulate_batch(plant, x0=x0, input=inputs, t_end=spec.t_end, Ts=spec.sample_time,
@@ -75,8 +75,8 @@ def _lqr(spec: SweepSpec, ls: LaneSet, sel: np.ndarray) -> BatchResult:
     status = np.zeros(sel.size, dtype=np.int64)
     nfev = np.zeros(sel.size, dtype=np.int64)
     for k, i in enumerate(sel):
-        r = simulate(Plant(ls.params[i]), x0=ls.x0[i], t_end=spec.t_end, Ts=spec.sample_time, input=ctrl,
-                     options=SimOptions(tolerances=Tolerances(rtol=spec.rtol, atol=spec.atol), check=False))
+        r = simulate(spec.plant(ls.params[i], ls.belts[i]), x0=ls.x0[i], t_end=spec.t_end, Ts=spec.sample_time,
+                     input=ctrl, options=SimOptions(tolerances=Tolerances(rtol=spec.rtol, atol=spec.atol), check=False))
         n = r.t.size
         x[k, :n], u[k, :n], w[k, :n] = r.x[:, :4], r.u, r.command
         status[k], nfev[k] = r.status, r.nfev

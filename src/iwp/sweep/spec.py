@@ -1,6 +1,7 @@
 """What a sweep runs: :class:`SweepSpec`, its varied dimensions, and the lanes of one chunk.
 
-A sweep is a set of closed loops of model (9) ("lanes"), each with its own
+A sweep is a set of closed loops of model (9) ("lanes"), or of the pendulum
+with the belt (15) of a fit with it (``model="belt-full"``), each with its own
 plant parameters, controller gains and initial state. The lanes are the
 Cartesian product of the :class:`Grid` dimensions, times ``samples`` draws of
 the random ones (:class:`Normal`, :class:`Uniform`, and the joint normal of a
@@ -17,6 +18,7 @@ chunks run.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -27,11 +29,21 @@ import numpy as np
 from ..checks import check_finite, check_positive
 from ..errors import InputError
 from ..files import read_json
-from ..models.parameters import LUMPED_INFO, LumpedParameters, load_params
+from ..models.parameters import (
+    BELT_INFO,
+    LUMPED_INFO,
+    PARAMETER_INFO,
+    BeltParameters,
+    LumpedParameters,
+    load_params,
+    stored_belt,
+    stored_model,
+)
+from ..models.plant import MODELS, Plant
 from ..sim.uncertainty import ParameterUncertainty, load_uncertainty
 
 __all__ = ["Grid", "Normal", "Uniform", "SweepSpec", "LaneSet", "LAWS", "STATE_NAMES", "GAIN_NAMES",
-           "lanes_of_chunk", "load_spec", "spec_from_dict", "MAX_LANES"]
+           "lanes_of_chunk", "load_spec", "spec_from_dict", "MAX_LANES", "SWEEP_MODELS"]
 
 #: The closed loops a sweep runs: the Hopf law (section 5.3) and the LQR balance at the upright.
 LAWS = ("hopf", "lqr")
@@ -41,20 +53,30 @@ STATE_NAMES = ("x0.q1", "x0.q2", "x0.q3", "x0.q4")
 GAIN_NAMES = ("k1", "k2")
 #: The initial state of each law when none is given [rad, rad, rad/s, rad/s].
 DEFAULT_X0 = {"hopf": (0.1, 0.0, 0.0, 0.0), "lqr": (math.pi - 0.02, 0.0, 0.0, 0.0)}
+#: The models a sweep's closed loops run: driven by the ideal input ``u``, the pendulum free (model (9), and the
+#: pendulum with the belt (15), ``"belt-full"``).
+SWEEP_MODELS = tuple(name for name, info in MODELS.items() if info.input == "u" and not info.pendulum_locked
+                     and not info.physical)
 #: Most lanes of one sweep.
 MAX_LANES = 100_000_000
 #: Most seconds of one closed loop, and fewest output samples a lane may have.
 MAX_SAMPLES_PER_LANE = 1_000_000
 
 
-def _name_ok(name: str, law: str) -> None:
+def _name_ok(name: str, law: str, belt: bool) -> None:
     if name in STATE_NAMES or name in LUMPED_INFO:
+        return
+    if name in BELT_INFO:
+        if not belt:
+            raise InputError(f"vary {name!r}: a parameter of the belt (15); the sweep's model has none (model "
+                             "belt-full, with the parameters of a fit with the belt)", argument="vary")
         return
     if name in GAIN_NAMES:
         if law != "hopf":
             raise InputError(f"vary {name!r}: the gains k1, k2 are the Hopf law's; law is {law!r}", argument="vary")
         return
-    raise InputError(f"vary {name!r}: unknown name; use a lumped parameter ({', '.join(LUMPED_INFO)}), "
+    belts = f", a belt parameter ({', '.join(BELT_INFO)})" if belt else ""
+    raise InputError(f"vary {name!r}: unknown name; use a lumped parameter ({', '.join(LUMPED_INFO)}){belts}, "
                      f"{', '.join(GAIN_NAMES)} or {', '.join(STATE_NAMES)}", argument="vary")
 
 
@@ -142,12 +164,12 @@ def _check_int(name: str, value, low: int, high: int) -> int:
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """A sweep or Monte Carlo study of closed loops of model (9).
+    """A sweep or Monte Carlo study of closed loops of model (9), or of the pendulum with a belt (15).
 
     Parameters
     ----------
     params : LumpedParameters
-        The nominal plant (and the one the LQR is designed on).
+        The nominal plant (and the one the LQR is designed on: with the belt, on its rigid limit).
     law : {"hopf", "lqr"}
         The closed loop: the Hopf law ``u = k1 q3 + k2 q3^3`` (section 5.3), or the
         LQR balance at the upright (:func:`iwp.control.lqr_balance`, designed on
@@ -185,6 +207,12 @@ class SweepSpec:
         Lanes per chunk (part of the numbers: a chunk's draws depend on it).
     source : dict
         Where the parameters came from (file names), for the manifest.
+    model : str
+        The closed loops' model, one of :data:`SWEEP_MODELS`: ``"compensated"`` (9), or ``"belt-full"``, the
+        pendulum with the belt (15) between motor and wheel (needs ``belt``).
+    belt : BeltParameters, optional
+        The nominal belt of ``model="belt-full"`` (a fit's: ``iwp fit --belt``); its parameters may be varied
+        and drawn (an ``uncertainty`` with the belt).
     """
 
     params: LumpedParameters
@@ -208,10 +236,22 @@ class SweepSpec:
     seed: int = 0
     chunk_size: int = 100
     source: Mapping[str, str] = field(default_factory=dict)
+    model: str = "compensated"
+    belt: BeltParameters | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, LumpedParameters):
             raise InputError(f"params must be LumpedParameters, got {type(self.params).__name__}", argument="params")
+        if self.model not in SWEEP_MODELS:
+            raise InputError(f"model must be one of {', '.join(SWEEP_MODELS)}, got {self.model!r}", argument="model")
+        if self.belt is not None and not isinstance(self.belt, BeltParameters):
+            raise InputError(f"belt must be BeltParameters, got {type(self.belt).__name__}", argument="belt")
+        drive = MODELS[self.model].drive
+        if drive == "belt" and self.belt is None:
+            raise InputError(f"model {self.model!r} needs the belt's parameters (15): give the parameters of a fit "
+                             "with the belt", argument="params")
+        if drive is None and self.belt is not None:
+            object.__setattr__(self, "belt", None)  # a rigid model: the belt's rigid limit is in params
         if self.law not in LAWS:
             raise InputError(f"law must be one of {', '.join(LAWS)}, got {self.law!r}", argument="law")
         vary = tuple(self.vary)
@@ -220,7 +260,7 @@ class SweepSpec:
             if not isinstance(d, (Grid, Normal, Uniform)):
                 raise InputError(f"vary must hold Grid, Normal or Uniform dimensions, got {type(d).__name__}",
                                  argument="vary")
-            _name_ok(d.name, self.law)
+            _name_ok(d.name, self.law, self.belt is not None)
             if d.name in seen:
                 raise InputError(f"vary {d.name!r}: given twice", argument="vary")
             seen.add(d.name)
@@ -228,6 +268,11 @@ class SweepSpec:
         if self.uncertainty is not None and not isinstance(self.uncertainty, ParameterUncertainty):
             raise InputError("uncertainty must be a ParameterUncertainty (iwp.sim.uncertainty.load_uncertainty)",
                              argument="uncertainty")
+        if self.uncertainty is not None and self.belt is None:
+            drawn = [n for n in self.uncertainty.free if n in BELT_INFO]
+            if drawn:
+                raise InputError(f"uncertainty: the fit's belt (15) is uncertain ({', '.join(drawn)}) and model "
+                                 f"{self.model!r} has none: sweep model belt-full", argument="uncertainty")
         random = self.uncertainty is not None or any(not isinstance(d, Grid) for d in vary)
         samples = _check_int("samples", self.samples, 1, MAX_LANES)
         if samples > 1 and not random:
@@ -276,6 +321,12 @@ class SweepSpec:
         if self.n_lanes > MAX_LANES:
             raise InputError(f"the sweep has {self.n_lanes} lanes; at most {MAX_LANES}", argument="vary")
 
+    def plant(self, params: LumpedParameters, belt: BeltParameters | None = None) -> Plant:
+        """The plant of a lane with these parameters (and belt; default the nominal one)."""
+        if MODELS[self.model].drive is None:
+            return Plant(params, model=self.model)
+        return Plant(params, model=self.model, belt=self.belt if belt is None else belt)
+
     # ----------------------------------------------------------------- sizes
     @property
     def grids(self) -> tuple[Grid, ...]:
@@ -316,7 +367,9 @@ class SweepSpec:
         if self.uncertainty is not None:
             u = self.uncertainty
             out["uncertainty"] = {"free": list(u.free), "matrix": np.asarray(u.covariance).tolist(),
-                                  "mean": {n: float(getattr(u.params, n)) for n in u.free}}
+                                  "mean": u.values}
+        if self.belt is not None:  # (a rigid sweep's record as before, so that its manifest resumes)
+            out.update(model=self.model, belt=self.belt.to_dict())
         return out
 
 
@@ -332,6 +385,8 @@ class LaneSet:
         Each varied name's value per lane (and each free parameter of an uncertainty).
     params : list of LumpedParameters
         The plant of every lane.
+    belts : list of BeltParameters or None
+        The belt of every lane (None: the sweep's model has none).
     x0 : ndarray, shape (m, 4)
     k1, k2 : ndarray, shape (m,)
         Hopf gains per lane.
@@ -342,6 +397,7 @@ class LaneSet:
     lanes: np.ndarray
     values: dict
     params: list
+    belts: list
     x0: np.ndarray
     k1: np.ndarray
     k2: np.ndarray
@@ -380,13 +436,20 @@ def lanes_of_chunk(spec: SweepSpec, index: int) -> LaneSet:
     # the chunk's draws: one generator per chunk, the dimensions in their order
     rng = np.random.default_rng(np.random.SeedSequence(spec.seed, spawn_key=(index,)))
     base = [spec.params] * m
+    belts = [spec.belt] * m
     if spec.uncertainty is not None:
+        u = spec.uncertainty
         child = np.random.SeedSequence(spec.seed, spawn_key=(index, 1))
-        base = spec.uncertainty.draws(m, seed=int(child.generate_state(1, np.uint64)[0]))
+        rows = u.draw_values(m, seed=int(child.generate_state(1, np.uint64)[0]))
+        base = [u.params.replace(**{n: v for n, v in row.items() if PARAMETER_INFO[n].owner == "lumped"})
+                for row in rows]
+        if any(n in BELT_INFO for n in u.free):
+            start = u.belt if u.belt is not None else spec.belt
+            belts = [dataclasses.replace(start, **{n: v for n, v in row.items() if n in BELT_INFO}) for row in rows]
         named = {d.name for d in spec.vary}
-        for n in spec.uncertainty.free:
+        for n in u.free:
             if n not in named:  # a dimension of vary overrides the fit's draws of its name
-                values[n] = np.array([getattr(p, n) for p in base])
+                values[n] = np.array([row[n] for row in rows])
     for d in spec.vary:
         if not isinstance(d, Grid):
             values[d.name] = d.draw(rng, m)
@@ -394,34 +457,33 @@ def lanes_of_chunk(spec: SweepSpec, index: int) -> LaneSet:
     for j, s in enumerate(STATE_NAMES):
         if s in values:
             x0[:, j] = values[s]
-    k1 = values.get("k1", np.full(m, spec.k1))
-    k2 = values.get("k2", np.full(m, spec.k2))
+    k1 = np.asarray(values.get("k1", np.full(m, spec.k1)), float)
+    k2 = np.asarray(values.get("k2", np.full(m, spec.k2)), float)
     pnames = [d.name for d in spec.vary if d.name in LUMPED_INFO]
-    if spec.uncertainty is None and not pnames:  # one plant for all lanes
+    bnames = [d.name for d in spec.vary if d.name in BELT_INFO]
+    if spec.uncertainty is None and not pnames and not bnames:  # one plant for all lanes
         try:
             spec.params.check_physical()
         except InputError:
-            return LaneSet(lanes=lanes, values=values, params=base, x0=x0, k1=np.asarray(k1, float),
-                           k2=np.asarray(k2, float), physical=np.zeros(m, dtype=bool))
-        return LaneSet(lanes=lanes, values=values, params=base, x0=x0, k1=np.asarray(k1, float),
-                       k2=np.asarray(k2, float), physical=np.ones(m, dtype=bool))
+            return LaneSet(lanes=lanes, values=values, params=base, belts=belts, x0=x0, k1=k1, k2=k2,
+                           physical=np.zeros(m, dtype=bool))
+        return LaneSet(lanes=lanes, values=values, params=base, belts=belts, x0=x0, k1=k1, k2=k2,
+                       physical=np.ones(m, dtype=bool))
     physical = np.ones(m, dtype=bool)
-    params = []
-    for i, p in enumerate(base):
-        if pnames:
-            try:
+    params, lane_belts = [], []
+    for i, (p, b) in enumerate(zip(base, belts)):
+        try:
+            if pnames:
                 p = p.replace(**{n: float(values[n][i]) for n in pnames})
-            except InputError:
-                p = None
-        if p is not None:
-            try:
-                p.check_physical()
-            except InputError:
-                p = None
-        physical[i] = p is not None
-        params.append(p if p is not None else spec.params)
-    return LaneSet(lanes=lanes, values=values, params=params, x0=x0, k1=np.asarray(k1, float),
-                   k2=np.asarray(k2, float), physical=physical)
+            p.check_physical()
+            if bnames:
+                b = dataclasses.replace(b, **{n: float(values[n][i]) for n in bnames})
+        except InputError:
+            physical[i] = False
+        params.append(p if physical[i] else spec.params)
+        lane_belts.append(b if physical[i] else spec.belt)
+    return LaneSet(lanes=lanes, values=values, params=params, belts=lane_belts, x0=x0, k1=k1, k2=k2,
+                   physical=physical)
 
 
 # ---------------------------------------------------------------------- JSON
@@ -431,7 +493,7 @@ MIN_TOLERANCE = 1e-14
 MAX_CONTROL_STEPS = 1e7
 
 _KEYS = {"law", "params", "uncertainty", "vary", "samples", "k1", "k2", "controller_Ts", "lqr", "x0", "t_end",
-         "sample_time", "window", "rtol", "atol", "seed", "chunk_size"}
+         "sample_time", "window", "rtol", "atol", "seed", "chunk_size", "model"}
 _LQR_KEYS = {"Q": "lqr_Q", "R": "lqr_R", "u_max": "lqr_u_max", "Ts": "lqr_Ts"}
 
 
@@ -511,19 +573,26 @@ def spec_from_dict(doc, *, where: str = "spec", base: Path | None = None, **over
         return str(p) if val != "table1" else val
 
     try:
+        stored = None  # the model a parameter file names (a fit with the belt: belt-full)
         if "uncertainty" in doc:
             unc = load_uncertainty(path_of("uncertainty"), argument="uncertainty")
             kw["uncertainty"] = unc
+            kw["belt"] = unc.belt
+            stored = stored_model(path_of("uncertainty"))
         if "params" in doc:
             params = load_params(path_of("params"))
             if not isinstance(params, LumpedParameters):
                 params = params.to_lumped()
             kw["params"] = params
+            kw["belt"] = stored_belt(path_of("params")) or kw.get("belt")
+            stored = stored_model(path_of("params")) or stored
         elif "uncertainty" in kw:
             kw["params"] = kw["uncertainty"].params
         else:
             kw["params"] = load_params("table1")
             source["params"] = "table1"
+        # the model: as given, else the one the parameters were fitted with where a sweep runs it (the belt)
+        kw["model"] = doc.get("model", stored if stored in SWEEP_MODELS else "compensated")
     except InputError as exc:
         msg = str(exc)
         raise InputError(msg if msg.startswith(where) else f"{where}: {msg}") from None
