@@ -1,3 +1,4 @@
+import dataclasses
 import math
 
 import numpy as np
@@ -251,3 +252,32 @@ def test_the_compiled_dispatch_knows_every_model_of_the_registry_and_nothing_els
     dx = np.zeros(4)
     compiled(unknown, x6[:4].copy(), 20.0, np.zeros(N_PACK), dx)
     assert np.all(np.isnan(dx))
+
+
+def test_the_compiled_switching_surfaces_are_those_each_model_declares():
+    """Each model declares its switching surfaces by family (ModelInfo.surfaces, guards.SURFACES); the compiled
+    guards the engine calls find exactly those (the kinks where sigma_a1 is not 0, the play where its width d is
+    not 0), the surfaces' codes are distinct, and the engine reads the rate exactly for those declared to."""
+    from iwp.models import MODELS, BeltParameters
+    from iwp.models.guards import SURFACES, guard_needs_rate, has_branches, has_kink
+
+    lp = table1()
+    belt = BeltParameters.from_rigid(lp.p2 * lp.rho, lp.p3 * lp.rho, k_over_I2=250.0, d=0.1, N=13.5, b2_over_I2=0.5)
+    codes = [s.which for _kind, family in SURFACES.values() for s in family.values()]
+    assert len(set(codes)) == len(codes)
+    assert {kind for kind, _f in SURFACES.values()} == {"predicted", "held mode"}
+    for name, info in MODELS.items():
+        for active in (True, False):
+            if info.physical:
+                params = physical() if active else dataclasses.replace(physical(), sigma_r=0.0)
+            else:
+                params = lp if active else lp.replace(sigma_a1=0.0)
+            b = None if info.drive is None else (belt if active else BeltParameters(**{**belt.to_dict(), "d": 0.0}))
+            P = tuple(Plant(params, model=name, belt=b).packed())
+            assert bool(has_kink(info.code, P)) == (active and "kinks" in info.surfaces), (name, active)
+            assert bool(has_branches(info.code, P)) == (active and "play" in info.surfaces), (name, active)
+        for family in info.surfaces:
+            for surface in SURFACES[family][1].values():
+                assert bool(guard_needs_rate(info.code, surface.which)) == surface.reads_rate, (name, surface)
+    with pytest.raises(InputError, match="unknown switching surfaces"):
+        dataclasses.replace(MODELS["compensated"], surfaces=("stiction",))

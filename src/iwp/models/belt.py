@@ -26,6 +26,12 @@ from .pendulum import pendulum_accel_terms, pendulum_coulomb
 
 #: the play's branch inside its band (``w' = 0``); engaged on an edge, the branch is that edge, +1 or -1
 PLAY_FREE = 2.0
+#: :func:`play_guard`'s ``which`` for each of the play's switching surfaces (:data:`iwp.models.guards.SURFACES`):
+#: free, reaching the upper or lower edge; engaged on it, leaving it
+PLAY_ENGAGES_UPPER = 1.0
+PLAY_ENGAGES_LOWER = -1.0
+PLAY_LEAVES_UPPER = 2.0
+PLAY_LEAVES_LOWER = -2.0
 
 
 @jit
@@ -67,7 +73,7 @@ def play_guard(P, y, ddelta, which):
     at 0); ``which`` +2 or -2, engaged on the edge ``which / 2``: ``(which / 2) ddelta`` [rad/s] (it leaves that edge
     at 0). ``y`` is the state of (15) (``delta = y[4]``, ``w = y[5]``), ``ddelta = delta'`` there.
     """
-    if which == 1.0 or which == -1.0:
+    if which == PLAY_ENGAGES_UPPER or which == PLAY_ENGAGES_LOWER:
         return P[DPLAY] - which * (y[4] - y[5])
     return 0.5 * which * ddelta
 
@@ -88,7 +94,7 @@ def play_guard_of(P, y, f, which):
     """:func:`play_guard` ``which`` at the state ``y`` of (15) with its rate ``f`` (read only for ``which`` +2 or -2,
     the engaged branches, whose guard is the stretch's rate ``delta' = f[4]`` [rad/s]; else [rad])."""
     ddelta = 0.0
-    if which == 2.0 or which == -2.0:
+    if which == PLAY_LEAVES_UPPER or which == PLAY_LEAVES_LOWER:
         ddelta = f[4]
     return play_guard(P, y, ddelta, which)
 
@@ -100,7 +106,7 @@ def play_switch(P, y, y_new, f, f_new):
     engaged, its rate turning back from the edge (figure 5)."""
     mode = P[PMODE]
     if mode == PLAY_FREE:
-        for edge in (1.0, -1.0):
+        for edge in (PLAY_ENGAGES_UPPER, PLAY_ENGAGES_LOWER):
             if play_guard(P, y, 0.0, edge) > 0.0 and play_guard(P, y_new, 0.0, edge) <= 0.0:
                 return edge
         return 0.0

@@ -13,8 +13,17 @@ function                           what
 :func:`has_branches`               the model holds a discrete mode (the belt's play of (15), figure 5)
 :func:`branch_of`                  the parameters with the mode held on the branch of a state
 :func:`switch_ahead`               which switching function of the held mode changes sign over a step
-:func:`guard`, :func:`guard_needs_rate`  a switching function ``which`` (0: the kinks) at a state
+:func:`guard`, :func:`guard_needs_rate`  a switching function ``which`` (:data:`KINKS`, or the held mode's) at a state
 =================================  ==========================================================================
+
+Each model declares its switching surfaces by family name (:attr:`iwp.models.plant.ModelInfo.surfaces`):
+:data:`SURFACES` says what each family is and the code ``which`` of each of its surfaces, by name. The two kinds
+the engine handles are a *predicted* surface (the kinks: located ahead on a Taylor model of their coordinate and
+crossed by an RK4 bridge) and the *held modes* (the play: a discrete mode held through each step, which ends where
+one of its surfaces is crossed, located on the dense output). A new surface of either kind is written here
+(its switching function, its detection in :func:`switch_ahead`, its hold in :func:`branch_of`) and declared on its
+model; the engine and the lanes call the functions above and need no edit. A test checks the compiled functions
+against the declarations.
 
 The kinks' switching function and their prediction over a step are written here on the kink coordinate
 (:func:`switch_of`, :func:`kink_ahead` on a Taylor model of the angle, with its branch-free pieces
@@ -26,10 +35,62 @@ the models' switching surfaces from here only.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from ..jit import jit
-from .belt import has_play, play_guard_of, play_held, play_switch
+from .belt import (
+    PLAY_ENGAGES_LOWER,
+    PLAY_ENGAGES_UPPER,
+    PLAY_LEAVES_LOWER,
+    PLAY_LEAVES_UPPER,
+    has_play,
+    play_guard_of,
+    play_held,
+    play_switch,
+)
 from .layout import E_SR, M_BELT, M_EL, M_MD, M_MD_RAW, SA
+
+#: ``which`` of the kinks' switching function (:func:`kink_value`)
+KINKS = 0.0
+
+
+@dataclass(frozen=True)
+class Surface:
+    """One switching surface of a model: its code ``which`` for :func:`guard` and what it is.
+
+    Attributes
+    ----------
+    which : float
+        The code the engine hands back to :func:`guard` for it (the compiled code's).
+    description : str
+        Where it lies and what switches there.
+    reads_rate : bool
+        Its switching function reads the rate at the state (:func:`guard_needs_rate`).
+    """
+
+    which: float
+    description: str
+    reads_rate: bool = False
+
+
+#: The families of switching surfaces a model declares (:attr:`~iwp.models.plant.ModelInfo.surfaces`), each with
+#: its kind (``"predicted"`` or ``"held mode"``) and its surfaces by name.
+SURFACES: dict[str, tuple[str, dict[str, Surface]]] = {
+    "kinks": ("predicted", {
+        "cos q1 = 0": Surface(KINKS, "the rolling friction sigma_a1 |cos q1| q3 has kinks at q1 = pi/2 + m pi "
+                                     "(section 3.1)"),
+    }),
+    "play": ("held mode", {
+        "engages upper": Surface(PLAY_ENGAGES_UPPER, "the free play's stretch reaching its upper edge, "
+                                                     "delta - w = d (figure 5)"),
+        "engages lower": Surface(PLAY_ENGAGES_LOWER, "the free play's stretch reaching its lower edge, "
+                                                     "delta - w = -d"),
+        "leaves upper": Surface(PLAY_LEAVES_UPPER, "engaged on the upper edge, the stretch's rate delta' turning "
+                                                   "back through 0", reads_rate=True),
+        "leaves lower": Surface(PLAY_LEAVES_LOWER, "engaged on the lower edge, delta' turning back through 0",
+                                reads_rate=True),
+    }),
+}
 
 
 @jit
@@ -87,14 +148,14 @@ def switch_ahead(model, P, y, y_new, f, f_new):
 @jit
 def guard_needs_rate(model, which):
     """True if :func:`guard` ``which`` reads the rate at the state (the play engaged on an edge)."""
-    return which == 2.0 or which == -2.0
+    return which == PLAY_LEAVES_UPPER or which == PLAY_LEAVES_LOWER
 
 
 @jit
 def guard(model, P, y, f, which):
-    """The switching function ``which`` at the state ``y``: 0 the kinks (:func:`kink_value`), else the held mode's
-    (:func:`~iwp.models.belt.play_guard_of`; ``f`` the rate at ``y`` when :func:`guard_needs_rate`)."""
-    if which == 0.0:
+    """The switching function ``which`` at the state ``y``: :data:`KINKS` the kinks (:func:`kink_value`), else the
+    held mode's (:func:`~iwp.models.belt.play_guard_of`; ``f`` the rate at ``y`` when :func:`guard_needs_rate`)."""
+    if which == KINKS:
         return kink_value(model, P, y)
     return play_guard_of(P, y, f, which)
 
@@ -220,6 +281,9 @@ def kink_ahead(q1, v, a, jk, H):
 
 
 __all__ = [
+    "KINKS",
+    "SURFACES",
+    "Surface",
     "KINK_ITERATIONS",
     "KINK_TINY",
     "branch_of",

@@ -25,6 +25,7 @@ from ..errors import InputError
 from .actuator import StartupFriction
 from .equations import rhs
 from .friction import COULOMB_EPS
+from .guards import SURFACES
 from .layout import (
     BELT_INDEX,
     BRK,
@@ -89,6 +90,10 @@ class ModelInfo:
     drive : str or None
         The drive model between motor and wheel in place of the rigid one, by name: ``"belt"`` (15), whose
         parameters a :class:`~iwp.models.parameters.BeltParameters` holds (``Plant(..., belt=...)``); None: rigid.
+    surfaces : tuple of str
+        The families of switching surfaces its right-hand side may have (:data:`iwp.models.guards.SURFACES`:
+        ``"kinks"``, the rolling friction's at ``cos q1 = 0``; ``"play"``, the belt's), at which the engine ends
+        its steps; active where their parameters are not 0 (``sigma_a1``, the play's ``d``).
     """
 
     name: str
@@ -104,6 +109,12 @@ class ModelInfo:
     pendulum_locked: bool = False
     clampable: bool = False
     drive: str | None = None
+    surfaces: tuple[str, ...] = ("kinks",)
+
+    def __post_init__(self) -> None:
+        unknown = [f for f in self.surfaces if f not in SURFACES]
+        if unknown:
+            raise InputError(f"model {self.name!r}: unknown switching surfaces {unknown}; known: {', '.join(SURFACES)}")
 
     @property
     def reads_v_as_u(self) -> bool:
@@ -130,16 +141,17 @@ MODELS: dict[str, ModelInfo] = {m.name: m for m in (
               model_parameters("compensated", _LUMPED), clampable=True),
     ModelInfo("motor-disk", M_MD, "(14), exact compensation", "u", 4, (1, 3), (3,), False,
               "motor-disk subsystem with the pendulum locked, input u (Coulomb term when sigma_c2 > 0)",
-              model_parameters("motor-disk", _MOTOR_DISK), True),
+              model_parameters("motor-disk", _MOTOR_DISK), True, surfaces=()),
     ModelInfo("motor-disk-raw", M_MD_RAW, "(14)", "v", 4, (1, 3), (3,), False,
               "motor-disk subsystem with the pendulum locked, raw command v through the dead zone",
-              model_parameters("motor-disk-raw", _MOTOR_DISK), True),
+              model_parameters("motor-disk-raw", _MOTOR_DISK), True, surfaces=()),
     ModelInfo("belt", M_BELT, "(15), pendulum locked", "u", 6, (1, 3, 4, 5), (3, 4, 5), False,
               "flexible belt with the play hysteresis of figure 5, motor inertia neglected",
-              model_parameters("belt", _BELT), True, drive="belt"),
+              model_parameters("belt", _BELT), True, drive="belt", surfaces=("play",)),
     ModelInfo("belt-full", M_BELT_FULL, "(4a) with (15)", "u", 6, (0, 1, 2, 3, 4, 5), (0, 2, 3, 4, 5), False,
               "the belt with the pendulum free (the virtual rig's truth plant)",
-              model_parameters("belt-full", _PENDULUM + ("rho",) + _BELT), clampable=True, drive="belt"),
+              model_parameters("belt-full", _PENDULUM + ("rho",) + _BELT), clampable=True, drive="belt",
+              surfaces=("kinks", "play")),
     ModelInfo("free", M_FREE_HELD, "section 5.2, wheel held", None, 4, (0, 2), (0, 2), False,
               "free pendulum, motor off, the wheel held to the arm: q3' = -xi rho/(1 + rho)",
               model_parameters("free", _PENDULUM)),

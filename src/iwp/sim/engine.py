@@ -72,6 +72,7 @@ from ..jit import jit
 from ..models.actuator import command
 from ..models.equations import rhs, rhs_of
 from ..models.guards import (
+    KINKS,
     branch_of,
     guard,
     guard_needs_rate,
@@ -987,7 +988,7 @@ def integrate(n, system, seg, tol, sens, span, out):
             if crossing or which != 0.0:
                 h_force = h
                 if crossing:
-                    h_force = kink_step(fld, wk.F, y, h, t, g_cur, g_new, wk.yo, wk.dx, n, 0.0)
+                    h_force = kink_step(fld, wk.F, y, h, t, g_cur, g_new, wk.yo, wk.dx, n, KINKS)
                 if which != 0.0:
                     h_force = min(h_force, kink_step(fld, wk.F, y, h, t, guard(model, fld.P, y, f, which),
                                                      guard(model, fld.P, y_new, K[N_STAGES], which), wk.yo, wk.dx,

@@ -69,6 +69,7 @@ from ..models.equations import optional_terms_off, rhs_of
 from ..models.guards import (
     KINK_ITERATIONS,
     KINK_TINY,
+    KINKS,
     has_kink,
     kink_newton,
     kink_possible,
@@ -490,7 +491,7 @@ def run_lanes(n, bt, tol, out, r0, r1):
                         dense_step(fld, t, ys, h, wk, n)
                         NFEV[l] += 3
                         if crossing:
-                            h_force = kink_step(fld, wk.F, ys, h, t, g_cur, g_new, wk.yo, wk.dx, n, 0.0)
+                            h_force = kink_step(fld, wk.F, ys, h, t, g_cur, g_new, wk.yo, wk.dx, n, KINKS)
                     if h_force > 0.0 and h_force < h:
                         NREJ[l] += 1
                         HF[l] = h_force
