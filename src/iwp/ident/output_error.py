@@ -476,7 +476,7 @@ class StartEstimate:
 
 def start_state(data: ExperimentData, plant: Plant, controller: Input | None = None) -> StartEstimate:
     """The state ``[q1, q2, q3, q4]`` at a log's first sample that the model, driven by the log's input, puts through
-    the log's angles over the first :data:`X0_SECONDS`.
+    the log's angles (and its wheel speed, where it logs no wheel angle) over the first :data:`X0_SECONDS`.
 
     :func:`measured_initial_state` fits a quadratic to the first samples: right for a log that starts at rest or
     coasting, biased for one whose input drives the rig from its first sample (a wheel accelerated at 220 rad/s^2
@@ -505,6 +505,10 @@ def start_state(data: ExperimentData, plant: Plant, controller: Input | None = N
     quadratic = StartEstimate(guess, measured_state_covariance(data, 0), "quadratic")
     m = min(max(5, int(round(X0_SECONDS / data.Ts)) + 1), data.n_samples)
     outputs = tuple(o for o in ("q1", "q2") if getattr(data, o) is not None and o in plant.outputs)
+    if "q2" not in outputs and data.q4 is not None and "q4" in plant.outputs:
+        # a wheel logged by its speed alone (a mean-sampled one too): through q1 alone its start was 8 rad/s
+        # uncertain and read 15-26 rad/s on logs from rest (the held-out bands then held 70-79 % of q1)
+        outputs += ("q4",)
     if plant.belt is not None or not outputs or m < 5:
         return quadratic
     kind = "closed-loop" if controller is not None else "free"
@@ -512,7 +516,7 @@ def start_state(data: ExperimentData, plant: Plant, controller: Input | None = N
                      x0_bounded=False, controller=controller)
     try:
         model = OutputError(plant, [exp], outputs, fitting=False)
-        # each angle weighed by its noise over the whole log (not by its spread over a window it may barely move in)
+        # each output weighed by its noise over the whole log (not by its spread over a window it may barely move in)
         noise = position_noise(np.column_stack([getattr(data, o) for o in outputs]))
         model.scale = {o: max(float(v), angle_quantum(getattr(data, o)) / math.sqrt(12.0), 1e-12)
                        for o, v in zip(outputs, noise)}
