@@ -17,7 +17,7 @@ from iwp.cli import build_parser, main
 from iwp.errors import InputError
 from iwp.ident.logfit import LogFitOptions, fit_logs
 from iwp.ident.structure import RUNGS, ladder
-from iwp.models import LumpedParameters, Plant
+from iwp.models import MODELS, LumpedParameters, Plant
 from iwp.models.layout import LUMPED_INDEX, N_PACK, SWITCH_SLOTS
 from iwp.models.terms import SWITCHES, TERMS, closure, free_parameters
 
@@ -44,6 +44,11 @@ def test_every_term_is_a_field_a_slot_a_flag_and_a_rung():
         assert RUNGS[t.rung.extends].terms < rung.terms  # a rung extends the one it names
         freed = set(free_parameters(rung.terms)) - set(free_parameters(RUNGS[t.rung.extends].terms))
         assert freed == set(t.freed(rung.terms)) - (set(t.replacement.replaces) if t.replacement else set())
+        if t.replacement is not None:  # a drive model: fitted on the model that declares that drive, its own params
+            info = MODELS[t.replacement.model]
+            assert info.drive == t.replacement.name == t.drive and not t.parameters
+            assert set(t.replacement.free) <= set(info.parameters)
+            assert not set(t.replacement.replaces) & set(t.replacement.free)
     assert [LUMPED_INDEX[n] for n in SWITCHES] == list(SWITCH_SLOTS)
     # the registry's rules: requirements joined, exclusions refused with both flags named
     assert closure({"stribeck"}) == {"stribeck", "coulomb"}

@@ -85,21 +85,30 @@ class LadderPlace:
 
 @dataclass(frozen=True)
 class DriveModel:
-    """A term that puts a model of its own in place of rigid parameters (the belt (15) in place of ``p2, p3``).
+    """A model of the drive between motor and wheel in place of rigid parameters (the belt (15) in place of
+    ``p2, p3``), which a term brings (:attr:`Term.replacement`).
 
     Attributes
     ----------
     name : str
-        The drive's name (``"belt"``): how a fit of it starts and is bounded is :mod:`iwp.ident.drives`'.
+        The drive's name (``"belt"``): the rig description's ``drive.kind`` it needs, and the
+        :attr:`~iwp.models.plant.ModelInfo.drive` of the models that hold it; how a fit of it starts and is bounded
+        is :mod:`iwp.ident.drives`'.
     replaces : tuple of str
         The lumped parameters it takes the place of (not freed with it).
     free : tuple of str
         Its own parameters a fit frees.
+    model : str
+        The model a fit with it simulates (``"belt-full"``).
+    label : str
+        What messages call it (``"the belt model (15)"``).
     """
 
     name: str
     replaces: tuple[str, ...]
     free: tuple[str, ...]
+    model: str
+    label: str
 
 
 @dataclass(frozen=True)
@@ -127,14 +136,10 @@ class Term:
         Terms it needs, and terms it cannot go with.
     input : str or None
         The logged input it needs (``"v"``: the raw command), or None.
-    drive : str or None
-        The drive it needs (``"belt"``), or None.
     model : str or None
-        The model a fit with it simulates (``"raw"``, ``"belt-full"``); None: model (9), ``"compensated"``.
+        The model a fit with it simulates (``"raw"``); None: model (9), ``"compensated"``, or its drive's.
     replacement : DriveModel or None
-        Its own model in place of rigid parameters (the belt's), or None.
-    label : str
-        What messages call it (``"the belt model (15)"``); default: its description.
+        The drive model it puts in place of rigid parameters (the belt's), with its model and name, or None.
     start : callable or None
         ``start(params, umax, fraction)``: ``params`` with its parameters that are 0 started from what the
         logs' largest input ``umax`` and ``params`` allow, scaled by ``fraction``; None: they start at 0.
@@ -150,16 +155,19 @@ class Term:
     requires: tuple[str, ...] = ()
     excludes: tuple[str, ...] = ()
     input: str | None = None
-    drive: str | None = None
     model: str | None = None
     replacement: DriveModel | None = None
     start: Callable[[Lumped, float, float], Lumped] | None = None
-    label: str = ""
 
     @property
     def called(self) -> str:
-        """What messages call it."""
-        return self.label or self.description
+        """What messages call it: its drive model's label, or its description."""
+        return self.replacement.label if self.replacement is not None else self.description
+
+    @property
+    def drive(self) -> str | None:
+        """The drive the rig needs for it (``"belt"``: its drive model's name), or None."""
+        return None if self.replacement is None else self.replacement.name
 
     @property
     def flag(self) -> str:
@@ -268,9 +276,9 @@ TERMS: dict[str, Term] = {t.name: t for t in (
          shapes=("pendulum_coulomb", "coulomb")),
     Term("belt", "the belt (15) between motor and wheel in place of p2, p3 (a rig whose drive is a belt)",
          LadderPlace("belt", "+ belt (15) in place of p2, p3 (5 terms)", "widths", 6),
-         excludes=("dead_zone",), drive="belt", model="belt-full",
-         replacement=DriveModel("belt", ("p2", "p3"), BELT_FREE),
-         start=_start_belt, label="the belt model (15)"),
+         excludes=("dead_zone",),
+         replacement=DriveModel("belt", ("p2", "p3"), BELT_FREE, "belt-full", "the belt model (15)"),
+         start=_start_belt),
     Term("stribeck", "the Stribeck rise of the wheel's friction at low speed (sigma_s2, v_s2)",
          LadderPlace("stribeck", "+ wheel Stribeck (sigma_s2, v_s2)", "coulomb", 7, default=False),
          (_lumped("sigma_s2", "rad/s^2", 0.05, "nonnegative",
@@ -348,8 +356,8 @@ def model_of(on) -> str:
     """The model a fit with the terms ``on`` simulates: a term's own (``"belt-full"``, ``"raw"``) or
     ``"compensated"``; a term that replaces rigid parameters comes first."""
     models = [TERMS[n].model for n in TERMS if n in on and TERMS[n].model is not None]
-    drive = [TERMS[n].model for n in TERMS if n in on and TERMS[n].replacement is not None]
-    return (drive or models or ["compensated"])[0]
+    drive = drive_of(on)
+    return drive.model if drive is not None else (models or ["compensated"])[0]
 
 
 def free_parameters(on) -> tuple[str, ...]:
