@@ -182,6 +182,24 @@ def test_the_ladder_fits_the_belt_of_a_belt_drive_and_predicts_held_out_logs(tmp
     assert held <= friction and len(rows) + len(held) == 14
     assert set(outside) <= (friction if held else set())
     assert not any("no prediction band" in w for w in doc["warnings"])
+    # the fit's parameters.json drives a simulation of the belt with its band; a file without a belt is refused
+    capsys.readouterr()
+    sim = tmp_path / "sim.csv"
+    assert main(["simulate", "--params", str(out / "parameters.json"), "--model", "belt-full", "--input", "chirp",
+                 "--amplitude", "0.4", "--t-end", "4", "--band", "linear", "--out", str(sim)]) == 0
+    header = next(line for line in sim.read_text().splitlines() if not line.startswith("#")).split(",")
+    assert header[:6] == ["t", "q1", "q2", "q3", "q4", "u"] and "q4_phi" in header
+    rows = np.loadtxt(sim, delimiter=",", comments="#", skiprows=1 + sum(
+        line.startswith("#") for line in sim.read_text().splitlines()))
+    col = {c: rows[:, i] for i, c in enumerate(header)}
+    late = col["t"] > 1.0  # (the wheel stays at rest while the motor takes up the play: no spread there)
+    assert np.all(col["q4_hi"] >= col["q4_lo"]) and np.all(col["q4_hi"][late] > col["q4_lo"][late])
+    assert np.all(col["q4_phi"] >= col["q4_hi"])
+    capsys.readouterr()
+    assert main(["simulate", "--params", "table1", "--model", "belt-full", "--t-end", "1",
+                 "--out", str(tmp_path / "s2.csv")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--params table1: model 'belt-full' needs the belt's parameters" in err[0]
     # beside its intervals, how the belt's Jacobian is taken and how often such intervals held in the ladder study
     assert any("belt's play" in n and "132 of 140" in n for n in doc["uncertainty"]["notes"])
     capsys.readouterr()
