@@ -263,9 +263,9 @@ def test_the_compiled_switching_surfaces_are_those_each_model_declares():
 
     lp = table1()
     belt = BeltParameters.from_rigid(lp.p2 * lp.rho, lp.p3 * lp.rho, k_over_I2=250.0, d=0.1, N=13.5, b2_over_I2=0.5)
-    codes = [s.which for _kind, family in SURFACES.values() for s in family.values()]
+    codes = [s.which for family in SURFACES.values() for s in family.surfaces.values()]
     assert len(set(codes)) == len(codes)
-    assert {kind for kind, _f in SURFACES.values()} == {"predicted", "held mode"}
+    assert {family.kind for family in SURFACES.values()} == {"predicted", "held mode"}
     for name, info in MODELS.items():
         for active in (True, False):
             if info.physical:
@@ -277,7 +277,7 @@ def test_the_compiled_switching_surfaces_are_those_each_model_declares():
             assert bool(has_kink(info.code, P)) == (active and "kinks" in info.surfaces), (name, active)
             assert bool(has_branches(info.code, P)) == (active and "play" in info.surfaces), (name, active)
         for family in info.surfaces:
-            for surface in SURFACES[family][1].values():
+            for surface in SURFACES[family].surfaces.values():
                 assert bool(guard_needs_rate(info.code, surface.which)) == surface.reads_rate, (name, surface)
     with pytest.raises(InputError, match="unknown switching surfaces"):
         dataclasses.replace(MODELS["compensated"], surfaces=("stiction",))

@@ -92,7 +92,7 @@ def run(args) -> int:
     params = uncertainty.params if uncertainty is not None else load_lumped(args.params)
     belt = None
     if MODELS[args.model].drive is not None:  # the belt of a fit with it, from its parameters.json
-        belt = stored_belt(args.params)
+        belt = uncertainty.belt if uncertainty is not None else stored_belt(args.params)
         if belt is None:
             raise InputError(f"--params {args.params}: model {args.model!r} needs the belt's parameters (15), which "
                              "it does not hold; give the parameters.json of a fit with the belt")

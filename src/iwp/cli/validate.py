@@ -113,9 +113,11 @@ def run(args) -> int:
     if reads_v_as_u:  # as iwp fit read the logs
         data = model_input(data, model, args.file)
     if MODELS[model].drive is not None:  # a belt model: the belt comes from the file, as iwp fit --belt writes it
-        plant = validation_plant(params.params if args.band else params, data, model, belt=stored_belt(args.params),
-                                 source=f"--params {args.params}")
-        params = params if args.band else plant  # (a band's uncertainty holds the file's belt)
+        if args.band:  # the uncertainty holds the file's belt: checked here, to name the file when it has none
+            validation_plant(params.params, data, model, belt=params.belt, source=f"--params {args.params}")
+        else:
+            params = validation_plant(params, data, model, belt=stored_belt(args.params),
+                                      source=f"--params {args.params}")
     zero = stored_q1_zero(args.params)
     offset = held_out_q1_offset(data, zero.value)
     # the log's own zero about the fit's mean, as iwp fit's held-out bands carry it

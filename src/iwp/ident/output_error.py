@@ -507,7 +507,8 @@ def start_state(data: ExperimentData, plant: Plant, controller: Input | None = N
     outputs = tuple(o for o in ("q1", "q2") if getattr(data, o) is not None and o in plant.outputs)
     if "q2" not in outputs and data.q4 is not None and "q4" in plant.outputs:
         # a wheel logged by its speed alone (a mean-sampled one too): through q1 alone its start was 8 rad/s
-        # uncertain and read 15-26 rad/s on logs from rest (the held-out bands then held 70-79 % of q1)
+        # uncertain and read 15-26 rad/s on logs from rest (the held-out bands then held 41-79 % of q1 on four of nine
+        # logs of the right model)
         outputs += ("q4",)
     if plant.belt is not None or not outputs or m < 5:
         return quadratic

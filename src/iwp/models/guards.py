@@ -73,14 +73,30 @@ class Surface:
     reads_rate: bool = False
 
 
-#: The families of switching surfaces a model declares (:attr:`~iwp.models.plant.ModelInfo.surfaces`), each with
-#: its kind (``"predicted"`` or ``"held mode"``) and its surfaces by name.
-SURFACES: dict[str, tuple[str, dict[str, Surface]]] = {
-    "kinks": ("predicted", {
+@dataclass(frozen=True)
+class SurfaceFamily:
+    """The switching surfaces of one family a model declares (:attr:`~iwp.models.plant.ModelInfo.surfaces`).
+
+    Attributes
+    ----------
+    kind : {"predicted", "held mode"}
+        How the engine meets them: located ahead and bridged (the kinks), or a mode held through each step that
+        ends where one of them is crossed (the play).
+    surfaces : dict of str to Surface
+        Its surfaces, by name.
+    """
+
+    kind: str
+    surfaces: dict[str, Surface]
+
+
+#: The families of switching surfaces a model declares (:attr:`~iwp.models.plant.ModelInfo.surfaces`), by name.
+SURFACES: dict[str, SurfaceFamily] = {
+    "kinks": SurfaceFamily("predicted", {
         "cos q1 = 0": Surface(KINKS, "the rolling friction sigma_a1 |cos q1| q3 has kinks at q1 = pi/2 + m pi "
                                      "(section 3.1)"),
     }),
-    "play": ("held mode", {
+    "play": SurfaceFamily("held mode", {
         "engages upper": Surface(PLAY_ENGAGES_UPPER, "the free play's stretch reaching its upper edge, "
                                                      "delta - w = d (figure 5)"),
         "engages lower": Surface(PLAY_ENGAGES_LOWER, "the free play's stretch reaching its lower edge, "
@@ -284,6 +300,7 @@ __all__ = [
     "KINKS",
     "SURFACES",
     "Surface",
+    "SurfaceFamily",
     "KINK_ITERATIONS",
     "KINK_TINY",
     "branch_of",

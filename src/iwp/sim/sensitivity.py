@@ -181,17 +181,17 @@ def simulate_sensitivities(
     n = plant.n_states
     x0a = initial_state(x0, plant)
     t_out = output_times(float(t0), t_end, 0.005, t_eval)  # (the grid step unused with t_eval)
-    if plant.belt is not None and (len(wrt) or len(wrt_x0)):  # (a plain run of it is the plain kernel's, below)
-        return _difference_sensitivities(plant, input, x0a, t_out, float(t0), (tuple(wrt), tuple(wrt_x0)), opts)
+    cols = [int(c) for c in wrt_x0]
+    for c in cols:
+        if not 0 <= c < n:
+            raise InputError(f"wrt_x0 entries must be state indices 0..{n - 1}, got {c}")
+    if plant.belt is not None and (len(wrt) or cols):  # (a plain run of it is the plain kernel's, below)
+        return _difference_sensitivities(plant, input, x0a, t_out, float(t0), (tuple(wrt), tuple(cols)), opts)
     pidx, psteps = [], []
     for name in wrt:
         i, d = _parameter_index(name, plant, input)
         pidx.append(i)
         psteps.append(d)
-    cols = [int(c) for c in wrt_x0]
-    for c in cols:
-        if not 0 <= c < n:
-            raise InputError(f"wrt_x0 entries must be state indices 0..{n - 1}, got {c}")
     ns = len(pidx) + len(cols)
     y0 = np.zeros(n * (1 + ns))
     y0[:n] = x0a
@@ -227,7 +227,8 @@ def simulate_sensitivities(
 def _difference_sensitivities(plant: Plant, input, x0: np.ndarray, t_out: np.ndarray, t0: float, wrt: tuple,
                               opts: SimOptions) -> SensitivityResult:
     """:func:`simulate_sensitivities` of a plant with the belt (15): forward differences of whole simulations, the
-    nominal run and one per column side by side. ``wrt`` is ``(parameter names, initial-state indices)``."""
+    nominal run and one per column side by side. ``wrt`` is ``(parameter names, initial-state indices)``, the
+    indices checked."""
     names, cols = wrt
     n = plant.n_states
     tol = opts.tolerances or SENSITIVITY_TOLERANCES
@@ -243,9 +244,6 @@ def _difference_sensitivities(plant: Plant, input, x0: np.ndarray, t_out: np.nda
         states.append(x0)
         steps.append(h)
     for c in cols:
-        c = int(c)
-        if not 0 <= c < n:
-            raise InputError(f"wrt_x0 entries must be state indices 0..{n - 1}, got {c}")
         h = rel * max(abs(float(x0[c])), 1.0)
         xc = x0.copy()
         xc[c] += h
@@ -263,7 +261,7 @@ def _difference_sensitivities(plant: Plant, input, x0: np.ndarray, t_out: np.nda
     X = runs.x
     S = np.stack([(X[1 + j] - X[0]) / h for j, h in enumerate(steps)], axis=2) if steps \
         else np.zeros((t_out.size, n, 0))
-    cols_named = tuple(f"x0[{int(c)}]" for c in cols)
+    cols_named = tuple(f"x0[{c}]" for c in cols)
     return SensitivityResult(t=t_out, x=np.ascontiguousarray(X[0]), S=np.ascontiguousarray(S),
                              wrt=tuple(names) + cols_named, success=status == ST_OK, status=status, message=message,
                              nfev=int(np.sum(runs.nfev)))

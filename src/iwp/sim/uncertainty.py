@@ -132,6 +132,11 @@ class ParameterUncertainty:
         return float(getattr(owner, name))
 
     @property
+    def belt_free(self) -> tuple[str, ...]:
+        """The free parameters that are the belt's (15)."""
+        return tuple(n for n in self.free if PARAMETER_INFO[n].owner == "belt")
+
+    @property
     def values(self) -> dict[str, float]:
         """The free parameters' estimates, by name."""
         return {n: self.value(n) for n in self.free}
@@ -146,10 +151,9 @@ class ParameterUncertainty:
         """
         base = plant.with_params(self.params)
         if base.belt is None:
-            belt = [n for n in self.free if PARAMETER_INFO[n].owner == "belt"]
-            if belt:
-                raise InputError(f"the fit's belt (15) is uncertain ({', '.join(belt)}) and model {plant.model!r} "
-                                 "has none: simulate a model with the belt (belt-full) for its band")
+            if self.belt_free:
+                raise InputError(f"the fit's belt (15) is uncertain ({', '.join(self.belt_free)}) and model "
+                                 f"{plant.model!r} has none: simulate a model with the belt (belt-full) for its band")
             return base
         return base if self.belt is None else base.replace(belt=self.belt)
 
@@ -241,10 +245,9 @@ class ParameterUncertainty:
         estimate is too uncertain to draw from and an error says so. The lumped
         parameters only: a fit whose belt (15) is uncertain draws whole plants (:meth:`plants`).
         """
-        belt = [k for k in self.free if PARAMETER_INFO[k].owner == "belt"]
-        if belt:
-            raise InputError(f"the belt's {', '.join(belt)} are uncertain too: draw plants (ParameterUncertainty.plants"
-                             "), not lumped parameter sets")
+        if self.belt_free:
+            raise InputError(f"the belt's {', '.join(self.belt_free)} are uncertain too: draw plants "
+                             "(ParameterUncertainty.plants), not lumped parameter sets")
         return [self.params.replace(**row) for row in self.draw_values(n, seed)]
 
     def plants(self, plant: Plant, n: int, seed: int = 0) -> list[Plant]:

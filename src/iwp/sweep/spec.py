@@ -269,7 +269,7 @@ class SweepSpec:
             raise InputError("uncertainty must be a ParameterUncertainty (iwp.sim.uncertainty.load_uncertainty)",
                              argument="uncertainty")
         if self.uncertainty is not None and self.belt is None:
-            drawn = [n for n in self.uncertainty.free if n in BELT_INFO]
+            drawn = self.uncertainty.belt_free
             if drawn:
                 raise InputError(f"uncertainty: the fit's belt (15) is uncertain ({', '.join(drawn)}) and model "
                                  f"{self.model!r} has none: sweep model belt-full", argument="uncertainty")
@@ -443,7 +443,7 @@ def lanes_of_chunk(spec: SweepSpec, index: int) -> LaneSet:
         rows = u.draw_values(m, seed=int(child.generate_state(1, np.uint64)[0]))
         base = [u.params.replace(**{n: v for n, v in row.items() if PARAMETER_INFO[n].owner == "lumped"})
                 for row in rows]
-        if any(n in BELT_INFO for n in u.free):
+        if u.belt_free:
             start = u.belt if u.belt is not None else spec.belt
             belts = [dataclasses.replace(start, **{n: v for n, v in row.items() if n in BELT_INFO}) for row in rows]
         named = {d.name for d in spec.vary}
